@@ -1,0 +1,2 @@
+//! The control path, in the order data flows through it:
+//! `sense → estimate → control → feedforward → actuate`.
