@@ -1,0 +1,43 @@
+//! `naic`: the command-line front end of the project.
+//!
+//! Every subcommand lives in its own module under `cmd/`; this file only
+//! parses the command line and dispatches. Errors are reported as one clear
+//! message on stderr and exit code 2 (bad input) or 1 (failure), never a panic.
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+#[derive(Parser)]
+#[command(name = "naic", version, about = "Neural adaptive impedance control for force tracking on a simulated JAKA JK5")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Joint friction: fit equation 4/5 models to measured data.
+    #[command(subcommand)]
+    Friction(cmd::friction::FrictionCmd),
+    /// Benchmarks that print JSON numbers.
+    #[command(subcommand)]
+    Bench(cmd::bench::BenchCmd),
+    /// Run a paper scenario in the in-process simulator (default: flat, all controllers).
+    Sim(cmd::sim::SimArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    // With no subcommand, run the main job: the flat-surface reproduction with every controller.
+    let command = cli.command.unwrap_or_else(|| Command::Sim(cmd::sim::SimArgs::default()));
+    let result = match command {
+        Command::Friction(c) => cmd::friction::run(c),
+        Command::Bench(c) => cmd::bench::run(c),
+        Command::Sim(a) => cmd::sim::run(a),
+    };
+    if let Err(e) = result {
+        eprintln!("naic: error: {e}");
+        std::process::exit(e.exit_code());
+    }
+}

@@ -1,0 +1,1 @@
+//! Simulated JK5 + ATI mini45 (in progress).
