@@ -1,2 +1,3 @@
 //! The control path, in the order data flows through it:
 //! `sense → estimate → control → feedforward → actuate`.
+pub mod control;
