@@ -108,16 +108,11 @@ impl Default for WeightBounds {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ForceLawParams {
     pub mode: Mode,
-    /// Initial impedance mass `m_d` [kg] (eq 6; NAIC weight w₁).
-    pub m_d: f64,
-    /// Initial impedance damping `b_d` [N·s/m] (eq 6; NAIC weight w₂).
-    pub b_d: f64,
-    /// Initial update rate `σ` of eq 9 (NAIC weight w₃).
+    /// Initial update rate `σ` of eq 9 (NAIC weight w₃). The initial `m_d`
+    /// and `b_d` are the force axis's entries of the impedance parameters.
     pub sigma: f64,
     /// Requested learning rate `γ` of eq 15 (NAIC only; clipped to the bound every step).
     pub gamma: f64,
-    /// Controller sampling period `λ` [s].
-    pub lambda: f64,
     pub bounds: WeightBounds,
 }
 
@@ -137,9 +132,10 @@ pub struct ForceLawState {
 }
 
 impl ForceLawState {
-    /// State at the first contact: weights at their initial values, `Φ = 0`.
-    pub fn new(p: &ForceLawParams) -> Self {
-        Self { m_d: p.m_d, b_d: p.b_d, sigma: p.sigma, phi: 0.0, e_f_prev: 0.0, edd_prev: 0.0 }
+    /// State before the first contact: weights at their initial values
+    /// (`m_d`, `b_d` of the force axis, `σ` of the law), `Φ = 0`.
+    pub fn new(p: &ForceLawParams, m_d: f64, b_d: f64) -> Self {
+        Self { m_d, b_d, sigma: p.sigma, phi: 0.0, e_f_prev: 0.0, edd_prev: 0.0 }
     }
 
     /// Re-arm for a new contact phase keeping the learned weights: `Φ = 0` and
@@ -194,7 +190,9 @@ pub fn gamma_bound(f: &[f64; 3]) -> f64 {
     }
 }
 
-/// One cycle of the force law in contact (k_d = 0 on the force axis).
+/// One cycle of the force law in contact (k_d = 0 on the force axis). The
+/// law is discrete: one call per sampling period `λ`; `λ` itself only enters
+/// through the caller's rate.
 ///
 /// Pure: `(params, state, inputs) -> (state, outputs)`.
 pub fn step(p: &ForceLawParams, s: &ForceLawState, u: &ForceLawInputs) -> (ForceLawState, ForceLawOutputs) {
@@ -242,15 +240,15 @@ mod tests {
     use super::*;
 
     fn params(mode: Mode, gamma: f64) -> ForceLawParams {
-        ForceLawParams { mode, m_d: 1.0, b_d: 40.0, sigma: 0.01, gamma, lambda: 1e-3, bounds: WeightBounds::default() }
+        ForceLawParams { mode, sigma: 0.01, gamma, bounds: WeightBounds::default() }
     }
 
     /// A 1-D plant: the impedance law's commanded acceleration is realised
     /// exactly (perfect inner loop), the environment is a spring at x_e.
     /// Returns the force history.
     fn simulate(p: &ForceLawParams, k_e: f64, f_d: f64, steps: usize, flip_phi: bool) -> Vec<f64> {
-        let (x_e, dt) = (0.0, p.lambda);
-        let mut s = ForceLawState::new(p);
+        let (x_e, dt) = (0.0, 1e-3);
+        let mut s = ForceLawState::new(p, 1.0, 40.0);
         let (mut x, mut v, mut out) = (0.001, 0.0, Vec::with_capacity(steps));
         for _ in 0..steps {
             let f_ext = (k_e * (x - x_e)).max(0.0);
@@ -303,7 +301,7 @@ mod tests {
     #[test]
     fn learning_rate_never_exceeds_the_eq15_bound() {
         let p = params(Mode::Naic, 1.0e3);
-        let mut s = ForceLawState::new(&p);
+        let mut s = ForceLawState::new(&p, 1.0, 40.0);
         let mut clipped = 0;
         for k in 0..2000 {
             let t = k as f64 * 1e-3;
