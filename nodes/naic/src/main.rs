@@ -23,6 +23,9 @@ enum Command {
     /// Benchmarks that print JSON numbers.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
+    /// MCAP bags: info, repair, export-csv.
+    #[command(subcommand)]
+    Bag(cmd::bag::BagCmd),
     /// Run a paper scenario in the in-process simulator (default: flat, all controllers).
     Sim(cmd::sim::SimArgs),
 }
@@ -35,6 +38,7 @@ fn main() {
         Command::Friction(c) => cmd::friction::run(c),
         Command::Bench(c) => cmd::bench::run(c),
         Command::Sim(a) => cmd::sim::run(a),
+        Command::Bag(c) => cmd::bag::run(c),
     };
     if let Err(e) = result {
         eprintln!("naic: error: {e}");

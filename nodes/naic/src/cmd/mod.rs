@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod bag;
 pub mod bench;
 pub mod friction;
 pub mod sim;
