@@ -15,7 +15,7 @@ mod writer;
 
 pub use error::BagError;
 pub use qos::Qos;
-pub use reader::{Bag, ChannelDef, Damage, MessageRef, SchemaDef, Stamped, TimeRange, TopicInfo, MAGIC};
+pub use reader::{AnyMessage, AnyStamped, Bag, ChannelDef, Damage, MessageRef, SchemaDef, Stamped, TimeRange, TopicInfo, MAGIC};
 pub use writer::{BagWriter, TopicId, TopicSpec, ROSBAG2_METADATA_VERSION};
 
 use std::path::Path;

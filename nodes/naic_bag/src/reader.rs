@@ -14,7 +14,7 @@ use crate::error::BagError;
 use crate::qos::Qos;
 use crate::writer::TopicSpec;
 use naic_msgs::RosMessage;
-use std::cell::RefCell;
+use std::sync::Mutex;
 use std::collections::{BTreeMap, HashMap};
 use std::ops::{Bound, Range, RangeBounds};
 use std::path::{Path, PathBuf};
@@ -132,7 +132,7 @@ pub struct Bag {
     counts: BTreeMap<u16, u64>,
     time_bounds: Option<(u64, u64)>,
     summary_ok: bool,
-    damage: RefCell<Vec<Damage>>,
+    damage: Mutex<Vec<Damage>>,
 }
 
 /// Little-endian cursor over a record body; every read is bounds-checked.
@@ -332,7 +332,7 @@ impl Bag {
             counts: BTreeMap::new(),
             time_bounds: None,
             summary_ok: false,
-            damage: RefCell::new(Vec::new()),
+            damage: Mutex::new(Vec::new()),
         };
         let data_end = bag.read_summary();
         bag.scan_data(data_end);
@@ -344,7 +344,7 @@ impl Bag {
 
     fn note(&self, offset: usize, message: impl Into<String>) {
         let d = Damage { offset: offset as u64, message: message.into() };
-        let mut v = self.damage.borrow_mut();
+        let mut v = self.damage.lock().unwrap_or_else(|e| e.into_inner());
         if !v.contains(&d) {
             v.push(d);
         }
@@ -898,6 +898,105 @@ impl Bag {
 
     /// Problems found so far (opening finds structural ones; reading adds chunk-level ones).
     pub fn damage(&self) -> Vec<Damage> {
-        self.damage.borrow().clone()
+        self.damage.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+}
+
+/// A message of any type naic knows, decoded.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AnyMessage {
+    JointState(naic_msgs::JointState),
+    WrenchStamped(naic_msgs::WrenchStamped),
+    Float64MultiArray(naic_msgs::Float64MultiArray),
+    NaicParams(naic_msgs::NaicParams),
+    Clock(naic_msgs::Clock),
+}
+
+#[derive(Clone, Copy)]
+enum Kind {
+    Js,
+    Ws,
+    Fa,
+    Np,
+    Ck,
+    Unknown,
+}
+
+impl Kind {
+    fn of(type_name: &str) -> Kind {
+        use naic_msgs::*;
+        match type_name {
+            t if t == JointState::type_name() => Kind::Js,
+            t if t == WrenchStamped::type_name() => Kind::Ws,
+            t if t == Float64MultiArray::type_name() => Kind::Fa,
+            t if t == NaicParams::type_name() => Kind::Np,
+            t if t == Clock::type_name() => Kind::Ck,
+            _ => Kind::Unknown,
+        }
+    }
+    #[inline]
+    fn decode(self, data: &[u8]) -> Option<Result<AnyMessage, naic_msgs::CdrError>> {
+        use naic_msgs::*;
+        Some(match self {
+            Kind::Js => JointState::from_cdr(data).map(AnyMessage::JointState),
+            Kind::Ws => WrenchStamped::from_cdr(data).map(AnyMessage::WrenchStamped),
+            Kind::Fa => Float64MultiArray::from_cdr(data).map(AnyMessage::Float64MultiArray),
+            Kind::Np => NaicParams::from_cdr(data).map(AnyMessage::NaicParams),
+            Kind::Ck => Clock::from_cdr(data).map(AnyMessage::Clock),
+            Kind::Unknown => return None,
+        })
+    }
+}
+
+/// A decoded message with its channel and bag times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnyStamped {
+    pub channel_id: u16,
+    pub log_time: u64,
+    pub publish_time: u64,
+    pub sequence: u32,
+    pub msg: AnyMessage,
+}
+
+impl Bag {
+    /// Streams, in one pass over the file, every message of a known type (JointState,
+    /// WrenchStamped, Float64MultiArray, NaicParams, Clock) with log time in `range`, decoded,
+    /// in file order. Messages of other types are left out (read them raw with
+    /// [`Bag::for_each_message`]); undecodable ones are skipped and reported in [`Bag::damage`].
+    pub fn for_each_decoded(&self, range: impl RangeBounds<u64>, mut f: impl FnMut(AnyStamped)) {
+        let range = TimeRange::from_bounds(range);
+        let mut kinds = vec![Kind::Unknown; 65536];
+        for c in self.channels.values() {
+            kinds[c.id as usize] = Kind::of(self.type_name(c.id));
+        }
+        let mut bad = 0usize;
+        let mut buf = Vec::new();
+        for s in 0..self.sources.len() {
+            self.with_records(s, &mut buf, range, &mut |opc, body| {
+                if opc != op::MESSAGE {
+                    return;
+                }
+                if let Some((ch, sequence, log_time, publish_time, data)) = parse_message(body) {
+                    if !range.contains(log_time) {
+                        return;
+                    }
+                    match kinds[ch as usize].decode(data) {
+                        Some(Ok(msg)) => f(AnyStamped { channel_id: ch, log_time, publish_time, sequence, msg }),
+                        Some(Err(_)) => bad += 1,
+                        None => {}
+                    }
+                }
+            });
+        }
+        if bad > 0 {
+            self.note(0, format!("{bad} message(s) do not decode as their channel's type; skipped"));
+        }
+    }
+
+    /// [`Bag::for_each_decoded`] collected into a vector.
+    pub fn decode_all(&self, range: impl RangeBounds<u64>) -> Vec<AnyStamped> {
+        let mut out = Vec::with_capacity(self.message_count() as usize);
+        self.for_each_decoded(range, |m| out.push(m));
+        out
     }
 }
