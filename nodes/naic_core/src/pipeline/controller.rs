@@ -54,6 +54,8 @@ pub struct ControllerParams {
 #[derive(Clone, Debug)]
 pub struct Controller {
     model: Model,
+    /// A workspace sized for the model, cloned by [`Controller::workspace`].
+    blank: Data6,
     tip: FrameId,
     sensor: FrameId,
     params: ControllerParams,
@@ -81,7 +83,8 @@ impl Controller {
         if params.hold_damping.iter().any(|d| !(*d >= 0.0 && d.is_finite())) {
             return Err(format!("hold_damping = {:?} must be finite and >= 0", params.hold_damping));
         }
-        Ok(Self { model, tip, sensor, params })
+        let blank = Data6::try_new(&model).map_err(|e| e.to_string())?;
+        Ok(Self { model, blank, tip, sensor, params })
     }
 
     pub fn model(&self) -> &Model {
@@ -111,7 +114,7 @@ impl Controller {
 
     /// A preallocated workspace for [`step`].
     pub fn workspace(&self) -> Workspace {
-        Workspace { data: Data6::new(&self.model) }
+        Workspace { data: self.blank.clone() }
     }
 }
 

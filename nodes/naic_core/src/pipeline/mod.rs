@@ -2,6 +2,7 @@
 //! `sense → estimate → control → feedforward → actuate`.
 pub mod actuate;
 pub mod control;
+pub mod controller;
 pub mod estimate;
 pub mod feedforward;
 pub mod sense;
