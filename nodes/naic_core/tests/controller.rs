@@ -3,13 +3,13 @@
 //! the inverse-dynamics stage realises the commanded task acceleration, so
 //! the tip error must follow the target impedance relation (eq 7) exactly.
 
-use naic_core::dynamics::{self, Damping};
+use naic_core::dynamics;
 use naic_core::model::{Data6, Model};
-use naic_core::pipeline::control::force_law::{ForceLawParams, Mode, WeightBounds};
-use naic_core::pipeline::control::{ContactDetect, ControlParams, ForceAxis, ImpedanceParams, Phase};
+use naic_core::pipeline::control::force_law::Mode;
+use naic_core::pipeline::control::Phase;
 use naic_core::pipeline::controller::{self, Controller, ControllerParams, Reference};
 use naic_core::pipeline::estimate::{self, ToolParams};
-use naic_core::pipeline::sense::{Fault, RawMeasurements, SenseParams, Signal};
+use naic_core::pipeline::sense::{Fault, RawMeasurements, Signal};
 use nalgebra::{Rotation3, UnitQuaternion, Vector3, Vector6};
 
 fn model() -> Model {
@@ -18,45 +18,10 @@ fn model() -> Model {
 }
 
 fn params(mode: Mode) -> ControllerParams {
-    ControllerParams {
-        sense: SenseParams {
-            q_min: [-3.14; 6],
-            q_max: [3.14; 6],
-            q_margin: 0.1,
-            dq_max: [6.3; 6],
-            wrench_max: [217.0, 217.0, 435.0, 7.5, 7.5, 7.5],
-            median_window: 1,
-            joint_timeout: 0.01,
-            wrench_timeout: 0.01,
-        },
-        tool: ToolParams {
-            mass: 0.424,
-            com: Vector3::new(0.0, 0.0, 0.015),
-            tip: Vector3::new(0.0, 0.0, 0.169),
-            gravity: Vector3::new(0.0, 0.0, -9.81),
-        },
-        tare_samples: 10,
-        control: ControlParams {
-            impedance: ImpedanceParams {
-                m_d: [1.0; 6],
-                b_d: [500.0, 500.0, 40.0, 500.0, 500.0, 500.0],
-                k_free: [500.0, 500.0, 50.0, 1000.0, 1000.0, 1000.0],
-                k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
-            },
-            force_axis: ForceAxis { axis: 2, sign: -1.0 },
-            force_law: ForceLawParams {
-                mode,
-                sigma: 0.01,
-                gamma: 0.0,
-                bounds: WeightBounds::default(),
-                lambda: 1e-3,
-                sigma_margin: 0.5,
-            },
-            contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
-        },
-        hold_damping: [5.0; 6],
-        damping: Damping::default(),
-    }
+    let mut p = ControllerParams::paper_defaults(&model(), mode, 0.0);
+    p.sense.median_window = 1;
+    p.tare_samples = 10;
+    p
 }
 
 /// The paper's §4.1 start: (0, −30°, 120°, 0, −90°, 0).
