@@ -1,2 +1,8 @@
 //! The control path, in the order data flows through it:
 //! `sense → estimate → control → feedforward → actuate`.
+pub mod actuate;
+pub mod control;
+pub mod controller;
+pub mod estimate;
+pub mod feedforward;
+pub mod sense;
