@@ -208,3 +208,62 @@ def test_not_mcap_is_a_usage_error(naic_bin, tmp_path):
     p.write_text("hello")
     r = subprocess.run([str(naic_bin), "bag", "info", str(p)], capture_output=True, text=True)
     assert r.returncode == 2 and "not an MCAP bag" in r.stderr
+
+
+def test_naic_reads_bags_written_by_rosbags_and_mcap_ros2(naic_bin, tmp_path):
+    """The other direction: bags from rosbags' rosbag2 writer and from mcap-ros2-support's
+    writer, read by naic (info counts and CSV values)."""
+    import csv
+
+    import numpy as np
+    from mcap_ros2.writer import Writer as McapRos2Writer
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    WS = ts.types["geometry_msgs/msg/WrenchStamped"]
+    H, T = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
+    W, V = ts.types["geometry_msgs/msg/Wrench"], ts.types["geometry_msgs/msg/Vector3"]
+    JS = ts.types["sensor_msgs/msg/JointState"]
+    n = 50
+    with Writer(tmp_path / "rb", version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        cw = w.add_connection("/wrench", WS.__msgtype__, typestore=ts)
+        cj = w.add_connection("/joint_states", JS.__msgtype__, typestore=ts)
+        for i in range(n):
+            m = WS(header=H(stamp=T(sec=10, nanosec=i), frame_id="ft_sensor"),
+                   wrench=W(force=V(x=i * 0.5, y=-1.0, z=2.0), torque=V(x=0.0, y=0.0, z=i * 1e-3)))
+            w.write(cw, 10_000 + i, ts.serialize_cdr(m, WS.__msgtype__))
+            j = JS(header=H(stamp=T(sec=10, nanosec=i), frame_id=""), name=["joint1", "joint2"],
+                   position=np.array([i * 0.25, -1.0]), velocity=np.array([], dtype=float), effort=np.array([1.0, 2.0]))
+            w.write(cj, 10_000 + i, ts.serialize_cdr(j, JS.__msgtype__))
+    rb = tmp_path / "rb" / "rb.mcap"
+
+    # mcap-ros2-support's writer, with the schema text from the Jazzy share folder
+    import sys
+    share = pathlib.Path(sys.prefix) / "share"
+    mr = tmp_path / "mr.mcap"
+    with open(mr, "wb") as f:
+        writer = McapRos2Writer(f)
+        text = (share / "rosgraph_msgs/msg/Clock.msg").read_text() + "\n" + "=" * 80 + "\nMSG: builtin_interfaces/Time\n" + (share / "builtin_interfaces/msg/Time.msg").read_text()
+        schema = writer.register_msgdef("rosgraph_msgs/msg/Clock", text)
+        for i in range(n):
+            writer.write_message("/clock", schema, {"clock": {"sec": i, "nanosec": 7}}, log_time=i, publish_time=i, sequence=i)
+        writer.finish()
+
+    for path, counts in [(rb, {"/wrench": n, "/joint_states": n}), (mr, {"/clock": n})]:
+        out = subprocess.run([str(naic_bin), "bag", "info", "--json", str(path)], check=True, capture_output=True, text=True)
+        info = json.loads(out.stdout)
+        assert {t["topic"]: t["count"] for t in info["topics"]} == counts
+        assert not info["damage"]
+        d = tmp_path / ("csv_" + path.stem)
+        subprocess.run([str(naic_bin), "bag", "export-csv", str(path), "--out", str(d)], check=True, capture_output=True)
+        if path == rb:
+            rows = list(csv.DictReader(open(d / "wrench.csv")))
+            assert [float(r["force_x"]) for r in rows] == [i * 0.5 for i in range(n)]
+            assert rows[3]["stamp_s"] == "10.000000003" and rows[3]["frame_id"] == "ft_sensor"
+            rows = list(csv.DictReader(open(d / "joint_states.csv")))
+            assert [float(r["position_joint1"]) for r in rows] == [i * 0.25 for i in range(n)]
+            assert "velocity_joint1" not in rows[0]
+        else:
+            rows = list(csv.DictReader(open(d / "clock.csv")))
+            assert [r["clock_s"] for r in rows] == [f"{i}.000000007" for i in range(n)]

@@ -173,14 +173,26 @@ fn info(file: &Path, json: bool) -> CliResult {
     Ok(())
 }
 
-/// Flattening of a message into CSV columns.
+/// Flattening of a message into CSV columns. Variable-length fields get as many columns as
+/// the longest message has (`shape`); shorter messages leave those cells empty.
 trait CsvRow: RosMessage {
-    fn header(&self) -> Vec<String>;
-    fn row(&self, out: &mut String);
+    /// Grows `shape` (one entry per variable-length field) to fit this message.
+    fn shape(&self, _shape: &mut Vec<usize>) {}
+    fn header(&self, shape: &[usize]) -> Vec<String>;
+    fn row(&self, shape: &[usize], out: &mut String);
 }
 
 fn num(out: &mut String, v: f64) {
     let _ = write!(out, ",{v}");
+}
+
+fn nums(out: &mut String, v: &[f64], width: usize) {
+    for i in 0..width {
+        match v.get(i) {
+            Some(x) => num(out, *x),
+            None => out.push(','),
+        }
+    }
 }
 
 fn text(out: &mut String, v: &str) {
@@ -191,40 +203,53 @@ fn text(out: &mut String, v: &str) {
     }
 }
 
-fn stamp(h: &Header) -> f64 {
-    h.stamp.sec as f64 + h.stamp.nanosec as f64 * 1e-9
+/// Exact `sec.nanosec` (an f64 would lose the nanoseconds of an epoch stamp).
+fn time_col(out: &mut String, t: &Time) {
+    let ns = t.to_nanos();
+    let sign = if ns < 0 { "-" } else { "" };
+    let _ = write!(out, ",{sign}{}.{:09}", ns.unsigned_abs() / 1_000_000_000, ns.unsigned_abs() % 1_000_000_000);
+}
+
+fn grow(shape: &mut Vec<usize>, lens: &[usize]) {
+    if shape.len() < lens.len() {
+        shape.resize(lens.len(), 0);
+    }
+    for (s, l) in shape.iter_mut().zip(lens) {
+        *s = (*s).max(*l);
+    }
 }
 
 impl CsvRow for JointState {
-    fn header(&self) -> Vec<String> {
+    fn shape(&self, shape: &mut Vec<usize>) {
+        grow(shape, &[self.position.len(), self.velocity.len(), self.effort.len()]);
+    }
+    fn header(&self, shape: &[usize]) -> Vec<String> {
         let mut h = vec!["stamp_s".to_string(), "frame_id".to_string()];
-        for (kind, v) in [("position", &self.position), ("velocity", &self.velocity), ("effort", &self.effort)] {
-            for i in 0..v.len() {
+        for (k, kind) in ["position", "velocity", "effort"].iter().enumerate() {
+            for i in 0..shape[k] {
                 let name = self.name.get(i).cloned().unwrap_or_else(|| format!("{i}"));
                 h.push(format!("{kind}_{name}"));
             }
         }
         h
     }
-    fn row(&self, out: &mut String) {
-        num(out, stamp(&self.header));
+    fn row(&self, shape: &[usize], out: &mut String) {
+        time_col(out, &self.header.stamp);
         text(out, &self.header.frame_id);
-        for v in [&self.position, &self.velocity, &self.effort] {
-            for x in v {
-                num(out, *x);
-            }
+        for (k, v) in [&self.position, &self.velocity, &self.effort].into_iter().enumerate() {
+            nums(out, v, shape[k]);
         }
     }
 }
 
 impl CsvRow for WrenchStamped {
-    fn header(&self) -> Vec<String> {
+    fn header(&self, _: &[usize]) -> Vec<String> {
         ["stamp_s", "frame_id", "force_x", "force_y", "force_z", "torque_x", "torque_y", "torque_z"]
             .map(String::from)
             .to_vec()
     }
-    fn row(&self, out: &mut String) {
-        num(out, stamp(&self.header));
+    fn row(&self, _: &[usize], out: &mut String) {
+        time_col(out, &self.header.stamp);
         text(out, &self.header.frame_id);
         let (f, t) = (&self.wrench.force, &self.wrench.torque);
         for v in [f.x, f.y, f.z, t.x, t.y, t.z] {
@@ -234,18 +259,19 @@ impl CsvRow for WrenchStamped {
 }
 
 impl CsvRow for Float64MultiArray {
-    fn header(&self) -> Vec<String> {
-        (0..self.data.len()).map(|i| format!("data_{i}")).collect()
+    fn shape(&self, shape: &mut Vec<usize>) {
+        grow(shape, &[self.data.len()]);
     }
-    fn row(&self, out: &mut String) {
-        for x in &self.data {
-            num(out, *x);
-        }
+    fn header(&self, shape: &[usize]) -> Vec<String> {
+        (0..shape[0]).map(|i| format!("data_{i}")).collect()
+    }
+    fn row(&self, shape: &[usize], out: &mut String) {
+        nums(out, &self.data, shape[0]);
     }
 }
 
 impl CsvRow for NaicParams {
-    fn header(&self) -> Vec<String> {
+    fn header(&self, _: &[usize]) -> Vec<String> {
         [
             "stamp_s", "frame_id", "mode", "phase", "force_axis", "desired_force", "measured_force", "e_f", "m_d", "b_d",
             "k_d", "sigma", "phi", "gamma", "gamma_bound", "gamma_clipped", "fault", "fault_count",
@@ -253,8 +279,8 @@ impl CsvRow for NaicParams {
         .map(String::from)
         .to_vec()
     }
-    fn row(&self, out: &mut String) {
-        num(out, stamp(&self.header));
+    fn row(&self, _: &[usize], out: &mut String) {
+        time_col(out, &self.header.stamp);
         text(out, &self.header.frame_id);
         text(out, &self.mode);
         let _ = write!(out, ",{},{}", self.phase, self.force_axis);
@@ -271,18 +297,23 @@ impl CsvRow for NaicParams {
 }
 
 impl CsvRow for Clock {
-    fn header(&self) -> Vec<String> {
+    fn header(&self, _: &[usize]) -> Vec<String> {
         vec!["clock_s".into()]
     }
-    fn row(&self, out: &mut String) {
-        num(out, self.clock.sec as f64 + self.clock.nanosec as f64 * 1e-9);
+    fn row(&self, _: &[usize], out: &mut String) {
+        time_col(out, &self.clock);
     }
 }
 
 fn export_topic<M: CsvRow>(bag: &Bag, topic: &str, path: &Path) -> Result<usize, CliError> {
     let msgs = bag.messages::<M>(topic, ..).map_err(bag_err)?;
+    let mut shape = Vec::new();
+    for m in &msgs {
+        m.msg.shape(&mut shape);
+    }
+    shape.resize(3, 0);
     let mut s = String::new();
-    let cols = msgs.first().map(|m| m.msg.header()).unwrap_or_default();
+    let cols = msgs.first().map(|m| m.msg.header(&shape)).unwrap_or_default();
     s.push_str("log_time_ns,publish_time_ns");
     for c in &cols {
         s.push(',');
@@ -291,7 +322,7 @@ fn export_topic<M: CsvRow>(bag: &Bag, topic: &str, path: &Path) -> Result<usize,
     s.push('\n');
     for m in &msgs {
         let _ = write!(s, "{},{}", m.log_time, m.publish_time);
-        m.msg.row(&mut s);
+        m.msg.row(&shape, &mut s);
         s.push('\n');
     }
     std::fs::write(path, s).map_err(|e| CliError::failure(format!("could not write {}: {e}", path.display())))?;
