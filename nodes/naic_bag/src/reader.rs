@@ -69,6 +69,7 @@ pub struct ChannelDef {
 /// One topic of the bag, for `info`.
 #[derive(Debug, Clone)]
 pub struct TopicInfo {
+    pub channel_id: u16,
     pub topic: String,
     pub type_name: String,
     pub count: u64,
@@ -824,6 +825,7 @@ impl Bag {
             .channels
             .values()
             .map(|c| TopicInfo {
+                channel_id: c.id,
                 topic: c.topic.clone(),
                 type_name: self.type_name(c.id).to_string(),
                 count: self.counts.get(&c.id).copied().unwrap_or(0),

@@ -14,6 +14,9 @@ pub enum BagCmd {
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
+        /// Also read and decode every message (checks chunk CRCs and CDR) and report what is readable.
+        #[arg(long)]
+        verify: bool,
     },
     /// Recover every complete message of a damaged bag into a clean, indexed copy.
     Repair { input: PathBuf, output: PathBuf },
@@ -49,7 +52,7 @@ fn bag_err(e: BagError) -> CliError {
 
 pub fn run(c: BagCmd) -> CliResult {
     match c {
-        BagCmd::Info { file, json } => info(&file, json),
+        BagCmd::Info { file, json, verify } => info(&file, json, verify),
         BagCmd::Repair { input, output } => {
             let r = naic_bag::repair(&input, &output).map_err(bag_err)?;
             for d in &r.damage {
@@ -109,8 +112,15 @@ fn human_size(b: usize) -> String {
     }
 }
 
-fn info(file: &Path, json: bool) -> CliResult {
+fn info(file: &Path, json: bool, verify: bool) -> CliResult {
     let bag = Bag::open(file).map_err(bag_err)?;
+    // --verify: count what actually reads and decodes, per channel.
+    let mut readable: std::collections::BTreeMap<u16, u64> = Default::default();
+    if verify {
+        bag.for_each_message(None, TimeRange::ALL, |m| *readable.entry(m.channel_id).or_default() += 1);
+        bag.for_each_decoded(.., |_| {}); // notes CDR that does not decode
+    }
+    let readable_of = |t: &naic_bag::TopicInfo| readable.get(&t.channel_id).copied().unwrap_or(0);
     let topics = bag.topics();
     let (start, end) = bag.time_bounds().unwrap_or((0, 0));
     let duration = end.saturating_sub(start);
@@ -132,6 +142,7 @@ fn info(file: &Path, json: bool) -> CliResult {
             "topics": topics.iter().map(|t| serde_json::json!({
                 "topic": t.topic, "type": t.type_name, "count": t.count,
                 "rate_hz": rate(t.count), "type_hash": t.type_hash,
+                "readable": if verify { Some(readable_of(t)) } else { None },
             })).collect::<Vec<_>>(),
             "damage": damage.iter().map(|d| d.to_string()).collect::<Vec<_>>(),
         });
@@ -152,12 +163,13 @@ fn info(file: &Path, json: bool) -> CliResult {
     for (i, t) in topics.iter().enumerate() {
         let _ = writeln!(
             s,
-            "{}Topic: {:w$} | Type: {:tw$} | Count: {} | Rate: {:.1} Hz | Serialization Format: cdr",
+            "{}Topic: {:w$} | Type: {:tw$} | Count: {} | Rate: {:.1} Hz | Serialization Format: cdr{}",
             if i == 0 { "Topic information: " } else { "                   " },
             t.topic,
             t.type_name,
             t.count,
             rate(t.count),
+            if verify { format!(" | Readable: {}", readable_of(t)) } else { String::new() },
         );
     }
     if topics.is_empty() {
