@@ -10,25 +10,12 @@ pub fn wall_ns() -> i64 {
         .unwrap_or(0)
 }
 
-/// Nanoseconds → `Time` (negative times clamp to zero).
+/// Nanoseconds → `Time`.
 pub fn time_from_ns(ns: i64) -> Time {
-    let ns = ns.max(0);
-    Time { sec: (ns / 1_000_000_000) as i32, nanosec: (ns % 1_000_000_000) as u32 }
+    Time::from_nanos(ns)
 }
 
 /// `Time` → nanoseconds.
 pub fn ns_from_time(t: &Time) -> i64 {
-    t.sec as i64 * 1_000_000_000 + t.nanosec as i64
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    #[test]
-    fn round_trip() {
-        let t = time_from_ns(1_700_000_000_123_456_789);
-        assert_eq!(t.sec, 1_700_000_000);
-        assert_eq!(t.nanosec, 123_456_789);
-        assert_eq!(ns_from_time(&t), 1_700_000_000_123_456_789);
-    }
+    t.to_nanos()
 }
