@@ -107,3 +107,5 @@ pub fn install_signal_handlers() {
         libc::signal(libc::SIGTERM, on_signal as *const () as libc::sighandler_t);
     }
 }
+
+pub mod wait;

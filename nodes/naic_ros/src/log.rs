@@ -18,6 +18,8 @@ impl Log for Logger {
             || m.target().starts_with("friction");
         if ours {
             m.level() <= self.level
+        } else if crate::shutdown_requested() {
+            false // RustDDS complains about sockets while tearing down: not news.
         } else {
             // DDS internals: only errors, unless the user asked for debug.
             m.level() <= if self.level >= LevelFilter::Debug { Level::Warn } else { Level::Error }

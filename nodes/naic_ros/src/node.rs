@@ -129,6 +129,16 @@ impl RosNode {
         qos: &QosProfile,
     ) -> Result<ros2_client::dds::rustdds::Topic, RosError> {
         let topic = self.args.remap_topic(topic);
+        // Resolve relative names in the node namespace here: ros2-client would join
+        // namespace "/" and "name" into "//name".
+        let resolved;
+        let topic = if topic.starts_with('/') {
+            topic
+        } else {
+            let ns = self.node.namespace().trim_end_matches('/');
+            resolved = format!("{ns}/{topic}");
+            resolved.as_str()
+        };
         let name = Name::parse(topic)
             .map_err(|e| RosError::Args(format!("bad topic name '{topic}': {e:?}")))?;
         self.node
@@ -354,3 +364,6 @@ impl ParamServices {
         }
     }
 }
+
+/// Publisher alias used by the nodes.
+pub type Pub<M> = Publisher<M>;
