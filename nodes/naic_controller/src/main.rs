@@ -21,7 +21,8 @@ use naic_core::{
     model::{Data6, Model},
     pipeline::{
         control::Phase,
-        controller::{self, Controller, ControllerState, Reference, Workspace},
+        control::force_law::Mode,
+        controller::{self, Controller, ControllerParams, ControllerState, Reference, Workspace},
         sense::RawMeasurements,
     },
 };
@@ -30,9 +31,12 @@ use naic_ros::{
     node::{QOS_PUB, QOS_SUB},
     time::{time_from_ns, wall_ns},
     wait::Waiter,
-    RosError, RosNode,
+    ParameterValue, RosArgs, RosError, RosNode,
 };
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
+
+/// Requested γ when none is given (the paper gives no value; eq 15 clips it every cycle).
+const DEFAULT_LEARNING_RATE: f64 = 0.01;
 
 fn main() {
     naic_ros::run_main("naic_controller", run)
@@ -79,13 +83,20 @@ impl JointMap {
 
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
-    let mut node = RosNode::from_env("naic_controller", config::specs(), Some(Box::new(config::check)))?;
-    let urdf = node.params.with(|p| p.str("urdf").to_string());
+    let args = RosArgs::parse(std::env::args().skip(1))?;
+    let urdf = match args.peek("naic_controller", "urdf")? {
+        None => "urdf/jk5.urdf".to_string(),
+        Some(ParameterValue::String(s)) => s,
+        Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
+    };
     let model = Model::from_urdf_file(&urdf).map_err(|e| {
         RosError::Node(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))
     })?;
+    // Defaults: the core's paper settings on this model (learning rate: not in the paper).
+    let base = ControllerParams::paper_defaults(&model, Mode::Naic, DEFAULT_LEARNING_RATE);
+    let mut node = RosNode::new(args, "naic_controller", config::specs(&base), Some(config::check(base)))?;
     let mut ctl = {
-        let cp = node.params.with(|p| config::controller_params(p, Some(&model))).map_err(RosError::Param)?;
+        let cp = node.params.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
         Controller::new(model.clone(), cp).map_err(RosError::Param)?
     };
     let mut state: ControllerState = ctl.initial_state();
@@ -94,7 +105,7 @@ fn run() -> Result<(), RosError> {
     let tip = model.frame_id(controller::TIP_FRAME).ok_or_else(|| RosError::Node("URDF has no 'tip' frame".into()))?;
 
     let mut js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
-    let mut w_sub = node.subscription::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_SUB)?;
+    let w_sub = node.subscription::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_SUB)?;
     let effort_pub = node.publisher::<msgs::Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB)?;
     let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, QOS_PUB)?;
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
@@ -126,7 +137,7 @@ fn run() -> Result<(), RosError> {
                 approach = p.f64("approach_depth");
                 use_sim_time = p.bool("use_sim_time");
                 mode = p.str("mode").to_string();
-                config::controller_params(p, Some(&model))
+                config::controller_params(p, &base)
             });
             match r.and_then(|cp| ctl.with_params(cp)) {
                 Ok(c) => {

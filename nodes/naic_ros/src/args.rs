@@ -132,6 +132,33 @@ impl RosArgs {
         Ok(out)
     }
 
+    /// Fully qualified node name these arguments give a node whose default name is
+    /// `default_name`.
+    pub fn fqn(&self, default_name: &str) -> String {
+        let name = self.node_name.as_deref().unwrap_or(default_name);
+        match self.namespace.as_deref() {
+            None | Some("/") => format!("/{name}"),
+            Some(ns) => format!("{ns}/{name}"),
+        }
+    }
+
+    /// Start-up overrides in the order they apply: `--params-file`s, then `-p`.
+    pub fn overrides(&self, default_name: &str) -> Result<Vec<(String, ParameterValue)>, RosError> {
+        let fqn = self.fqn(default_name);
+        let mut out = Vec::new();
+        for f in &self.params_files {
+            out.extend(crate::params_file::load_for_node(f, &fqn)?);
+        }
+        out.extend(self.params.iter().cloned());
+        Ok(out)
+    }
+
+    /// The value a parameter gets at start-up from files and `-p` (None: its default).
+    /// For parameters a node needs before it can declare the rest (e.g. its model file).
+    pub fn peek(&self, default_name: &str, name: &str) -> Result<Option<ParameterValue>, RosError> {
+        Ok(self.overrides(default_name)?.into_iter().rev().find(|(n, _)| n == name).map(|(_, v)| v))
+    }
+
     /// Apply topic remappings to a topic name as the node spells it.
     pub fn remap_topic<'a>(&'a self, topic: &'a str) -> &'a str {
         let bare = topic.trim_start_matches('/');

@@ -32,7 +32,7 @@ use crate::{
     args::RosArgs,
     context::{create_context, DdsSettings},
     params::{Changes, ParamSpec, ParamTable, SetCheck},
-    params_file, RosError,
+    RosError,
 };
 
 /// QoS for the 1 kHz topics: reliable, keep last 10, never block the cycle when full.
@@ -77,14 +77,8 @@ impl RosNode {
         let name = args.node_name.clone().unwrap_or_else(|| default_name.to_string());
         let ns = args.namespace.clone().unwrap_or_else(|| "/".to_string());
         crate::log::init(&name, args.log_level.as_deref());
-        let fqn = if ns == "/" { format!("/{name}") } else { format!("{ns}/{name}") };
-
-        // Overrides: files in order, then -p in order (later wins).
-        let mut overrides = Vec::new();
-        for f in &args.params_files {
-            overrides.extend(params_file::load_for_node(f, &fqn)?);
-        }
-        overrides.extend(args.params.iter().cloned());
+        let fqn = args.fqn(default_name);
+        let overrides = args.overrides(default_name)?;
         let params = ParamTable::new(specs, check, &overrides).map_err(RosError::Param)?;
 
         let settings = DdsSettings::from_env()?;
