@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod friction;
+pub mod launch;
 pub mod sim;
 
 /// A command failure: a message for the user and whether it was their input.
