@@ -49,6 +49,7 @@ fn specs() -> Vec<ParamSpec> {
         ),
         ParamSpec::double("hold_damping", 5.0, 0.0, 200.0, "Joint damping of the driver's own hold [N m s/rad]"),
         ParamSpec::choice("scenario", "flat", &["flat"], "Paper scenario (environment and trajectory)").read_only(),
+        ParamSpec::string("plant", plant::PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
         ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),
     ]
 }

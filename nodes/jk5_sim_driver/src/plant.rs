@@ -15,6 +15,9 @@ pub trait Plant {
     fn time(&self) -> f64;
 }
 
+/// Which simulator the driver runs (the read-only `plant` parameter).
+pub const PLANT_NAME: &str = "placeholder";
+
 /// SCRATCH placeholder until `naic_sim`'s arm simulator lands on main: six decoupled
 /// joints (unit inertia, light viscous friction, no gravity, no contact). It only
 /// exercises the DDS plumbing; no test of physics may rely on it.
