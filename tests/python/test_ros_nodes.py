@@ -39,7 +39,7 @@ def suite(bins):
     launch = ru.Proc([str(bins / "naic"), "launch"], ru.ros_env(domain))
     r = ru.RclpyDomain(domain, "naic_suite_test")
     ok = r.spin_until(lambda: set(ru.NODES) <= {n for n, _ in r.node.get_node_names_and_namespaces()}, 20)
-    assert ok, f"nodes not discovered; launch output:\n{launch.output()}"
+    assert ok, f"nodes not discovered (seen: {r.node.get_node_names_and_namespaces()}, domain {domain}); launch output:\n{launch.output()[:3000]}"
     yield {"domain": domain, "launch": launch, "rclpy": r, "bins": bins}
     r.close()
     rc = launch.stop(timeout=15)
@@ -94,13 +94,13 @@ def test_ros_joint_states_and_wrench_at_published_rate(suite):
     for name, got in (("joint_states", js), ("wrench", ws)):
         assert len(got) > 100, f"/{name}: only {len(got)} messages in 3 s"
         stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for _, m in got]
-        span = stamps[-1] - stamps[0]
-        rate_pub = (len(stamps) - 1) / span
-        # Published rate (from the stamps of what arrived): the 1 kHz parameter.
-        assert 900 < rate_pub < 1100, f"/{name}: stamps say {rate_pub:.0f} Hz"
-        # Received rate: rclpy keeps up with most of it on a loaded 2-core machine.
-        rx = (len(got) - 1) / (got[-1][0] - got[0][0])
-        assert rx > 700, f"/{name}: received {rx:.0f} Hz"
+        gaps = sorted(b - a for a, b in zip(stamps, stamps[1:]))
+        rate_pub = 1.0 / gaps[len(gaps) // 2]
+        # Published rate (median stamp spacing of what arrived): the 1 kHz parameter.
+        assert 950 < rate_pub < 1050, f"/{name}: stamps say {rate_pub:.0f} Hz"
+        # Received: rclpy keeps up with most of it on a loaded 2-core machine.
+        rx = (len(got) - 1) / (stamps[-1] - stamps[0])
+        assert rx > 600, f"/{name}: received {rx:.0f} Hz"
         assert all(b > a for a, b in zip(stamps, stamps[1:])), f"/{name}: stamps not increasing"
     m = js[-1][1]
     assert list(m.name) == JOINTS
@@ -205,7 +205,8 @@ def test_ros_naic_params_received_by_rclpy_with_built_naic_msgs(suite):
     assert m["phase"] in (0, 1, 2)
     # The fields carry the controller's numbers (paper defaults on the force axis).
     assert m["m_d"] == 1.0 and m["b_d"] == 40.0 and m["sigma"] == 0.01
-    assert math.isfinite(m["e_f"]) and abs(m["stamp"] - time.time()) < 5
+    assert math.isfinite(m["e_f"]) or m["phase"] == 2  # the hold has no force error
+    assert abs(m["stamp"] - time.time()) < 5
     # Put the defaults back for the other tests.
     r = suite["rclpy"]
     c = AsyncParameterClient(r.node, "naic_controller")
@@ -216,7 +217,7 @@ def test_ros_naic_params_received_by_rclpy_with_built_naic_msgs(suite):
 @pytest.fixture(scope="module")
 def lone_driver(bins):
     """The driver alone (no controller): rclpy is the only commander."""
-    domain = ru.fresh_domain() + 100
+    domain = ru.fresh_domain(40)
     p = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file", "params/jk5_sim_driver.yaml"],
                 ru.ros_env(domain))
     r = ru.RclpyDomain(domain, "naic_commander_test")
@@ -257,7 +258,7 @@ def test_ros_rclpy_commands_joint_effort_and_driver_obeys(lone_driver):
 
 
 def test_ros_remap_node_name_and_namespace(bins):
-    domain = ru.fresh_domain() + 200
+    domain = ru.fresh_domain(80)
     p = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "-r", "__node:=drv2", "-r", "__ns:=/robot1",
                  "-p", "rate:=250.0"], ru.ros_env(domain))
     r = ru.RclpyDomain(domain, "naic_remap_test")

@@ -28,9 +28,11 @@ def build_nodes():
     return target_dir()
 
 
-def fresh_domain():
-    """A domain id unlikely to be used by anyone else right now (1..100 reserved for people)."""
-    return random.Random(os.getpid() * 7919 + time.time_ns()).randint(101, 200)
+def fresh_domain(offset=0):
+    """A domain id unlikely to be used by anyone else right now: 101..231 (ids up to 232
+    fit the RTPS port mapping; low ids are what people use by hand)."""
+    base = random.Random(os.getpid() * 7919 + time.time_ns()).randint(0, 130)
+    return 101 + (base + offset) % 131
 
 
 def ros_env(domain):
@@ -41,13 +43,20 @@ def ros_env(domain):
     return env
 
 
+def _die_with_parent():
+    """In the child: get SIGINT when the test process dies, so no node outlives it."""
+    import ctypes
+    PR_SET_PDEATHSIG = 1
+    ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGINT)
+
+
 class Proc:
     """A node process whose output is collected (and echoed on failure)."""
 
     def __init__(self, args, env, cwd=ROOT):
         self.args = args
         self.p = subprocess.Popen(args, env=env, cwd=cwd, stdout=subprocess.PIPE,
-                                  stderr=subprocess.STDOUT, text=True)
+                                  stderr=subprocess.STDOUT, text=True, preexec_fn=_die_with_parent)
         self.lines = []
         self.t = threading.Thread(target=self._read, daemon=True)
         self.t.start()

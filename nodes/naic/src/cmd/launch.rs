@@ -86,6 +86,15 @@ pub fn spawn_node(name: &str, bin: &Path, args: &[String], envs: &[(String, Stri
     for (k, v) in envs {
         cmd.env(k, v);
     }
+    // If naic itself dies (even by SIGKILL), the kernel stops the node too: no orphans.
+    // SAFETY: prctl is async-signal-safe; nothing else runs between fork and exec.
+    unsafe {
+        use std::os::unix::process::CommandExt;
+        cmd.pre_exec(|| {
+            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGINT as libc::c_ulong);
+            Ok(())
+        });
+    }
     let mut child = cmd
         .spawn()
         .map_err(|e| CliError::failure(format!("cannot start {}: {e}", bin.display())))?;
