@@ -50,6 +50,7 @@ fn specs() -> Vec<ParamSpec> {
         ParamSpec::double("hold_damping", 5.0, 0.0, 200.0, "Joint damping of the driver's own hold [N m s/rad]"),
         ParamSpec::choice("scenario", "flat", &["flat"], "Paper scenario (environment and trajectory)").read_only(),
         ParamSpec::string("plant", plant::PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
+        ParamSpec::double("latency_warmup", 2.0, 0.0, 3600.0, "Chain-latency statistics ignore the first seconds after start").read_only(),
         ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),
     ]
 }
@@ -65,6 +66,8 @@ struct CmdSlot {
     source_stamp_ns: Option<i64>,
     /// Latencies (arrival − source stamp) [ns] of traced commands (wall-clock stamps only).
     latencies_ns: Vec<i64>,
+    /// Latencies are recorded from this wall time on (after the warm-up).
+    record_after_ns: i64,
     rejected: u64,
 }
 
@@ -93,6 +96,7 @@ fn run() -> Result<(), RosError> {
             seq: 0,
             source_stamp_ns: None,
             latencies_ns: Vec::with_capacity(4 * 3600 * 1000),
+            record_after_ns: wall_ns() + node.params.with(|p| (p.f64("latency_warmup") * 1e9) as i64),
             rejected: 0,
         }),
         cv: Condvar::new(),
@@ -120,7 +124,7 @@ fn run() -> Result<(), RosError> {
                                 s.seq += 1;
                                 s.source_stamp_ns = msgs::effort_source_stamp(&m);
                                 if let Some(st) = s.source_stamp_ns {
-                                    if s.latencies_ns.len() < s.latencies_ns.capacity() {
+                                    if now >= s.record_after_ns && s.latencies_ns.len() < s.latencies_ns.capacity() {
                                         s.latencies_ns.push(now - st);
                                     }
                                 }
@@ -200,12 +204,13 @@ fn run() -> Result<(), RosError> {
         }
 
         // Take the newest command, or hold if it is stale.
-        let (tau, fresh, seq, src) = {
+        let (tau, fresh, seq, src, recording) = {
             let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
-            let fresh = s.seq > 0 && (lockstep && s.seq != last_seq_seen || wall_ns() - s.arrival_ns <= timeout_ns);
-            (s.tau, fresh, s.seq, s.source_stamp_ns)
+            let now = wall_ns();
+            let fresh = s.seq > 0 && (lockstep && s.seq != last_seq_seen || now - s.arrival_ns <= timeout_ns);
+            (s.tau, fresh, s.seq, s.source_stamp_ns, now >= s.record_after_ns)
         };
-        if !lockstep && chain_started {
+        if !lockstep && chain_started && recording {
             // A cycle is missed when the command for the previous state did not arrive in time.
             if let (Some(p), true) = (last_published_stamp, src.is_some()) {
                 if src != Some(p) {
@@ -238,7 +243,8 @@ fn run() -> Result<(), RosError> {
 
     // Report the chain latency.
     let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
-    let report = latency_report(&s.latencies_ns, missed, cycles, wall_ns() - start_wall, s.rejected);
+    let recorded_ns = (wall_ns() - s.record_after_ns).max(0);
+    let report = latency_report(&s.latencies_ns, missed, cycles, recorded_ns, s.rejected);
     let path = node.params.with(|p| p.str("latency_report").to_string());
     if !path.is_empty() {
         if let Err(e) = std::fs::write(&path, report.to_string()) {
