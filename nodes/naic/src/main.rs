@@ -26,8 +26,14 @@ enum Command {
     /// MCAP bags: info, repair, export-csv.
     #[command(subcommand)]
     Bag(cmd::bag::BagCmd),
+    /// Record naic topics from DDS into a rosbag2-compatible MCAP bag.
+    Record(cmd::record::RecordArgs),
+    /// Publish a bag's messages over DDS with their original timing.
+    Replay(cmd::record::ReplayArgs),
     /// Run a paper scenario in the in-process simulator (default: flat, all controllers).
     Sim(cmd::sim::SimArgs),
+    /// Start the three ROS 2 nodes (driver, controller, friction compensation) as processes.
+    Launch(cmd::launch::LaunchArgs),
 }
 
 fn main() {
@@ -39,6 +45,9 @@ fn main() {
         Command::Bench(c) => cmd::bench::run(c),
         Command::Sim(a) => cmd::sim::run(a),
         Command::Bag(c) => cmd::bag::run(c),
+        Command::Record(a) => cmd::record::record(a),
+        Command::Replay(a) => cmd::record::replay(a),
+        Command::Launch(a) => cmd::launch::run(a),
     };
     if let Err(e) = result {
         eprintln!("naic: error: {e}");

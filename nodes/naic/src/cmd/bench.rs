@@ -13,11 +13,23 @@ pub enum BenchCmd {
         #[arg(long, default_value_t = 60.0)]
         seconds: f64,
     },
+    /// Latency of the 1 kHz DDS chain across the three node processes, Rust vs rclpy.
+    Chain(super::bench_chain::ChainArgs),
+    /// Record 4 topics at 1 kHz over DDS (naic replay -> naic record): drops and timing.
+    Record {
+        #[arg(long)]
+        json: bool,
+        /// Length of the replayed bag [s].
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
+    },
 }
 
 pub fn run(c: BenchCmd) -> CliResult {
     match c {
         BenchCmd::Bag { json, seconds } => super::bag::bench(json, seconds),
-        _ => Err(CliError::failure("naic bench is not implemented yet")),
+        BenchCmd::Chain(a) => super::bench_chain::run(a),
+        BenchCmd::Record { json, seconds } => super::record::bench_record(json, seconds),
+        BenchCmd::Dynamics => Err(CliError::failure("naic bench dynamics is not implemented yet")),
     }
 }

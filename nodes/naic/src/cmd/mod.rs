@@ -2,7 +2,10 @@
 
 pub mod bag;
 pub mod bench;
+pub mod bench_chain;
 pub mod friction;
+pub mod launch;
+pub mod record;
 pub mod sim;
 
 /// A command failure: a message for the user and whether it was their input.
