@@ -1,12 +1,18 @@
 """Issue 5 check: record a run, replay it, record the replay: the same messages (every value
 equal, none missing) and timing within 1 ms median. DDS stays on this machine: a private
-network namespace when we may create one (root), else loopback-only discovery."""
+network namespace when we may create one (root), else loopback-only discovery; always on a
+test-private ROS_DOMAIN_ID."""
 import os
+import pathlib
 import shutil
 import statistics
 import subprocess
+import sys
 
 import pytest
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "ros"))
+import rostest_util as ru  # noqa: E402
 
 mcap_ros2_reader = pytest.importorskip("mcap_ros2.reader")
 
@@ -34,7 +40,8 @@ def test_record_replay_record(naic_bin, tmp_path):
     subprocess.run([str(naic_bin), "bag", "write-sample", str(src), "--seconds", "3"], check=True, capture_output=True)
     script = f"""
 set -e
-export ROS_LOCALHOST_ONLY=1 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID={ru.fresh_domain(17)}
+unset ROS_LOCALHOST_ONLY
 {'ip link set lo up' if netns_prefix() else ''}
 "{naic_bin}" record --out "{rec}" --duration 9 --topics {' '.join(TOPICS)} &
 rp=$!

@@ -102,9 +102,10 @@ const QOS_RECORD: QosProfile = QosProfile::subscription_default()
 const QOS_RECORD_BEST_EFFORT: QosProfile = QosProfile::subscription_default()
     .reliability(Reliability::BestEffort)
     .history(History::KeepLast { depth: 1000 });
-/// Publisher QoS for replay: reliable, deep history so a slow subscriber can catch up.
+/// Publisher QoS for replay: reliable, deep history so a slow subscriber can catch up; when
+/// the send window is full, wait (up to 1 s) rather than drop the message.
 const QOS_REPLAY: QosProfile = QosProfile::publisher_default()
-    .reliability(Reliability::Reliable { when_full: WhenFull::Wait(Duration::from_millis(10)) })
+    .reliability(Reliability::Reliable { when_full: WhenFull::Wait(Duration::from_secs(1)) })
     .history(History::KeepLast { depth: 1000 });
 
 /// One recorded topic: its subscription and where it goes in the bag.
@@ -372,7 +373,9 @@ pub fn replay(a: ReplayArgs) -> CliResult {
     drop(pubs);
     drop(node);
     if errors > 0 {
-        eprintln!("naic replay: {errors} message(s) could not be published");
+        return Err(CliError::failure(format!(
+            "{errors} message(s) could not be published (send window stayed full: a subscriber is too slow)"
+        )));
     }
     Ok(())
 }
@@ -410,7 +413,16 @@ pub fn bench_record(json: bool, seconds: f64) -> CliResult {
     naic_bag::sample::write_sample(&src, cycles, 1000.0, |_| {}).map_err(bag_err)?;
     let exe = std::env::current_exe().map_err(|e| CliError::failure(format!("current exe: {e}")))?;
     let topics = ["/joint_states", "/wrench", "/joint_effort_cmd", "/naic/params"];
-    let mut recorder = std::process::Command::new(&exe)
+    // Both processes discover each other on loopback only, on a private domain unless one is set.
+    let domain = std::env::var("ROS_DOMAIN_ID").unwrap_or_else(|_| format!("{}", 101 + std::process::id() % 131));
+    let child = |c: &mut std::process::Command| {
+        c.env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST").env("ROS_DOMAIN_ID", &domain).env_remove("ROS_LOCALHOST_ONLY");
+    };
+    let mut rec_cmd = std::process::Command::new(&exe);
+    child(&mut rec_cmd);
+    let mut rep_cmd = std::process::Command::new(&exe);
+    child(&mut rep_cmd);
+    let mut recorder = rec_cmd
         .args(["record", "--out"])
         .arg(&rec)
         .args(["--duration", &format!("{}", seconds + 6.0), "--topics"])
@@ -418,7 +430,7 @@ pub fn bench_record(json: bool, seconds: f64) -> CliResult {
         .spawn()
         .map_err(|e| CliError::failure(format!("cannot start naic record: {e}")))?;
     std::thread::sleep(Duration::from_secs(2));
-    let st = std::process::Command::new(&exe)
+    let st = rep_cmd
         .arg("replay")
         .arg(&src)
         .args(["--delay", "2"])
