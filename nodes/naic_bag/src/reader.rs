@@ -702,13 +702,26 @@ impl Bag {
                 }
                 buf.clear();
                 let n = c.uncompressed_size as usize;
-                if c.compression == "zstd" {
+                // A size far beyond what the compressed bytes could plausibly hold is decoded
+                // with a streaming decoder capped at that size instead of being allocated up
+                // front (a corrupted size field must not exhaust memory).
+                let suspicious = n > (64 << 20) && n as u64 > raw.len() as u64 * 100;
+                if c.compression == "zstd" && !suspicious {
                     buf.resize(n, 0);
                     match zstd::bulk::decompress_to_buffer(raw, &mut buf[..]) {
                         Ok(m) if m == n => {}
                         Ok(m) => return Err(format!("chunk decompressed to {m} bytes, header says {n} (corrupted); its messages are skipped")),
                         Err(e) => return Err(format!("chunk does not decompress ({e}; corrupted bytes); its messages are skipped")),
                     }
+                } else if suspicious {
+                    let out = decompress_partial(&c.compression, raw);
+                    if out.len() != n {
+                        return Err(format!(
+                            "chunk header claims {n} uncompressed bytes but it holds {} (corrupted); its messages are skipped",
+                            out.len()
+                        ));
+                    }
+                    *buf = out;
                 } else {
                     use std::io::Read;
                     let r = lz4::Decoder::new(raw).and_then(|mut d| {
@@ -794,7 +807,7 @@ impl Bag {
     /// skipped and reported in [`Bag::damage`].
     pub fn messages<M: RosMessage>(&self, topic: &str, range: impl RangeBounds<u64>) -> Result<Vec<Stamped<M>>, BagError> {
         let ch = self.channel_for::<M>(topic)?;
-        let mut out = Vec::with_capacity(self.counts.get(&ch).copied().unwrap_or(0) as usize);
+        let mut out = Vec::with_capacity(self.capacity_hint(self.counts.get(&ch).copied().unwrap_or(0)));
         let mut bad = 0usize;
         let mut first_err = None;
         self.for_each_message(Some(&[ch]), TimeRange::from_bounds(range), |m| match M::from_cdr(m.data) {
@@ -808,6 +821,12 @@ impl Bag {
             self.note(0, format!("{bad} message(s) on {topic} do not decode as {} (first: {e}); skipped", M::type_name()));
         }
         Ok(out)
+    }
+
+    /// A preallocation size from a (possibly corrupted) count: never more messages than the
+    /// file could hold (each record takes at least 31 bytes).
+    fn capacity_hint(&self, count: u64) -> usize {
+        count.min(self.data.len() as u64 / 31) as usize
     }
 
     /// Type name of a channel (from its schema; empty if unknown).
@@ -997,7 +1016,7 @@ impl Bag {
 
     /// [`Bag::for_each_decoded`] collected into a vector.
     pub fn decode_all(&self, range: impl RangeBounds<u64>) -> Vec<AnyStamped> {
-        let mut out = Vec::with_capacity(self.message_count() as usize);
+        let mut out = Vec::with_capacity(self.capacity_hint(self.message_count()));
         self.for_each_decoded(range, |m| out.push(m));
         out
     }

@@ -270,7 +270,7 @@ pub fn replay(a: ReplayArgs) -> CliResult {
     if !(a.rate > 0.0 && a.rate.is_finite()) {
         return Err(CliError::usage(format!("--rate must be a positive number, got {}", a.rate)));
     }
-    if !(a.start >= 0.0 && a.start.is_finite()) || !(a.delay >= 0.0 && a.delay.is_finite()) {
+    if !(a.start >= 0.0 && a.start.is_finite() && a.delay >= 0.0 && a.delay.is_finite()) {
         return Err(CliError::usage("--start and --delay must be non-negative seconds"));
     }
     let bag = Bag::open(&a.file).map_err(|e| CliError::usage(e.to_string()))?;
