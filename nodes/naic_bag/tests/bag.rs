@@ -68,6 +68,13 @@ fn round_trip_every_value_and_time() {
         assert_eq!(js[k].log_time, c.stamp_ns + 150_000);
         assert_eq!(js[k].sequence, i as u32 + 1);
     }
+    // The same in one pass as typed vectors.
+    let run = RunData::load(&bag, ..);
+    assert_eq!(run.joint_states, js);
+    assert_eq!(run.wrench, wr);
+    assert_eq!(run.effort_cmd, ef);
+    assert_eq!(run.params, pa);
+    assert!(run.naic_effort.is_empty() && run.clock.is_empty());
     // Time range: cycles 100..=199 by log time.
     let lo = T0_NS + 100_000_000;
     let hi = T0_NS + 199_000_000 + 150_000;
