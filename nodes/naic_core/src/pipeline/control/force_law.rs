@@ -54,6 +54,19 @@
 //! a large update can never make `m_d ≤ 0` (a division by zero in step 3) the
 //! weights are projected onto [`WeightBounds`] after each update, and the
 //! outputs say when that happened.
+//!
+//! # What the law as written does to σ
+//!
+//! `∂L/∂σ = e_f(t) f₃ = −e_f(t) e_f(t−λ)`, which at 1 kHz is `≈ −e_f² ≤ 0`:
+//! gradient descent raises σ on every cycle with a force error and never
+//! lowers it. σ is the integral gain of the force loop (`σ/λ` per second),
+//! and the loop is stable only for `σ < λ b_d / m_d`
+//! ([`sigma_stability_limit`]). With any γ large enough to matter (1e-5 and
+//! up on the paper's §4.1 numbers) σ climbs past that limit within a fraction
+//! of a second and the contact force oscillates with growing amplitude (test
+//! `naic_as_written_drives_sigma_past_the_stability_limit`). NAIC therefore
+//! also projects σ below `sigma_margin` times that limit; `sigma_margin = ∞`
+//! restores the law as written.
 
 /// Which law runs on the force axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -114,6 +127,25 @@ pub struct ForceLawParams {
     /// Requested learning rate `γ` of eq 15 (NAIC only; clipped to the bound every step).
     pub gamma: f64,
     pub bounds: WeightBounds,
+    /// Controller sampling period `λ` [s] (enters only the σ stability bound).
+    pub lambda: f64,
+    /// NAIC keeps `σ ≤ sigma_margin · λ · b_d / m_d`, a fraction of the
+    /// stability limit of the force loop (see [`sigma_stability_limit`]).
+    /// `f64::INFINITY` disables it and leaves the paper's law as written
+    /// (plus the [`WeightBounds`] box).
+    pub sigma_margin: f64,
+}
+
+/// The largest `σ` for which the AIC/NAIC force loop is stable.
+///
+/// In contact with `x_d` constant, eq 9 with `b_d Φ ≈ −(σ/λ) ∫ e_f dt` and an
+/// environment `f_ext = k_e (x − x_e)` gives
+/// `m_d x⃛ + b_d ẍ + k_e ẋ + (σ/λ) k_e x = const`. Routh–Hurwitz on
+/// `m_d s³ + b_d s² + k_e s + (σ/λ) k_e` requires `b_d k_e > m_d (σ/λ) k_e`:
+/// `σ < λ b_d / m_d`, whatever the (unknown) stiffness `k_e`. With the
+/// paper's `λ = 1 ms`, `b_d = 40`, `m_d = 1` the limit is 0.04 (paper: 0.01).
+pub fn sigma_stability_limit(lambda: f64, m_d: f64, b_d: f64) -> f64 {
+    lambda * b_d / m_d
 }
 
 /// What the force law remembers between cycles (one place for all of it).
@@ -221,7 +253,8 @@ pub fn step(p: &ForceLawParams, s: &ForceLawState, u: &ForceLawInputs) -> (Force
                 let b = &p.bounds;
                 next.m_d = w[0].clamp(b.m_d.0, b.m_d.1);
                 next.b_d = w[1].clamp(b.b_d.0, b.b_d.1);
-                next.sigma = w[2].clamp(b.sigma.0, b.sigma.1);
+                let sigma_max = (p.sigma_margin * sigma_stability_limit(p.lambda, next.m_d, next.b_d)).min(b.sigma.1);
+                next.sigma = w[2].min(sigma_max).max(b.sigma.0);
                 out.weights_projected = next.m_d != w[0] || next.b_d != w[1] || next.sigma != w[2];
             }
             // Eq 10 solved for ë with the current weights.
@@ -240,7 +273,7 @@ mod tests {
     use super::*;
 
     fn params(mode: Mode, gamma: f64) -> ForceLawParams {
-        ForceLawParams { mode, sigma: 0.01, gamma, bounds: WeightBounds::default() }
+        ForceLawParams { mode, sigma: 0.01, gamma, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5 }
     }
 
     /// A 1-D plant: the impedance law's commanded acceleration is realised
@@ -347,6 +380,37 @@ mod tests {
         assert!((n.m_d - (1.0 - 1e-6 * e_f * f[0])).abs() < 1e-15);
         assert!((n.b_d - (40.0 - 1e-6 * e_f * f[1])).abs() < 1e-12);
         assert!((n.sigma - (0.01 - 1e-6 * e_f * f[2])).abs() < 1e-15);
+    }
+
+    #[test]
+    fn naic_as_written_drives_sigma_past_the_stability_limit() {
+        // The paper's law (no σ projection) with a learning rate that matters:
+        // σ only ever grows, leaves the stable range and the force diverges.
+        let mut p = params(Mode::Naic, 1e-3);
+        p.sigma_margin = f64::INFINITY;
+        let f = simulate(&p, 2000.0, 10.0, 3000, false);
+        let worst = f[2000..].iter().map(|x| (x - 10.0).abs()).fold(0.0, f64::max);
+        assert!(worst > 20.0, "law as written should not settle: worst late error {worst}");
+        // With σ kept below half the Routh limit the same γ settles.
+        p.sigma_margin = 0.5;
+        let f = simulate(&p, 2000.0, 10.0, 3000, false);
+        let worst = f[2000..].iter().map(|x| (x - 10.0).abs()).fold(0.0, f64::max);
+        assert!(worst < 0.05, "projected NAIC settles: worst late error {worst}");
+    }
+
+    #[test]
+    fn sigma_stability_limit_is_the_routh_bound() {
+        // AIC (σ fixed) on the 1-D plant: stable below λ b_d / m_d, unstable above.
+        let lim = sigma_stability_limit(1e-3, 1.0, 40.0);
+        assert!((lim - 0.04).abs() < 1e-15);
+        for (sigma, stable) in [(0.8 * lim, true), (1.25 * lim, false)] {
+            let mut p = params(Mode::Aic, 0.0);
+            p.sigma = sigma;
+            p.bounds.sigma = (0.0, 1.0);
+            let f = simulate(&p, 5000.0, 10.0, 20000, false);
+            let late = f[18000..].iter().map(|x| (x - 10.0).abs()).fold(0.0, f64::max);
+            assert_eq!(late < 0.5, stable, "σ = {sigma}: late error {late}");
+        }
     }
 
     #[test]

@@ -103,6 +103,12 @@ impl ControlParams {
         if !(fl.gamma >= 0.0 && fl.gamma.is_finite()) {
             return Err(format!("learning_rate (gamma) = {} must be a finite value >= 0 (eq 15)", fl.gamma));
         }
+        if !(fl.lambda > 0.0 && fl.lambda.is_finite()) {
+            return Err(format!("control period (lambda) = {} s must be positive", fl.lambda));
+        }
+        if !(fl.sigma_margin > 0.0) {
+            return Err(format!("sigma_margin = {} must be > 0 (inf disables the σ stability bound)", fl.sigma_margin));
+        }
         if !(fl.sigma >= 0.0 && fl.sigma.is_finite()) {
             return Err(format!("sigma = {} must be a finite value >= 0", fl.sigma));
         }
@@ -244,7 +250,7 @@ mod tests {
                 k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
             },
             force_axis: ForceAxis { axis: 2, sign: -1.0 },
-            force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default() },
+            force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5 },
             contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
         }
     }
