@@ -3,4 +3,5 @@
 pub mod actuate;
 pub mod control;
 pub mod estimate;
+pub mod feedforward;
 pub mod sense;

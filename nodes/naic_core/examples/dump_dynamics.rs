@@ -1,0 +1,96 @@
+//! Dump the dynamics of a URDF at given states as JSON, for the cross-checks
+//! against Pinocchio and MuJoCo (`tests/python/test_dynamics_vs_pinocchio.py`).
+//!
+//! ```text
+//! cargo run --release -p naic_core --example dump_dynamics -- URDF STATES.json > out.json
+//! ```
+//! `STATES.json`: `{"frames": ["tip", ...], "states": [{"q": [..], "v": [..], "a": [..], "tau": [..]}, ..]}`.
+//! Output: `{"nv", "joint_names", "frame_names", "results": [{"rnea", "bias", "gravity", "M", "aba",
+//! "frames": {name: {"pos", "rot", "J", "jdot_qdot"}}, "cartesian": {"D", "h", "damped", "sigma_min"} | null}]}`
+//! (`cartesian` for the first requested frame of a 6-joint model).
+
+use naic_core::dynamics::{self, Damping};
+use naic_core::model::{Data, Model};
+use nalgebra::DVector;
+use serde_json::{json, Value};
+
+fn rows<R: nalgebra::Dim, C: nalgebra::Dim, S: nalgebra::storage::Storage<f64, R, C>>(
+    m: &nalgebra::Matrix<f64, R, C, S>,
+) -> Value {
+    Value::Array((0..m.nrows()).map(|r| json!((0..m.ncols()).map(|c| m[(r, c)]).collect::<Vec<_>>())).collect())
+}
+
+fn vecj<R: nalgebra::Dim, S: nalgebra::storage::Storage<f64, R>>(v: &nalgebra::Vector<f64, R, S>) -> Value {
+    json!(v.iter().copied().collect::<Vec<f64>>())
+}
+
+fn run() -> Result<(), String> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let [urdf, states] = args.as_slice() else {
+        return Err("usage: dump_dynamics URDF STATES.json".into());
+    };
+    let model = Model::from_urdf_file(urdf).map_err(|e| e.to_string())?;
+    let text = std::fs::read_to_string(states).map_err(|e| format!("cannot read {states}: {e}"))?;
+    let input: Value = serde_json::from_str(&text).map_err(|e| format!("{states}: bad JSON: {e}"))?;
+    let frames: Vec<String> = input["frames"]
+        .as_array()
+        .ok_or("states JSON needs a \"frames\" list")?
+        .iter()
+        .map(|f| f.as_str().map(str::to_string).ok_or("frame names must be strings"))
+        .collect::<Result<_, _>>()?;
+    let frame_ids = frames
+        .iter()
+        .map(|f| model.frame_id(f).ok_or(format!("no frame '{f}' in {urdf}")))
+        .collect::<Result<Vec<_>, _>>()?;
+    let n = model.nv();
+    let get = |s: &Value, k: &str| -> Result<DVector<f64>, String> {
+        let a = s[k].as_array().ok_or(format!("state needs \"{k}\""))?;
+        if a.len() != n {
+            return Err(format!("\"{k}\" has {} entries, the model has {n} joints", a.len()));
+        }
+        Ok(DVector::from_iterator(n, a.iter().map(|x| x.as_f64().unwrap_or(f64::NAN))))
+    };
+    let mut data = Data::new(&model);
+    let mut results = Vec::new();
+    for s in input["states"].as_array().ok_or("states JSON needs a \"states\" list")? {
+        let (q, v, a, tau) = (get(s, "q")?, get(s, "v")?, get(s, "a")?, get(s, "tau")?);
+        let rnea = vecj(dynamics::rnea(&model, &mut data, &q, &v, &a));
+        let bias = vecj(dynamics::bias_torques(&model, &mut data, &q, &v));
+        let gravity = vecj(dynamics::gravity_torques(&model, &mut data, &q));
+        let m = rows(dynamics::crba(&model, &mut data, &q));
+        let aba = vecj(dynamics::aba(&model, &mut data, &q, &v, &tau));
+        dynamics::forward_kinematics(&model, &mut data, &q);
+        let mut fr = serde_json::Map::new();
+        for (name, &id) in frames.iter().zip(&frame_ids) {
+            let se3 = *data.frame_se3(id);
+            let j = rows(dynamics::frame_jacobian(&model, &mut data, &q, id));
+            let jdq = vecj(&dynamics::frame_jdot_qdot(&model, &mut data, &q, &v, id));
+            fr.insert(name.clone(), json!({"pos": vecj(&se3.trans), "rot": rows(&se3.rot), "J": j, "jdot_qdot": jdq}));
+        }
+        let cartesian = match frame_ids.first() {
+            Some(&id) if n == 6 => {
+                match dynamics::cartesian_terms(&model, &mut data, &q, &v, id, &Damping::default()) {
+                    Ok(c) => json!({"D": rows(&c.d), "h": vecj(&c.h), "damped": c.damped, "sigma_min": c.sigma_min}),
+                    Err(e) => json!({"error": e.to_string()}),
+                }
+            }
+            _ => Value::Null,
+        };
+        results.push(json!({"rnea": rnea, "bias": bias, "gravity": gravity, "M": m, "aba": aba, "frames": fr, "cartesian": cartesian}));
+    }
+    let out = json!({
+        "nv": n,
+        "joint_names": model.joint_names().collect::<Vec<_>>(),
+        "frame_names": model.frames().iter().map(|f| f.name.as_str()).collect::<Vec<_>>(),
+        "results": results,
+    });
+    println!("{out}");
+    Ok(())
+}
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("dump_dynamics: error: {e}");
+        std::process::exit(2);
+    }
+}
