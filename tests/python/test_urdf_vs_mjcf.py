@@ -93,7 +93,7 @@ def test_nomesh_variant_converts_to_the_same_model(root, mjcf, mjcf_nomesh):
     assert body(full) == body(nomesh)
 
 
-def test_converter_rejects_bad_input_with_clear_message(root, tmp_path):
+def test_converter_rejects_bad_input_with_clear_message(root, mjcf, tmp_path):
     missing = converter(root, tmp_path / "nope.xml", "-o", "-")
     assert missing.returncode == 2
     assert b"cannot read the MJCF" in missing.stderr and b"Traceback" not in missing.stderr
@@ -112,7 +112,7 @@ def test_converter_rejects_bad_input_with_clear_message(root, tmp_path):
     assert r.returncode == 2 and b"euler" in r.stderr
     stale = tmp_path / "stale.urdf"
     stale.write_text("<robot/>")
-    r = converter(root, root.parent / "shared/reference/jk5/jk5_table.mjcf.xml", "--check", "-o", stale)
+    r = converter(root, mjcf, "--check", "-o", stale)
     assert r.returncode == 1 and b"regenerate" in r.stderr
 
 

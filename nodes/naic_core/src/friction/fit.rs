@@ -577,3 +577,45 @@ impl FitReport {
         s
     }
 }
+
+/// Residual sums of a given law on one joint's data, per direction (q̇ = 0 samples are skipped).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ResidualStats {
+    pub n_positive: usize,
+    pub ssr_positive: f64,
+    pub n_negative: usize,
+    pub ssr_negative: f64,
+}
+
+impl ResidualStats {
+    /// √(SSR/n) of the q̇ > 0 samples (None if there are none).
+    pub fn rmse_positive(&self) -> Option<f64> {
+        (self.n_positive > 0).then(|| (self.ssr_positive / self.n_positive as f64).sqrt())
+    }
+    pub fn rmse_negative(&self) -> Option<f64> {
+        (self.n_negative > 0).then(|| (self.ssr_negative / self.n_negative as f64).sqrt())
+    }
+    /// √(SSR/(n − p)) of the q̇ > 0 samples for a branch with `p` parameters.
+    pub fn rmse_dfe_positive(&self, p: usize) -> Option<f64> {
+        (self.n_positive > p).then(|| (self.ssr_positive / (self.n_positive - p) as f64).sqrt())
+    }
+    pub fn rmse_dfe_negative(&self, p: usize) -> Option<f64> {
+        (self.n_negative > p).then(|| (self.ssr_negative / (self.n_negative - p) as f64).sqrt())
+    }
+}
+
+/// How well `friction` (exact law) explains the samples of `joint` (1-based) in `data`.
+pub fn residual_stats(friction: &JointFriction, data: &FrictionData, joint: usize) -> ResidualStats {
+    let mut s = ResidualStats::default();
+    for p in data.joint_samples(joint) {
+        let e2 = (friction.tau_f(p.qdot) - p.tau).powi(2);
+        if p.qdot > 0.0 {
+            s.n_positive += 1;
+            s.ssr_positive += e2;
+        } else if p.qdot < 0.0 {
+            s.n_negative += 1;
+            s.ssr_negative += e2;
+        }
+    }
+    s
+}

@@ -24,7 +24,7 @@ pub mod params;
 pub mod stats;
 
 pub use data::{FrictionData, FrictionSample};
-pub use fit::{fit, BranchFit, Ci95, Direction, FitForm, FitOptions, FitReport, JointFit, ParamEstimate};
+pub use fit::{fit, residual_stats, BranchFit, Ci95, Direction, FitForm, FitOptions, FitReport, JointFit, ParamEstimate, ResidualStats};
 pub use model::{FrictionModel, JointFriction, Smoothing, StribeckParams, DEFAULT_V_S};
 pub use params::{BranchStats, FrictionParams, JointParams, JointStats};
 

@@ -54,6 +54,8 @@ pub struct ControllerParams {
 #[derive(Clone, Debug)]
 pub struct Controller {
     model: Model,
+    /// A workspace sized for the model, cloned by [`Controller::workspace`].
+    blank: Data6,
     tip: FrameId,
     sensor: FrameId,
     params: ControllerParams,
@@ -81,7 +83,8 @@ impl Controller {
         if params.hold_damping.iter().any(|d| !(*d >= 0.0 && d.is_finite())) {
             return Err(format!("hold_damping = {:?} must be finite and >= 0", params.hold_damping));
         }
-        Ok(Self { model, tip, sensor, params })
+        let blank = Data6::try_new(&model).map_err(|e| e.to_string())?;
+        Ok(Self { model, blank, tip, sensor, params })
     }
 
     pub fn model(&self) -> &Model {
@@ -111,7 +114,7 @@ impl Controller {
 
     /// A preallocated workspace for [`step`].
     pub fn workspace(&self) -> Workspace {
-        Workspace { data: Data6::new(&self.model) }
+        Workspace { data: self.blank.clone() }
     }
 }
 
@@ -187,6 +190,8 @@ pub struct Status {
 pub struct ControlOutputs {
     /// Joint torques before friction feedforward and actuation limits [N·m].
     pub tau: [f64; 6],
+    /// The (median-filtered) joint velocity this cycle used [rad/s].
+    pub dq: [f64; 6],
     pub status: Status,
 }
 
@@ -273,7 +278,7 @@ pub fn step(
         f_e,
         jacobian_damped: damped,
     };
-    (next, ControlOutputs { tau: tau.into(), status })
+    (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, status })
 }
 
 /// The safe hold: gravity compensation + joint damping at the last valid state.
@@ -329,5 +334,71 @@ fn hold(
         f_e: Vector6::zeros(),
         jacobian_damped: false,
     };
-    (next, ControlOutputs { tau, status })
+    (next, ControlOutputs { tau, dq: [0.0; 6], status })
+}
+
+impl ControllerParams {
+    /// The paper's §4.1 settings on a model: M_d = I, B_d = diag(500, 500, 40,
+    /// 500, 500, 500), K_d free diag(500, 500, 50, 1000, 1000, 1000), contact
+    /// diag(100, 100, 0, 1000, 1000, 1000), σ = 0.01, force along −z (pushing
+    /// down), 1 ms period; sense limits from the model's URDF limits; the
+    /// tool of the authors' model (0.424 kg, CoM 0.015 m and tip 0.169 m
+    /// along the sensor z); the ATI mini45 SI-145-5 range ×1.5 as the
+    /// plausibility limit of the wrench. The learning rate γ has no value in
+    /// the paper; `gamma` is the caller's choice.
+    pub fn paper_defaults(model: &Model, mode: Mode, gamma: f64) -> Self {
+        use super::control::force_law::{ForceLawParams, WeightBounds};
+        use super::control::{ContactDetect, ForceAxis, ImpedanceParams};
+        let mut q_min = [-std::f64::consts::PI; 6];
+        let mut q_max = [std::f64::consts::PI; 6];
+        let mut dq_max = [2.0 * std::f64::consts::PI; 6];
+        for (i, j) in model.joints().iter().take(6).enumerate() {
+            q_min[i] = j.limits.lower;
+            q_max[i] = j.limits.upper;
+            if j.limits.velocity.is_finite() {
+                dq_max[i] = 2.0 * j.limits.velocity;
+            }
+        }
+        let lambda = 1e-3;
+        ControllerParams {
+            sense: SenseParams {
+                q_min,
+                q_max,
+                q_margin: 0.1,
+                dq_max,
+                // ATI mini45 SI-145-5: ±145 N (Fx, Fy), ±290 N (Fz), ±5 N·m; ×1.5.
+                wrench_max: [217.5, 217.5, 435.0, 7.5, 7.5, 7.5],
+                median_window: 5,
+                joint_timeout: 0.01,
+                wrench_timeout: 0.01,
+            },
+            tool: ToolParams {
+                mass: 0.424,
+                com: Vector3::new(0.0, 0.0, 0.015),
+                tip: Vector3::new(0.0, 0.0, 0.169),
+                gravity: Vector3::new(0.0, 0.0, -9.81),
+            },
+            tare_samples: 100,
+            control: ControlParams {
+                impedance: ImpedanceParams {
+                    m_d: [1.0; 6],
+                    b_d: [500.0, 500.0, 40.0, 500.0, 500.0, 500.0],
+                    k_free: [500.0, 500.0, 50.0, 1000.0, 1000.0, 1000.0],
+                    k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
+                },
+                force_axis: ForceAxis { axis: 2, sign: -1.0 },
+                force_law: ForceLawParams {
+                    mode,
+                    sigma: 0.01,
+                    gamma,
+                    bounds: WeightBounds::default(),
+                    lambda,
+                    sigma_margin: 0.5,
+                },
+                contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
+            },
+            hold_damping: [5.0; 6],
+            damping: Damping::default(),
+        }
+    }
 }
