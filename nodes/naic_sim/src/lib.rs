@@ -16,6 +16,7 @@
 //! * [`runner`] — the closed loop and its records; [`metrics`], [`plots`],
 //!   [`svg`] — what comes out of a run.
 
+pub mod controllers;
 pub mod environment;
 pub mod metrics;
 pub mod plant;

@@ -295,28 +295,36 @@ fn integrate(
             let (_, _, jl, c) = tip_contact(p, ws, t, q, v);
             let rhs0 = tau + jl.transpose() * c.force - dynamics::bias_torques(&p.model, &mut ws.data, q, v);
             let m = *dynamics::crba(&p.model, &mut ws.data, q);
-            // Newton on r(v⁺) = M (v⁺ − v) − h (rhs0 − τ_f(v⁺)) = 0, starting from
-            // the explicit-friction guess.
-            let mut v1 = v + m.cholesky().map_or(Vector6::zeros(), |ch| ch.solve(&((rhs0 - friction_torques(p, v)) * h)));
-            if p.friction.is_some() {
-                for _ in 0..12 {
-                    let r = m * (v1 - v) - (rhs0 - friction_torques(p, &v1)) * h;
-                    let mut jac = m;
+            // Newton on r(v⁺) = M (v⁺ − v) − h (rhs0 − τ_f(v⁺)) = 0 from v⁺ = v,
+            // with backtracking on |r| (the tanh friction is far from linear
+            // within a few mrad/s of rest, so full steps can overshoot).
+            let residual = |v1: &Vector6<f64>| m * (v1 - v) - (rhs0 - friction_torques(p, v1)) * h;
+            let mut v1 = *v;
+            let mut r = residual(&v1);
+            for _ in 0..30 {
+                let mut jac = m;
+                if p.friction.is_some() {
                     let slopes = friction_slopes(p, &v1);
                     for i in 0..NJ {
                         jac[(i, i)] += h * slopes[i].max(0.0);
                     }
-                    let Some(ch) = jac.cholesky() else { break };
-                    let dv = ch.solve(&r);
-                    // Damped step: limit the change per iteration to keep tanh in range.
-                    let scale = {
-                        let mx = dv.amax();
-                        if mx > 0.05 { 0.05 / mx } else { 1.0 }
-                    };
-                    v1 -= dv * scale;
-                    if dv.amax() * scale < 1e-12 {
+                }
+                let Some(ch) = jac.cholesky() else { break };
+                let dv = ch.solve(&r);
+                let r_norm = r.norm();
+                let mut alpha = 1.0;
+                loop {
+                    let trial = v1 - dv * alpha;
+                    let r_trial = residual(&trial);
+                    if r_trial.norm() <= (1.0 - 1e-4 * alpha) * r_norm || alpha < 1e-6 {
+                        v1 = trial;
+                        r = r_trial;
                         break;
                     }
+                    alpha *= 0.5;
+                }
+                if p.friction.is_none() || dv.amax() * alpha < 1e-13 || r.norm() < 1e-14 {
+                    break;
                 }
             }
             (q + v1 * h, v1)

@@ -10,6 +10,7 @@ use super::{CliError, CliResult};
 use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
 use naic_core::model::Model;
 use naic_core::pipeline::control::force_law::Mode;
+use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::environment::{Environment, Material, MaterialMap};
 use naic_sim::metrics::MetricsFile;
 use naic_sim::plant::{self, Integrator, PlantParams};
@@ -208,9 +209,145 @@ fn fmt_opt(v: Option<f64>) -> String {
     v.map_or_else(|| "never".to_string(), |x| format!("{x:.3}"))
 }
 
+/// Run the scenario with the given controllers; returns the runs.
+pub fn run_scenario(
+    s: &Scenario,
+    plant: &PlantParams,
+    model: &Model,
+    friction_ff: Option<&FrictionModel>,
+    tool: (f64, Vector3<f64>),
+    modes: &[Mode],
+    settings: &LoopSettings,
+    show_progress: bool,
+) -> Result<Vec<RunResult>, CliError> {
+    let mut runs = Vec::new();
+    for &mode in modes {
+        let mut c = PipelineController::new(mode, s, model, friction_ff.cloned(), tool.0, tool.1, settings).map_err(CliError::usage)?;
+        let name = mode.as_str();
+        let mut last = -1i64;
+        let mut progress = |f: f64| {
+            if !show_progress {
+                return;
+            }
+            let pct = (f * 100.0) as i64;
+            if pct != last {
+                last = pct;
+                let filled = (pct / 4) as usize;
+                eprint!("\r{:<6} [{}{}] {:3}%", name, "#".repeat(filled), ".".repeat(25 - filled.min(25)), pct);
+                let _ = std::io::stderr().flush();
+            }
+        };
+        let r = runner::run(s, plant, &mut c, &mut progress);
+        if show_progress {
+            eprintln!();
+        }
+        runs.push(r);
+    }
+    Ok(runs)
+}
+
+/// The summary table (markdown) of a scenario's runs.
+pub fn summary_table(s: &Scenario, runs: &[RunResult]) -> String {
+    let mut t = String::new();
+    t.push_str("| scenario | controller | contact [s] | phase start [s] | f_d [N] | settle 2 % [s] | settle 5 % [s] | overshoot [%] | ss error [N] | RMS error [N] | max force [N] |\n");
+    t.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for r in runs {
+        let m = &r.metrics;
+        if m.phases.is_empty() {
+            t.push_str(&format!("| {} | {} | {} | – | – | – | – | – | – | – | – |\n", s.name, r.controller, fmt_opt(m.contact_time_s)));
+        }
+        for ph in &m.phases {
+            t.push_str(&format!(
+                "| {} | {} | {} | {:.3} | {:.1} | {} | {} | {:.1} | {:.3} | {:.3} | {:.2} |\n",
+                s.name,
+                r.controller,
+                fmt_opt(m.contact_time_s),
+                ph.t_start_s,
+                ph.desired_force_n,
+                fmt_opt(ph.settling_time_2pct_s),
+                fmt_opt(ph.settling_time_5pct_s),
+                ph.overshoot_pct,
+                ph.steady_state_error_n,
+                ph.rms_error_n,
+                ph.max_force_n
+            ));
+        }
+    }
+    t
+}
+
+/// Write metrics.json, CSVs and the figure into `out`.
+pub fn write_outputs(out: &Path, s: &Scenario, runs: &[RunResult]) -> Result<(), CliError> {
+    let fail = |p: &Path, e: std::io::Error| CliError::failure(format!("cannot write {}: {e}", p.display()));
+    std::fs::create_dir_all(out).map_err(|e| fail(out, e))?;
+    let mut controllers = BTreeMap::new();
+    for r in runs {
+        controllers.insert(r.controller.clone(), r.metrics.clone());
+        let p = out.join(format!("{}.csv", r.controller));
+        std::fs::write(&p, runner::to_csv(&r.records)).map_err(|e| fail(&p, e))?;
+    }
+    let mf = MetricsFile { scenario: s.name.clone(), controllers };
+    let p = out.join("metrics.json");
+    let json = serde_json::to_string_pretty(&mf).map_err(|e| CliError::failure(e.to_string()))?;
+    std::fs::write(&p, json + "\n").map_err(|e| fail(&p, e))?;
+    let p = out.join(format!("{}.svg", s.name));
+    std::fs::write(&p, naic_sim::plots::figure(s, runs).to_svg()).map_err(|e| fail(&p, e))?;
+    Ok(())
+}
+
 pub fn run(a: SimArgs) -> CliResult {
     if a.replay.is_some() {
         return replay(&a);
     }
-    Err(CliError::failure("tmp"))
+    let name = a.scenario.clone().unwrap_or_else(|| "flat".into());
+    if !SCENARIOS.contains(&name.as_str()) {
+        return Err(CliError::usage(format!("--scenario '{name}': use one of {}", SCENARIOS.join(", "))));
+    }
+    let which = a.controller.clone().unwrap_or_else(|| "all".into());
+    let modes: Vec<Mode> = if which == "all" {
+        vec![Mode::Naic, Mode::Aic, Mode::Fixed]
+    } else {
+        vec![Mode::parse(&which).map_err(|e| CliError::usage(format!("--controller: {e} (or all)")))?]
+    };
+    let model = load_model(a.urdf.as_deref())?;
+    let friction = if a.no_friction { None } else { Some(load_friction(a.friction.as_deref())?) };
+    let mut s = scenario::preset(&name, &model).map_err(CliError::failure)?;
+    if let Some(seed) = a.seed {
+        s.seed = seed;
+    }
+    if let Some(d) = a.duration {
+        if !(d > 0.0 && d.is_finite()) {
+            return Err(CliError::usage(format!("--duration {d}: must be a positive number of seconds")));
+        }
+        s.duration = d;
+    }
+    let mut settings = LoopSettings::default();
+    if let Some(g) = a.gamma {
+        if !(g >= 0.0 && g.is_finite()) {
+            return Err(CliError::usage(format!("--gamma {g}: must be a finite number >= 0")));
+        }
+        settings.gamma = g;
+    }
+    if let Some(m) = a.sigma_margin {
+        if !(m > 0.0) {
+            return Err(CliError::usage(format!("--sigma-margin {m}: must be > 0 (inf for the law as written)")));
+        }
+        settings.sigma_margin = m;
+    }
+    let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
+    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    let plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", utc_stamp(), s.name)));
+    let show = std::io::stderr().is_terminal();
+    eprintln!("naic sim: scenario '{}' ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}", s.name, s.duration, plant.substeps, plant.h() * 1e3, out.display());
+    let runs = run_scenario(&s, &plant, &model, friction.as_ref(), tool, &modes, &settings, show)?;
+    write_outputs(&out, &s, &runs)?;
+    for r in &runs {
+        if r.limit_violation {
+            eprintln!("naic sim: warning: {} left the joint position limits", r.controller);
+        }
+    }
+    println!("{}", summary_table(&s, &runs));
+    println!("wrote {}", out.display());
+    Ok(())
 }
