@@ -2,7 +2,7 @@
 //! controller → torque, one control period per iteration, recording every
 //! period; then metrics, CSV and plots.
 
-use crate::metrics::{controller_metrics, ControllerMetrics};
+use crate::metrics::{controller_metrics, ControllerMetrics, PhaseSpec, PhaseStart};
 use crate::plant::{self, Measurements, Observation, PlantParams, PlantState, PlantWorkspace};
 use crate::scenario::{ReferenceSample, Scenario};
 
@@ -141,7 +141,16 @@ pub fn metrics_of(s: &Scenario, records: &[Record]) -> ControllerMetrics {
     let t: Vec<f64> = records.iter().map(|r| r.t).collect();
     let f: Vec<f64> = records.iter().map(|r| r.f_ext).collect();
     let c: Vec<bool> = records.iter().map(|r| r.in_contact).collect();
-    controller_metrics(&t, &f, &c, |t| s.f_d(t), &s.events())
+    let mut events = s.events();
+    // A change of the material under the tip (two-material surface) starts a
+    // phase too, like a scheduled stiffness step.
+    for w in records.windows(2) {
+        if w[1].k_e != w[0].k_e && w[1].in_contact && !events.iter().any(|e| (e.t_start - w[1].t).abs() < 1.5 * s.dt) {
+            events.push(PhaseSpec { t_start: w[1].t, desired_force: w[1].f_d, start: PhaseStart::Disturbance });
+        }
+    }
+    events.sort_by(|a, b| a.t_start.total_cmp(&b.t_start));
+    controller_metrics(&t, &f, &c, |t| s.f_d(t), &events)
 }
 
 /// The records as CSV (one row per control period).
