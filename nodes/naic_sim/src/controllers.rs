@@ -50,6 +50,7 @@ impl Default for LoopSettings {
 }
 
 /// The core pipeline + friction feedforward + actuation, as the simulator drives it.
+#[derive(Clone)]
 pub struct PipelineController {
     name: String,
     controller: Controller,

@@ -181,3 +181,86 @@ pub fn to_csv(records: &[Record]) -> String {
     }
     out
 }
+
+/// Closed-loop throughput (steps per second, medians over repeats).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopThroughput {
+    /// Plant + sensors + controller, one control period per step.
+    pub closed_loop: f64,
+    /// The plant alone (same torque sequence replayed, same start state).
+    pub plant_only: f64,
+    /// The controller alone (same measurement sequence).
+    pub controller_only: f64,
+}
+
+/// Closed-loop throughput: run `s` with `controller` up to `t_start` (e.g. in
+/// contact), then time `steps` periods of plant + sensor + controller from
+/// that state, `repeats` times (each from the same saved state; no
+/// recording inside the timed loop). Also times the plant alone on the
+/// torques of the first repeat and the controller alone on its measurements.
+pub fn bench_closed_loop<C: Controller + Clone>(
+    s: &Scenario,
+    p: &PlantParams,
+    controller: &C,
+    t_start: f64,
+    steps: usize,
+    repeats: usize,
+) -> (LoopThroughput, Observation) {
+    let mut ws = PlantWorkspace::new(p);
+    let mut c = controller.clone();
+    let (mut state, mut obs) = plant::observe(p, &PlantState::at_rest(s.q0, s.seed), &mut ws, [0.0; 6], false);
+    let k0 = (t_start / s.dt).round() as usize;
+    for k in 0..k0 {
+        let rep = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+        (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+    }
+    let (state0, obs0, c0) = (state, obs, c.clone());
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    // recorded once, outside the timed loops
+    let mut taus = Vec::with_capacity(steps);
+    let mut meas = Vec::with_capacity(steps);
+    {
+        let (mut state, mut obs, mut c) = (state0, obs0, c0.clone());
+        for k in k0..k0 + steps {
+            meas.push(obs.meas);
+            let rep = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+            taus.push(rep.tau);
+            (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+        }
+    }
+    let repeats = repeats.max(1);
+    let (mut closed, mut plant_only, mut ctrl_only) = (Vec::new(), Vec::new(), Vec::new());
+    let mut last = obs0;
+    for _ in 0..repeats {
+        let (mut state, mut obs, mut c) = (state0, obs0, c0.clone());
+        let t0 = std::time::Instant::now();
+        for k in k0..k0 + steps {
+            let rep = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+            (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+        }
+        closed.push(steps as f64 / t0.elapsed().as_secs_f64());
+        last = std::hint::black_box(obs);
+
+        let mut state = state0;
+        let t0 = std::time::Instant::now();
+        for tau in &taus {
+            let (st, o) = plant::step(p, &state, tau, &mut ws);
+            state = st;
+            std::hint::black_box(&o);
+        }
+        plant_only.push(steps as f64 / t0.elapsed().as_secs_f64());
+
+        let mut c = c0.clone();
+        let t0 = std::time::Instant::now();
+        for (i, m) in meas.iter().enumerate() {
+            let rep = c.step(m, &s.reference((k0 + i) as f64 * s.dt));
+            std::hint::black_box(&rep);
+        }
+        ctrl_only.push(steps as f64 / t0.elapsed().as_secs_f64());
+    }
+    let thr = LoopThroughput { closed_loop: median(closed), plant_only: median(plant_only), controller_only: median(ctrl_only) };
+    (thr, last)
+}

@@ -5,8 +5,13 @@ use super::{CliError, CliResult};
 pub enum BenchCmd {
     /// Median ns per call of the dynamics algorithms and one NAIC controller step.
     Dynamics,
+    /// Closed-loop simulator steps per second (plant + sensor + NAIC, flat, in contact) vs MuJoCo mj_step.
+    Sim(super::sim::SimBenchArgs),
 }
 
-pub fn run(_c: BenchCmd) -> CliResult {
-    Err(CliError::failure("naic bench is not implemented yet"))
+pub fn run(c: BenchCmd) -> CliResult {
+    match c {
+        BenchCmd::Sim(a) => super::sim::bench(a),
+        BenchCmd::Dynamics => Err(CliError::failure("naic bench dynamics is not implemented yet")),
+    }
 }

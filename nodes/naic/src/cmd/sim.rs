@@ -351,3 +351,95 @@ pub fn run(a: SimArgs) -> CliResult {
     println!("wrote {}", out.display());
     Ok(())
 }
+
+/// `naic bench sim`: closed-loop steps per second.
+#[derive(clap::Args, Debug)]
+pub struct SimBenchArgs {
+    /// Print one JSON object (the default output is the same JSON, pretty).
+    #[arg(long)]
+    pub json: bool,
+    /// Timed control periods per repeat.
+    #[arg(long, default_value_t = 20_000)]
+    pub steps: usize,
+    /// Repeats (the median is reported).
+    #[arg(long, default_value_t = 7)]
+    pub repeats: usize,
+    /// Skip the MuJoCo reference (bench/reference/mujoco_step_bench.py).
+    #[arg(long)]
+    pub no_reference: bool,
+}
+
+/// Python for the reference benchmark: $NAIC_PYTHON, $NAIC_VENV/bin/python, python3.
+fn python() -> String {
+    if let Ok(p) = std::env::var("NAIC_PYTHON") {
+        return p;
+    }
+    if let Ok(v) = std::env::var("NAIC_VENV") {
+        return format!("{v}/bin/python");
+    }
+    "python3".into()
+}
+
+/// Closed loop (plant + sensor + NAIC pipeline + friction feedforward, 1 ms,
+/// flat scenario in contact from t = 2.5 s) and MuJoCo's `mj_step` on the
+/// authors' MJCF measured in the same run.
+pub fn bench(a: SimBenchArgs) -> CliResult {
+    if a.steps == 0 || a.repeats == 0 {
+        return Err(CliError::usage("--steps and --repeats must be at least 1"));
+    }
+    let model = load_model(None)?;
+    let friction = load_friction(None)?;
+    let s = scenario::preset("flat", &model).map_err(CliError::failure)?;
+    let urdf_path = default_path("urdf/jk5.urdf");
+    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(CliError::failure)?;
+    let plant = scenario_plant(&s, model.clone(), Some(friction.clone()), tool)?;
+    let c = PipelineController::new(Mode::Naic, &s, &model, Some(friction), tool.0, tool.1, &LoopSettings::default())
+        .map_err(CliError::failure)?;
+    let t_start = 2.5;
+    let max_steps = ((s.duration - t_start) / s.dt) as usize;
+    let steps = a.steps.min(max_steps.max(1));
+    let (rate, last) = runner::bench_closed_loop(&s, &plant, &c, t_start, steps, a.repeats);
+    let mut out = serde_json::json!({
+        "steps_per_s": rate.closed_loop.round(),
+        "plant_only_steps_per_s": rate.plant_only.round(),
+        "controller_only_steps_per_s": rate.controller_only.round(),
+        "what": "closed loop: plant (ABA, implicit friction, contact) + encoders + mini45 + NAIC pipeline + friction feedforward + actuation, 1 ms period, flat scenario in contact",
+        "in_contact_at_end": last.truth.contact.in_contact,
+        "substeps": plant.substeps,
+        "timed_steps": steps,
+        "repeats": a.repeats,
+    });
+    if !a.no_reference {
+        let script = default_path("bench/reference/mujoco_step_bench.py");
+        let py = python();
+        match std::process::Command::new(&py).arg(&script).output() {
+            Ok(o) if o.status.success() => {
+                let text = String::from_utf8_lossy(&o.stdout);
+                match serde_json::from_str::<serde_json::Value>(text.lines().last().unwrap_or("")) {
+                    Ok(v) => {
+                        if let Some(mj) = v.get("mj_step_per_s").and_then(|x| x.as_f64()) {
+                            out["mujoco_mj_step_per_s"] = serde_json::json!(mj);
+                            out["ratio_vs_mj_step"] = serde_json::json!((rate.closed_loop / mj * 100.0).round() / 100.0);
+                            out["plant_only_ratio_vs_mj_step"] = serde_json::json!((rate.plant_only / mj * 100.0).round() / 100.0);
+                        }
+                        out["mujoco_reference"] = v;
+                    }
+                    Err(e) => eprintln!("naic bench sim: cannot parse the output of {}: {e}", script.display()),
+                }
+            }
+            Ok(o) => eprintln!(
+                "naic bench sim: {} {} failed: {}",
+                py,
+                script.display(),
+                String::from_utf8_lossy(&o.stderr).trim()
+            ),
+            Err(e) => eprintln!("naic bench sim: cannot run {py} (set NAIC_PYTHON or NAIC_VENV): {e}"),
+        }
+    }
+    if a.json {
+        println!("{out}");
+    } else {
+        println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    }
+    Ok(())
+}
