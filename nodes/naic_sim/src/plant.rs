@@ -321,7 +321,7 @@ fn integrate(
                 let Some(dv) = jac.lu().solve(&r) else { break };
                 let mut alpha: f64 = 1.0;
                 let mut improved = false;
-                while alpha >= 1e-3 {
+                while alpha >= 1e-9 {
                     let trial = v1 - dv * alpha;
                     let r_trial = residual(&trial);
                     if r_trial.norm() <= (1.0 - 1e-4 * alpha) * r_norm {

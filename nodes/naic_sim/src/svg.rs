@@ -144,6 +144,13 @@ impl Figure {
                     y0 = c - 1.0;
                     y1 = c + 1.0;
                 }
+                // a nearly constant signal is drawn as such, not blown up to full height
+                let min_span = 0.05 * y0.abs().max(y1.abs());
+                if y1 - y0 < min_span {
+                    let c = 0.5 * (y0 + y1);
+                    y0 = c - 0.5 * min_span;
+                    y1 = c + 0.5 * min_span;
+                }
                 let pad = 0.06 * (y1 - y0);
                 y0 -= pad;
                 y1 += pad;
@@ -190,7 +197,7 @@ impl Figure {
             );
             let _ = writeln!(s, r#"<clipPath id="c{k}"><rect x="{ml}" y="{top}" width="{pw}" height="{panel_h}"/></clipPath>"#);
             for se in &p.series {
-                let pts = decimate(&se.points, 1500);
+                let pts = decimate(&se.points, 800);
                 let mut d = String::with_capacity(pts.len() * 16);
                 let mut pen_down = false;
                 for &(x, y) in &pts {
