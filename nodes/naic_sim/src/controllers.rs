@@ -1,9 +1,7 @@
-//! The controllers the simulator runs: the core's pipeline
-//! (`naic_core::pipeline::controller` — sense → estimate → control → inverse
-//! dynamics), then friction feedforward with the identified model
-//! (`naic_core::pipeline::feedforward`), then the actuation guard
-//! (`naic_core::pipeline::actuate`), configured with a scenario's settings.
-//! Nothing of the control law lives here.
+//! The controllers the simulator runs: the core's whole pipeline
+//! (`naic_core::pipeline::step` — sense → estimate → control → friction
+//! feedforward with the identified model → actuation guard), configured with
+//! a scenario's settings. Nothing of the control law lives here.
 
 use crate::plant::Measurements;
 use crate::runner::{ControlReport, Controller as SimController};
@@ -11,12 +9,12 @@ use crate::scenario::{ReferenceSample, Scenario};
 use naic_core::dynamics::Damping;
 use naic_core::friction::FrictionModel;
 use naic_core::model::Model;
-use naic_core::pipeline::actuate::{self, ActuateParams, ActuateState};
+use naic_core::pipeline::actuate::ActuateParams;
 use naic_core::pipeline::control::force_law::{ForceLawParams, Mode, WeightBounds};
 use naic_core::pipeline::control::{ContactDetect, ControlParams, ForceAxis, ImpedanceParams};
-use naic_core::pipeline::controller::{self, Controller, ControllerParams, ControllerState, Reference, Workspace};
+use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Workspace};
 use naic_core::pipeline::estimate::ToolParams;
-use naic_core::pipeline::feedforward;
+use naic_core::pipeline::{self, Pipeline, PipelineState};
 use naic_core::pipeline::sense::{RawMeasurements, SenseParams};
 use nalgebra::Vector3;
 
@@ -53,12 +51,9 @@ impl Default for LoopSettings {
 #[derive(Clone)]
 pub struct PipelineController {
     name: String,
-    controller: Controller,
-    state: ControllerState,
+    pipeline: Pipeline,
+    state: PipelineState,
     ws: Workspace,
-    friction: Option<FrictionModel>,
-    actuate: ActuateParams,
-    act_state: ActuateState,
 }
 
 impl PipelineController {
@@ -120,17 +115,14 @@ impl PipelineController {
             damping: Damping::default(),
         };
         let controller = Controller::new(model.clone(), params)?;
-        let state = controller.initial_state();
         let ws = controller.workspace();
-        Ok(Self {
-            name: mode.as_str().to_string(),
+        let pipeline = Pipeline {
             controller,
-            state,
-            ws,
             friction,
             actuate: ActuateParams { effort_limit: effort, max_delta: [f64::INFINITY; 6] },
-            act_state: ActuateState::default(),
-        })
+        };
+        let state = pipeline.initial_state();
+        Ok(Self { name: mode.as_str().to_string(), pipeline, state, ws })
     }
 }
 
@@ -142,18 +134,11 @@ impl SimController for PipelineController {
     fn step(&mut self, m: &Measurements, r: &ReferenceSample) -> ControlReport {
         let raw = RawMeasurements { t: m.t, q: m.q, dq: m.dq, joints_stamp: m.t, wrench: m.wrench, wrench_stamp: m.t };
         let reference = Reference { p_d: r.p_d, r_d: r.r_d, v_d: r.v_d, a_d: r.a_d, f_d: r.f_d };
-        let (state, out) = controller::step(&self.controller, &self.state, &raw, &reference, &mut self.ws);
+        let (state, out) = pipeline::step(&self.pipeline, &self.state, &raw, &reference, &mut self.ws);
         self.state = state;
-        let tau = match &self.friction {
-            // friction feedforward at the measured velocity
-            Some(f) => feedforward::step(f, &m.dq, &out.tau),
-            None => out.tau,
-        };
-        let (act_state, act) = actuate::step(&self.actuate, &self.act_state, &tau);
-        self.act_state = act_state;
-        let st = &out.status;
+        let st = &out.control.status;
         ControlReport {
-            tau: act.tau,
+            tau: out.tau,
             m_d: st.m_d,
             b_d: st.b_d,
             sigma: st.sigma,

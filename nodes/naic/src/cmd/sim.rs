@@ -50,6 +50,9 @@ pub struct SimArgs {
     /// `inf` runs the law as written [default: 0.5].
     #[arg(long)]
     pub sigma_margin: Option<f64>,
+    /// Median window on the measured joint velocity (1 = off) [default: 5].
+    #[arg(long)]
+    pub median_window: Option<usize>,
     /// Seed of the simulated noise and sensor bias [default: 1].
     #[arg(long)]
     pub seed: Option<u64>,
@@ -333,6 +336,15 @@ pub fn run(a: SimArgs) -> CliResult {
             return Err(CliError::usage(format!("--sigma-margin {m}: must be > 0 (inf for the law as written)")));
         }
         settings.sigma_margin = m;
+    }
+    if let Some(w) = a.median_window {
+        if w == 0 || w > naic_core::pipeline::sense::MAX_MEDIAN_WINDOW {
+            return Err(CliError::usage(format!(
+                "--median-window {w}: must be in 1..={}",
+                naic_core::pipeline::sense::MAX_MEDIAN_WINDOW
+            )));
+        }
+        settings.median_window = w;
     }
     let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
