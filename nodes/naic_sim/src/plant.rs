@@ -19,7 +19,8 @@
 //!   friction is evaluated at the *new* velocity (backward Euler in the
 //!   friction only): solve `M (v⁺ − v) = h (τ + τ_ext − C q̇ − G − τ_f(v⁺))`
 //!   by Newton's method (Jacobian `M + h diag(∂τ_f/∂q̇)`, LU because Stribeck
-//!   slopes can be negative) with backtracking on the residual; it stops at a
+//!   slopes can be negative), a per-joint trust region of 2 v_s inside the tanh
+//!   zone (|q̇| < 3 v_s) and backtracking on the residual; it stops at a
 //!   residual of 1e-10 N·m·s (1e-7 N·m) or when no descent is possible (then
 //!   the best point found is used). The tanh friction of
 //!   Table 1 with v_s = 1 mrad/s has slopes up to ~2·10⁴ N·m·s/rad at rest,
@@ -319,9 +320,19 @@ fn integrate(
                 }
                 // exact Jacobian (Stribeck slopes may be negative: LU, not Cholesky)
                 let Some(dv) = jac.lu().solve(&r) else { break };
+                // Inside the tanh zone of the friction (|q̇| < 3 v_s, where its
+                // slope changes by orders of magnitude) a Newton step is only
+                // trusted up to 2 v_s per joint; outside it, fully.
                 let mut alpha: f64 = 1.0;
+                for i in 0..NJ {
+                    let (from, to) = (v1[i], v1[i] - dv[i]);
+                    if (from.abs() < 3.0 * V_S_ZONE || to.abs() < 3.0 * V_S_ZONE) && dv[i].abs() > 2.0 * V_S_ZONE {
+                        alpha = alpha.min(2.0 * V_S_ZONE / dv[i].abs());
+                    }
+                }
+                let alpha_min = 1e-9 * alpha;
                 let mut improved = false;
-                while alpha >= 1e-9 {
+                while alpha >= alpha_min {
                     let trial = v1 - dv * alpha;
                     let r_trial = residual(&trial);
                     if r_trial.norm() <= (1.0 - 1e-4 * alpha) * r_norm {
@@ -345,6 +356,10 @@ fn integrate(
         }
     }
 }
+
+/// Velocity scale of the friction's tanh zone for the Newton trust region [rad/s]
+/// (the smoothing velocity of the friction model, `DEFAULT_V_S`).
+const V_S_ZONE: f64 = naic_core::friction::DEFAULT_V_S;
 
 /// Saturate the commanded torque at the effort limits.
 fn saturate(p: &PlantParams, tau_cmd: &[f64; NJ]) -> ([f64; NJ], bool) {
