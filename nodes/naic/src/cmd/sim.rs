@@ -411,8 +411,15 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     let max_steps = ((s.duration - t_start) / s.dt) as usize;
     let steps = a.steps.min(max_steps.max(1));
     let (rate, last) = runner::bench_closed_loop(&s, &plant, &c, t_start, steps, a.repeats);
+    // the same without joint friction (as MuJoCo's model): plant Euler-like, no feedforward
+    let plant_nf = scenario_plant(&s, model.clone(), None, tool)?;
+    let c_nf = PipelineController::new(Mode::Naic, &s, &model, None, tool.0, tool.1, &LoopSettings::default())
+        .map_err(CliError::failure)?;
+    let (rate_nf, _) = runner::bench_closed_loop(&s, &plant_nf, &c_nf, t_start, steps, a.repeats);
     let mut out = serde_json::json!({
         "steps_per_s": rate.closed_loop.round(),
+        "frictionless_steps_per_s": rate_nf.closed_loop.round(),
+        "frictionless_plant_only_steps_per_s": rate_nf.plant_only.round(),
         "plant_only_steps_per_s": rate.plant_only.round(),
         "controller_only_steps_per_s": rate.controller_only.round(),
         "what": "closed loop: plant (ABA, implicit friction, contact) + encoders + mini45 + NAIC pipeline + friction feedforward + actuation, 1 ms period, flat scenario in contact",
@@ -433,6 +440,8 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
                             out["mujoco_mj_step_per_s"] = serde_json::json!(mj);
                             out["ratio_vs_mj_step"] = serde_json::json!((rate.closed_loop / mj * 100.0).round() / 100.0);
                             out["plant_only_ratio_vs_mj_step"] = serde_json::json!((rate.plant_only / mj * 100.0).round() / 100.0);
+                            out["frictionless_plant_only_ratio_vs_mj_step"] =
+                                serde_json::json!((rate_nf.plant_only / mj * 100.0).round() / 100.0);
                         }
                         out["mujoco_reference"] = v;
                     }
