@@ -44,11 +44,11 @@ pub struct SimArgs {
     #[arg(long)]
     pub no_friction: bool,
     /// NAIC learning rate γ requested (clipped to the eq-15 bound every cycle) [default: 1e-4].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub gamma: Option<f64>,
     /// NAIC σ margin: fraction of the force-loop stability limit σ may reach;
     /// `inf` runs the law as written [default: 0.5].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub sigma_margin: Option<f64>,
     /// Median window on the measured joint velocity (1 = off) [default: 5].
     #[arg(long)]
@@ -57,7 +57,7 @@ pub struct SimArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Simulated duration [s] [default: the scenario's].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub duration: Option<f64>,
     /// Open-loop replay of a torque CSV (header tau1..tau6, one row per period).
     #[arg(long, value_name = "CSV")]
