@@ -16,6 +16,9 @@
 //! * [`runner`] — the closed loop and its records; [`metrics`], [`plots`],
 //!   [`svg`] — what comes out of a run.
 
+// `!(x > 0.0)` is deliberate: it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod controllers;
 pub mod environment;
 pub mod metrics;

@@ -66,12 +66,7 @@ pub struct MetricsFile {
 /// measured from `t[i0]`; `None` if the last sample is outside the band.
 pub fn settling_time(t: &[f64], f: &[f64], f_d: f64, tol: f64, i0: usize, i1: usize) -> Option<f64> {
     let band = tol * f_d.abs();
-    let mut last_out = None;
-    for i in i0..i1 {
-        if (f[i] - f_d).abs() > band {
-            last_out = Some(i);
-        }
-    }
+    let last_out = (i0..i1).rev().find(|&i| (f[i] - f_d).abs() > band);
     match last_out {
         None => Some(0.0),
         Some(i) if i + 1 >= i1 => None,

@@ -130,7 +130,7 @@ pub fn scenario_plant(
     friction: Option<FrictionModel>,
     tool: (f64, Vector3<f64>),
 ) -> Result<PlantParams, CliError> {
-    let mut rng = Rng::seed(s.seed ^ 0x5EED_F7);
+    let mut rng = Rng::seed(s.seed ^ 0x005E_EDF7);
     let ft = Mini45::si_145_5(tool.0, tool.1, &mut rng);
     let mut p = PlantParams::new(model, friction, Integrator::ImplicitFriction, s.dt, 1, s.env.clone(), ft, Encoders::default())
         .map_err(|e| CliError::usage(e.to_string()))?;
@@ -213,6 +213,7 @@ fn fmt_opt(v: Option<f64>) -> String {
 }
 
 /// Run the scenario with the given controllers; returns the runs.
+#[allow(clippy::too_many_arguments)]
 pub fn run_scenario(
     s: &Scenario,
     plant: &PlantParams,
@@ -332,7 +333,7 @@ pub fn run(a: SimArgs) -> CliResult {
         settings.gamma = g;
     }
     if let Some(m) = a.sigma_margin {
-        if !(m > 0.0) {
+        if m.is_nan() || m <= 0.0 {
             return Err(CliError::usage(format!("--sigma-margin {m}: must be > 0 (inf for the law as written)")));
         }
         settings.sigma_margin = m;
