@@ -49,9 +49,25 @@ pub fn figure(s: &Scenario, runs: &[RunResult]) -> Figure {
             points: r.records.iter().map(|x| (x.t, x.surface_z)).collect(),
         });
     }
-    Figure {
-        title: format!("Scenario '{}': {}", s.name, s.description),
-        x_label: "time [s]".into(),
-        panels: vec![force, z, b],
+    // NAIC's three weights (eq 12) relative to their initial values
+    let mut w = Panel {
+        title: "(d) NAIC weights relative to their initial values (eq 12–15)".into(),
+        y_label: "w / w(0)".into(),
+        ..Default::default()
+    };
+    if let Some(r) = runs.iter().find(|r| r.controller == "naic") {
+        if let Some(r0) = r.records.first() {
+            let rel = |f: &dyn Fn(&crate::runner::Record) -> f64, x0: f64| {
+                r.records.iter().map(|x| (x.t, f(x) / x0)).collect::<Vec<_>>()
+            };
+            w.series.push(Series { name: "m_d / m_d(0)".into(), color: "#ff7f0e", dashed: false, points: rel(&|x| x.m_d, r0.m_d) });
+            w.series.push(Series { name: "b_d / b_d(0)".into(), color: "#d62728", dashed: false, points: rel(&|x| x.b_d, r0.b_d) });
+            w.series.push(Series { name: "σ / σ(0)".into(), color: "#8c564b", dashed: false, points: rel(&|x| x.sigma, r0.sigma) });
+        }
     }
+    let mut panels = vec![force, z, b];
+    if !w.series.is_empty() {
+        panels.push(w);
+    }
+    Figure { title: format!("Scenario '{}'", s.name), subtitle: s.description.clone(), x_label: "time [s]".into(), panels }
 }

@@ -26,6 +26,8 @@ pub struct Panel {
 #[derive(Clone, Debug, Default)]
 pub struct Figure {
     pub title: String,
+    /// A smaller second line under the title (wrapped at ~130 characters).
+    pub subtitle: String,
     pub x_label: String,
     pub panels: Vec<Panel>,
 }
@@ -56,6 +58,25 @@ fn fmt_tick(v: f64, step: f64) -> String {
     } else {
         s
     }
+}
+
+/// Greedy word wrap at `width` characters.
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut cur = String::new();
+    for w in text.split_whitespace() {
+        if !cur.is_empty() && cur.chars().count() + 1 + w.chars().count() > width {
+            lines.push(std::mem::take(&mut cur));
+        }
+        if !cur.is_empty() {
+            cur.push(' ');
+        }
+        cur.push_str(w);
+    }
+    if !cur.is_empty() {
+        lines.push(cur);
+    }
+    lines
 }
 
 fn esc(s: &str) -> String {
@@ -94,7 +115,9 @@ impl Figure {
     pub fn to_svg(&self) -> String {
         let width = 960.0;
         let panel_h = 250.0;
-        let (ml, mr, mt, mb, gap) = (80.0, 30.0, 50.0, 55.0, 45.0);
+        let sub_lines = wrap(&self.subtitle, 130);
+        let (ml, mr, mb, gap) = (80.0, 30.0, 55.0, 45.0);
+        let mt = 62.0 + 16.0 * sub_lines.len() as f64;
         let height = mt + mb + self.panels.len() as f64 * panel_h + (self.panels.len().saturating_sub(1)) as f64 * gap;
         let pw = width - ml - mr;
         let mut s = String::new();
@@ -109,6 +132,15 @@ impl Figure {
             width / 2.0,
             esc(&self.title)
         );
+        for (i, line) in sub_lines.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                r##"<text x="{}" y="{}" text-anchor="middle" font-size="12" fill="#444">{}</text>"##,
+                width / 2.0,
+                46.0 + 16.0 * i as f64,
+                esc(line)
+            );
+        }
         // shared x range
         let (mut x0, mut x1) = (f64::INFINITY, f64::NEG_INFINITY);
         for p in &self.panels {
@@ -281,6 +313,7 @@ mod tests {
     fn svg_has_labels_legend_and_paths() {
         let fig = Figure {
             title: "Force <tracking>".into(),
+            subtitle: "a long description that wraps ".repeat(10),
             x_label: "time [s]".into(),
             panels: vec![Panel {
                 title: "(a) force".into(),
@@ -298,5 +331,6 @@ mod tests {
         assert!(svg.contains(">NAIC<") && svg.contains(">desired<"));
         assert_eq!(svg.matches("<path").count(), 2);
         assert!(svg.contains("stroke-dasharray"));
+        assert!(wrap(&fig.subtitle, 130).len() >= 3 && wrap(&fig.subtitle, 130).iter().all(|l| l.chars().count() <= 130));
     }
 }
