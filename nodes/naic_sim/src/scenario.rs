@@ -137,7 +137,7 @@ impl Scenario {
     /// Reference at time `t` (allocation-free).
     pub fn reference(&self, t: f64) -> ReferenceSample {
         let r = &self.ramp;
-        let (p_d, v) = if t <= r.t0 {
+        let (p_d, v) = if t < r.t0 || r.t1 <= r.t0 {
             (r.from, Vector3::zeros())
         } else if t >= r.t1 {
             (r.to, Vector3::zeros())

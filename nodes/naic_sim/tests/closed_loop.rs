@@ -130,3 +130,33 @@ fn implicit_friction_holds_a_resting_arm_and_breaks_away_above_friction() {
     let expected = (0.0..5.0).step_by_bisect(|v| f.tau_f(5, v) - (tau[5] - g[5]));
     assert!((s.dq[5] - expected).abs() < 0.01 * expected, "joint 6 slides at {} rad/s, expected {expected}", s.dq[5]);
 }
+
+#[test]
+fn scenario_presets_match_the_paper_settings() {
+    let m = model();
+    let flat = scenario::preset("flat", &m).unwrap();
+    assert_eq!(flat.f_d(2.999), 10.0);
+    assert_eq!(flat.f_d(3.0), 20.0);
+    let r = flat.reference(0.0);
+    assert!((r.p_d - Vector3::new(-0.3, -0.1135, 0.05)).norm() < 1e-12);
+    assert!((flat.reference(5.0).p_d.x + 0.75).abs() < 1e-12);
+    assert!((r.v_d[0] + 0.09).abs() < 1e-12, "0.45 m over 5 s");
+    assert_eq!(flat.impedance.b_d, [500.0, 500.0, 40.0, 500.0, 500.0, 500.0]);
+    assert_eq!(flat.impedance.k_contact[2], 0.0);
+    assert_eq!(flat.impedance.sigma, 0.01);
+    let ev = flat.events();
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].t_start, 3.0);
+    let st = scenario::preset("stiffness-step", &m).unwrap();
+    let times: Vec<f64> = st.events().iter().map(|e| e.t_start).collect();
+    assert_eq!(times, vec![2.0, 4.0]);
+    // the chosen slope passes through the paper's contact point and meets 0.08 m at the path end
+    let sl = scenario::preset("slope", &m).unwrap();
+    let x_c = -0.3 - 0.09 * 0.621;
+    assert!((sl.env.height_at(x_c, -0.1135) - 0.124).abs() < 1e-12);
+    assert!((sl.env.height_at(-0.75, -0.1135) - 0.08).abs() < 1e-12);
+    // foam and two-material: desired force 10 N / 3 N pushing = −10 N / −3 N along the sensor z (tool down)
+    assert_eq!(scenario::preset("foam", &m).unwrap().f_d(5.0), 10.0);
+    assert_eq!(scenario::preset("two-material", &m).unwrap().f_d(5.0), 3.0);
+    assert!(scenario::preset("moon", &m).is_err());
+}
