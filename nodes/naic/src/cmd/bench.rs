@@ -7,11 +7,14 @@ pub enum BenchCmd {
     Dynamics,
     /// Closed-loop simulator steps per second (plant + sensor + NAIC, flat, in contact) vs MuJoCo mj_step.
     Sim(super::sim::SimBenchArgs),
+    /// Latency of the 1 kHz DDS chain across the three node processes, Rust vs rclpy.
+    Chain(super::bench_chain::ChainArgs),
 }
 
 pub fn run(c: BenchCmd) -> CliResult {
     match c {
         BenchCmd::Sim(a) => super::sim::bench(a),
+        BenchCmd::Chain(a) => super::bench_chain::run(a),
         BenchCmd::Dynamics => Err(CliError::failure("naic bench dynamics is not implemented yet")),
     }
 }
