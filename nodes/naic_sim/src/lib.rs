@@ -19,6 +19,7 @@
 // `!(x > 0.0)` is deliberate: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod arm;
 pub mod controllers;
 pub mod environment;
 pub mod metrics;

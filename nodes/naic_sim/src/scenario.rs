@@ -173,6 +173,34 @@ impl Scenario {
     }
 }
 
+/// The plant of a scenario: its environment and control period, joint
+/// `friction` (tanh-smoothed model, or `None`), the implicit-friction
+/// integrator with sub-steps for the stiffest contact, the SI-145-5 sensor
+/// with the given tool (mass, COM in the sensor frame; see
+/// [`crate::sensor::tool_from_urdf`]) and its bias drawn from the scenario
+/// seed, and the default encoders.
+pub fn plant_for(
+    s: &Scenario,
+    model: Model,
+    friction: Option<naic_core::friction::FrictionModel>,
+    tool: (f64, Vector3<f64>),
+) -> Result<crate::plant::PlantParams, crate::plant::PlantError> {
+    let mut rng = crate::rng::Rng::seed(s.seed ^ 0x005E_EDF7);
+    let ft = crate::sensor::Mini45::si_145_5(tool.0, tool.1, &mut rng);
+    let mut p = crate::plant::PlantParams::new(
+        model,
+        friction,
+        crate::plant::Integrator::ImplicitFriction,
+        s.dt,
+        1,
+        s.env.clone(),
+        ft,
+        crate::sensor::Encoders::default(),
+    )?;
+    p.substeps = p.substeps_for_contact(&s.q0, s.dt);
+    Ok(p)
+}
+
 /// Degrees to radians for a joint vector.
 pub fn deg(q: [f64; 6]) -> [f64; 6] {
     q.map(f64::to_radians)

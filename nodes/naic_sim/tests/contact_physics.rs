@@ -116,3 +116,25 @@ fn stiffness_steps_take_effect_at_2_s_and_4_s() {
     let i2 = log.iter().position(|e| e.0 >= 2.0 - 1e-9).unwrap();
     assert!((log[i2].0 - 2.0).abs() < 1e-9 && log[i2].1 == 5000.0 && log[i2 - 1].1 == 2000.0);
 }
+
+#[test]
+fn sim_arm_handle_matches_the_pure_step() {
+    let env = Environment::horizontal(0.08, MaterialMap::Uniform(Material { k_e: 2000.0, b_e: 0.0, mu: 0.0 }));
+    let p = plant(env, Integrator::SemiImplicitEuler);
+    let q = pressed_pose(&p.model, 0.005);
+    let tau = balancing_torque(&p.model, &q, 10.0);
+    let mut arm = naic_sim::arm::SimArm::new(p.clone(), q, 1);
+    let mut ws = PlantWorkspace::new(&p);
+    let mut s = PlantState::at_rest(q, 1);
+    let mut obs = plant::observe(&p, &s, &mut ws, [0.0; 6], false).1;
+    for _ in 0..10 {
+        arm.step(&tau);
+        (s, obs) = plant::step(&p, &s, &tau, &mut ws);
+    }
+    assert_eq!(arm.wrench(), obs.meas.wrench);
+    assert_eq!(arm.joints().0, obs.meas.q);
+    assert!((arm.time() - 0.01).abs() < 1e-12);
+    // holding torque = gravity at rest
+    let h = arm.hold_torque(0.0);
+    assert!(h.iter().zip(&balancing_torque(&p.model, &s.q, 0.0)).all(|(a, b)| (a - b).abs() < 1e-9));
+}

@@ -122,20 +122,14 @@ fn parse_joints(s: &str, what: &str) -> Result<[f64; 6], CliError> {
     Ok([v[0], v[1], v[2], v[3], v[4], v[5]])
 }
 
-/// Plant of a scenario: friction (smooth), implicit-friction integrator,
-/// sub-steps from the stiffest contact, SI-145-5 sensor, default encoders.
+/// Plant of a scenario (see `naic_sim::scenario::plant_for`).
 pub fn scenario_plant(
     s: &Scenario,
     model: Model,
     friction: Option<FrictionModel>,
     tool: (f64, Vector3<f64>),
 ) -> Result<PlantParams, CliError> {
-    let mut rng = Rng::seed(s.seed ^ 0x005E_EDF7);
-    let ft = Mini45::si_145_5(tool.0, tool.1, &mut rng);
-    let mut p = PlantParams::new(model, friction, Integrator::ImplicitFriction, s.dt, 1, s.env.clone(), ft, Encoders::default())
-        .map_err(|e| CliError::usage(e.to_string()))?;
-    p.substeps = p.substeps_for_contact(&s.q0, s.dt);
-    Ok(p)
+    scenario::plant_for(s, model, friction, tool).map_err(|e| CliError::usage(e.to_string()))
 }
 
 fn replay(a: &SimArgs) -> CliResult {
