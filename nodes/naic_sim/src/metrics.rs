@@ -244,3 +244,72 @@ mod tests {
         assert!(json["phases"][0].get("settling_time_2pct_s").is_some());
     }
 }
+
+/// `median [min–max]` of optional values over seeds, with how many never settled.
+pub fn fmt_spread(vals: &[Option<f64>], decimals: usize) -> String {
+    let mut v: Vec<f64> = vals.iter().flatten().copied().collect();
+    let never = vals.len() - v.len();
+    if v.is_empty() {
+        return format!("never ({never}/{})", vals.len());
+    }
+    v.sort_by(f64::total_cmp);
+    let med = if v.len() % 2 == 1 { v[v.len() / 2] } else { 0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2]) };
+    let mut s = format!("{med:.decimals$} [{:.decimals$}–{:.decimals$}]", v[0], v[v.len() - 1]);
+    if never > 0 {
+        s.push_str(&format!(", never in {never}/{}", vals.len()));
+    }
+    s
+}
+
+/// The markdown table of one scenario over several seeds (one [`MetricsFile`]
+/// per seed): per controller and phase, median [min–max] of every metric.
+pub fn spread_table(files: &[MetricsFile], with_header: bool) -> String {
+    let mut t = String::new();
+    if with_header {
+        t.push_str("| scenario | controller | contact [s] | phase start [s] | f_d [N] | settle 2 % [s] | settle 5 % [s] | overshoot [%] | ss error [N] | RMS error [N] | max force [N] |\n");
+        t.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    }
+    let Some(first) = files.first() else { return t };
+    for name in ["naic", "aic", "fixed"].iter().filter(|n| first.controllers.contains_key(**n)) {
+        let cms: Vec<&ControllerMetrics> = files.iter().filter_map(|f| f.controllers.get(*name)).collect();
+        let n_ph = cms.iter().map(|c| c.phases.len()).min().unwrap_or(0);
+        let contact: Vec<Option<f64>> = cms.iter().map(|c| c.contact_time_s).collect();
+        let med = |v: Vec<f64>| {
+            let mut v = v;
+            v.sort_by(f64::total_cmp);
+            if v.is_empty() { f64::NAN } else if v.len() % 2 == 1 { v[v.len() / 2] } else { 0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2]) }
+        };
+        let contact_med = med(contact.iter().flatten().copied().collect());
+        for i in 0..n_ph {
+            let ph: Vec<&PhaseMetrics> = cms.iter().map(|c| &c.phases[i]).collect();
+            let col = |f: &dyn Fn(&PhaseMetrics) -> Option<f64>| ph.iter().map(|p| f(p)).collect::<Vec<_>>();
+            t.push_str(&format!(
+                "| {} | {} | {:.3} | {:.3} | {:.0} | {} | {} | {} | {} | {} | {} |\n",
+                first.scenario,
+                name,
+                contact_med,
+                med(ph.iter().map(|p| p.t_start_s).collect()),
+                ph[0].desired_force_n,
+                fmt_spread(&col(&|p| p.settling_time_2pct_s), 3),
+                fmt_spread(&col(&|p| p.settling_time_5pct_s), 3),
+                fmt_spread(&col(&|p| Some(p.overshoot_pct)), 1),
+                fmt_spread(&col(&|p| Some(p.steady_state_error_n)), 3),
+                fmt_spread(&col(&|p| Some(p.rms_error_n)), 3),
+                fmt_spread(&col(&|p| Some(p.max_force_n)), 2),
+            ));
+        }
+    }
+    t
+}
+
+#[cfg(test)]
+mod spread_tests {
+    use super::*;
+
+    #[test]
+    fn spread_reports_median_range_and_never() {
+        assert_eq!(fmt_spread(&[Some(1.0), Some(3.0), Some(2.0)], 1), "2.0 [1.0–3.0]");
+        assert_eq!(fmt_spread(&[Some(1.0), None, Some(2.0), Some(4.0)], 1), "2.0 [1.0–4.0], never in 1/4");
+        assert_eq!(fmt_spread(&[None, None], 3), "never (2/2)");
+    }
+}

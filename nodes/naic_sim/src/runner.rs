@@ -264,3 +264,11 @@ pub fn bench_closed_loop<C: Controller + Clone>(
     let thr = LoopThroughput { closed_loop: median(closed), plant_only: median(plant_only), controller_only: median(ctrl_only) };
     (thr, last)
 }
+
+/// RMS of `f_ext − f_d` from the first contact to the end of the run [N]
+/// (`None` without contact).
+pub fn contact_rms(records: &[Record]) -> Option<f64> {
+    let i0 = records.iter().position(|r| r.in_contact)?;
+    let n = (records.len() - i0) as f64;
+    Some((records[i0..].iter().map(|r| (r.f_ext - r.f_d).powi(2)).sum::<f64>() / n).sqrt())
+}

@@ -56,6 +56,10 @@ pub struct SimArgs {
     /// Seed of the simulated noise and sensor bias [default: 1].
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Run this many seeds (from --seed on) and write a median [min–max]
+    /// table to OUT/summary.md (each seed in OUT/seed-<k>/).
+    #[arg(long)]
+    pub seeds: Option<u32>,
     /// Simulated duration [s] [default: the scenario's].
     #[arg(long, allow_hyphen_values = true)]
     pub duration: Option<f64>,
@@ -343,18 +347,63 @@ pub fn run(a: SimArgs) -> CliResult {
     }
     let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
-    let plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", utc_stamp(), s.name)));
     let show = std::io::stderr().is_terminal();
-    eprintln!("naic sim: scenario '{}' ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}", s.name, s.duration, plant.substeps, plant.h() * 1e3, out.display());
-    let runs = run_scenario(&s, &plant, &model, friction.as_ref(), tool, &modes, &settings, show)?;
-    write_outputs(&out, &s, &runs)?;
-    for r in &runs {
-        if r.limit_violation {
-            eprintln!("naic sim: warning: {} left the joint position limits", r.controller);
-        }
+    let n_seeds = a.seeds.unwrap_or(1);
+    if n_seeds == 0 {
+        return Err(CliError::usage("--seeds 0: give at least 1"));
     }
-    println!("{}", summary_table(&s, &runs));
+    let first_seed = s.seed;
+    let mut files = Vec::new();
+    let mut rms: BTreeMap<String, Vec<Option<f64>>> = BTreeMap::new();
+    for k in 0..n_seeds {
+        let mut s = s.clone();
+        s.seed = first_seed + u64::from(k);
+        let dir = if a.seeds.is_some() { out.join(format!("seed-{}", s.seed)) } else { out.clone() };
+        let plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
+        eprintln!(
+            "naic sim: scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
+            s.name,
+            s.seed,
+            s.duration,
+            plant.substeps,
+            plant.h() * 1e3,
+            dir.display()
+        );
+        let runs = run_scenario(&s, &plant, &model, friction.as_ref(), tool, &modes, &settings, show)?;
+        write_outputs(&dir, &s, &runs)?;
+        for r in &runs {
+            if r.limit_violation {
+                eprintln!("naic sim: warning: {} left the joint position limits", r.controller);
+            }
+            rms.entry(r.controller.clone()).or_default().push(runner::contact_rms(&r.records));
+        }
+        if a.seeds.is_none() {
+            println!("{}", summary_table(&s, &runs));
+        }
+        let mut controllers = BTreeMap::new();
+        for r in &runs {
+            controllers.insert(r.controller.clone(), r.metrics.clone());
+        }
+        files.push(MetricsFile { scenario: s.name.clone(), controllers });
+    }
+    if a.seeds.is_some() {
+        let mut md = format!(
+            "Scenario '{}', seeds {}–{}: median [min–max]\n\n{}\nRMS of f_ext − f_d from first contact to the end:",
+            s.name,
+            first_seed,
+            first_seed + u64::from(n_seeds) - 1,
+            naic_sim::metrics::spread_table(&files, true)
+        );
+        for (name, v) in &rms {
+            md.push_str(&format!(" {name} {},", naic_sim::metrics::fmt_spread(v, 3)));
+        }
+        md.pop();
+        md.push_str(" N\n");
+        let p = out.join("summary.md");
+        std::fs::write(&p, &md).map_err(|e| CliError::failure(format!("cannot write {}: {e}", p.display())))?;
+        println!("{md}");
+    }
     println!("wrote {}", out.display());
     Ok(())
 }
