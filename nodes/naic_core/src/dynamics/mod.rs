@@ -50,8 +50,10 @@
 pub mod spatial;
 
 mod cartesian;
+mod damped;
 
 pub use cartesian::{cartesian_terms, CartesianError, CartesianTerms, Damping};
+pub use damped::solve_damped;
 
 use crate::model::{Data, FrameId, Model};
 use nalgebra::allocator::Allocator;

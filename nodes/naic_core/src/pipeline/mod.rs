@@ -1,2 +1,71 @@
-//! The control path, in the order data flows through it:
-//! `sense → estimate → control → feedforward → actuate`.
+//! The 1 kHz control path, one module per stage, in the order data flows:
+//!
+//! ```text
+//! sensors ─▶ sense ─▶ estimate ─▶ control ─▶ feedforward ─▶ actuate ─▶ drives
+//!            (validity,  (F/T tare,   (eq 6–15,    (friction     (rate limit,
+//!             median)     tool weight) RNEA → τ)    eq 5, §5.1)   saturation)
+//! ```
+//!
+//! [`controller::step`] runs the first three stages (the `naic_controller`
+//! node); [`feedforward::step`] and [`actuate::step`] the last two (the
+//! `friction_compensation` node and the drive guard). [`step`] composes all
+//! five for in-process use. Every stage is a pure function
+//! `(params, state, inputs) -> (state, outputs)` with no heap allocation.
+pub mod actuate;
+pub mod control;
+pub mod controller;
+pub mod estimate;
+pub mod feedforward;
+pub mod sense;
+
+use crate::friction::FrictionModel;
+
+/// The whole pipeline: controller, friction feedforward and actuation limits.
+#[derive(Clone, Debug)]
+pub struct Pipeline {
+    pub controller: controller::Controller,
+    /// The friction feedforward model (`None`: no feedforward).
+    pub friction: Option<FrictionModel>,
+    pub actuate: actuate::ActuateParams,
+}
+
+/// State of the whole pipeline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PipelineState {
+    pub controller: controller::ControllerState,
+    pub actuate: actuate::ActuateState,
+}
+
+/// Output of one cycle of the whole pipeline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PipelineOutputs {
+    /// Torque to the drives [N·m].
+    pub tau: [f64; 6],
+    /// The controller's torque and report.
+    pub control: controller::ControlOutputs,
+    pub actuate: actuate::ActuateReport,
+}
+
+impl Pipeline {
+    pub fn initial_state(&self) -> PipelineState {
+        PipelineState { controller: self.controller.initial_state(), actuate: actuate::ActuateState::default() }
+    }
+}
+
+/// One cycle of all five stages. Pure; `ws` is scratch memory.
+pub fn step(
+    p: &Pipeline,
+    s: &PipelineState,
+    m: &sense::RawMeasurements,
+    r: &controller::Reference,
+    ws: &mut controller::Workspace,
+) -> (PipelineState, PipelineOutputs) {
+    let (cs, control) = controller::step(&p.controller, &s.controller, m, r, ws);
+    // Friction feedforward only while the measurements are valid (not in the hold).
+    let tau_ff = match (&p.friction, control.status.fault) {
+        (Some(f), None) => feedforward::step(f, &control.dq, &control.tau),
+        _ => control.tau,
+    };
+    let (as_, report) = actuate::step(&p.actuate, &s.actuate, &tau_ff);
+    (PipelineState { controller: cs, actuate: as_ }, PipelineOutputs { tau: report.tau, control, actuate: report })
+}

@@ -1,0 +1,83 @@
+//! Stage 5 of the pipeline: the last guard before torques reach the drives.
+//!
+//! * A non-finite torque is never passed on: the previous command is held.
+//! * Per-joint rate limit: |τ(t) − τ(t−λ)| ≤ `max_delta` [N·m per cycle].
+//! * Per-joint saturation at the effort limit.
+
+/// Limits of the actuation stage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ActuateParams {
+    /// Effort limit per joint [N·m].
+    pub effort_limit: [f64; 6],
+    /// Largest change per control cycle [N·m] (`f64::INFINITY` disables it).
+    pub max_delta: [f64; 6],
+}
+
+/// The command sent last cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct ActuateState {
+    pub tau_prev: [f64; 6],
+    /// False until the first command has gone out (the rate limit starts from it).
+    pub started: bool,
+}
+
+/// What the stage did this cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct ActuateReport {
+    pub tau: [f64; 6],
+    /// Joints whose command was saturated at the effort limit.
+    pub saturated: [bool; 6],
+    /// Joints whose command was rate limited.
+    pub rate_limited: [bool; 6],
+    /// The input had a NaN or Inf; the previous command was held.
+    pub rejected_non_finite: bool,
+}
+
+/// One cycle. Pure: `(params, state, input) -> (state, outputs)`.
+pub fn step(p: &ActuateParams, s: &ActuateState, tau_in: &[f64; 6]) -> (ActuateState, ActuateReport) {
+    let mut r = ActuateReport::default();
+    if tau_in.iter().any(|t| !t.is_finite()) {
+        r.rejected_non_finite = true;
+        r.tau = s.tau_prev;
+        return (*s, r);
+    }
+    for i in 0..6 {
+        let mut t = tau_in[i];
+        if s.started {
+            let lo = s.tau_prev[i] - p.max_delta[i];
+            let hi = s.tau_prev[i] + p.max_delta[i];
+            if t < lo || t > hi {
+                t = t.clamp(lo, hi);
+                r.rate_limited[i] = true;
+            }
+        }
+        let lim = p.effort_limit[i];
+        if t.abs() > lim {
+            t = t.clamp(-lim, lim);
+            r.saturated[i] = true;
+        }
+        r.tau[i] = t;
+    }
+    (ActuateState { tau_prev: r.tau, started: true }, r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn saturates_rate_limits_and_never_passes_nan() {
+        let p = ActuateParams { effort_limit: [10.0; 6], max_delta: [1.0; 6] };
+        let (s, r) = step(&p, &ActuateState::default(), &[50.0, -50.0, 3.0, 0.0, 0.0, 0.0]);
+        assert_eq!(&r.tau[..3], &[10.0, -10.0, 3.0]);
+        assert!(r.saturated[0] && r.saturated[1] && !r.saturated[2]);
+        let (s, r) = step(&p, &s, &[0.0, 0.0, 3.5, 0.0, 0.0, 0.0]);
+        assert_eq!(&r.tau[..3], &[9.0, -9.0, 3.5]);
+        assert!(r.rate_limited[0] && !r.rate_limited[2]);
+        let (s2, r) = step(&p, &s, &[f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        assert!(r.rejected_non_finite);
+        assert_eq!(r.tau, s.tau_prev);
+        assert_eq!(s2, s);
+        assert!(r.tau.iter().all(|t| t.is_finite()));
+    }
+}

@@ -1,0 +1,350 @@
+//! Stage 3 of the pipeline: the torque-based Cartesian impedance controller
+//! (eq 6–8) with fixed, AIC (eq 9) or NAIC (eq 10–15) force tracking on one
+//! axis.
+//!
+//! This module turns task-space errors into the commanded task acceleration
+//! `V` of eq 6; [`super::inverse_dynamics`] turns `V` into joint torques. The
+//! per-axis force laws and their sign conventions are in [`force_law`].
+//!
+//! # Eq 6 → code
+//!
+//! Per Cartesian axis `i` (x, y, z, then rotation about x, y, z; all in the
+//! base frame, world-aligned at the tip):
+//!
+//! ```text
+//! V_i = ẍ_d,i + ( b_d,i ė_i + k_d,i e_i + f_d,i − F_e,i ) / m_d,i          (eq 6 with eq 8's F_d)
+//! ```
+//!
+//! with `e = X_d − X` (translation: `p_d − p`; rotation: the rotation vector of
+//! `R_d Rᵀ`), `ė = Ẋ_d − J q̇`, `F_e` the wrench the robot applies to the
+//! environment (from [`super::estimate`]) and `f_d,i` non-zero only on the
+//! force axis in contact. Substituting `Ẍ = V` (what the inverse-dynamics
+//! stage realises) gives eq 7/8: `F_e − F_d = M_d Ë + B_d Ė + K_d E`.
+//!
+//! Two phases (paper §3.1): in free space every axis uses the free-space
+//! stiffness and the force axis has no force target; once contact is
+//! detected the contact stiffness applies, `k_d = 0` on the force axis, and
+//! the force axis follows the selected force law instead of the line above:
+//! `V_n = ẍ_d,n − ë` with `ë` from [`force_law::step`], mapped to the base
+//! frame by the axis sign.
+//!
+//! Contact detection is a parameter ([`ContactDetect`]): enter contact when
+//! `f_ext` exceeds `enter_n`; leave it after `exit_cycles` consecutive cycles
+//! below `exit_n` (`exit_cycles = 0` latches contact, as in the paper).
+
+pub mod force_law;
+
+use force_law::{ForceLawInputs, ForceLawOutputs, ForceLawParams, ForceLawState};
+use nalgebra::Vector6;
+
+/// Diagonal impedance parameters, one entry per Cartesian axis (x, y, z, rx, ry, rz).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImpedanceParams {
+    /// `M_d` [kg, kg·m²].
+    pub m_d: [f64; 6],
+    /// `B_d` [N·s/m, N·m·s/rad].
+    pub b_d: [f64; 6],
+    /// `K_d` in free space [N/m, N·m/rad].
+    pub k_free: [f64; 6],
+    /// `K_d` in contact; its force-axis entry is ignored (k_d = 0 there, §3.1).
+    pub k_contact: [f64; 6],
+}
+
+/// The force axis: `n = sign · e_axis` in the base frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ForceAxis {
+    /// 0, 1, 2 for x, y, z.
+    pub axis: usize,
+    /// +1 or −1: the direction in which the tool pushes (−1 on z to push down).
+    pub sign: f64,
+}
+
+/// How contact is detected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactDetect {
+    /// Enter contact when `f_ext` exceeds this [N].
+    pub enter_n: f64,
+    /// Leave contact when `f_ext` stays below this [N] ...
+    pub exit_n: f64,
+    /// ... for this many consecutive cycles; 0 latches contact once detected.
+    pub exit_cycles: u32,
+}
+
+/// All parameters of the control stage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControlParams {
+    pub impedance: ImpedanceParams,
+    pub force_axis: ForceAxis,
+    pub force_law: ForceLawParams,
+    pub contact: ContactDetect,
+}
+
+impl ControlParams {
+    /// Checks every value; the message names the parameter and the fix.
+    pub fn validate(&self) -> Result<(), String> {
+        let imp = &self.impedance;
+        for i in 0..6 {
+            if !(imp.m_d[i] > 0.0 && imp.m_d[i].is_finite()) {
+                return Err(format!("m_d[{i}] = {} must be a positive finite mass", imp.m_d[i]));
+            }
+            for (name, v) in [("b_d", imp.b_d[i]), ("k_d (free)", imp.k_free[i]), ("k_d (contact)", imp.k_contact[i])] {
+                if !(v >= 0.0 && v.is_finite()) {
+                    return Err(format!("{name}[{i}] = {v} must be a finite value >= 0"));
+                }
+            }
+        }
+        if self.force_axis.axis > 2 {
+            return Err(format!("force_axis = {} must be 0, 1 or 2 (x, y, z)", self.force_axis.axis));
+        }
+        if self.force_axis.sign != 1.0 && self.force_axis.sign != -1.0 {
+            return Err(format!("force axis sign = {} must be +1 or -1", self.force_axis.sign));
+        }
+        let fl = &self.force_law;
+        if !(fl.gamma >= 0.0 && fl.gamma.is_finite()) {
+            return Err(format!("learning_rate (gamma) = {} must be a finite value >= 0 (eq 15)", fl.gamma));
+        }
+        if !(fl.lambda > 0.0 && fl.lambda.is_finite()) {
+            return Err(format!("control period (lambda) = {} s must be positive", fl.lambda));
+        }
+        if !(fl.sigma_margin > 0.0) {
+            return Err(format!("sigma_margin = {} must be > 0 (inf disables the σ stability bound)", fl.sigma_margin));
+        }
+        if !(fl.sigma >= 0.0 && fl.sigma.is_finite()) {
+            return Err(format!("sigma = {} must be a finite value >= 0", fl.sigma));
+        }
+        let b = &fl.bounds;
+        let n = self.force_axis.axis;
+        if !(b.m_d.0 > 0.0 && b.m_d.0 <= imp.m_d[n] && imp.m_d[n] <= b.m_d.1) {
+            return Err(format!("m_d on the force axis ({}) must lie in the NAIC weight bounds {:?}, lower bound > 0", imp.m_d[n], b.m_d));
+        }
+        if !(b.b_d.0 > 0.0 && b.b_d.0 <= imp.b_d[n] && imp.b_d[n] <= b.b_d.1) {
+            return Err(format!("b_d on the force axis ({}) must lie in the NAIC weight bounds {:?}, lower bound > 0", imp.b_d[n], b.b_d));
+        }
+        if !(b.sigma.0 <= fl.sigma && fl.sigma <= b.sigma.1) {
+            return Err(format!("sigma ({}) must lie in the NAIC weight bounds {:?}", fl.sigma, b.sigma));
+        }
+        let c = &self.contact;
+        if !(c.enter_n > 0.0 && c.enter_n.is_finite() && c.exit_n >= 0.0 && c.exit_n <= c.enter_n) {
+            return Err(format!(
+                "contact_threshold: enter = {} N must be > 0 and exit = {} N in [0, enter]",
+                c.enter_n, c.exit_n
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The phase of the two-phase controller (§3.1), plus the safe hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    Free = 0,
+    Contact = 1,
+    /// Measurements unusable: gravity compensation and joint damping only.
+    Hold = 2,
+}
+
+/// What the control stage remembers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControlState {
+    pub phase: Phase,
+    /// Consecutive cycles with `f_ext` below the exit threshold.
+    pub below_exit: u32,
+    pub law: ForceLawState,
+}
+
+impl ControlState {
+    pub fn new(p: &ControlParams) -> Self {
+        let n = p.force_axis.axis;
+        Self {
+            phase: Phase::Free,
+            below_exit: 0,
+            law: ForceLawState::new(&p.force_law, p.impedance.m_d[n], p.impedance.b_d[n]),
+        }
+    }
+}
+
+/// Task-space inputs of one cycle, base frame, world-aligned at the tip.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TaskInputs {
+    /// `E = X_d − X` (position; rotation vector of `R_d Rᵀ`).
+    pub e: Vector6<f64>,
+    /// `Ė = Ẋ_d − Ẋ`.
+    pub e_dot: Vector6<f64>,
+    /// `Ẍ_d`.
+    pub a_d: Vector6<f64>,
+    /// `F_e`: wrench the robot applies to the environment.
+    pub f_e: Vector6<f64>,
+    /// `f_d` along the force axis [N].
+    pub f_d: f64,
+}
+
+/// Task-space outputs of one cycle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TaskOutputs {
+    /// Commanded task acceleration `V` (eq 6).
+    pub v: Vector6<f64>,
+    /// `f_ext` along the force axis [N].
+    pub f_ext: f64,
+    /// `k_d` in force on the force axis this cycle.
+    pub k_d: f64,
+    /// The force law's report (zeros in free space).
+    pub law: ForceLawOutputs,
+}
+
+/// One cycle of the control stage (contact detection + eq 6/8 per axis).
+/// Pure: `(params, state, inputs) -> (state, outputs)`.
+pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
+    let ax = p.force_axis.axis;
+    let sign = p.force_axis.sign;
+    let f_ext = sign * u.f_e[ax];
+    let mut next = *s;
+
+    // Phase transitions (a hold ends in free space: contact is re-detected).
+    match s.phase {
+        Phase::Free | Phase::Hold => {
+            next.phase = Phase::Free;
+            if f_ext > p.contact.enter_n {
+                next.phase = Phase::Contact;
+                next.below_exit = 0;
+                next.law = s.law.rearm(f_ext - u.f_d);
+            }
+        }
+        Phase::Contact => {
+            next.below_exit = if f_ext < p.contact.exit_n { s.below_exit + 1 } else { 0 };
+            if p.contact.exit_cycles > 0 && next.below_exit >= p.contact.exit_cycles {
+                next.phase = Phase::Free;
+            }
+        }
+    }
+
+    let imp = &p.impedance;
+    let contact = next.phase == Phase::Contact;
+    let k = if contact { &imp.k_contact } else { &imp.k_free };
+    let mut v = Vector6::zeros();
+    for i in 0..6 {
+        v[i] = u.a_d[i] + (imp.b_d[i] * u.e_dot[i] + k[i] * u.e[i] - u.f_e[i]) / imp.m_d[i];
+    }
+    let mut out = TaskOutputs { v, f_ext, k_d: k[ax], law: ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() } };
+    if contact {
+        let inputs = ForceLawInputs { e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d };
+        let (law, report) = force_law::step(&p.force_law, &next.law, &inputs);
+        next.law = law;
+        out.v[ax] = u.a_d[ax] - sign * report.e_ddot;
+        out.k_d = 0.0;
+        out.law = report;
+    }
+    (next, out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::force_law::{Mode, WeightBounds};
+    use super::*;
+
+    fn params(mode: Mode) -> ControlParams {
+        ControlParams {
+            impedance: ImpedanceParams {
+                m_d: [1.0; 6],
+                b_d: [500.0, 500.0, 40.0, 500.0, 500.0, 500.0],
+                k_free: [500.0, 500.0, 50.0, 1000.0, 1000.0, 1000.0],
+                k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
+            },
+            force_axis: ForceAxis { axis: 2, sign: -1.0 },
+            force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5 },
+            contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
+        }
+    }
+
+    /// A unit point mass in 3-D (orientation ignored) realising V exactly,
+    /// above a spring floor at z = 0 with stiffness k_e: the target impedance
+    /// relation must hold and the contact force must reach f_d.
+    fn run(mode: Mode, steps: usize) -> (Vec<f64>, ControlState) {
+        let p = params(mode);
+        p.validate().unwrap();
+        let mut s = ControlState::new(&p);
+        let (k_e, dt) = (2000.0, 1e-3);
+        let (mut x, mut v) = (Vector6::<f64>::zeros(), Vector6::<f64>::zeros());
+        x[2] = 0.02;
+        let mut x_d = Vector6::zeros();
+        x_d[2] = -0.03; // below the surface, as in §4.1
+        let mut forces = vec![];
+        for _ in 0..steps {
+            let pen = (-x[2]).max(0.0);
+            let mut f_e = Vector6::zeros();
+            f_e[2] = -k_e * pen; // the robot pushes down: F_e,z < 0, f_ext = −F_e,z > 0
+            let u = TaskInputs { e: x_d - x, e_dot: -v, a_d: Vector6::zeros(), f_e, f_d: 10.0 };
+            let (n, o) = step(&p, &s, &u);
+            s = n;
+            v += o.v * dt;
+            x += v * dt;
+            forces.push(o.f_ext);
+        }
+        (forces, s)
+    }
+
+    #[test]
+    fn two_phase_controller_tracks_the_desired_force_with_every_law() {
+        for mode in [Mode::Fixed, Mode::Aic, Mode::Naic] {
+            let (f, s) = run(mode, 4000);
+            assert_eq!(s.phase, Phase::Contact, "{mode:?}");
+            let last = *f.last().unwrap();
+            assert!((last - 10.0).abs() < 0.05, "{mode:?}: final force {last}");
+        }
+    }
+
+    #[test]
+    fn free_space_axes_follow_the_target_impedance_relation() {
+        // No contact, no force: m ë + b ė + k e = 0 on every axis (eq 7 with F_e = 0).
+        let p = params(Mode::Naic);
+        let s = ControlState::new(&p);
+        let u = TaskInputs {
+            e: Vector6::new(0.01, -0.02, 0.03, 0.1, -0.1, 0.05),
+            e_dot: Vector6::new(0.1, 0.0, -0.2, 0.0, 0.3, 0.0),
+            a_d: Vector6::zeros(),
+            f_e: Vector6::zeros(),
+            f_d: 10.0,
+        };
+        let (_, o) = step(&p, &s, &u);
+        let imp = &p.impedance;
+        for i in 0..6 {
+            let e_ddot = -o.v[i]; // ë = ẍ_d − ẍ
+            let residual = imp.m_d[i] * e_ddot + imp.b_d[i] * u.e_dot[i] + imp.k_free[i] * u.e[i];
+            assert!(residual.abs() < 1e-9, "axis {i}: residual {residual}");
+        }
+    }
+
+    #[test]
+    fn contact_can_be_left_after_the_exit_dwell() {
+        let mut p = params(Mode::Aic);
+        p.contact.exit_cycles = 3;
+        let mut s = ControlState::new(&p);
+        let mut u = TaskInputs {
+            e: Vector6::zeros(),
+            e_dot: Vector6::zeros(),
+            a_d: Vector6::zeros(),
+            f_e: Vector6::new(0.0, 0.0, -5.0, 0.0, 0.0, 0.0),
+            f_d: 10.0,
+        };
+        s = step(&p, &s, &u).0;
+        assert_eq!(s.phase, Phase::Contact);
+        u.f_e[2] = 0.0;
+        for k in 0..3 {
+            assert_eq!(s.phase, Phase::Contact, "cycle {k}");
+            s = step(&p, &s, &u).0;
+        }
+        assert_eq!(s.phase, Phase::Free);
+    }
+
+    #[test]
+    fn invalid_parameters_name_themselves() {
+        let mut p = params(Mode::Naic);
+        p.force_law.gamma = -1.0;
+        assert!(p.validate().unwrap_err().contains("learning_rate"));
+        let mut p = params(Mode::Naic);
+        p.impedance.m_d[3] = 0.0;
+        assert!(p.validate().unwrap_err().contains("m_d[3]"));
+        let mut p = params(Mode::Naic);
+        p.force_axis.axis = 4;
+        assert!(p.validate().unwrap_err().contains("force_axis"));
+    }
+}

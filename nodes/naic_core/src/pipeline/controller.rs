@@ -1,0 +1,404 @@
+//! The controller node's half of the pipeline in one pure step:
+//! `sense → estimate → control → inverse dynamics`.
+//!
+//! # Eq 6 → joint torques
+//!
+//! Eq 6 asks for the Cartesian force `F = D V + h + F_f + F_e` and the joint
+//! torque `τ = Jᵀ F`. With eq 3's `D = J⁻ᵀ M J⁻¹` and
+//! `h = J⁻ᵀ (C q̇ + G) − D J̇ q̇`:
+//!
+//! ```text
+//! Jᵀ (D V + h) = M J⁻¹ (V − J̇ q̇) + C q̇ + G = RNEA(q, q̇, q̈*)   with   q̈* = J⁻¹ (V − J̇ q̇)
+//! ```
+//!
+//! so the controller solves `J q̈* = V − J̇ q̇` (damped near singularities, see
+//! [`crate::dynamics::Damping`]) and calls RNEA once — no `D`, no `M`, no
+//! explicit inverse — then adds `Jᵀ F_e` (the contact wrench feedforward of
+//! eq 6). The friction term `Jᵀ F_f = τ_f` is the next stage
+//! ([`super::feedforward`]), which the ROS graph runs in its own node.
+//! `J` is the `tip` frame Jacobian, world-aligned, rows linear then angular;
+//! `V`'s rotational rows are angular accelerations.
+//!
+//! # Safe hold
+//!
+//! When the sense stage rejects the measurements (non-finite, implausible,
+//! stale), the output is `τ = G(q) − D_hold q̇` at the last valid state
+//! (gravity compensation plus joint damping, no force command), the phase is
+//! `Hold`, and the fault is reported; the next valid cycle resumes in free
+//! space and re-detects contact.
+
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3, Vector6};
+
+use super::control::force_law::Mode;
+use super::control::{self, ControlParams, ControlState, Phase, TaskInputs};
+use super::estimate::{self, TareState, ToolParams};
+use super::sense::{self, Fault, RawMeasurements, SenseParams, SenseState};
+use crate::dynamics::{self, Damping};
+use crate::model::{Data6, FrameId, Model};
+
+/// Everything the controller needs besides the robot model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControllerParams {
+    pub sense: SenseParams,
+    pub tool: ToolParams,
+    /// Free-space samples averaged for the F/T tare at start.
+    pub tare_samples: u32,
+    pub control: ControlParams,
+    /// Joint damping of the safe hold [N·m·s/rad].
+    pub hold_damping: [f64; 6],
+    /// Jacobian inverse near singularities.
+    pub damping: Damping,
+}
+
+/// The immutable half: the 6-joint model, its frames and the parameters.
+#[derive(Clone, Debug)]
+pub struct Controller {
+    model: Model,
+    /// A workspace sized for the model, cloned by [`Controller::workspace`].
+    blank: Data6,
+    tip: FrameId,
+    sensor: FrameId,
+    params: ControllerParams,
+}
+
+/// Names of the frames the controller needs in the URDF.
+pub const TIP_FRAME: &str = "tip";
+pub const SENSOR_FRAME: &str = "ft_sensor";
+
+impl Controller {
+    /// Checks the model (6 joints, `tip` and `ft_sensor` frames) and the parameters.
+    pub fn new(model: Model, params: ControllerParams) -> Result<Self, String> {
+        if model.nv() != 6 {
+            return Err(format!("the controller needs a 6-joint arm; this model has {} joints", model.nv()));
+        }
+        let frame = |name: &str| {
+            model.frame_id(name).ok_or_else(|| format!("the URDF has no frame '{name}': add a link named '{name}'"))
+        };
+        let (tip, sensor) = (frame(TIP_FRAME)?, frame(SENSOR_FRAME)?);
+        params.sense.validate()?;
+        params.control.validate()?;
+        if !(params.tool.mass >= 0.0 && params.tool.mass.is_finite()) {
+            return Err(format!("tool mass = {} kg must be finite and >= 0", params.tool.mass));
+        }
+        if params.hold_damping.iter().any(|d| !(*d >= 0.0 && d.is_finite())) {
+            return Err(format!("hold_damping = {:?} must be finite and >= 0", params.hold_damping));
+        }
+        let blank = Data6::try_new(&model).map_err(|e| e.to_string())?;
+        Ok(Self { model, blank, tip, sensor, params })
+    }
+
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    pub fn params(&self) -> &ControllerParams {
+        &self.params
+    }
+
+    /// A copy with other parameters (validated); the state stays compatible.
+    pub fn with_params(&self, params: ControllerParams) -> Result<Self, String> {
+        Self::new(self.model.clone(), params)
+    }
+
+    /// The state before the first cycle.
+    pub fn initial_state(&self) -> ControllerState {
+        ControllerState {
+            sense: SenseState::default(),
+            tare: TareState::default(),
+            control: ControlState::new(&self.params.control),
+            fault: None,
+            fault_count: 0,
+            last_q: None,
+        }
+    }
+
+    /// A preallocated workspace for [`step`].
+    pub fn workspace(&self) -> Workspace {
+        Workspace { data: self.blank.clone() }
+    }
+}
+
+/// Scratch memory of [`step`]: no state lives here.
+#[derive(Clone, Debug)]
+pub struct Workspace {
+    pub data: Data6,
+}
+
+/// What the controller remembers between cycles (all of it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControllerState {
+    pub sense: SenseState,
+    pub tare: TareState,
+    pub control: ControlState,
+    /// The fault of the last cycle, if it was rejected.
+    pub fault: Option<Fault>,
+    /// Fault events (transitions into a fault) since start.
+    pub fault_count: u32,
+    /// Last valid joint position (the hold uses it when q itself is bad).
+    pub last_q: Option<[f64; 6]>,
+}
+
+/// The reference of one cycle: where the tip should be and what force it should apply.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reference {
+    /// Desired tip position `p_d` [m], base frame.
+    pub p_d: Vector3<f64>,
+    /// Desired tip orientation `R_d`.
+    pub r_d: UnitQuaternion<f64>,
+    /// Desired tip twist `Ẋ_d` (linear, angular), base frame.
+    pub v_d: Vector6<f64>,
+    /// Desired tip acceleration `Ẍ_d`.
+    pub a_d: Vector6<f64>,
+    /// Desired force `f_d` [N] along the force axis (pushing positive).
+    pub f_d: f64,
+}
+
+/// The controller's report of one cycle (what `/naic/params` publishes, and more).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Status {
+    pub mode: Mode,
+    pub phase: Phase,
+    pub force_axis: usize,
+    /// `f_d`, `f_ext` along the force axis, and `e_f = f_ext − f_d` [N].
+    pub f_d: f64,
+    pub f_ext: f64,
+    pub e_f: f64,
+    /// Current impedance on the force axis and NAIC weights.
+    pub m_d: f64,
+    pub b_d: f64,
+    pub k_d: f64,
+    pub sigma: f64,
+    pub phi: f64,
+    /// Learning rate applied, its eq-15 bound, and whether it was clipped.
+    pub gamma: f64,
+    pub gamma_bound: f64,
+    pub gamma_clipped: bool,
+    pub weights_projected: bool,
+    pub fault: Option<Fault>,
+    pub fault_count: u32,
+    /// The F/T tare is complete.
+    pub tared: bool,
+    /// Measured tip position [m] and the contact wrench `F_e` (robot on environment), base frame.
+    pub tip_position: Vector3<f64>,
+    pub f_e: Vector6<f64>,
+    /// The Jacobian inverse was damped this cycle (near a singularity).
+    pub jacobian_damped: bool,
+}
+
+/// Output of one cycle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControlOutputs {
+    /// Joint torques before friction feedforward and actuation limits [N·m].
+    pub tau: [f64; 6],
+    /// The (median-filtered) joint velocity this cycle used [rad/s].
+    pub dq: [f64; 6],
+    pub status: Status,
+}
+
+/// Rotation vector of `R_d Rᵀ` (the orientation part of `E = X_d − X`).
+fn orientation_error(r_d: &UnitQuaternion<f64>, r: &Matrix3<f64>) -> Vector3<f64> {
+    let r_now = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*r));
+    (r_d * r_now.inverse()).scaled_axis()
+}
+
+/// One cycle of the controller. Pure: `(params, state, inputs) -> (state, outputs)`;
+/// the workspace is scratch memory only. No heap allocation.
+pub fn step(
+    c: &Controller,
+    s: &ControllerState,
+    m: &RawMeasurements,
+    r: &Reference,
+    ws: &mut Workspace,
+) -> (ControllerState, ControlOutputs) {
+    let p = &c.params;
+    let (sense_state, sensed) = sense::step(&p.sense, &s.sense, m);
+    let sensed = match sensed {
+        Ok(x) => x,
+        Err(fault) => return hold(c, s, m, r, ws, fault),
+    };
+    let q = Vector6::from(sensed.q);
+    let dq = Vector6::from(sensed.dq);
+    let mut next = ControllerState { sense: sense_state, fault: None, last_q: Some(sensed.q), ..*s };
+
+    // Kinematics: sensor orientation, tip pose and velocity.
+    dynamics::forward_kinematics(&c.model, &mut ws.data, &q);
+    let r_ws = ws.data.frame_se3(c.sensor).rot;
+    let tip = *ws.data.frame_se3(c.tip);
+
+    // Estimate the contact wrench (after the tare; zero while taring).
+    let tared = s.tare.done(p.tare_samples);
+    let f_e = if tared {
+        estimate::contact_wrench(&p.tool, &s.tare.bias(), &sensed.wrench, &r_ws)
+    } else {
+        next.tare = estimate::tare_step(&p.tool, p.tare_samples, &s.tare, &sensed.wrench, &r_ws);
+        Vector6::zeros()
+    };
+
+    let j = *dynamics::frame_jacobian(&c.model, &mut ws.data, &q, c.tip);
+    let jdot_qdot = dynamics::frame_jdot_qdot(&c.model, &mut ws.data, &q, &dq, c.tip);
+    let x_dot = j * dq;
+    let e_p = r.p_d - tip.trans;
+    let e_r = orientation_error(&r.r_d, &tip.rot);
+    let task = TaskInputs {
+        e: Vector6::new(e_p.x, e_p.y, e_p.z, e_r.x, e_r.y, e_r.z),
+        e_dot: r.v_d - x_dot,
+        a_d: r.a_d,
+        f_e,
+        f_d: r.f_d,
+    };
+    let (control_state, out) = control::step(&p.control, &s.control, &task);
+    next.control = control_state;
+
+    // Eq 6 → τ: J q̈* = V − J̇q̇, τ = RNEA(q, q̇, q̈*) + Jᵀ F_e.
+    let (qdd, damped) = dynamics::solve_damped(&j, &(out.v - jdot_qdot), &p.damping);
+    let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
+    let tau = tau_id + j.transpose() * f_e;
+
+    let law = &next.control.law;
+    let status = Status {
+        mode: p.control.force_law.mode,
+        phase: next.control.phase,
+        force_axis: p.control.force_axis.axis,
+        f_d: r.f_d,
+        f_ext: out.f_ext,
+        e_f: out.law.e_f,
+        m_d: law.m_d,
+        b_d: law.b_d,
+        k_d: out.k_d,
+        sigma: law.sigma,
+        phi: law.phi,
+        gamma: out.law.gamma,
+        gamma_bound: out.law.gamma_bound,
+        gamma_clipped: out.law.gamma_clipped,
+        weights_projected: out.law.weights_projected,
+        fault: None,
+        fault_count: next.fault_count,
+        tared,
+        tip_position: tip.trans,
+        f_e,
+        jacobian_damped: damped,
+    };
+    (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, status })
+}
+
+/// The safe hold: gravity compensation + joint damping at the last valid state.
+fn hold(
+    c: &Controller,
+    s: &ControllerState,
+    m: &RawMeasurements,
+    r: &Reference,
+    ws: &mut Workspace,
+    fault: Fault,
+) -> (ControllerState, ControlOutputs) {
+    let p = &c.params;
+    let q_ok = m.q.iter().all(|x| x.is_finite()) && !matches!(fault, Fault::OutOfRange { signal: sense::Signal::JointPosition, .. });
+    let q = if q_ok { Some(m.q) } else { s.last_q };
+    let dq_ok = m.dq.iter().all(|x| x.is_finite()) && !matches!(fault, Fault::OutOfRange { signal: sense::Signal::JointVelocity, .. });
+    let mut tau = [0.0; 6];
+    if let Some(q) = q {
+        let qv = Vector6::from(q);
+        let g = *dynamics::gravity_torques(&c.model, &mut ws.data, &qv);
+        for i in 0..6 {
+            let damping = if dq_ok { p.hold_damping[i] * m.dq[i] } else { 0.0 };
+            tau[i] = g[i] - damping;
+        }
+    }
+    let next = ControllerState {
+        fault: Some(fault),
+        fault_count: s.fault_count + u32::from(s.fault.is_none()),
+        control: ControlState { phase: Phase::Hold, ..s.control },
+        last_q: q,
+        ..*s
+    };
+    let law = &s.control.law;
+    let status = Status {
+        mode: p.control.force_law.mode,
+        phase: Phase::Hold,
+        force_axis: p.control.force_axis.axis,
+        f_d: r.f_d,
+        f_ext: f64::NAN,
+        e_f: f64::NAN,
+        m_d: law.m_d,
+        b_d: law.b_d,
+        k_d: 0.0,
+        sigma: law.sigma,
+        phi: law.phi,
+        gamma: 0.0,
+        gamma_bound: f64::INFINITY,
+        gamma_clipped: false,
+        weights_projected: false,
+        fault: Some(fault),
+        fault_count: next.fault_count,
+        tared: s.tare.done(p.tare_samples),
+        tip_position: Vector3::new(f64::NAN, f64::NAN, f64::NAN),
+        f_e: Vector6::zeros(),
+        jacobian_damped: false,
+    };
+    (next, ControlOutputs { tau, dq: [0.0; 6], status })
+}
+
+impl ControllerParams {
+    /// The paper's §4.1 settings on a model: M_d = I, B_d = diag(500, 500, 40,
+    /// 500, 500, 500), K_d free diag(500, 500, 50, 1000, 1000, 1000), contact
+    /// diag(100, 100, 0, 1000, 1000, 1000), σ = 0.01, force along −z (pushing
+    /// down), 1 ms period; sense limits from the model's URDF limits; the
+    /// tool of the authors' model (0.424 kg, CoM 0.015 m and tip 0.169 m
+    /// along the sensor z); the ATI mini45 SI-145-5 range ×1.5 as the
+    /// plausibility limit of the wrench. The learning rate γ has no value in
+    /// the paper; `gamma` is the caller's choice.
+    pub fn paper_defaults(model: &Model, mode: Mode, gamma: f64) -> Self {
+        use super::control::force_law::{ForceLawParams, WeightBounds};
+        use super::control::{ContactDetect, ForceAxis, ImpedanceParams};
+        let mut q_min = [-std::f64::consts::PI; 6];
+        let mut q_max = [std::f64::consts::PI; 6];
+        let mut dq_max = [2.0 * std::f64::consts::PI; 6];
+        for (i, j) in model.joints().iter().take(6).enumerate() {
+            q_min[i] = j.limits.lower;
+            q_max[i] = j.limits.upper;
+            if j.limits.velocity.is_finite() {
+                dq_max[i] = 2.0 * j.limits.velocity;
+            }
+        }
+        let lambda = 1e-3;
+        ControllerParams {
+            sense: SenseParams {
+                q_min,
+                q_max,
+                q_margin: 0.1,
+                dq_max,
+                // ATI mini45 SI-145-5: ±145 N (Fx, Fy), ±290 N (Fz), ±5 N·m; ×1.5.
+                wrench_max: [217.5, 217.5, 435.0, 7.5, 7.5, 7.5],
+                median_window: 5,
+                joint_timeout: 0.01,
+                wrench_timeout: 0.01,
+            },
+            tool: ToolParams {
+                mass: 0.424,
+                com: Vector3::new(0.0, 0.0, 0.015),
+                tip: Vector3::new(0.0, 0.0, 0.169),
+                gravity: Vector3::new(0.0, 0.0, -9.81),
+            },
+            tare_samples: 100,
+            control: ControlParams {
+                impedance: ImpedanceParams {
+                    m_d: [1.0; 6],
+                    b_d: [500.0, 500.0, 40.0, 500.0, 500.0, 500.0],
+                    k_free: [500.0, 500.0, 50.0, 1000.0, 1000.0, 1000.0],
+                    k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
+                },
+                force_axis: ForceAxis { axis: 2, sign: -1.0 },
+                force_law: ForceLawParams {
+                    mode,
+                    sigma: 0.01,
+                    gamma,
+                    bounds: WeightBounds::default(),
+                    lambda,
+                    sigma_margin: 0.5,
+                },
+                contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
+            },
+            hold_damping: [5.0; 6],
+            damping: Damping::default(),
+        }
+    }
+}

@@ -1,0 +1,154 @@
+//! The whole controller step on the JK5 model (urdf/jk5.urdf), closed around
+//! a perfect plant: the same model integrated with ABA. With a perfect model
+//! the inverse-dynamics stage realises the commanded task acceleration, so
+//! the tip error must follow the target impedance relation (eq 7) exactly.
+
+use naic_core::dynamics;
+use naic_core::model::{Data6, Model};
+use naic_core::pipeline::control::force_law::Mode;
+use naic_core::pipeline::control::Phase;
+use naic_core::pipeline::controller::{self, Controller, ControllerParams, Reference};
+use naic_core::pipeline::estimate::{self, ToolParams};
+use naic_core::pipeline::sense::{Fault, RawMeasurements, Signal};
+use nalgebra::{Rotation3, UnitQuaternion, Vector3, Vector6};
+
+fn model() -> Model {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../urdf/jk5.urdf");
+    Model::from_urdf_file(path).expect("urdf/jk5.urdf loads")
+}
+
+fn params(mode: Mode) -> ControllerParams {
+    let mut p = ControllerParams::paper_defaults(&model(), mode, 0.0);
+    p.sense.median_window = 1;
+    p.tare_samples = 10;
+    p
+}
+
+/// The paper's §4.1 start: (0, −30°, 120°, 0, −90°, 0).
+fn q0() -> [f64; 6] {
+    let d = std::f64::consts::PI / 180.0;
+    [0.0, -30.0 * d, 120.0 * d, 0.0, -90.0 * d, 0.0]
+}
+
+/// What an ideal F/T sensor reads in free space: the tool weight.
+fn free_space_reading(model: &Model, data: &mut Data6, tool: &ToolParams, q: &[f64; 6]) -> [f64; 6] {
+    dynamics::forward_kinematics(model, data, &Vector6::from(*q));
+    let r = data.frame_se3(model.frame_id("ft_sensor").unwrap()).rot;
+    estimate::tool_weight_wrench(tool, &r).into()
+}
+
+#[test]
+fn free_space_tip_error_follows_the_target_impedance_relation() {
+    let model = model();
+    let ctl = Controller::new(model.clone(), params(Mode::Naic)).unwrap();
+    let mut ws = ctl.workspace();
+    let mut plant = Data6::try_new(&model).unwrap();
+    let tip = model.frame_id("tip").unwrap();
+    let (mut q, mut dq) = (q0(), [0.0; 6]);
+    dynamics::forward_kinematics(&model, &mut plant, &Vector6::from(q));
+    let start = *plant.frame_se3(tip);
+    let offset = Vector3::new(0.02, -0.01, 0.015);
+    let r_d = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(start.rot));
+    let reference = Reference { p_d: start.trans + offset, r_d, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d: 10.0 };
+    // Fine steps: the controller runs every step so the comparison is with the continuous relation.
+    let dt = 1e-4;
+    let mut s = ctl.initial_state();
+    let tool = ctl.params().tool;
+    let imp = ctl.params().control.impedance;
+    // Reference solution of m ë + b ė + k e = 0 per translational axis, e(0) = offset, ė(0) = 0.
+    let mut e_ref = offset;
+    let mut edot_ref = Vector3::<f64>::zeros();
+    let mut worst: f64 = 0.0;
+    for k in 0..10_000 {
+        let t = k as f64 * dt;
+        let wrench = free_space_reading(&model, &mut plant, &tool, &q);
+        let meas = RawMeasurements { t, q, dq, joints_stamp: t, wrench, wrench_stamp: t };
+        let (n, out) = controller::step(&ctl, &s, &meas, &reference, &mut ws);
+        s = n;
+        assert!(out.status.fault.is_none(), "{:?}", out.status.fault);
+        assert_eq!(out.status.phase, Phase::Free);
+        // Plant: same model, ABA, semi-implicit Euler.
+        let qdd = *dynamics::aba(&model, &mut plant, &Vector6::from(q), &Vector6::from(dq), &Vector6::from(out.tau));
+        for i in 0..6 {
+            dq[i] += qdd[i] * dt;
+            q[i] += dq[i] * dt;
+        }
+        for i in 0..3 {
+            let eddot = -(imp.b_d[i] * edot_ref[i] + imp.k_free[i] * e_ref[i]) / imp.m_d[i];
+            edot_ref[i] += eddot * dt;
+            e_ref[i] += edot_ref[i] * dt;
+        }
+        dynamics::forward_kinematics(&model, &mut plant, &Vector6::from(q));
+        let e = reference.p_d - plant.frame_se3(tip).trans;
+        worst = worst.max((e - e_ref).norm());
+    }
+    // Seen: 2.9e-8 m (Euler discretisation of plant and reference). A wrong sign or a
+    // missing term in τ = RNEA(q, q̇, J⁻¹(V − J̇q̇)) + JᵀF_e gives millimetres to centimetres.
+    assert!(worst < 1e-6, "tip error deviates from eq 7 by {worst} m");
+    eprintln!("worst deviation from eq 7: {worst:.3e} m");
+    assert!(e_ref.norm() < 0.5 * offset.norm(), "the reference itself must have moved");
+}
+
+#[test]
+fn bad_sensor_data_holds_the_arm_and_recovers() {
+    let model = model();
+    let ctl = Controller::new(model.clone(), params(Mode::Naic)).unwrap();
+    let mut ws = ctl.workspace();
+    let mut plant = Data6::try_new(&model).unwrap();
+    let q = q0();
+    let reference = Reference {
+        p_d: Vector3::new(-0.4, -0.11, 0.05),
+        r_d: UnitQuaternion::identity(),
+        v_d: Vector6::zeros(),
+        a_d: Vector6::zeros(),
+        f_d: 10.0,
+    };
+    let mut s = ctl.initial_state();
+    let good = free_space_reading(&model, &mut plant, &ctl.params().tool, &q);
+    for k in 0..20 {
+        let t = k as f64 * 1e-3;
+        let meas = RawMeasurements { t, q, dq: [0.0; 6], joints_stamp: t, wrench: good, wrench_stamp: t };
+        s = controller::step(&ctl, &s, &meas, &reference, &mut ws).0;
+    }
+    let t = 0.02;
+    let mut bad = good;
+    bad[2] = f64::NAN;
+    let meas = RawMeasurements { t, q, dq: [0.1; 6], joints_stamp: t, wrench: bad, wrench_stamp: t };
+    let (s2, out) = controller::step(&ctl, &s, &meas, &reference, &mut ws);
+    assert_eq!(out.status.phase, Phase::Hold);
+    assert_eq!(out.status.fault, Some(Fault::NonFinite { signal: Signal::Wrench, index: 2 }));
+    assert_eq!(out.status.fault_count, 1);
+    let g = *dynamics::gravity_torques(&model, &mut plant, &Vector6::from(q));
+    for i in 0..6 {
+        assert!((out.tau[i] - (g[i] - 5.0 * 0.1)).abs() < 1e-9, "hold = gravity − damping on joint {i}");
+    }
+    // NaN joint positions: hold at the last valid q, never a NaN torque.
+    let mut qn = q;
+    qn[1] = f64::NAN;
+    let meas = RawMeasurements { t, q: qn, dq: [0.0; 6], joints_stamp: t, wrench: good, wrench_stamp: t };
+    let (s3, out) = controller::step(&ctl, &s2, &meas, &reference, &mut ws);
+    assert!(out.tau.iter().all(|x| x.is_finite()));
+    assert_eq!(s3.fault_count, 1, "still the same fault event");
+    // Stale wrench.
+    let meas = RawMeasurements { t: 0.1, q, dq: [0.0; 6], joints_stamp: 0.1, wrench: good, wrench_stamp: 0.05 };
+    let (_, out) = controller::step(&ctl, &s3, &meas, &reference, &mut ws);
+    assert!(matches!(out.status.fault, Some(Fault::Stale { signal: Signal::Wrench, .. })));
+    // Valid data again: back to free space.
+    let meas = RawMeasurements { t: 0.1, q, dq: [0.0; 6], joints_stamp: 0.1, wrench: good, wrench_stamp: 0.1 };
+    let (s4, out) = controller::step(&ctl, &s3, &meas, &reference, &mut ws);
+    assert_eq!(out.status.phase, Phase::Free);
+    assert!(out.status.fault.is_none() && s4.fault.is_none());
+}
+
+#[test]
+fn controller_rejects_a_model_without_the_tool_frames() {
+    let urdf = r#"<robot name="r"><link name="a"/><link name="b"><inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+        <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#;
+    let m = Model::from_urdf_str(urdf).unwrap();
+    let e = Controller::new(m, params(Mode::Aic)).unwrap_err();
+    assert!(e.contains("6-joint"), "{e}");
+    let mut p = params(Mode::Naic);
+    p.control.force_law.gamma = f64::NAN;
+    let e = Controller::new(model(), p).unwrap_err();
+    assert!(e.contains("learning_rate"), "{e}");
+}
