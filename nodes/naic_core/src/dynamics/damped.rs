@@ -1,7 +1,58 @@
-//! The damped Jacobian inverse near singularities, as a solve.
+//! The (damped) inverse of a 6×6 Jacobian near singularities: one rule, used
+//! by [`super::cartesian_terms`] (explicit `J⁻¹`) and [`solve_damped`] (a solve).
 
 use super::cartesian::Damping;
 use nalgebra::{Matrix6, Vector6, SVD, U6};
+
+/// `J = U Σ Vᵀ` with the per-singular-value gains of the [`Damping`] rule:
+/// `J⁻¹ = V diag(gain) Uᵀ`.
+pub(crate) struct DampedSvd {
+    pub u: Matrix6<f64>,
+    pub v_t: Matrix6<f64>,
+    /// `1/σᵢ` (plain) or `σᵢ / (σᵢ² + λ²)` (damped).
+    pub gain: Vector6<f64>,
+    pub sigma_min: f64,
+    pub lambda: f64,
+    pub damped: bool,
+}
+
+impl DampedSvd {
+    /// `None` for a non-finite `J` or an SVD that does not converge.
+    pub(crate) fn new(j: &Matrix6<f64>, damping: &Damping) -> Option<Self> {
+        if !j.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let svd = SVD::<f64, U6, U6>::try_new_unordered(*j, true, true, f64::EPSILON, 200)?;
+        let (u, v_t) = (svd.u?, svd.v_t?);
+        let sigma = svd.singular_values;
+        let sigma_min = sigma.min();
+        let damped = sigma_min < damping.sigma_threshold;
+        let lambda2 = if damped {
+            let r = sigma_min / damping.sigma_threshold;
+            damping.lambda_max * damping.lambda_max * (1.0 - r * r)
+        } else {
+            0.0
+        };
+        let gain = sigma.map(|s| if damped { s / (s * s + lambda2) } else { 1.0 / s });
+        Some(Self { u, v_t, gain, sigma_min, lambda: lambda2.sqrt(), damped })
+    }
+
+    /// The (damped) inverse `V diag(gain) Uᵀ`.
+    pub(crate) fn inverse(&self) -> Matrix6<f64> {
+        let mut v = self.v_t.transpose();
+        for k in 0..6 {
+            let mut col = v.column_mut(k);
+            col *= self.gain[k];
+        }
+        v * self.u.transpose()
+    }
+
+    /// `J⁻¹ b` without forming the inverse.
+    pub(crate) fn solve(&self, b: &Vector6<f64>) -> Vector6<f64> {
+        let ub = (self.u.transpose() * b).component_mul(&self.gain);
+        self.v_t.transpose() * ub
+    }
+}
 
 /// Solves `J x = b` for a 6×6 Jacobian with the damping rule of [`Damping`]:
 /// the plain inverse while the smallest singular value `σ_min` is at least
@@ -9,29 +60,13 @@ use nalgebra::{Matrix6, Vector6, SVD, U6};
 /// the solve was damped. A non-finite `J` or `b`, or an SVD that does not
 /// converge, gives `x = 0` and `true` (no motion is the safe answer).
 pub fn solve_damped(j: &Matrix6<f64>, b: &Vector6<f64>, damping: &Damping) -> (Vector6<f64>, bool) {
-    if !j.iter().chain(b.iter()).all(|x| x.is_finite()) {
+    if !b.iter().all(|x| x.is_finite()) {
         return (Vector6::zeros(), true);
     }
-    let Some(svd) = SVD::<f64, U6, U6>::try_new_unordered(*j, true, true, f64::EPSILON, 200) else {
-        return (Vector6::zeros(), true);
-    };
-    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else { return (Vector6::zeros(), true) };
-    let sigma = svd.singular_values;
-    let sigma_min = sigma.min();
-    let damped = sigma_min < damping.sigma_threshold;
-    let lambda2 = if damped {
-        let r = sigma_min / damping.sigma_threshold;
-        damping.lambda_max * damping.lambda_max * (1.0 - r * r)
-    } else {
-        0.0
-    };
-    // x = V diag(σ / (σ² + λ²)) Uᵀ b
-    let mut ub = u.transpose() * b;
-    for k in 0..6 {
-        let s = sigma[k];
-        ub[k] *= if damped { s / (s * s + lambda2) } else { 1.0 / s };
+    match DampedSvd::new(j, damping) {
+        Some(d) => (d.solve(b), d.damped),
+        None => (Vector6::zeros(), true),
     }
-    (v_t.transpose() * ub, damped)
 }
 
 #[cfg(test)]
@@ -51,5 +86,18 @@ mod tests {
         assert!(damped && x.iter().all(|v| v.is_finite()));
         let (x, damped) = solve_damped(&Matrix6::from_element(f64::NAN), &b, &Damping::default());
         assert!(damped && x == Vector6::zeros());
+    }
+
+    #[test]
+    fn solve_equals_inverse_times_b() {
+        let j = Matrix6::from_fn(|r, c| ((r * 7 + c * 3) % 5) as f64 * 0.3 + if r == c { 1.0 } else { 0.0 });
+        let b = Vector6::new(0.3, -1.0, 2.0, 0.5, -0.2, 1.0);
+        for damping in [Damping::default(), Damping { sigma_threshold: 10.0, lambda_max: 0.5 }] {
+            let d = DampedSvd::new(&j, &damping).unwrap();
+            assert!((d.solve(&b) - d.inverse() * b).amax() < 1e-12);
+            if !d.damped {
+                assert!((d.inverse() - j.try_inverse().unwrap()).amax() < 1e-10);
+            }
+        }
     }
 }
