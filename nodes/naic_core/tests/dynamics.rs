@@ -14,6 +14,7 @@ fn models() -> Vec<(&'static str, Model)> {
         ("planar3", Model::from_urdf_str(&planar3_urdf()).unwrap()),
         ("arm6", Model::from_urdf_str(&arm6_urdf()).unwrap()),
         ("zu5", Model::from_urdf_file(zu5_path()).unwrap()),
+        ("jk5", Model::from_urdf_file(jk5_path()).unwrap()),
     ]
 }
 
@@ -482,4 +483,29 @@ fn fixed_links_are_merged_into_their_body_and_kept_as_frames() {
         let m_cam = jv.transpose() * &jv * 0.3 + jw.transpose() * i_world * &jw;
         assert!(rel_err(&m_full, &(m_bare + m_cam)) < 1e-13);
     }
+}
+
+#[test]
+fn jk5_loads_with_its_frames_and_is_singular_when_straight_up() {
+    let model = Model::from_urdf_file(jk5_path()).unwrap();
+    assert_eq!(model.nv(), 6);
+    assert_eq!(model.joint_names().collect::<Vec<_>>(), ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"]);
+    // links 1-6 + sensor/rod (urdf/README.md): 20.514 kg moving
+    assert!((model.moving_mass() - 20.514).abs() < 1e-12);
+    let (tip, fts) = (model.frame_id("tip").unwrap(), model.frame_id("ft_sensor").unwrap());
+    assert_eq!(model.frame(tip).parent, Some(5));
+    assert_eq!(model.frame(fts).parent, Some(5));
+    let mut data = Data6::try_new(&model).unwrap();
+    dynamics::forward_kinematics(&model, &mut data, &SVector::zeros());
+    // PROVENANCE.md: at q = 0 the arm points straight up, tip at (0, −0.3765, 1.0635) m.
+    let p = data.frame_placement(tip).translation.vector;
+    assert!((p - Vector3::new(0.0, -0.3765, 1.0635)).amax() < 1e-12, "{p}");
+    // Straight up, joint 5 at 0: axes 4 and 6 are parallel (wrist singularity).
+    let c = dynamics::cartesian_terms(&model, &mut data, &SVector::zeros(), &SVector::zeros(), tip, &Damping::default()).unwrap();
+    assert!(c.damped && c.sigma_min < 1e-12, "σ_min = {}", c.sigma_min);
+    assert!(c.d.iter().chain(c.h.iter()).all(|x| x.is_finite()));
+    // The damped inverse is bounded by 1/(2λ) per singular direction.
+    let lambda = Damping::default().lambda_max;
+    assert!((c.lambda - lambda).abs() < 1e-9);
+    assert!(c.j_inv.singular_values().max() <= 1.0 / (2.0 * lambda) + 1e-9);
 }

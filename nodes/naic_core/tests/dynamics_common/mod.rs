@@ -27,6 +27,11 @@ pub fn zu5_path() -> PathBuf {
     shared_dir().join("reference/jk5/jaka_zu5.urdf")
 }
 
+/// The project's JK5 (+ F/T sensor + rod tool) URDF, `urdf/jk5.urdf`.
+pub fn jk5_path() -> PathBuf {
+    repo_root().join("urdf/jk5.urdf")
+}
+
 /// Deterministic xorshift random numbers.
 pub struct Rng(pub u64);
 impl Rng {
