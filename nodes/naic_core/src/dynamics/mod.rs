@@ -305,7 +305,7 @@ where
     // Column i: F = Ic_i S_i carried to every ancestor j, M[j,i] = S_jᵀ F.
     for i in 0..n {
         let jm = &model.joints[i];
-        let mut f = data.ycrb[i].mul_motion(&jm.s_mul(1.0));
+        let mut f = jm.inertia_s(&data.ycrb[i]);
         data.m[(i, i)] = jm.s_t_force(&f);
         for j in (0..i).rev() {
             f = data.li_m_i[j + 1].act_force(&f);
