@@ -4,7 +4,8 @@
 //! RNEA, CRBA, ABA and the `tip` frame Jacobian (including the forward
 //! kinematics it needs), over 1000 pre-generated random states per batch and
 //! the median over the batches. A 6-joint URDF runs the stack 6-DOF path
-//! (`Data<U6>`), any other the dynamic-size path.
+//! (`Data<U6>`), any other the dynamic-size path. `controller_step_ns` is one
+//! NAIC cycle of `naic_core::pipeline::controller::step` (see [`controller_step`]).
 use super::{CliError, CliResult};
 use naic_core::dynamics;
 use naic_core::model::{Data, FrameId, Model};
@@ -121,6 +122,81 @@ where
     Timings { rnea, crba, aba, jac }
 }
 
+/// Median ns of one NAIC controller cycle (`naic_core::pipeline::controller::step`,
+/// paper defaults, γ = 1e-6) in contact near the paper's start pose: 1000
+/// pre-generated measurements (q within ±0.2 rad of (0, −30°, 120°, 0, −90°, 0),
+/// q̇ within ±0.3 rad/s, the tool weight plus a 10 N push at the tip in the
+/// F/T reading), after the F/T tare; the state carries over between calls.
+fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
+    use naic_core::pipeline::control::force_law::Mode;
+    use naic_core::pipeline::controller::{self, Controller, ControllerParams, Reference};
+    use naic_core::pipeline::estimate;
+    use naic_core::pipeline::sense::RawMeasurements;
+    use nalgebra::{Rotation3, UnitQuaternion, Vector3, Vector6};
+    let params = ControllerParams::paper_defaults(model, Mode::Naic, 1e-6);
+    let ctl = Controller::new(model.clone(), params)
+        .map_err(|e| CliError::usage(format!("--urdf: the controller cannot run on this model: {e}")))?;
+    let (tip, sensor) = match (model.frame_id("tip"), model.frame_id("ft_sensor")) {
+        (Some(t), Some(s)) => (t, s),
+        _ => return Err(CliError::usage("--urdf: the controller needs frames 'tip' and 'ft_sensor'")),
+    };
+    let mut data = Data::<U6>::try_new(model).map_err(|e| CliError::failure(e.to_string()))?;
+    let d = std::f64::consts::PI / 180.0;
+    let q0 = [0.0, -30.0 * d, 120.0 * d, 0.0, -90.0 * d, 0.0];
+    let tool = ctl.params().tool;
+    let reading = |data: &mut Data<U6>, q: &[f64; 6], push: f64| -> [f64; 6] {
+        dynamics::forward_kinematics(model, data, &Vector6::from(*q));
+        let r = data.frame_se3(sensor).rot;
+        let weight = estimate::tool_weight_wrench(&tool, &r);
+        let f = r.transpose() * Vector3::new(0.0, 0.0, push);
+        let m = tool.tip.cross(&f);
+        (weight + Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)).into()
+    };
+    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    let inputs: Vec<([f64; 6], [f64; 6], [f64; 6])> = (0..STATES)
+        .map(|_| {
+            let q: [f64; 6] = std::array::from_fn(|i| q0[i] + rng.uniform(-0.2, 0.2));
+            let dq: [f64; 6] = std::array::from_fn(|_| rng.uniform(-0.3, 0.3));
+            (q, dq, reading(&mut data, &q, 10.0))
+        })
+        .collect();
+    dynamics::forward_kinematics(model, &mut data, &Vector6::from(q0));
+    let start = *data.frame_se3(tip);
+    let reference = Reference {
+        p_d: start.trans - Vector3::new(0.0, 0.0, 0.01),
+        r_d: UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(start.rot)),
+        v_d: Vector6::zeros(),
+        a_d: Vector6::zeros(),
+        f_d: 10.0,
+    };
+    let mut ws = ctl.workspace();
+    let mut s = ctl.initial_state();
+    let mut t = 0.0;
+    let free = reading(&mut data, &q0, 0.0);
+    for _ in 0..=ctl.params().tare_samples {
+        t += 1e-3;
+        let m = RawMeasurements { t, q: q0, dq: [0.0; 6], joints_stamp: t, wrench: free, wrench_stamp: t };
+        s = controller::step(&ctl, &s, &m, &reference, &mut ws).0;
+    }
+    let mut faults = 0usize;
+    let mut calls = 0usize;
+    let ns = time_batches(batches, |k| {
+        t += 1e-3;
+        let (q, dq, wrench) = inputs[k];
+        let m = RawMeasurements { t, q, dq, joints_stamp: t, wrench, wrench_stamp: t };
+        let (next, out) = controller::step(&ctl, &s, black_box(&m), &reference, &mut ws);
+        faults += out.status.fault.is_some() as usize;
+        calls += 1;
+        s = black_box(next);
+    });
+    if faults * 100 > calls {
+        return Err(CliError::failure(format!(
+            "controller benchmark: {faults} of {calls} cycles were rejected by the sense stage, so the timing would be of the safe hold"
+        )));
+    }
+    Ok(ns)
+}
+
 fn run_dynamics(a: DynamicsArgs) -> CliResult {
     if a.batches < 50 {
         return Err(CliError::usage(format!("--batches {} is too few; use at least 50", a.batches)));
@@ -141,9 +217,8 @@ fn run_dynamics(a: DynamicsArgs) -> CliResult {
     } else {
         (bench(&model, Data::new(&model), frame, a.batches, Dyn(model.nv())), "dynamic")
     };
-    // TODO(lead): time one NAIC cycle here once `naic_core::pipeline` exposes a controller step;
-    // until then controller_step_ns is null.
-    let controller_step_ns: Option<f64> = None;
+    // One NAIC cycle of the lead's pure controller step (6-joint models only).
+    let controller_step_ns = if model.nv() == 6 { Some(controller_step(&model, a.batches)?) } else { None };
     if a.json {
         let line = serde_json::json!({
             "rnea_ns": t.rnea,
@@ -163,7 +238,10 @@ fn run_dynamics(a: DynamicsArgs) -> CliResult {
         println!("  crba            {:8.1}", t.crba);
         println!("  aba             {:8.1}", t.aba);
         println!("  frame_jacobian  {:8.1}  ({})", t.jac, a.frame);
-        println!("  controller_step      n/a  (no controller step in naic_core::pipeline yet)");
+        match controller_step_ns {
+            Some(ns) => println!("  controller_step {ns:8.1}  (one NAIC cycle, naic_core::pipeline::controller::step)"),
+            None => println!("  controller_step      n/a  (needs a 6-joint model)"),
+        }
     }
     Ok(())
 }
