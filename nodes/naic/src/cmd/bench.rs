@@ -3,7 +3,10 @@
 //! `naic bench dynamics [--json] [--urdf PATH]`: median nanoseconds per call of
 //! RNEA, CRBA, ABA and the `tip` frame Jacobian (including the forward
 //! kinematics it needs), over 1000 pre-generated random states per batch and
-//! the median over the batches. A 6-joint URDF runs the stack 6-DOF path
+//! the median over the batches; the same method as the Pinocchio reference
+//! (`bench/reference/README.md`): q uniform in the joint range (±π where
+//! unlimited), q̇ in ± the velocity limit, q̈ in ±10, τ in ± the effort limit,
+//! 20 warm-up batches, 200 timed batches by default. A 6-joint URDF runs the stack 6-DOF path
 //! (`Data<U6>`), any other the dynamic-size path. `controller_step_ns` is one
 //! NAIC cycle of `naic_core::pipeline::controller::step` (see [`controller_step`]).
 use super::{CliError, CliResult};
@@ -33,7 +36,7 @@ pub struct DynamicsArgs {
     #[arg(long, default_value = "tip")]
     pub frame: String,
     /// Number of timed batches of 1000 calls (at least 50).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 200)]
     pub batches: usize,
 }
 
@@ -72,8 +75,8 @@ fn median(mut xs: Vec<f64>) -> f64 {
 
 /// Median over `batches` of the mean ns per call of `f` over all states.
 fn time_batches(batches: usize, mut f: impl FnMut(usize)) -> f64 {
-    for k in 0..STATES * 5 {
-        f(k % STATES); // warm-up
+    for k in 0..STATES * 20 {
+        f(k % STATES); // 20 warm-up batches
     }
     let per_batch: Vec<f64> = (0..batches)
         .map(|_| {
@@ -91,7 +94,6 @@ fn bench<D: Dim>(model: &Model, mut data: Data<D>, frame: FrameId, batches: usiz
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U6, D>,
 {
-    let n = model.nv();
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
     let lower = model.lower_limits();
     let upper = model.upper_limits();
@@ -103,10 +105,17 @@ where
         let hi = if upper[i].is_finite() { upper[i] } else { std::f64::consts::PI };
         rng.uniform(lo, hi)
     });
-    let vs = gen(&mut |_| rng.uniform(-2.0, 2.0));
-    let as_ = gen(&mut |_| rng.uniform(-5.0, 5.0));
-    let taus = gen(&mut |_| rng.uniform(-20.0, 20.0));
-    let _ = n;
+    let (vel, eff) = (model.velocity_limits(), model.effort_limits());
+    let finite_or = |x: f64, d: f64| if x.is_finite() && x > 0.0 { x } else { d };
+    let vs = gen(&mut |i| {
+        let l = finite_or(vel[i], std::f64::consts::PI);
+        rng.uniform(-l, l)
+    });
+    let as_ = gen(&mut |_| rng.uniform(-10.0, 10.0));
+    let taus = gen(&mut |i| {
+        let l = finite_or(eff[i], 100.0);
+        rng.uniform(-l, l)
+    });
     let rnea = time_batches(batches, |k| {
         black_box(dynamics::rnea(model, &mut data, black_box(&qs[k]), &vs[k], &as_[k]));
     });
