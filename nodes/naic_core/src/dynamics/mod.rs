@@ -59,7 +59,7 @@ use crate::model::{Data, FrameId, Model};
 use nalgebra::allocator::Allocator;
 use nalgebra::storage::Storage;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, Vector, Vector6, U6};
-use spatial::{Force, Motion, Se3};
+use spatial::{Force, Motion};
 
 #[inline(always)]
 fn check<D: Dim, S: Storage<f64, D>>(model: &Model, data: &Data<D>, x: &Vector<f64, D, S>, what: &str)
@@ -378,6 +378,3 @@ where
     }
     &data.ddq
 }
-
-#[allow(unused_imports)]
-use Se3 as _;
