@@ -66,6 +66,9 @@ fn six_dof_path_does_not_allocate() {
             std::hint::black_box(dynamics::frame_jacobian(&model, &mut data, &q, tip));
             std::hint::black_box(dynamics::frame_jdot_qdot(&model, &mut data, &q, &v, tip));
             std::hint::black_box(dynamics::cartesian_terms(&model, &mut data, &q, &v, tip, &damping).unwrap());
+            let j = *dynamics::frame_jacobian(&model, &mut data, &q, tip);
+            std::hint::black_box(dynamics::solve_damped(&j, &a, &damping));
+            std::hint::black_box(dynamics::solve_damped(&(j * 1e-3), &a, &damping)); // SVD branch
         }
         // near a singularity too (damped branch)
         std::hint::black_box(dynamics::cartesian_terms(&model, &mut data, &SVector::zeros(), &v, tip, &damping).unwrap());
