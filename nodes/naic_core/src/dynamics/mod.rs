@@ -297,21 +297,22 @@ where
         data.li_m_i[i] = jm.transform(q[i]);
         data.ycrb[i] = jm.inertia;
     }
-    // Composite inertias, leaf to root.
-    for i in (1..n).rev() {
-        let yc = data.li_m_i[i].act_inertia(&data.ycrb[i]);
-        data.ycrb[i - 1] = data.ycrb[i - 1].add(&yc);
-    }
-    // Column i: F = Ic_i S_i carried to every ancestor j, M[j,i] = S_jᵀ F.
-    for i in 0..n {
+    // Leaf to root: when body i is reached its composite inertia Ic_i is complete.
+    // Column i: F = Ic_i S_i carried to every ancestor j, M[j,i] = S_jᵀ F; then Ic_i joins its parent.
+    for i in (0..n).rev() {
         let jm = &model.joints[i];
-        let mut f = jm.inertia_s(&data.ycrb[i]);
+        let yc = data.ycrb[i];
+        let mut f = jm.inertia_s(&yc);
         data.m[(i, i)] = jm.s_t_force(&f);
         for j in (0..i).rev() {
             f = data.li_m_i[j + 1].act_force(&f);
             let mji = model.joints[j].s_t_force(&f);
             data.m[(j, i)] = mji;
             data.m[(i, j)] = mji;
+        }
+        if i > 0 {
+            let yp = data.li_m_i[i].act_inertia(&yc);
+            data.ycrb[i - 1] = data.ycrb[i - 1].add(&yp);
         }
     }
     &data.m
