@@ -237,3 +237,37 @@ def test_cartesian_terms_match_eq3_from_pinocchio(root, dump_bin, tmp_path):
         assert rel_err(c["h"], h) <= 1e-12 * cond * cond, f"h at state {i}"
         checked += 1
     assert checked >= 30
+
+
+def test_bench_dynamics_cli(root, naic_bin, tmp_path):
+    """`naic bench dynamics --json` prints one JSON line with every figure (no timing is asserted)."""
+    r = subprocess.run([str(naic_bin), "bench", "dynamics", "--json", "--batches", "50"],
+                       cwd=root, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 1
+    out = json.loads(lines[0])
+    for k in ("rnea_ns", "crba_ns", "aba_ns", "frame_jacobian_ns", "controller_step_ns"):
+        assert isinstance(out[k], float) and out[k] > 0, k
+    assert out["nv"] == 6 and out["path"] == "static6"
+    # a non-6-joint chain runs the dynamic-size path and has no controller figure
+    xml = subprocess.run([str(root / "target" / "release" / "examples" / "dump_dynamics"), "--test-urdf", "planar3"],
+                         capture_output=True, text=True)
+    if xml.returncode == 0:
+        planar = tmp_path / "planar3.urdf"
+        planar.write_text(xml.stdout)
+        r = subprocess.run([str(naic_bin), "bench", "dynamics", "--json", "--batches", "50", "--urdf", str(planar)],
+                           cwd=root, capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        out = json.loads(r.stdout)
+        assert out["path"] == "dynamic" and out["controller_step_ns"] is None
+    # bad input: clear message, exit 2, no panic
+    for args, words in ((["--urdf", str(tmp_path / "missing.urdf")], ["missing.urdf", "not found"]),
+                        (["--frame", "nowhere"], ["nowhere", "frames are"]),
+                        (["--batches", "3"], ["at least 50"])):
+        r = subprocess.run([str(naic_bin), "bench", "dynamics", "--json", *args],
+                           cwd=root, capture_output=True, text=True, timeout=300)
+        assert r.returncode == 2, (args, r.stderr)
+        assert "panicked" not in r.stderr
+        for w in words:
+            assert w in r.stderr, (args, r.stderr)
