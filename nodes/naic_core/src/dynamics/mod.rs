@@ -292,7 +292,10 @@ where
 {
     check(model, data, q, "q");
     let n = data.nv();
-    for i in 0..n {
+    // M does not depend on the first joint's position (everything is relative
+    // to body 0), so λM₀ is never needed: only joints 1.. are placed.
+    data.ycrb[0] = model.joints[0].inertia;
+    for i in 1..n {
         let jm = &model.joints[i];
         data.li_m_i[i] = jm.transform(q[i]);
         data.ycrb[i] = jm.inertia;
