@@ -12,6 +12,7 @@
 //! | [`crba`] | `M(q)`, full symmetric | Composite Rigid Body Algorithm (Featherstone §6.2, table 6.2) |
 //! | [`aba`] | `q̈ = M⁻¹(τ − C q̇ − G)` | Articulated Body Algorithm (Featherstone §7.3, table 7.1) |
 //! | [`cartesian_terms`] | `D`, `h` of the paper's eq. 3 | from `M`, `C q̇ + G`, `J`, `J̇ q̇` with a (damped) SVD inverse of `J` |
+//! | [`solve_damped`] | `J x = b` for a 6×6 `J` | the same damping rule ([`Damping`]); LU fast path away from singularities |
 //!
 //! All of them work in *local* joint frames like Pinocchio's default
 //! convention: body velocities, accelerations and forces are expressed in the

@@ -106,7 +106,7 @@ impl Se3 {
     /// Articulated inertia expressed in b → expressed in a (`aX*_b · I · bX_a`).
     ///
     /// With `I = [A B; Bᵀ C]` (force = I · motion, both (linear, angular)),
-    /// rotation R and translation P = [p]×: A' = R A Rᵀ, B' = R B Rᵀ, C' = R C Rᵀ, then
+    /// rotation R and translation P = `[p]×`: A' = R A Rᵀ, B' = R B Rᵀ, C' = R C Rᵀ, then
     /// A'' = A', B'' = B' − A' P, C'' = C' − B'ᵀ P + P B' − P A' P.
     #[inline(always)]
     pub fn act_articulated(&self, ia: &ArticulatedInertia) -> ArticulatedInertia {
