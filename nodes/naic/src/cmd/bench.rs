@@ -1,4 +1,4 @@
-//! `naic bench …`: speed benchmarks that print JSON.
+//! `naic bench …`: speed benchmarks that print JSON (`dynamics` here, `chain` in `bench_chain.rs`).
 //!
 //! `naic bench dynamics [--json] [--urdf PATH]`: median nanoseconds per call of
 //! RNEA, CRBA, ABA and the `tip` frame Jacobian (including the forward
@@ -20,8 +20,10 @@ use std::time::Instant;
 
 #[derive(clap::Subcommand)]
 pub enum BenchCmd {
-    /// Median ns per call of the dynamics algorithms (and of one NAIC controller step, when available).
+    /// Median ns per call of the dynamics algorithms and of one NAIC controller step.
     Dynamics(DynamicsArgs),
+    /// Latency of the 1 kHz DDS chain across the three node processes, Rust vs rclpy.
+    Chain(super::bench_chain::ChainArgs),
 }
 
 #[derive(clap::Args)]
@@ -43,6 +45,7 @@ pub struct DynamicsArgs {
 pub fn run(c: BenchCmd) -> CliResult {
     match c {
         BenchCmd::Dynamics(a) => run_dynamics(a),
+        BenchCmd::Chain(a) => super::bench_chain::run(a),
     }
 }
 

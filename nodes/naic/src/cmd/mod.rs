@@ -1,7 +1,9 @@
 //! One module per subcommand.
 
 pub mod bench;
+pub mod bench_chain;
 pub mod friction;
+pub mod launch;
 pub mod sim;
 
 /// A command failure: a message for the user and whether it was their input.
