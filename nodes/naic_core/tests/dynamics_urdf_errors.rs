@@ -214,3 +214,38 @@ fn static_workspace_needs_matching_dof() {
     assert_eq!(Data::new(&planar).nv(), 3);
     assert_eq!(Data::<nalgebra::U3>::try_new(&planar).unwrap().nv(), 3);
 }
+
+#[test]
+fn truncated_or_mangled_urdfs_never_panic() {
+    let text = std::fs::read_to_string(jk5_path()).unwrap();
+    let mut cases: Vec<String> = Vec::new();
+    let cuts: Vec<usize> = (0..text.len()).step_by(13).filter(|&i| text.is_char_boundary(i)).collect();
+    for &i in &cuts {
+        cases.push(text[..i].to_string());
+        cases.push(format!("{}{}", &text[..i], &text[(i + 7).min(text.len())..]));
+    }
+    let mut rng = Rng(12);
+    for _ in 0..300 {
+        let mut bytes = text.clone().into_bytes();
+        for _ in 0..3 {
+            let k = rng.uniform(0.0, bytes.len() as f64) as usize;
+            bytes[k] = b"<>/\"= -.0e9xNaN"[rng.uniform(0.0, 15.0) as usize];
+        }
+        if let Ok(s) = String::from_utf8(bytes) {
+            cases.push(s);
+        }
+    }
+    let mut errors = 0;
+    for c in &cases {
+        let r = std::panic::catch_unwind(|| Model::from_urdf_str(c));
+        match r {
+            Err(_) => panic!("Model::from_urdf_str panicked on:\n{c}"),
+            Ok(Err(e)) => {
+                errors += 1;
+                assert!(!e.to_string().is_empty());
+            }
+            Ok(Ok(_)) => {}
+        }
+    }
+    assert!(errors > cases.len() / 2, "most mangled files should be rejected ({errors} of {})", cases.len());
+}
