@@ -11,7 +11,7 @@ use naic_core::friction::FrictionModel;
 use naic_core::model::Model;
 use naic_core::pipeline::actuate::ActuateParams;
 use naic_core::pipeline::control::force_law::{ForceLawParams, Mode, WeightBounds};
-use naic_core::pipeline::control::{ContactDetect, ControlParams, ForceAxis, ImpedanceParams};
+use naic_core::pipeline::control::{ContactDetect, ControlParams, ForceAxis, ForceLimit, ImpedanceParams};
 use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Workspace};
 use naic_core::pipeline::estimate::ToolParams;
 use naic_core::pipeline::{self, Pipeline, PipelineState};
@@ -32,6 +32,8 @@ pub struct LoopSettings {
     /// Contact detection thresholds [N].
     pub contact_enter_n: f64,
     pub contact_exit_n: f64,
+    /// Safety force limit [N]: above it the controller retracts (`inf` disables).
+    pub force_limit_n: f64,
 }
 
 impl Default for LoopSettings {
@@ -43,6 +45,7 @@ impl Default for LoopSettings {
             tare_samples: 100,
             contact_enter_n: 1.0,
             contact_exit_n: 0.2,
+            force_limit_n: 50.0,
         }
     }
 }
@@ -110,6 +113,7 @@ impl PipelineController {
                     sigma_margin: settings.sigma_margin,
                 },
                 contact: ContactDetect { enter_n: settings.contact_enter_n, exit_n: settings.contact_exit_n, exit_cycles: 0 },
+                force_limit: ForceLimit { limit_n: settings.force_limit_n, retract_speed: 0.02, retract_cycles: 500 },
             },
             hold_damping: [5.0; 6],
             damping: Damping::default(),
