@@ -98,3 +98,17 @@ def test_seeds_write_a_summary_over_seeds(naic_bin, root, tmp_path):
     assert a != b  # different noise realisations
     r = run(naic_bin, "sim", "--seeds", "0", "--out", tmp_path / "z", cwd=root)
     assert r.returncode == 2 and "--seeds" in r.stderr
+
+
+def test_a_urdf_that_is_not_the_jk5_is_refused_cleanly(naic_bin, root, tmp_path):
+    urdf = tmp_path / "one.urdf"
+    urdf.write_text(
+        '<robot name="one"><link name="base_link"/><link name="l1">'
+        '<inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        '<joint name="j1" type="revolute"><parent link="base_link"/><child link="l1"/><axis xyz="0 0 1"/>'
+        '<limit lower="-3" upper="3" effort="10" velocity="1"/></joint></robot>'
+    )
+    r = run(naic_bin, "sim", "--urdf", urdf, "--no-friction", "--out", tmp_path / "x", cwd=root)
+    assert r.returncode == 2, r.stderr
+    assert "--urdf" in r.stderr and "6-joint" in r.stderr
+    assert "panicked" not in r.stderr

@@ -257,6 +257,14 @@ fn acrylic() -> Material {
 /// Build a scenario preset by name with the given robot model (for the
 /// initial tip pose and inverse kinematics).
 pub fn preset(name: &str, model: &Model) -> Result<Scenario, String> {
+    if model.nv() != 6 {
+        return Err(format!("the scenarios need the 6-joint JK5; this URDF has {} moving joints", model.nv()));
+    }
+    for frame in ["tip", "ft_sensor"] {
+        if model.frame_id(frame).is_none() {
+            return Err(format!("the URDF has no frame '{frame}' (add a link named '{frame}', see urdf/jk5.urdf)"));
+        }
+    }
     let q0_flat = deg(Q0_FLAT_DEG);
     let (_p0, r0) = tip_pose(model, &q0_flat);
     let k_paper = Material { k_e: 2000.0, b_e: 0.0, mu: 0.0 };

@@ -313,7 +313,7 @@ pub fn run(a: SimArgs) -> CliResult {
     };
     let model = load_model(a.urdf.as_deref())?;
     let friction = if a.no_friction { None } else { Some(load_friction(a.friction.as_deref())?) };
-    let mut s = scenario::preset(&name, &model).map_err(CliError::failure)?;
+    let mut s = scenario::preset(&name, &model).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
     if let Some(seed) = a.seed {
         s.seed = seed;
     }
