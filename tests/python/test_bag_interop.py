@@ -267,3 +267,29 @@ def test_naic_reads_bags_written_by_rosbags_and_mcap_ros2(naic_bin, tmp_path):
         else:
             rows = list(csv.DictReader(open(d / "clock.csv")))
             assert [r["clock_s"] for r in rows] == [f"{i}.000000007" for i in range(n)]
+
+
+def test_naic_plot_draws_the_force_tracking_figure(sample, naic_bin, root, tmp_path):
+    import xml.etree.ElementTree as ET
+
+    bag, expected = sample
+    r = subprocess.run([str(naic_bin), "plot", str(bag), "--out", str(tmp_path)], cwd=root,
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    svg = tmp_path / "sample.svg"
+    tree = ET.parse(svg)  # well-formed
+    text = " ".join(t.text or "" for t in tree.iter())
+    for title in ["Contact force", "Height of frame 'tip'", "Damping b_d", "NAIC weights", "eq-15 bound", "Joint torque commands"]:
+        assert title in text, title
+    lines = [e for e in tree.iter() if e.tag.endswith("polyline") or e.tag.endswith("path")]
+    assert len(lines) >= 10
+    # a bag without naic topics is a clear usage error
+    other = tmp_path / "other.mcap"
+    from mcap_ros2.writer import Writer as McapRos2Writer
+    with open(other, "wb") as f:
+        w = McapRos2Writer(f)
+        s = w.register_msgdef("std_msgs/msg/String", "string data\n")
+        w.write_message("/chatter", s, {"data": "hi"}, log_time=1, publish_time=1)
+        w.finish()
+    r = subprocess.run([str(naic_bin), "plot", str(other), "--out", str(tmp_path)], capture_output=True, text=True)
+    assert r.returncode == 2 and "/chatter" in r.stderr, r.stderr

@@ -30,6 +30,8 @@ enum Command {
     Record(cmd::record::RecordArgs),
     /// Publish a bag's messages over DDS with their original timing.
     Replay(cmd::record::ReplayArgs),
+    /// Force-tracking figures (SVG) of any recording.
+    Plot(cmd::plot::PlotArgs),
     /// Run a paper scenario in the in-process simulator (default: flat, all controllers).
     Sim(cmd::sim::SimArgs),
     /// Start the three ROS 2 nodes (driver, controller, friction compensation) as processes.
@@ -47,6 +49,7 @@ fn main() {
         Command::Bag(c) => cmd::bag::run(c),
         Command::Record(a) => cmd::record::record(a),
         Command::Replay(a) => cmd::record::replay(a),
+        Command::Plot(a) => cmd::plot::run(a),
         Command::Launch(a) => cmd::launch::run(a),
     };
     if let Err(e) = result {

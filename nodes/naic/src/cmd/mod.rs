@@ -5,6 +5,7 @@ pub mod bench;
 pub mod bench_chain;
 pub mod friction;
 pub mod launch;
+pub mod plot;
 pub mod record;
 pub mod sim;
 
