@@ -533,9 +533,6 @@ print(n, dt)
 /// measured force = the controller's estimate) and `/clock`. Fields a simulation record does
 /// not carry are NaN (`k_d`, `phi`); `gamma_clipped` is derived as γ ≥ its eq-15 bound.
 /// `force_axis` is the axis index 0..2 (x, y, z) of the scenario's force direction.
-// Called by `naic sim`'s output writer once it is wired there (cmd/sim.rs is the
-// simulator's file); tested below.
-#[allow(dead_code)]
 pub fn write_sim_run(
     path: &Path,
     controller: &str,
