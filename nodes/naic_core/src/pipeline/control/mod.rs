@@ -220,6 +220,12 @@ pub struct TaskOutputs {
     pub retracting: bool,
 }
 
+/// Eq 6 per axis with stiffness `k` and no force target:
+/// `V_i = ẍ_d,i + (b_d,i ė_i + k_i e_i − F_e,i) / m_d,i`.
+fn eq6(imp: &ImpedanceParams, k: &[f64; 6], u: &TaskInputs) -> Vector6<f64> {
+    Vector6::from_fn(|i, _| u.a_d[i] + (imp.b_d[i] * u.e_dot[i] + k[i] * u.e[i] - u.f_e[i]) / imp.m_d[i])
+}
+
 /// One cycle of the control stage (contact detection + eq 6/8 per axis).
 /// Pure: `(params, state, inputs) -> (state, outputs)`.
 pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
@@ -237,10 +243,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
         next.retract_left -= 1;
         next.phase = Phase::Free;
         let imp = &p.impedance;
-        let mut v = Vector6::zeros();
-        for i in 0..6 {
-            v[i] = u.a_d[i] + (imp.b_d[i] * u.e_dot[i] + imp.k_free[i] * u.e[i] - u.f_e[i]) / imp.m_d[i];
-        }
+        let mut v = eq6(imp, &imp.k_free, u);
         // Velocity servo along n to −retract_speed, with the free-space damping.
         let xdot_n = sign * u.x_dot[ax];
         v[ax] = sign * imp.b_d[ax] * (-p.force_limit.retract_speed - xdot_n) / imp.m_d[ax];
@@ -269,10 +272,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     let imp = &p.impedance;
     let contact = next.phase == Phase::Contact;
     let k = if contact { &imp.k_contact } else { &imp.k_free };
-    let mut v = Vector6::zeros();
-    for i in 0..6 {
-        v[i] = u.a_d[i] + (imp.b_d[i] * u.e_dot[i] + k[i] * u.e[i] - u.f_e[i]) / imp.m_d[i];
-    }
+    let v = eq6(imp, k, u);
     let mut out = TaskOutputs {
         v,
         f_ext,
