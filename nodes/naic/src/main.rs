@@ -25,6 +25,8 @@ enum Command {
     Bench(cmd::bench::BenchCmd),
     /// Run a paper scenario in the in-process simulator (default: flat, all controllers).
     Sim(cmd::sim::SimArgs),
+    /// Explain measured data: where the nominal model is wrong, which extension fixes it, and by how much.
+    Explain(cmd::explain::ExplainArgs),
 }
 
 fn main() {
@@ -35,6 +37,7 @@ fn main() {
         Command::Friction(c) => cmd::friction::run(c),
         Command::Bench(c) => cmd::bench::run(c),
         Command::Sim(a) => cmd::sim::run(a),
+        Command::Explain(a) => cmd::explain::run(a),
     };
     if let Err(e) = result {
         eprintln!("naic: error: {e}");

@@ -1,0 +1,341 @@
+//! # naic_explain — find what the model gets wrong in measured data (issue 6)
+//!
+//! Given measured data of the JK5 (an MCAP bag, a CSV time series, or steady-state
+//! friction points), [`explain`] compares it with the nominal model — rigid body from
+//! `urdf/jk5.urdf` plus symmetric friction (eq. 5) whose levels are calibrated on the
+//! training part — and searches a catalogue of candidate extensions
+//! ([`catalogue::Effect`]). Each candidate is fitted on training folds and scored on
+//! held-out time blocks; a significance rule keeps noise from becoming a finding
+//! ([`analysis`]). The result is a [`report::Report`] (`report.json`, `report.md` with
+//! SVG plots) and an extended friction parameter file that the friction loader reads.
+//!
+//! Modules: [`input`] (reading and validating the three kinds), [`prepare`]
+//! (Savitzky–Golay velocity/acceleration, rigid-body torques), [`catalogue`],
+//! [`analysis`] (folds, fits, selection), [`report`], [`generate`] (seeded synthetic
+//! "measured" data with hidden effects, for tests and benchmarks).
+
+pub mod analysis;
+pub mod catalogue;
+pub mod generate;
+pub mod input;
+pub mod plots;
+pub mod prepare;
+pub mod report;
+
+use analysis::{AnalysisOptions, JointResult, JointSamples, NominalShape};
+use input::{Kind, Measured, NJ};
+use naic_core::friction::{FrictionData, FrictionParams, JointFriction};
+use naic_core::model::Model;
+use prepare::{PrepareOptions, Prepared};
+use std::path::{Path, PathBuf};
+
+/// Errors of the explain tool. `Input` = the user's data or files (exit 2), `Model` = the robot model.
+#[derive(Debug, thiserror::Error)]
+pub enum ExplainError {
+    #[error("{0}")]
+    Input(String),
+    #[error("robot model: {0}")]
+    Model(String),
+    #[error("{0}")]
+    Io(String),
+}
+
+impl ExplainError {
+    pub fn input(s: impl Into<String>) -> Self {
+        Self::Input(s.into())
+    }
+    pub fn model(s: impl Into<String>) -> Self {
+        Self::Model(s.into())
+    }
+    pub fn is_input(&self) -> bool {
+        matches!(self, Self::Input(_))
+    }
+}
+
+/// Everything [`explain`] needs.
+#[derive(Clone, Debug)]
+pub struct ExplainOptions {
+    /// The robot model (URDF) used for the rigid-body part.
+    pub urdf: PathBuf,
+    /// Frame where a payload would sit.
+    pub tip_frame: String,
+    /// Nominal friction parameter file; its Stribeck shape (symmetrised) is kept, its levels recalibrated.
+    pub nominal: Option<PathBuf>,
+    pub prepare: PrepareOptions,
+    pub analysis: AnalysisOptions,
+    /// Held-out block length for time series [s] (raised for long files to keep ≤ 400 blocks).
+    pub block_s: f64,
+    /// Worker threads (joints are analysed in parallel).
+    pub threads: usize,
+}
+
+impl Default for ExplainOptions {
+    fn default() -> Self {
+        Self {
+            urdf: PathBuf::from("urdf/jk5.urdf"),
+            tip_frame: "tip".into(),
+            nominal: None,
+            prepare: PrepareOptions::default(),
+            analysis: AnalysisOptions::default(),
+            block_s: 2.0,
+            threads: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(NJ),
+        }
+    }
+}
+
+/// The analysed data and its results (input to [`report`]).
+#[derive(Clone, Debug)]
+pub struct Explained {
+    pub path: String,
+    pub kind: Kind,
+    /// Raw samples (time series) or points.
+    pub samples: usize,
+    pub joints: Vec<JointSamples>,
+    pub results: Vec<JointResult>,
+    pub shapes: Vec<NominalShape>,
+    pub notes: Vec<String>,
+    /// Analysis rate, filter window etc. (time series).
+    pub method: Vec<(String, String)>,
+    pub nominal_source: String,
+}
+
+/// Nominal Stribeck shape per joint from a params file (symmetrised by averaging the directions).
+pub fn nominal_shapes(params: Option<&FrictionParams>, n: usize) -> Vec<NominalShape> {
+    let mut out = vec![NominalShape::default(); n];
+    if let Some(p) = params {
+        for jp in &p.joints {
+            if jp.joint == 0 || jp.joint > n {
+                continue;
+            }
+            let (fa, fb, qs) = match jp.friction {
+                JointFriction::CoulombViscous { .. } => continue,
+                JointFriction::Stribeck(s) => (s.f_a, s.f_b, s.q_s),
+                JointFriction::StribeckPerDirection { positive, negative } => (
+                    0.5 * (positive.f_a + negative.f_a),
+                    0.5 * (positive.f_b + negative.f_b),
+                    0.5 * (positive.q_s + negative.q_s),
+                ),
+            };
+            if fa > 0.0 && qs > 0.0 {
+                out[jp.joint - 1] = NominalShape { r0: fb / fa - 1.0, q_s0: qs };
+            }
+        }
+    }
+    out
+}
+
+/// Per-joint samples from prepared time-series data.
+pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Vec<JointSamples> {
+    let t0 = p.t.first().copied().unwrap_or(0.0);
+    let t1 = p.t.last().copied().unwrap_or(1.0);
+    let dur = (t1 - t0).max(1e-9);
+    let block = block_s.max(dur / 400.0);
+    let corr = (p.window_samples as f64 / p.stride as f64).max(1.0);
+    (0..NJ)
+        .map(|j| {
+            let mut js = JointSamples { joint: j + 1, corr_len: corr, time_series: true, ..Default::default() };
+            for i in 0..p.len() {
+                if !p.keep[i][j] {
+                    continue;
+                }
+                js.y.push(p.tau[i][j] - p.tau_rb[i][j]);
+                js.v.push(p.v[i][j]);
+                js.s.push(p.regime[i][j] as f64);
+                js.q.push(p.q[i][j]);
+                js.t.push(p.t[i]);
+                js.tn.push((p.t[i] - t0) / dur - 0.5);
+                js.a.push(p.a[i][j]);
+                js.dtau.push(p.dtau[i][j]);
+                js.payload.push(p.payload[i][j]);
+                js.fold.push((((p.t[i] - t0) / block).floor() as usize % folds) as u8);
+            }
+            js
+        })
+        .collect()
+}
+
+/// Per-joint samples from friction points (interleaved velocity folds, see [`analysis`]).
+pub fn joint_samples_from_points(d: &FrictionData, folds: usize) -> Vec<JointSamples> {
+    d.joints()
+        .into_iter()
+        .map(|joint| {
+            let pts: Vec<_> = d.joint_samples(joint).collect();
+            let n = pts.len();
+            let mut js = JointSamples { joint, corr_len: 1.0, time_series: false, ..Default::default() };
+            for (r, s) in pts.iter().enumerate() {
+                js.y.push(s.tau);
+                js.v.push(s.qdot);
+                js.s.push(if s.qdot > 0.0 { 1.0 } else if s.qdot < 0.0 { -1.0 } else { 0.0 });
+                js.q.push(0.0);
+                js.t.push(r as f64);
+                js.tn.push(r as f64 / n.max(2) as f64 - 0.5);
+                js.a.push(0.0);
+                js.dtau.push(0.0);
+                js.payload.push(0.0);
+                js.fold.push(0);
+            }
+            // interleaved velocity blocks per direction
+            for dir in [-1.0, 0.0, 1.0] {
+                let mut idx: Vec<usize> = (0..n).filter(|&i| js.s[i] == dir).collect();
+                idx.sort_by(|&a, &b| js.v[a].abs().total_cmp(&js.v[b].abs()));
+                for (r, &i) in idx.iter().enumerate() {
+                    js.fold[i] = (r % folds) as u8;
+                }
+            }
+            js
+        })
+        .collect()
+}
+
+/// Runs the analysis on every joint (in parallel), calling `progress(fraction, what)`.
+pub fn analyse_all(
+    joints: &[JointSamples],
+    shapes: &[NominalShape],
+    o: &AnalysisOptions,
+    threads: usize,
+    progress: &(dyn Fn(f64, &str) + Sync),
+) -> Vec<JointResult> {
+    let n = joints.len();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let results: std::sync::Mutex<Vec<Option<JointResult>>> = std::sync::Mutex::new(vec![None; n]);
+    std::thread::scope(|sc| {
+        for _ in 0..threads.clamp(1, n.max(1)) {
+            sc.spawn(|| loop {
+                let k = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                if k >= n {
+                    break;
+                }
+                let js = &joints[k];
+                let sh = shapes.get(js.joint - 1).copied().unwrap_or_default();
+                let r = analysis::analyse_joint(js, &sh, o);
+                if let Ok(mut g) = results.lock() {
+                    g[k] = Some(r);
+                }
+                let d = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+                progress(d as f64 / n as f64, &format!("joint {} analysed", js.joint));
+            });
+        }
+    });
+    results.into_inner().unwrap_or_default().into_iter().flatten().collect()
+}
+
+/// Analyses a time series that is already in memory.
+pub fn explain_series(
+    name: &str,
+    kind: Kind,
+    ts: &input::TimeSeries,
+    opts: &ExplainOptions,
+    progress: &(dyn Fn(f64, &str) + Sync),
+) -> Result<Explained, ExplainError> {
+    let model = Model::from_urdf_file(&opts.urdf).map_err(|e| ExplainError::model(format!("{}: {e}", opts.urdf.display())))?;
+    if model.nv() != NJ {
+        return Err(ExplainError::model(format!("{} has {} joints; the time-series analysis needs 6", opts.urdf.display(), model.nv())));
+    }
+    let tip = model.frame_id(&opts.tip_frame).ok_or_else(|| {
+        ExplainError::model(format!("{} has no frame `{}`; pass the tool frame", opts.urdf.display(), opts.tip_frame))
+    })?;
+    let (params, nominal_source) = load_nominal(opts)?;
+    let shapes = nominal_shapes(params.as_ref(), NJ);
+    let prep = prepare::prepare(ts, &model, tip, &opts.prepare, &mut |f| progress(0.3 * f, "estimating velocity, acceleration, rigid-body torque"))?;
+    let joints = joint_samples_from_series(&prep, opts.block_s, opts.analysis.folds);
+    for js in &joints {
+        if js.len() < 50 {
+            return Err(ExplainError::input(format!(
+                "{name}: joint {} has only {} usable samples (moving or resting steadily); record longer or move the joint",
+                js.joint,
+                js.len()
+            )));
+        }
+    }
+    let results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(0.3 + 0.7 * f, w));
+    let mut notes = Vec::new();
+    if ts.wrench.is_some() {
+        notes.push(
+            "The data has wrench columns; the contact effects (contact_nonlinearity, contact_damping, ft_bias, tool_gravity) \
+             are not implemented yet, so the wrench was not analysed."
+                .to_string(),
+        );
+    }
+    if !ts.ignored_columns.is_empty() {
+        notes.push(format!("Columns ignored: {}.", ts.ignored_columns.join(", ")));
+    }
+    let method = vec![
+        ("velocity/acceleration".into(), format!(
+            "Savitzky–Golay, cubic, window {} samples ({:.0} ms), derivatives of q; torque smoothed by the same filter",
+            prep.window_samples,
+            prep.window_samples as f64 * prep.dt_raw * 1e3
+        )),
+        ("analysis rate".into(), format!("{:.1} Hz (every {} raw samples, raw dt {:.4} ms)", 1.0 / prep.dt(), prep.stride, prep.dt_raw * 1e3)),
+        ("held-out".into(), format!("{} folds of interleaved time blocks of ≥ {} s", opts.analysis.folds, opts.block_s)),
+        ("samples used".into(), "steady motion and rest; samples within a filter window of a direction change are left out".into()),
+    ];
+    Ok(Explained {
+        path: name.to_string(),
+        kind,
+        samples: ts.len(),
+        joints,
+        results,
+        shapes,
+        notes,
+        method,
+        nominal_source,
+    })
+}
+
+fn load_nominal(opts: &ExplainOptions) -> Result<(Option<FrictionParams>, String), ExplainError> {
+    match &opts.nominal {
+        Some(p) => {
+            let params = FrictionParams::from_yaml_file(p).map_err(|e| ExplainError::input(format!("--nominal: {e}")))?;
+            Ok((Some(params), format!("Stribeck shape (f_b/f_a, q_s; directions averaged) from {}; levels f_a, f_v calibrated on the training folds", p.display())))
+        }
+        None => Ok((None, "eq. 5 symmetric with a flat shape (f_b = f_a, no --nominal given); levels f_a, f_v calibrated on the training folds".into())),
+    }
+}
+
+/// Analyses steady-state friction points.
+pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progress: &(dyn Fn(f64, &str) + Sync)) -> Result<Explained, ExplainError> {
+    let (params, nominal_source) = load_nominal(opts)?;
+    let nmax = d.joints().into_iter().max().unwrap_or(1);
+    let shapes = nominal_shapes(params.as_ref(), nmax);
+    let joints = joint_samples_from_points(d, opts.analysis.folds);
+    for js in &joints {
+        if js.len() < 2 * opts.analysis.folds {
+            return Err(ExplainError::input(format!(
+                "{name}: joint {} has only {} points; the held-out scheme needs at least {} (two per fold)",
+                js.joint,
+                js.len(),
+                2 * opts.analysis.folds
+            )));
+        }
+    }
+    let results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, progress);
+    let method = vec![
+        ("held-out".into(), format!(
+            "{} folds of interleaved velocity blocks: per joint and direction, points sorted by speed, point r in fold r mod {}",
+            opts.analysis.folds, opts.analysis.folds
+        )),
+        ("samples used".into(), "every point; points at exactly 0 rad/s count as rest (friction law gives 0 there)".into()),
+    ];
+    Ok(Explained {
+        path: name.to_string(),
+        kind: Kind::FrictionPoints,
+        samples: d.samples.len(),
+        joints,
+        results,
+        shapes,
+        notes: vec![],
+        method,
+        nominal_source,
+    })
+}
+
+/// Reads `path` (any kind) and analyses it.
+pub fn explain(path: &Path, opts: &ExplainOptions, progress: &(dyn Fn(f64, &str) + Sync)) -> Result<Explained, ExplainError> {
+    let (kind, m) = input::load(path)?;
+    let name = path.display().to_string();
+    match m {
+        Measured::Series(ts) => explain_series(&name, kind, &ts, opts, progress),
+        Measured::Points(d) => explain_points(&name, &d, opts, progress),
+    }
+}
