@@ -217,7 +217,42 @@ pub fn analyse_all(
             });
         }
     });
-    results.into_inner().unwrap_or_default().into_iter().flatten().collect()
+    let mut results: Vec<JointResult> = results.into_inner().unwrap_or_default().into_iter().flatten().collect();
+    // A payload is one mass: keep it only if it is significant on ≥ 2 joints with
+    // consistent positive mass estimates (max/min < 2); otherwise re-analyse the joints
+    // that selected it without the payload candidate.
+    let with_payload: Vec<usize> = results
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.final_eval.full_structure.has(catalogue::Effect::Payload))
+        .map(|(k, _)| k)
+        .collect();
+    if !with_payload.is_empty() {
+        let masses: Vec<f64> = with_payload
+            .iter()
+            .filter_map(|&k| results[k].final_eval.coef(analysis::Col::Payload))
+            .collect();
+        let lo = masses.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = masses.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let consistent = masses.len() >= 2 && lo > 0.0 && hi / lo < 2.0;
+        if !consistent {
+            let mut o2 = o.clone();
+            o2.effects.retain(|e| *e != catalogue::Effect::Payload);
+            for k in with_payload {
+                let js = &joints[k];
+                let sh = shapes.get(js.joint - 1).copied().unwrap_or_default();
+                let mut r = analysis::analyse_joint(js, &sh, &o2);
+                // keep the payload's score as a rejected candidate for the report
+                r.rejected.extend(results[k].steps.iter().filter(|c| c.effect == catalogue::Effect::Payload).map(|c| {
+                    let mut c = c.clone();
+                    c.significant = false;
+                    c
+                }));
+                results[k] = r;
+            }
+        }
+    }
+    results
 }
 
 /// Analyses a time series that is already in memory.
