@@ -221,6 +221,41 @@ impl JointSamples {
         }
     }
 
+    /// The samples with `keep[i]`; friction-point folds are re-interleaved.
+    pub fn filtered(&self, keep: &[bool], folds: usize) -> JointSamples {
+        let pick = |v: &Vec<f64>| -> Vec<f64> { v.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect() };
+        let mut out = JointSamples {
+            joint: self.joint,
+            y: pick(&self.y),
+            v: pick(&self.v),
+            s: pick(&self.s),
+            q: pick(&self.q),
+            t: pick(&self.t),
+            tn: pick(&self.tn),
+            a: pick(&self.a),
+            dtau: pick(&self.dtau),
+            payload: pick(&self.payload),
+            fold: self.fold.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect(),
+            corr_len: self.corr_len,
+            time_series: self.time_series,
+        };
+        if !self.time_series {
+            out.assign_velocity_folds(folds);
+        }
+        out
+    }
+
+    /// Interleaved velocity folds: per direction, sorted by speed, rank r → fold r mod K.
+    pub fn assign_velocity_folds(&mut self, folds: usize) {
+        for dir in [-1.0, 0.0, 1.0] {
+            let mut idx: Vec<usize> = (0..self.len()).filter(|&i| self.s[i] == dir).collect();
+            idx.sort_by(|&a, &b| self.v[a].abs().total_cmp(&self.v[b].abs()));
+            for (r, &i) in idx.iter().enumerate() {
+                self.fold[i] = (r % folds) as u8;
+            }
+        }
+    }
+
     /// Whether an effect can apply to these samples.
     pub fn applicable(&self, e: Effect) -> bool {
         if self.time_series {

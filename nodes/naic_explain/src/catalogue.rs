@@ -71,7 +71,7 @@ impl Effect {
 
     /// Whether the effect can be seen in steady-state friction points (no time, position, acceleration).
     pub fn applies_to_points(self) -> bool {
-        matches!(self, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::TorqueOffset | Effect::ViscousNonlinearity)
+        matches!(self, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::ViscousNonlinearity)
     }
 
     /// Extra parameters it adds (amplitudes + scanned shape parameters), for the information criterion.

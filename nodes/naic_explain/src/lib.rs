@@ -97,6 +97,10 @@ pub struct Explained {
     /// Analysis rate, filter window etc. (time series).
     pub method: Vec<(String, String)>,
     pub nominal_source: String,
+    /// Friction points left out as outlier segments (friction-points kind only).
+    pub outliers: Vec<Outlier>,
+    /// Friction points: (joint, held-out RMSE, + , −) of the extended model before outliers were left out.
+    pub first_pass: Vec<(usize, f64, f64, f64)>,
 }
 
 /// Nominal Stribeck shape per joint from a params file (symmetrised by averaging the directions).
@@ -155,11 +159,13 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
 }
 
 /// Per-joint samples from friction points (interleaved velocity folds, see [`analysis`]).
-pub fn joint_samples_from_points(d: &FrictionData, folds: usize) -> Vec<JointSamples> {
+/// Points slower than `v_min` (pre-sliding / stiction: the joint did not slide steadily,
+/// so no friction law of eq. 4/5 applies) are left out.
+pub fn joint_samples_from_points(d: &FrictionData, folds: usize, v_min: f64) -> Vec<JointSamples> {
     d.joints()
         .into_iter()
         .map(|joint| {
-            let pts: Vec<_> = d.joint_samples(joint).collect();
+            let pts: Vec<_> = d.joint_samples(joint).filter(|s| s.qdot.abs() >= v_min).collect();
             let n = pts.len();
             let mut js = JointSamples { joint, corr_len: 1.0, time_series: false, ..Default::default() };
             for (r, s) in pts.iter().enumerate() {
@@ -167,21 +173,14 @@ pub fn joint_samples_from_points(d: &FrictionData, folds: usize) -> Vec<JointSam
                 js.v.push(s.qdot);
                 js.s.push(if s.qdot > 0.0 { 1.0 } else if s.qdot < 0.0 { -1.0 } else { 0.0 });
                 js.q.push(0.0);
-                js.t.push(r as f64);
+                js.t.push(s.line as f64);
                 js.tn.push(r as f64 / n.max(2) as f64 - 0.5);
                 js.a.push(0.0);
                 js.dtau.push(0.0);
                 js.payload.push(0.0);
                 js.fold.push(0);
             }
-            // interleaved velocity blocks per direction
-            for dir in [-1.0, 0.0, 1.0] {
-                let mut idx: Vec<usize> = (0..n).filter(|&i| js.s[i] == dir).collect();
-                idx.sort_by(|&a, &b| js.v[a].abs().total_cmp(&js.v[b].abs()));
-                for (r, &i) in idx.iter().enumerate() {
-                    js.fold[i] = (r % folds) as u8;
-                }
-            }
+            js.assign_velocity_folds(folds);
             js
         })
         .collect()
@@ -315,6 +314,8 @@ pub fn explain_series(
         notes,
         method,
         nominal_source,
+        outliers: vec![],
+        first_pass: vec![],
     })
 }
 
@@ -333,7 +334,28 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
     let (params, nominal_source) = load_nominal(opts)?;
     let nmax = d.joints().into_iter().max().unwrap_or(1);
     let shapes = nominal_shapes(params.as_ref(), nmax);
-    let joints = joint_samples_from_points(d, opts.analysis.folds);
+    let v_min = POINTS_V_MIN;
+    let joints = joint_samples_from_points(d, opts.analysis.folds, v_min);
+    let mut notes: Vec<String> = Vec::new();
+    let slow: Vec<String> = d
+        .samples
+        .iter()
+        .filter(|s| s.qdot.abs() < v_min)
+        .map(|s| format!("joint {} at {:.2e} rad/s, {:.3} N·m (line {})", s.joint, s.qdot, s.tau, s.line))
+        .collect();
+    if !slow.is_empty() {
+        notes.push(format!(
+            "{} point(s) slower than {v_min} rad/s left out (pre-sliding/stiction, not steady sliding friction): {}",
+            slow.len(),
+            slow.join("; ")
+        ));
+    }
+    notes.push(
+        "torque_offset, delay, drift, position_ripple, payload and rotor_inertia cannot be told apart in steady-state \
+         segment means (no time, position or acceleration; an offset is indistinguishable from a friction asymmetry \
+         without rest segments), so only friction_asymmetry, stribeck and viscous_nonlinearity are scored."
+            .into(),
+    );
     for js in &joints {
         if js.len() < 2 * opts.analysis.folds {
             return Err(ExplainError::input(format!(
@@ -344,13 +366,59 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
             )));
         }
     }
-    let results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, progress);
+    let mut joints = joints;
+    let joints_before = joints.clone();
+    let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, progress);
+    // Outlier segments: points whose out-of-fold residual under the joint's final model
+    // exceeds OUTLIER_K robust standard deviations (1.4826·MAD). They are listed, left
+    // out, and the analysis is repeated once on the rest.
+    let mut outliers = Vec::new();
+    let mut cleaned = false;
+    for (k, js) in joints.iter_mut().enumerate() {
+        let sh = shapes.get(js.joint - 1).copied().unwrap_or_default();
+        let (oof, _) = analysis::residuals(js, &results[k].final_eval, &sh);
+        let mut abs: Vec<f64> = oof.iter().map(|r| r.abs()).collect();
+        abs.sort_by(f64::total_cmp);
+        let sigma = 1.4826 * abs[abs.len() / 2];
+        let bad: Vec<usize> = (0..js.len()).filter(|&i| oof[i].abs() > OUTLIER_K * sigma && sigma > 0.0).collect();
+        if bad.is_empty() {
+            continue;
+        }
+        for &i in &bad {
+            outliers.push(Outlier { joint: js.joint, line: js.t[i] as usize, velocity: js.v[i], torque: js.y[i], residual: oof[i], sigma });
+        }
+        let keep: Vec<bool> = (0..js.len()).map(|i| !bad.contains(&i)).collect();
+        *js = js.filtered(&keep, opts.analysis.folds);
+        cleaned = true;
+    }
+    let first_pass: Vec<(usize, f64, f64, f64)> = results
+        .iter()
+        .zip(&joints_before)
+        .map(|(r, js)| {
+            let sh = shapes.get(js.joint - 1).copied().unwrap_or_default();
+            let (p, n) = report::direction_rmse(js, &r.final_eval, &sh);
+            (r.joint, r.final_eval.heldout_rmse(), p, n)
+        })
+        .collect();
+    if cleaned {
+        results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, progress);
+        notes.push(format!(
+            "{} outlier segment(s) (out-of-fold residual > {OUTLIER_K}·1.4826·MAD of the joint) left out and the analysis repeated: {}",
+            outliers.len(),
+            outliers
+                .iter()
+                .map(|o| format!("joint {} line {} ({:+.4} rad/s, {:.3} N·m, residual {:+.3} = {:.0} σ)", o.joint, o.line, o.velocity, o.torque, o.residual, o.residual.abs() / o.sigma))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ));
+    }
     let method = vec![
+        ("outliers".into(), format!("points with out-of-fold residual > {OUTLIER_K} robust σ (1.4826·MAD) are listed in the notes, left out, and the analysis repeated once")),
         ("held-out".into(), format!(
             "{} folds of interleaved velocity blocks: per joint and direction, points sorted by speed, point r in fold r mod {}",
             opts.analysis.folds, opts.analysis.folds
         )),
-        ("samples used".into(), "every point; points at exactly 0 rad/s count as rest (friction law gives 0 there)".into()),
+        ("samples used".into(), format!("points with |velocity| ≥ {v_min} rad/s (slower ones are stiction, see notes)")),
     ];
     Ok(Explained {
         path: name.to_string(),
@@ -359,10 +427,33 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
         joints,
         results,
         shapes,
-        notes: vec![],
+        notes,
         method,
         nominal_source,
+        outliers,
+        first_pass,
     })
+}
+
+/// Friction points slower than this [rad/s] are not sliding (0.1 mrad/s ≈ one encoder
+/// count per second on a 2²⁰-count encoder): left out.
+pub const POINTS_V_MIN: f64 = 1e-4;
+
+/// Robust-σ multiple beyond which a friction point is an outlier segment.
+pub const OUTLIER_K: f64 = 6.0;
+
+/// A friction point left out as an outlier segment.
+#[derive(Clone, Debug)]
+pub struct Outlier {
+    pub joint: usize,
+    /// 1-based line in the CSV file.
+    pub line: usize,
+    pub velocity: f64,
+    pub torque: f64,
+    /// Out-of-fold residual under the first-pass model [N·m].
+    pub residual: f64,
+    /// Robust residual σ of the joint [N·m].
+    pub sigma: f64,
 }
 
 /// Reads `path` (any kind) and analyses it.

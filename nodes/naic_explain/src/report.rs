@@ -221,6 +221,9 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
         "nominal": {"heldout_rmse": map_of(&nominal), "model": ex.nominal_source},
         "findings": findings,
         "extended": {"heldout_rmse": map_of(&extended), "params_file": params_file, "heldout_rmse_by_direction": Value::Object(per_dir)},
+        "outliers": ex.outliers.iter().map(|o| json!({"joint": jkey(o.joint), "line": o.line, "velocity_rad_s": o.velocity,
+            "torque_nm": o.torque, "residual_nm": o.residual, "robust_sigma_nm": o.sigma})).collect::<Vec<_>>(),
+        "extended_before_outlier_removal": ex.first_pass.iter().map(|&(j, a, p, n)| (jkey(j), json!({"heldout_rmse": a, "positive": p, "negative": n}))).collect::<Map<_, _>>(),
         "method": ex.method.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<Map<_, _>>(),
         "notes": ex.notes,
     })
