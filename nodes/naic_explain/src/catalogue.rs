@@ -4,7 +4,7 @@
 //! (Stribeck velocity `q_s`, ripple wave number `k`) are fixed; shape parameters are
 //! found by a grid scan on the training part (see [`crate::analysis`]).
 //!
-//! Notation: `s = sgn(q̇)` with 0 at rest (regime, see [`crate::prepare`]), `p = [q̇ > 0]`,
+//! Notation: `s = tanh(q̇/v_s)` (v_s = 1 mrad/s, the simulation friction's smoothing) with 0 at rest (regime, see [`crate::prepare`]), `p = [q̇ > 0]`,
 //! `n = [q̇ < 0]`. The residual explained is `y = τ_measured − τ_rigid_body(q, q̇, q̈)`.
 //!
 //! | effect | columns added (per joint) | parameters |

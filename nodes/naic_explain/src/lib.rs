@@ -144,7 +144,8 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
                 }
                 js.y.push(p.tau[i][j] - p.tau_rb[i][j]);
                 js.v.push(p.v[i][j]);
-                js.s.push(p.regime[i][j] as f64);
+                // sgn(q̇) as the project's simulation friction evaluates it: tanh(q̇/v_s), 0 at rest
+                js.s.push(if p.regime[i][j] == 0 { 0.0 } else { (p.v[i][j] / naic_core::friction::DEFAULT_V_S).tanh() });
                 js.q.push(p.q[i][j]);
                 js.t.push(p.t[i]);
                 js.tn.push((p.t[i] - t0) / dur - 0.5);

@@ -6,7 +6,7 @@
 //! * `naic explain --generate FILE.csv --seed N [--hide effect,…]` — write seeded synthetic
 //!   data with hidden effects (the tests' generator), to try the tool.
 //! * `naic explain --bench [--minutes M] [--json]` — time the analysis of M minutes
-//!   (default 60) of 1 kHz six-joint data, with progress on stderr.
+//!   (default 60) of 1 kHz six-joint data, with progress on stderr (`--out DIR` also writes its report).
 use super::{CliError, CliResult};
 use naic_core::model::Model;
 use naic_explain::catalogue::Effect;
@@ -172,6 +172,9 @@ fn run_bench(a: &ExplainArgs) -> CliResult {
     let ex = naic_explain::explain_series("bench", input::Kind::TimeSeries, &g.ts, &opts, &progress).map_err(err)?;
     let fs = report::findings(&ex);
     let analyse_s = t1.elapsed().as_secs_f64();
+    if let Some(out) = &a.out {
+        report::write_all(&ex, out).map_err(err)?;
+    }
     if !a.quiet {
         eprintln!();
     }
