@@ -27,6 +27,8 @@ enum Command {
     Sim(cmd::sim::SimArgs),
     /// Explain measured data: where the nominal model is wrong, which extension fixes it, and by how much.
     Explain(cmd::explain::ExplainArgs),
+    /// Start the three ROS 2 nodes (driver, controller, friction compensation) as processes.
+    Launch(cmd::launch::LaunchArgs),
 }
 
 fn main() {
@@ -38,6 +40,7 @@ fn main() {
         Command::Bench(c) => cmd::bench::run(c),
         Command::Sim(a) => cmd::sim::run(a),
         Command::Explain(a) => cmd::explain::run(a),
+        Command::Launch(a) => cmd::launch::run(a),
     };
     if let Err(e) = result {
         eprintln!("naic: error: {e}");

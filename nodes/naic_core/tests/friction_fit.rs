@@ -96,7 +96,7 @@ fn coverage(
             assert!(b.converged, "seed {seed} joint {joint} branch {branch} did not converge");
             // A least-squares optimum explains the data at least as well as the true parameters.
             let law = joints.iter().find(|(j, _)| *j == joint).unwrap().1;
-            let rs = residual_stats(&law, &data, joint);
+            let rs = residual_stats(&law, &data, joint, 0.0);
             let ssr_true = match b.direction {
                 Direction::Positive => rs.ssr_positive,
                 Direction::Negative => rs.ssr_negative,

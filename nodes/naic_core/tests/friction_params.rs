@@ -162,3 +162,39 @@ fn structural_errors_are_explained() {
     let e = FrictionModel::from_yaml_file("/nonexistent/friction.yaml").unwrap_err().to_string();
     assert!(e.contains("/nonexistent/friction.yaml"), "{e}");
 }
+
+fn jk5_data_dir() -> PathBuf {
+    let mut cands = vec![repo().join("../shared/data/jk5-friction")];
+    if let Ok(s) = std::env::var("NAIC_SHARED") {
+        cands.push(PathBuf::from(s).join("data/jk5-friction"));
+    }
+    cands.into_iter().find(|d| d.is_dir()).unwrap_or_else(|| {
+        panic!("jk5-friction data not found: expected ../shared/data/jk5-friction beside the repo (or set NAIC_SHARED)")
+    })
+}
+
+#[test]
+fn refit_params_file_is_reproduced_by_the_fit() {
+    // params/friction_jk5_refit.yaml = `naic friction fit --data …gravity_removed.csv --min-speed 0.0005`.
+    let saved = FrictionParams::from_yaml_file(repo().join("params/friction_jk5_refit.yaml")).unwrap();
+    assert_eq!(saved.to_model().unwrap().n_joints(), 6);
+    let data = FrictionData::from_csv_file(jk5_data_dir().join("segment_means_gravity_removed.csv")).unwrap();
+    let rep = fit(&data, &FitOptions { min_speed: 0.0005, ..FitOptions::default() }).unwrap();
+    let now = FrictionParams::from_fit(&rep, "now");
+    for (a, b) in saved.joints.iter().zip(&now.joints) {
+        assert_eq!(a.joint, b.joint);
+        for (sa, sb) in [(&a.stats.positive, &b.stats.positive), (&a.stats.negative, &b.stats.negative)] {
+            // Same optimum: every parameter within 1e-3 of its interval half-width.
+            for ((name, ca), (_, cb)) in sa.ci95.iter().zip(&sb.ci95) {
+                if let (Ci95::Interval { lo, hi }, Ci95::Interval { lo: lo2, hi: hi2 }) = (ca, cb) {
+                    let tol = 1e-3 * 0.5 * (hi - lo);
+                    assert!(((lo + hi) - (lo2 + hi2)).abs() * 0.5 <= tol, "joint {} {name}", a.joint);
+                } else {
+                    assert_eq!(ca, cb, "joint {} {name}", a.joint);
+                }
+            }
+            let (ra, rb) = (sa.rmse.unwrap(), sb.rmse.unwrap());
+            assert!((ra - rb).abs() <= 1e-6 * ra, "joint {}: rmse {ra} vs {rb}", a.joint);
+        }
+    }
+}

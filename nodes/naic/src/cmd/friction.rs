@@ -42,6 +42,9 @@ pub struct EvalArgs {
     /// CSV with header `joint,velocity_rad_s,torque_nm`.
     #[arg(long)]
     data: PathBuf,
+    /// Leave out segments slower than this, rad/s (as `fit --min-speed`).
+    #[arg(long, default_value_t = 0.0)]
+    min_speed: f64,
 }
 
 pub fn run(c: FrictionCmd) -> CliResult {
@@ -142,9 +145,17 @@ fn run_fit(a: FitArgs) -> CliResult {
 }
 
 fn run_eval(a: EvalArgs) -> CliResult {
+    if !(a.min_speed >= 0.0 && a.min_speed.is_finite()) {
+        return Err(CliError::usage(format!("--min-speed {} is invalid; give a speed ≥ 0 in rad/s", a.min_speed)));
+    }
     let params = FrictionParams::from_yaml_file(&a.params).map_err(input_err)?;
     let data = FrictionData::from_csv_file(&a.data).map_err(input_err)?;
-    println!("{} on {}", a.params.display(), data.name);
+    println!(
+        "{} on {}{}",
+        a.params.display(),
+        data.name,
+        if a.min_speed > 0.0 { format!(" (segments with |q̇| < {} rad/s left out)", a.min_speed) } else { String::new() }
+    );
     println!("source: {}", params.source);
     println!("RMSE = √(SSR/n); RMSE_dfe = √(SSR/(n−p)), p = parameters per branch; 'file' = the RMSE recorded in the params file\n");
     println!(
@@ -158,7 +169,7 @@ fn run_eval(a: EvalArgs) -> CliResult {
             println!("{:<5} (no data)", j.joint);
             continue;
         }
-        let s = residual_stats(&j.friction, &data, j.joint);
+        let s = residual_stats(&j.friction, &data, j.joint, a.min_speed);
         let p = match j.friction {
             JointFriction::CoulombViscous { .. } => 2,
             _ => 4,

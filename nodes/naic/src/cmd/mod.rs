@@ -2,7 +2,9 @@
 
 pub mod bench;
 pub mod explain;
+pub mod bench_chain;
 pub mod friction;
+pub mod launch;
 pub mod sim;
 
 /// A command failure: a message for the user and whether it was their input.

@@ -604,10 +604,11 @@ impl ResidualStats {
     }
 }
 
-/// How well `friction` (exact law) explains the samples of `joint` (1-based) in `data`.
-pub fn residual_stats(friction: &JointFriction, data: &FrictionData, joint: usize) -> ResidualStats {
+/// How well `friction` (exact law) explains the samples of `joint` (1-based) in `data`,
+/// leaving out samples with |q̇| < `min_speed` (as [`FitOptions::min_speed`] does).
+pub fn residual_stats(friction: &JointFriction, data: &FrictionData, joint: usize, min_speed: f64) -> ResidualStats {
     let mut s = ResidualStats::default();
-    for p in data.joint_samples(joint) {
+    for p in data.joint_samples(joint).filter(|p| p.qdot.abs() >= min_speed) {
         let e2 = (friction.tau_f(p.qdot) - p.tau).powi(2);
         if p.qdot > 0.0 {
             s.n_positive += 1;

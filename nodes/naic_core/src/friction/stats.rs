@@ -107,7 +107,8 @@ pub fn student_t_cdf(t: f64, dof: f64) -> f64 {
 /// The quantile t with P(T ≤ t) = p, for 0 < p < 1 and `dof` > 0.
 /// Returns NaN for arguments outside that range.
 pub fn student_t_quantile(p: f64, dof: f64) -> f64 {
-    if !(p > 0.0 && p < 1.0) || !(dof > 0.0) || !dof.is_finite() {
+    let valid = p > 0.0 && p < 1.0 && dof > 0.0 && dof.is_finite();
+    if !valid {
         return f64::NAN;
     }
     if p < 0.5 {

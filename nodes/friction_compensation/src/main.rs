@@ -1,0 +1,147 @@
+//! `friction_compensation`: the last two pipeline stages as a ROS 2 node.
+//!
+//! Subscribes `/naic/effort` (the controller's torque, std_msgs/Float64MultiArray) and
+//! `/joint_states`; on every command adds the friction feedforward
+//! `τ_f(q̇)` of `friction_file` (`naic_core::pipeline::feedforward`, eq 5 per direction as
+//! in the paper's Table 1, evaluated at the measured joint velocity) and applies the
+//! actuation guard (`naic_core::pipeline::actuate`: torque-rate limit, effort limits of the
+//! URDF, never NaN); publishes `/joint_effort_cmd` for the driver.
+//!
+//! On start the rate limit starts from the measured joint torque (`/joint_states` effort),
+//! so a restarted node takes over without a torque jump. Without fresh joint data the
+//! feedforward is left out (it needs q̇); without commands nothing is published and the
+//! driver holds the arm after its own timeout.
+
+use std::time::Duration;
+
+use naic_core::{
+    friction::{FrictionModel, FrictionParams, Smoothing},
+    model::Model,
+    pipeline::{actuate, feedforward},
+};
+use naic_ros::{
+    msgs::{self, Float64MultiArray, JointState},
+    node::{QOS_PUB, QOS_SUB},
+    time::wall_ns,
+    wait::Waiter,
+    ParamSpec, ParamView, ParameterValue, RosArgs, RosError, RosNode,
+};
+
+fn specs() -> Vec<ParamSpec> {
+    vec![
+        ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model: effort limits of the actuation guard").read_only(),
+        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Friction model YAML (naic_core::friction format; Table 1 of the paper by default)"),
+        ParamSpec::boolean("enabled", true, "Add the friction feedforward (false: pass the controller torque through the actuation guard only)"),
+        ParamSpec::double("smoothing_velocity", 0.01, 0.0, 1.0, "v_s [rad/s] of sgn(q̇) → tanh(q̇/v_s) near rest (0: the printed discontinuous law; the file's own value when it sets one)"),
+        ParamSpec::double("torque_rate_limit", 1.0, 0.001, 1000.0, "Largest torque change per command [N m per cycle]"),
+        ParamSpec::double("joint_state_timeout", 0.02, 0.001, 1.0, "Joint velocity older than this [s] is not used: no feedforward"),
+    ]
+}
+
+/// Load the friction model the parameters name.
+fn load_model(p: &ParamView) -> Result<FrictionModel, String> {
+    let path = p.str("friction_file");
+    let params = FrictionParams::from_yaml_file(path)
+        .map_err(|e| format!("friction_file '{path}': {e}"))?;
+    let model = params.to_model().map_err(|e| format!("friction_file '{path}': {e}"))?;
+    if model.n_joints() != 6 {
+        return Err(format!("friction_file '{path}' has {} joints; the JK5 needs 6", model.n_joints()));
+    }
+    let v_s = p.f64("smoothing_velocity");
+    match (model.smoothing(), v_s > 0.0) {
+        (Smoothing::Exact, true) => model.with_smoothing(Smoothing::Tanh { v_s }).map_err(|e| e.to_string()),
+        _ => Ok(model),
+    }
+}
+
+fn main() {
+    naic_ros::run_main("friction_compensation", run)
+}
+
+fn run() -> Result<(), RosError> {
+    naic_ros::install_signal_handlers();
+    let args = RosArgs::parse(std::env::args().skip(1))?;
+    let urdf = match args.peek("friction_compensation", "urdf")? {
+        None => "urdf/jk5.urdf".to_string(),
+        Some(ParameterValue::String(s)) => s,
+        Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
+    };
+    let robot = Model::from_urdf_file(&urdf)
+        .map_err(|e| RosError::Node(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
+    let effort_limit: [f64; 6] = {
+        let l = robot.effort_limits();
+        if l.len() != 6 {
+            return Err(RosError::Node(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
+        }
+        std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i] } else { f64::INFINITY })
+    };
+    // A friction file that does not load is rejected like any bad value.
+    let check: naic_ros::params::SetCheck = Box::new(|p: &ParamView| load_model(p).map(|_| ()));
+    let mut node = RosNode::new(args, "friction_compensation", specs(), Some(check))?;
+    let mut cmd_sub = node.subscription::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
+    let js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
+    let cmd_pub = node.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB)?;
+    let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
+    waiter.add(&mut cmd_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
+
+    let mut gen = 0;
+    let mut model = node.params.with(load_model).map_err(RosError::Param)?;
+    let mut enabled = true;
+    let mut js_timeout_ns = 20_000_000i64;
+    let mut act_p = actuate::ActuateParams { effort_limit, max_delta: [1.0; 6] };
+    let mut act_s = actuate::ActuateState::default();
+    let mut dq = [0.0; 6];
+    let mut dq_rx_ns = i64::MIN;
+    let mut tau_in = [0.0; 6];
+    let mut last_warn = 0i64;
+    let mut count = 0u64;
+
+    while !naic_ros::shutdown_requested() {
+        if node.params.generation() != gen {
+            gen = node.params.generation();
+            node.params.with(|p| {
+                enabled = p.bool("enabled");
+                js_timeout_ns = (p.f64("joint_state_timeout") * 1e9) as i64;
+                act_p.max_delta = [p.f64("torque_rate_limit"); 6];
+                match load_model(p) {
+                    Ok(m) => model = m,
+                    Err(e) => log::error!("{e}"),
+                }
+            });
+        }
+        waiter.wait(Some(Duration::from_millis(100)));
+        while let Ok(Some((js, _))) = js_sub.take() {
+            if js.velocity.len() >= 6 && js.velocity[..6].iter().all(|v| v.is_finite()) {
+                dq.copy_from_slice(&js.velocity[..6]);
+                dq_rx_ns = wall_ns();
+            }
+            // Smooth take-over: the rate limit starts from the torque the arm has now.
+            if !act_s.started && js.effort.len() >= 6 && js.effort[..6].iter().all(|t| t.is_finite()) {
+                act_s = actuate::ActuateState { tau_prev: std::array::from_fn(|i| js.effort[i]), started: true };
+            }
+        }
+        let mut newest = None;
+        while let Ok(Some((m, _))) = cmd_sub.take() {
+            newest = Some(m);
+        }
+        let Some(m) = newest else { continue };
+        if let Err(e) = msgs::effort_values(&m, &mut tau_in) {
+            let now = wall_ns();
+            if now - last_warn > 1_000_000_000 {
+                last_warn = now;
+                log::warn!("ignoring /naic/effort: {e}");
+            }
+            continue;
+        }
+        let fresh = wall_ns().saturating_sub(dq_rx_ns) <= js_timeout_ns;
+        let tau = if enabled && fresh { feedforward::step(&model, &dq, &tau_in) } else { tau_in };
+        let (s, r) = actuate::step(&act_p, &act_s, &tau);
+        act_s = s;
+        if r.tau.iter().all(|t| t.is_finite()) {
+            let _ = cmd_pub.publish(msgs::effort_msg(&r.tau, msgs::effort_source_stamp(&m)));
+            count += 1;
+        }
+    }
+    log::info!("stopped after {count} commands");
+    Ok(())
+}

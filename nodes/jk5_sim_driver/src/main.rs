@@ -1,0 +1,331 @@
+//! `jk5_sim_driver`: the simulated JK5 + ATI mini45 as a ROS 2 node.
+//!
+//! Publishes `/joint_states` (sensor_msgs/JointState, joint1..joint6: position, velocity,
+//! effort = measured joint torque), `/wrench` (geometry_msgs/WrenchStamped, frame_id
+//! `ft_sensor`, the raw sensor reading) and `/clock` (rosgraph_msgs/Clock, simulated time);
+//! subscribes `/joint_effort_cmd` (std_msgs/Float64MultiArray, six torques in N m).
+//!
+//! Real-time mode: one simulator step per period (`rate`, default 1 kHz, absolute-deadline
+//! sleeps). Lockstep mode (`lockstep: true`): one step per command received, so a closed
+//! loop over DDS is deterministic and runs as fast as the chain allows; stamps are then
+//! simulated time. In both modes, if no valid command arrived for `command_timeout`
+//! (20 ms), the driver holds the arm itself (gravity compensation + joint damping) and
+//! never keeps applying an old torque.
+//!
+//! A separate receive thread wakes on each command and stamps its arrival, so the chain
+//! latency (`/joint_states` stamp → command arrival) is measured exactly; it is written as
+//! JSON to `latency_report` at exit (see `naic bench chain`).
+
+mod plant;
+
+use std::{
+    sync::{Arc, Condvar, Mutex},
+    time::Duration,
+};
+
+use naic_ros::{
+    msgs::{self, Clock, Header, JointState, Vector3, Wrench, WrenchStamped},
+    node::{QOS_PUB, QOS_SUB_RELIABLE},
+    time::{time_from_ns, wall_ns},
+    wait::Waiter,
+    ParamSpec, RosError, RosNode,
+};
+use plant::{PlaceholderPlant, Plant};
+
+fn specs() -> Vec<ParamSpec> {
+    vec![
+        ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz] (real-time mode)"),
+        ParamSpec::boolean(
+            "lockstep",
+            false,
+            "Advance one simulator step per /joint_effort_cmd received (deterministic, faster than real time); stamps become simulated time",
+        ),
+        ParamSpec::double(
+            "command_timeout",
+            0.02,
+            0.001,
+            1.0,
+            "Hold the arm (gravity compensation + damping) when no command arrived for this long [s]",
+        ),
+        ParamSpec::double("hold_damping", 5.0, 0.0, 200.0, "Joint damping of the driver's own hold [N m s/rad]"),
+        ParamSpec::choice("scenario", "flat", &["flat"], "Paper scenario (environment and trajectory)").read_only(),
+        ParamSpec::string("plant", plant::PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
+        ParamSpec::double("latency_warmup", 2.0, 0.0, 3600.0, "Chain-latency statistics ignore the first seconds after start").read_only(),
+        ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),
+    ]
+}
+
+/// The newest command and the latency samples, shared with the receive thread.
+struct CmdSlot {
+    tau: [f64; 6],
+    /// Wall-clock arrival of the newest valid command [ns]; 0: none yet.
+    arrival_ns: i64,
+    /// Counts valid commands received.
+    seq: u64,
+    /// `/joint_states` stamp the newest command was computed from (if traced).
+    source_stamp_ns: Option<i64>,
+    /// Latencies (arrival − source stamp) [ns] of traced commands (wall-clock stamps only).
+    latencies_ns: Vec<i64>,
+    /// Latencies are recorded from this wall time on (after the warm-up).
+    record_after_ns: i64,
+    rejected: u64,
+}
+
+struct Shared {
+    slot: Mutex<CmdSlot>,
+    cv: Condvar,
+}
+
+fn main() {
+    naic_ros::run_main("jk5_sim_driver", run)
+}
+
+fn run() -> Result<(), RosError> {
+    naic_ros::install_signal_handlers();
+    let mut node = RosNode::from_env("jk5_sim_driver", specs(), None)?;
+    let js_pub = node.publisher::<JointState>("joint_states", msgs::JOINT_STATE, QOS_PUB)?;
+    let w_pub = node.publisher::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_PUB)?;
+    let clock_pub = node.publisher::<Clock>("/clock", msgs::CLOCK, QOS_PUB)?;
+    let mut cmd_sub =
+        node.subscription::<msgs::Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB_RELIABLE)?;
+
+    let shared = Arc::new(Shared {
+        slot: Mutex::new(CmdSlot {
+            tau: [0.0; 6],
+            arrival_ns: 0,
+            seq: 0,
+            source_stamp_ns: None,
+            latencies_ns: Vec::with_capacity(4 * 3600 * 1000),
+            record_after_ns: wall_ns() + node.params.with(|p| (p.f64("latency_warmup") * 1e9) as i64),
+            rejected: 0,
+        }),
+        cv: Condvar::new(),
+    });
+
+    // Receive thread: wakes on each command, validates it, stamps its arrival.
+    {
+        let shared = Arc::clone(&shared);
+        let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
+        waiter.add(&mut cmd_sub, 0).map_err(|e| RosError::Node(format!("poll register: {e}")))?;
+        std::thread::Builder::new()
+            .name("cmd-rx".into())
+            .spawn(move || {
+                let mut tau = [0.0; 6];
+                let mut last_warn = 0i64;
+                while !naic_ros::shutdown_requested() {
+                    waiter.wait(Some(Duration::from_millis(50)));
+                    while let Ok(Some((m, _info))) = cmd_sub.take() {
+                        let now = wall_ns();
+                        let mut s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
+                        match msgs::effort_values(&m, &mut tau) {
+                            Ok(()) => {
+                                s.tau = tau;
+                                s.arrival_ns = now;
+                                s.seq += 1;
+                                s.source_stamp_ns = msgs::effort_source_stamp(&m);
+                                if let Some(st) = s.source_stamp_ns {
+                                    if now >= s.record_after_ns && s.latencies_ns.len() < s.latencies_ns.capacity() {
+                                        s.latencies_ns.push(now - st);
+                                    }
+                                }
+                            }
+                            Err(e) => {
+                                s.rejected += 1;
+                                if now - last_warn > 1_000_000_000 {
+                                    last_warn = now;
+                                    log::warn!("ignoring /joint_effort_cmd: {e} (rejected so far: {})", s.rejected);
+                                }
+                            }
+                        }
+                        drop(s);
+                        shared.cv.notify_all();
+                    }
+                }
+            })
+            .map_err(|e| RosError::Node(format!("cannot start receive thread: {e}")))?;
+    }
+
+    let mut plant = PlaceholderPlant::new();
+    log::warn!("using the placeholder plant (naic_sim arm simulator not integrated yet)");
+
+    let mut gen = 0;
+    let (mut rate, mut lockstep, mut timeout_ns, mut damping, mut use_sim_time) = (1000.0, false, 20_000_000i64, 5.0, false);
+    let mut js = JointState {
+        header: Header { stamp: Default::default(), frame_id: String::new() },
+        name: msgs::JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
+        position: vec![0.0; 6],
+        velocity: vec![0.0; 6],
+        effort: vec![0.0; 6],
+    };
+    let mut cycles: u64 = 0;
+    let mut missed: u64 = 0;
+    let mut holding = false;
+    let mut last_seq_seen = 0u64;
+    let mut last_published_stamp: Option<i64> = None;
+    let mut chain_started = false;
+    let start_wall = wall_ns();
+    let mut next = monotonic_ns();
+
+    while !naic_ros::shutdown_requested() {
+        if node.params.generation() != gen {
+            gen = node.params.generation();
+            node.params.with(|p| {
+                rate = p.f64("rate");
+                lockstep = p.bool("lockstep");
+                timeout_ns = (p.f64("command_timeout") * 1e9) as i64;
+                damping = p.f64("hold_damping");
+                use_sim_time = p.bool("use_sim_time");
+            });
+        }
+        let dt = 1.0 / rate;
+        let period_ns = (1e9 / rate) as i64;
+
+        // Wait for the next step: a deadline (real time) or a new command (lockstep).
+        if lockstep {
+            let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
+            let (s, _) = shared
+                .cv
+                .wait_timeout_while(s, Duration::from_nanos(timeout_ns as u64), |s| s.seq == last_seq_seen)
+                .unwrap_or_else(|p| p.into_inner());
+            if s.seq == last_seq_seen && cycles > 0 {
+                // No command: simulated time stands still; republish so a late or
+                // restarted controller gets the state.
+                drop(s);
+                publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, true, start_wall)?;
+                continue;
+            }
+        } else {
+            next += period_ns;
+            let now = monotonic_ns();
+            if now > next + 10 * period_ns {
+                next = now; // fell far behind (suspended?): resynchronise
+            }
+            sleep_until(next);
+        }
+
+        // Take the newest command, or hold if it is stale.
+        let (tau, fresh, seq, src, recording) = {
+            let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
+            let now = wall_ns();
+            let fresh = s.seq > 0 && (lockstep && s.seq != last_seq_seen || now - s.arrival_ns <= timeout_ns);
+            (s.tau, fresh, s.seq, s.source_stamp_ns, now >= s.record_after_ns)
+        };
+        if !lockstep && chain_started && recording {
+            // A cycle is missed when the command for the previous state did not arrive in time.
+            if let (Some(p), true) = (last_published_stamp, src.is_some()) {
+                if src != Some(p) {
+                    missed += 1;
+                }
+            }
+        }
+        if src.is_some() {
+            chain_started = true;
+        }
+        last_seq_seen = seq;
+        let tau = if fresh {
+            if holding {
+                log::info!("commands resumed; releasing the hold");
+                holding = false;
+            }
+            tau
+        } else {
+            if !holding && seq > 0 {
+                log::warn!("no /joint_effort_cmd for {} ms: holding the arm", timeout_ns / 1_000_000);
+            }
+            holding = seq > 0 || holding;
+            plant.hold_torque(damping)
+        };
+        plant.step(&tau, dt);
+        cycles += 1;
+        let stamp = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time, start_wall)?;
+        last_published_stamp = Some(stamp);
+    }
+
+    // Report the chain latency.
+    let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
+    let recorded_ns = (wall_ns() - s.record_after_ns).max(0);
+    let report = latency_report(&s.latencies_ns, missed, cycles, recorded_ns, s.rejected);
+    let path = node.params.with(|p| p.str("latency_report").to_string());
+    if !path.is_empty() {
+        if let Err(e) = std::fs::write(&path, report.to_string()) {
+            log::error!("cannot write latency report {path}: {e}");
+        }
+    }
+    log::info!("stopped after {cycles} cycles; chain latency {report}");
+    Ok(())
+}
+
+/// Publish joint states, wrench and clock; returns the stamp used [ns].
+fn publish_state(
+    plant: &dyn Plant,
+    js: &mut JointState,
+    js_pub: &naic_ros::node::Pub<JointState>,
+    w_pub: &naic_ros::node::Pub<WrenchStamped>,
+    clock_pub: &naic_ros::node::Pub<Clock>,
+    sim_stamps: bool,
+    _start_wall: i64,
+) -> Result<i64, RosError> {
+    let sim_ns = (plant.time() * 1e9).round() as i64;
+    let stamp_ns = if sim_stamps { sim_ns } else { wall_ns() };
+    let stamp = time_from_ns(stamp_ns);
+    let (q, v, t) = plant.joints();
+    js.header.stamp = stamp.clone();
+    js.position.copy_from_slice(&q);
+    js.velocity.copy_from_slice(&v);
+    js.effort.copy_from_slice(&t);
+    let w = plant.wrench();
+    let ws = WrenchStamped {
+        header: Header { stamp, frame_id: "ft_sensor".into() },
+        wrench: Wrench {
+            force: Vector3 { x: w[0], y: w[1], z: w[2] },
+            torque: Vector3 { x: w[3], y: w[4], z: w[5] },
+        },
+    };
+    // Wrench first: the controller cycles on /joint_states and uses the newest wrench.
+    let _ = w_pub.publish(ws);
+    let _ = js_pub.publish(js.clone());
+    let _ = clock_pub.publish(Clock { clock: time_from_ns(sim_ns) });
+    Ok(stamp_ns)
+}
+
+fn latency_report(lat: &[i64], missed: u64, cycles: u64, wall_ns: i64, rejected: u64) -> serde_json::Value {
+    let mut v: Vec<i64> = lat.to_vec();
+    v.sort_unstable();
+    let q = |f: f64| -> f64 {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v[((v.len() - 1) as f64 * f).round() as usize] as f64 / 1e3
+        }
+    };
+    let minutes = wall_ns as f64 / 60e9;
+    serde_json::json!({
+        "samples": v.len(),
+        "cycles": cycles,
+        "median_us": q(0.5),
+        "p99_us": q(0.99),
+        "max_us": if v.is_empty() { f64::NAN } else { *v.last().unwrap() as f64 / 1e3 },
+        "missed_cycles": missed,
+        "missed_per_min": if minutes > 0.0 { missed as f64 / minutes } else { 0.0 },
+        "rejected_commands": rejected,
+        "duration_s": wall_ns as f64 / 1e9,
+    })
+}
+
+fn monotonic_ns() -> i64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: valid pointer to a timespec.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as i64 * 1_000_000_000 + ts.tv_nsec as i64
+}
+
+fn sleep_until(deadline_ns: i64) {
+    let ts = libc::timespec {
+        tv_sec: (deadline_ns / 1_000_000_000) as libc::time_t,
+        tv_nsec: (deadline_ns % 1_000_000_000) as libc::c_long,
+    };
+    // SAFETY: absolute sleep on CLOCK_MONOTONIC with a valid timespec; EINTR just returns early.
+    unsafe {
+        libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut());
+    }
+}

@@ -1,0 +1,193 @@
+//! `naic bench chain`: latency of the 1 kHz control chain across three processes.
+//!
+//! Measures, for every `/joint_states` sample the driver publishes, the time until the
+//! driver receives the matching `/joint_effort_cmd` (driver → controller → friction
+//! compensation → driver; the stamp travels in the command's dimension label), plus the
+//! missed cycles (the command for the previous state had not arrived by the next tick).
+//! First the Rust nodes, then the same topology in rclpy (`tests/ros/rclpy_chain.py`), in
+//! the same run, each on its own loopback-only DDS domain. Prints one JSON object.
+
+use std::{
+    path::{Path, PathBuf},
+    process::Command,
+    time::{Duration, Instant},
+};
+
+use super::{
+    launch::{self, node_binary, spawn_node, stop_all},
+    CliError, CliResult,
+};
+
+#[derive(clap::Args, Debug)]
+pub struct ChainArgs {
+    /// Measured seconds per chain (after a 2 s warm-up).
+    #[arg(long, default_value_t = 60.0)]
+    pub duration: f64,
+    /// Python with rclpy for the reference chain (default: $NAIC_PYTHON, else python3).
+    #[arg(long)]
+    pub python: Option<PathBuf>,
+    /// Only the Rust chain.
+    #[arg(long)]
+    pub skip_rclpy: bool,
+    /// ROS_DOMAIN_ID of the Rust chain (the rclpy chain uses the next one).
+    #[arg(long, default_value_t = 211)]
+    pub domain: u16,
+}
+
+const WARMUP: f64 = 2.0;
+
+fn env(domain: u16) -> Vec<(String, String)> {
+    vec![
+        ("ROS_DOMAIN_ID".into(), domain.to_string()),
+        ("ROS_AUTOMATIC_DISCOVERY_RANGE".into(), "LOCALHOST".into()),
+    ]
+}
+
+fn read_report(path: &Path) -> Result<serde_json::Value, CliError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError::failure(format!("no latency report at {}: {e}", path.display())))?;
+    serde_json::from_str(&text).map_err(|e| CliError::failure(format!("bad latency report {}: {e}", path.display())))
+}
+
+fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> {
+    let report = dir.join("rust_chain.json");
+    let _ = std::fs::remove_file(&report);
+    let mut procs = vec![];
+    for node in launch::NODES {
+        let mut args = vec!["--ros-args".to_string(), "--params-file".into(), format!("params/{node}.yaml")];
+        if node == "jk5_sim_driver" {
+            args.extend([
+                "-p".into(),
+                format!("latency_report:={}", report.display()),
+                "-p".into(),
+                format!("latency_warmup:={WARMUP}"),
+            ]);
+        }
+        let bin = node_binary(node)?;
+        match spawn_node(node, &bin, &args, &env(a.domain)) {
+            Ok(p) => procs.push(p),
+            Err(e) => {
+                stop_all(&mut procs, Duration::from_secs(3));
+                return Err(e);
+            }
+        }
+    }
+    wait(a.duration + WARMUP, &mut procs)?;
+    stop_all(&mut procs, Duration::from_secs(5));
+    read_report(&report)
+}
+
+fn wait(seconds: f64, procs: &mut [launch::NodeProcess]) -> CliResult {
+    let t0 = Instant::now();
+    while t0.elapsed().as_secs_f64() < seconds {
+        if launch::stop_requested() {
+            return Err(CliError::failure("interrupted"));
+        }
+        for p in procs.iter_mut() {
+            if let Ok(Some(st)) = p.child.try_wait() {
+                return Err(CliError::failure(format!("{} exited early ({st})", p.name)));
+            }
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Ok(())
+}
+
+fn rclpy_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> {
+    let py = a
+        .python
+        .clone()
+        .or_else(|| std::env::var_os("NAIC_PYTHON").map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("python3"));
+    let script = Path::new("tests/ros/rclpy_chain.py");
+    if !script.is_file() {
+        return Err(CliError::usage("tests/ros/rclpy_chain.py not found: run from the repository root"));
+    }
+    let report = dir.join("rclpy_chain.json");
+    let _ = std::fs::remove_file(&report);
+    let s = script.display().to_string();
+    let mut procs = vec![];
+    for role in ["controller", "friction"] {
+        procs.push(spawn_node(&format!("rclpy_{role}"), &py, &[s.clone(), role.into()], &env(a.domain + 1))?);
+    }
+    let args = vec![
+        s,
+        "driver".into(),
+        "--duration".into(),
+        format!("{}", a.duration + WARMUP),
+        "--warmup".into(),
+        format!("{WARMUP}"),
+        "--report".into(),
+        report.display().to_string(),
+    ];
+    let mut driver = spawn_node("rclpy_driver", &py, &args, &env(a.domain + 1))?;
+    let t0 = Instant::now();
+    let status = loop {
+        if let Ok(Some(st)) = driver.child.try_wait() {
+            break Some(st);
+        }
+        if launch::stop_requested() || t0.elapsed().as_secs_f64() > a.duration + WARMUP + 60.0 {
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    stop_all(&mut procs, Duration::from_secs(5));
+    match status {
+        Some(st) if st.success() => read_report(&report),
+        Some(st) => Err(CliError::failure(format!("rclpy driver failed ({st}); is rclpy installed in {}?", py.display()))),
+        None => {
+            stop_all(std::slice::from_mut(&mut driver), Duration::from_secs(3));
+            Err(CliError::failure("rclpy chain did not finish"))
+        }
+    }
+}
+
+fn machine() -> serde_json::Value {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| t.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
+        .unwrap_or_default();
+    let nproc = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(0);
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    serde_json::json!({ "nproc": nproc, "cpu": cpu, "loadavg_at_end": load.trim() })
+}
+
+pub fn run(a: ChainArgs) -> CliResult {
+    if !(a.duration > 0.0 && a.duration.is_finite()) {
+        return Err(CliError::usage(format!("--duration {}: give a positive number of seconds", a.duration)));
+    }
+    if a.domain > 231 {
+        return Err(CliError::usage(format!("--domain {}: use 0..=231 (the rclpy chain takes the next id)", a.domain)));
+    }
+    if !Path::new("params").is_dir() {
+        return Err(CliError::usage("params/ not found: run naic bench chain from the repository root"));
+    }
+    launch::install_signal_handlers();
+    let dir = std::env::temp_dir().join(format!("naic-bench-chain-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| CliError::failure(format!("{}: {e}", dir.display())))?;
+    eprintln!("naic bench chain: Rust chain, {} s (+{WARMUP} s warm-up)", a.duration);
+    let rust = rust_chain(&a, &dir)?;
+    let rclpy = if a.skip_rclpy {
+        serde_json::Value::Null
+    } else {
+        eprintln!("naic bench chain: rclpy chain, {} s (+{WARMUP} s warm-up)", a.duration);
+        rclpy_chain(&a, &dir)?
+    };
+    let ratio = match (rust["median_us"].as_f64(), rclpy["median_us"].as_f64()) {
+        (Some(r), Some(p)) if p > 0.0 => serde_json::json!(r / p),
+        _ => serde_json::Value::Null,
+    };
+    let out = serde_json::json!({
+        "bench": "chain",
+        "what": "latency /joint_states stamp -> matching /joint_effort_cmd at the driver, 3 processes, 1 kHz",
+        "rust": rust,
+        "rclpy": rclpy,
+        "median_ratio_rust_over_rclpy": ratio,
+        "machine": machine(),
+        "git": Command::new("git").args(["rev-parse", "--short", "HEAD"]).output().ok()
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string()),
+    });
+    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}

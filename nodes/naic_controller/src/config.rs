@@ -1,0 +1,171 @@
+//! The controller node's ROS parameters and their mapping onto
+//! `naic_core::pipeline::controller::ControllerParams` (one place for both).
+
+use naic_core::{
+    pipeline::{
+        control::{
+            force_law::{ForceLawParams, Mode},
+            ContactDetect, ForceAxis, ImpedanceParams,
+        },
+        controller::ControllerParams,
+        estimate::ToolParams,
+    },
+};
+use nalgebra::Vector3;
+use naic_ros::{params::SetCheck, ParamSpec, ParamView};
+
+pub const FORCE_AXES: [&str; 6] = ["x", "y", "z", "-x", "-y", "-z"];
+
+/// The node's parameters; defaults come from `base` (the core's `paper_defaults` on the
+/// loaded model), so the numbers live in one place.
+pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
+    let c = &base.control;
+    let imp = &c.impedance;
+    let fl = &c.force_law;
+    let axis = FORCE_AXES[c.force_axis.axis + if c.force_axis.sign < 0.0 { 3 } else { 0 }];
+    vec![
+        ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model (URDF with 'tip' and 'ft_sensor' frames)").read_only(),
+        ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed"], "Force law on the force axis: NAIC (eq 10-15), AIC (eq 9) or fixed impedance (eq 8)"),
+        ParamSpec::double("desired_force", 10.0, 0.0, 100.0, "f_d [N]: force the tool applies to the environment along the force axis (pushing positive)"),
+        ParamSpec::double("learning_rate", fl.gamma, 0.0, 100.0, "gamma of eq 15 (NAIC): requested learning rate, clipped every cycle to the eq-15 bound"),
+        ParamSpec::doubles("m_d", &imp.m_d, 0.001, 1000.0, "Impedance mass M_d per Cartesian axis x,y,z,rx,ry,rz [kg, kg m^2] (eq 6); force-axis entry is NAIC weight w1"),
+        ParamSpec::doubles("b_d", &imp.b_d, 0.0, 1.0e5, "Impedance damping B_d per axis [N s/m, N m s/rad] (eq 6); force-axis entry is NAIC weight w2"),
+        ParamSpec::doubles("k_d", &imp.k_free, 0.0, 1.0e5, "Impedance stiffness K_d per axis in free space [N/m, N m/rad] (eq 6)"),
+        ParamSpec::doubles("k_d_contact", &imp.k_contact, 0.0, 1.0e5, "K_d per axis in contact; the force-axis entry is always 0 (force tracking)"),
+        ParamSpec::double("sigma", fl.sigma, 0.0, 1.0, "Update rate sigma of eq 9 (NAIC weight w3, initial value)"),
+        ParamSpec::double("sigma_margin", fl.sigma_margin, 0.01, 1.0e9, "NAIC keeps sigma <= sigma_margin * lambda * b_d / m_d (fraction of the force-loop stability limit)"),
+        ParamSpec::choice("force_axis", axis, &FORCE_AXES, "Direction n in the base frame along which the tool pushes ('-z': down onto a table)"),
+        ParamSpec::double("contact_threshold", c.contact.enter_n, 0.01, 100.0, "Enter contact when the measured force along n exceeds this [N]"),
+        ParamSpec::double("contact_exit_force", c.contact.exit_n, 0.0, 100.0, "Leave contact below this force [N] (after contact_exit_cycles)"),
+        ParamSpec::int("contact_exit_cycles", c.contact.exit_cycles as i64, 0, 100_000, "Leave contact after this many cycles below contact_exit_force (0: contact latches, as in the paper)"),
+        ParamSpec::double("force_limit", 50.0, 0.1, 500.0, "Above this measured force [N] the controller stops pushing and retracts to the start pose"),
+        ParamSpec::double("wrench_timeout", base.sense.wrench_timeout, 0.0005, 1.0, "Wrench older than this [s] is stale: safe hold"),
+        ParamSpec::double("joint_timeout", base.sense.joint_timeout, 0.0005, 1.0, "Joint state older than this [s] is stale: safe hold"),
+        ParamSpec::double("approach_depth", 0.05, -0.5, 0.5, "Free-space target: start tip position moved this far along n [m]"),
+        ParamSpec::double("control_period", fl.lambda, 1.0e-5, 0.1, "Expected control period lambda [s] (the driver's 1/rate)"),
+        ParamSpec::double("tool_mass", base.tool.mass, 0.0, 10.0, "Mass of sensor half + rod beyond the measuring plane [kg] (authors' MJCF)"),
+        ParamSpec::doubles("tool_com", base.tool.com.as_slice(), -1.0, 1.0, "Tool centre of mass in the ft_sensor frame [m]"),
+        ParamSpec::doubles("tool_tip", base.tool.tip.as_slice(), -1.0, 1.0, "Contact point in the ft_sensor frame [m]"),
+        ParamSpec::int("tare_samples", base.tare_samples as i64, 1, 100_000, "Free-space F/T samples averaged for the tare at start"),
+        ParamSpec::int("median_window", base.sense.median_window as i64, 1, 9, "Median filter window of the joint velocity"),
+        ParamSpec::double("hold_damping", base.hold_damping[0], 0.0, 200.0, "Joint damping of the safe hold [N m s/rad]"),
+    ]
+}
+
+/// `"-z"` → axis 2, sign −1.
+pub fn force_axis(s: &str) -> ForceAxis {
+    let (sign, name) = match s.strip_prefix('-') {
+        Some(n) => (-1.0, n),
+        None => (1.0, s),
+    };
+    let axis = match name {
+        "x" => 0,
+        "y" => 1,
+        _ => 2,
+    };
+    ForceAxis { axis, sign }
+}
+
+fn arr6(v: &[f64]) -> [f64; 6] {
+    let mut a = [0.0; 6];
+    for (o, x) in a.iter_mut().zip(v) {
+        *o = *x;
+    }
+    a
+}
+
+fn vec3(v: &[f64]) -> Vector3<f64> {
+    Vector3::new(v.first().copied().unwrap_or(0.0), v.get(1).copied().unwrap_or(0.0), v.get(2).copied().unwrap_or(0.0))
+}
+
+/// `base` with the ROS parameters applied, validated by the core.
+pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<ControllerParams, String> {
+    let mut c = *base;
+    let axis = force_axis(p.str("force_axis"));
+    let mut k_contact = arr6(p.f64s("k_d_contact"));
+    k_contact[axis.axis] = 0.0;
+    c.control.impedance =
+        ImpedanceParams { m_d: arr6(p.f64s("m_d")), b_d: arr6(p.f64s("b_d")), k_free: arr6(p.f64s("k_d")), k_contact };
+    c.control.force_axis = axis;
+    c.control.force_law = ForceLawParams {
+        mode: Mode::parse(p.str("mode"))?,
+        sigma: p.f64("sigma"),
+        gamma: p.f64("learning_rate"),
+        lambda: p.f64("control_period"),
+        sigma_margin: p.f64("sigma_margin"),
+        ..base.control.force_law
+    };
+    c.control.contact = ContactDetect {
+        enter_n: p.f64("contact_threshold"),
+        exit_n: p.f64("contact_exit_force"),
+        exit_cycles: p.i64("contact_exit_cycles") as u32,
+    };
+    c.sense.median_window = p.i64("median_window") as usize;
+    c.sense.joint_timeout = p.f64("joint_timeout");
+    c.sense.wrench_timeout = p.f64("wrench_timeout");
+    c.tool = ToolParams { mass: p.f64("tool_mass"), com: vec3(p.f64s("tool_com")), tip: vec3(p.f64s("tool_tip")), ..base.tool };
+    c.tare_samples = p.i64("tare_samples") as u32;
+    c.hold_damping = [p.f64("hold_damping"); 6];
+    c.control.validate()?;
+    c.sense.validate()?;
+    Ok(c)
+}
+
+/// Whole-set check for the parameter services: the core's own validation plus the
+/// node's cross-parameter rules. Rejections carry the core's reason.
+pub fn check(base: ControllerParams) -> SetCheck {
+    Box::new(move |p: &ParamView| {
+        controller_params(p, &base)?;
+        let (ct, fl, fd) = (p.f64("contact_threshold"), p.f64("force_limit"), p.f64("desired_force"));
+        if ct >= fl {
+            return Err(format!("contact_threshold ({ct} N) must be below force_limit ({fl} N)"));
+        }
+        if fd >= fl {
+            return Err(format!("desired_force ({fd} N) must be below force_limit ({fl} N)"));
+        }
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use naic_core::model::Model;
+    use naic_ros::{ParamTable, ParameterValue as V};
+
+    fn base() -> ControllerParams {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../urdf/jk5.urdf");
+        let model = Model::from_urdf_file(root).unwrap();
+        ControllerParams::paper_defaults(&model, Mode::Naic, 0.01)
+    }
+
+    fn table() -> (ParamTable, ControllerParams) {
+        let b = base();
+        (ParamTable::new(specs(&b), Some(check(b)), &[]).unwrap(), b)
+    }
+
+    #[test]
+    fn defaults_reproduce_the_core_paper_defaults() {
+        let (t, b) = table();
+        let cp = t.with(|p| controller_params(p, &b)).unwrap();
+        assert_eq!(cp, b);
+    }
+
+    #[test]
+    fn bad_values_are_rejected_with_reasons() {
+        let (t, b) = table();
+        let set = |n: &str, v: V| t.set_atomically(&[(n.to_string(), v)]);
+        assert!(set("learning_rate", V::Double(-0.1)).unwrap_err().contains("outside its range"));
+        assert!(set("mode", V::String("pid".into())).unwrap_err().contains("naic, aic, fixed"));
+        assert!(set("desired_force", V::Double(60.0)).unwrap_err().contains("below force_limit"));
+        // The core's own bound: b_d on the force axis must lie in the NAIC weight bounds.
+        let e = set("b_d", V::DoubleArray(vec![500.0, 500.0, 0.5, 500.0, 500.0, 500.0])).unwrap_err();
+        assert!(e.contains("b_d"), "{e}");
+        set("force_axis", V::String("x".into())).unwrap();
+        set("mode", V::String("aic".into())).unwrap();
+        let cp = t.with(|p| controller_params(p, &b)).unwrap();
+        assert_eq!(cp.control.force_axis, ForceAxis { axis: 0, sign: 1.0 });
+        assert_eq!(cp.control.force_law.mode, Mode::Aic);
+        assert_eq!(cp.control.impedance.k_contact[0], 0.0);
+    }
+}

@@ -1,0 +1,275 @@
+//! `naic_controller`: the fixed / AIC / NAIC force-tracking controller as a ROS 2 node.
+//!
+//! Subscribes `/joint_states` and `/wrench`; on every `/joint_states` sample runs one
+//! `naic_core::pipeline::controller::step` (sense → estimate → control → inverse dynamics)
+//! and publishes the torque on `/naic/effort` (std_msgs/Float64MultiArray, before friction
+//! feedforward) and its state on `/naic/params` (naic_msgs/NaicParams).
+//!
+//! Chain: driver → `/joint_states`, `/wrench` → naic_controller → `/naic/effort` →
+//! friction_compensation → `/joint_effort_cmd` → driver.
+//!
+//! Parameters (see `config.rs`) take effect at the next cycle after they are accepted.
+//! Faults (NaN/Inf/implausible/stale data) make the core hold the arm (gravity compensation
+//! + joint damping); the fault is logged (rate-limited) and published in `/naic/params`.
+
+mod config;
+
+use std::time::Duration;
+
+use naic_core::{
+    dynamics,
+    model::{Data6, Model},
+    pipeline::{
+        control::Phase,
+        control::force_law::Mode,
+        controller::{self, Controller, ControllerParams, ControllerState, Reference, Workspace},
+        sense::RawMeasurements,
+    },
+};
+use naic_ros::{
+    msgs::{self, Header, JointState, NaicParams, WrenchStamped},
+    node::{QOS_PUB, QOS_SUB},
+    time::{time_from_ns, wall_ns},
+    wait::Waiter,
+    ParameterValue, RosArgs, RosError, RosNode,
+};
+use nalgebra::{UnitQuaternion, Vector3, Vector6};
+
+/// Requested γ when none is given (the paper gives no value; eq 15 clips it every cycle).
+const DEFAULT_LEARNING_RATE: f64 = 0.01;
+
+fn main() {
+    naic_ros::run_main("naic_controller", run)
+}
+
+/// Joint-name → index map of the incoming `/joint_states` (built once per name layout).
+struct JointMap {
+    names: Vec<String>,
+    idx: [usize; 6],
+    ok: bool,
+}
+
+impl JointMap {
+    fn update(&mut self, names: &[String]) {
+        if names == self.names.as_slice() {
+            return;
+        }
+        self.names = names.to_vec();
+        self.ok = true;
+        for (j, want) in msgs::JOINT_NAMES.iter().enumerate() {
+            match names.iter().position(|n| n == want) {
+                Some(i) => self.idx[j] = i,
+                None if names.is_empty() => self.idx[j] = j,
+                None => {
+                    self.ok = false;
+                    log::error!("/joint_states has no '{want}' (names: {names:?}); holding");
+                }
+            }
+        }
+    }
+    fn get(&self, v: &[f64], out: &mut [f64; 6]) -> bool {
+        if !self.ok {
+            return false;
+        }
+        for j in 0..6 {
+            match v.get(self.idx[j]) {
+                Some(x) => out[j] = *x,
+                None => return false,
+            }
+        }
+        true
+    }
+}
+
+fn run() -> Result<(), RosError> {
+    naic_ros::install_signal_handlers();
+    let args = RosArgs::parse(std::env::args().skip(1))?;
+    let urdf = match args.peek("naic_controller", "urdf")? {
+        None => "urdf/jk5.urdf".to_string(),
+        Some(ParameterValue::String(s)) => s,
+        Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
+    };
+    let model = Model::from_urdf_file(&urdf).map_err(|e| {
+        RosError::Node(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))
+    })?;
+    // Defaults: the core's paper settings on this model (learning rate: not in the paper).
+    let base = ControllerParams::paper_defaults(&model, Mode::Naic, DEFAULT_LEARNING_RATE);
+    let mut node = RosNode::new(args, "naic_controller", config::specs(&base), Some(config::check(base)))?;
+    let mut ctl = {
+        let cp = node.params.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
+        Controller::new(model.clone(), cp).map_err(RosError::Param)?
+    };
+    let mut state: ControllerState = ctl.initial_state();
+    let mut ws: Workspace = ctl.workspace();
+    let mut fk = Data6::try_new(&model).map_err(|e| RosError::Node(format!("{urdf}: {e}")))?;
+    let tip = model.frame_id(controller::TIP_FRAME).ok_or_else(|| RosError::Node("URDF has no 'tip' frame".into()))?;
+
+    let mut js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
+    let w_sub = node.subscription::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_SUB)?;
+    let effort_pub = node.publisher::<msgs::Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB)?;
+    let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, QOS_PUB)?;
+    let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
+    waiter.add(&mut js_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
+
+    let mut gen = node.params.generation();
+    let (mut f_d, mut force_limit, mut approach, mut use_sim_time, mut mode) =
+        (0.0, 0.0, 0.0, false, String::new());
+    let mut reload = true;
+    let mut jmap = JointMap { names: vec![], idx: [0; 6], ok: false };
+    let mut wrench = [f64::NAN; 6];
+    let mut wrench_stamp_ns: Option<i64> = None;
+    let mut wrench_rx_ns: i64 = 0;
+    let mut t0_ns: Option<i64> = None;
+    let mut p_start: Option<(Vector3<f64>, UnitQuaternion<f64>)> = None;
+    let mut retracting = false;
+    let mut last_fault_log = 0i64;
+    let mut prev_fault_count = 0u32;
+    let mut cycles = 0u64;
+    let (mut q, mut dq) = ([0.0; 6], [0.0; 6]);
+
+    while !naic_ros::shutdown_requested() {
+        if node.params.generation() != gen || reload {
+            gen = node.params.generation();
+            reload = false;
+            let r = node.params.with(|p| {
+                f_d = p.f64("desired_force");
+                force_limit = p.f64("force_limit");
+                approach = p.f64("approach_depth");
+                use_sim_time = p.bool("use_sim_time");
+                mode = p.str("mode").to_string();
+                config::controller_params(p, &base)
+            });
+            match r.and_then(|cp| ctl.with_params(cp)) {
+                Ok(c) => {
+                    if c.params().control != ctl.params().control {
+                        // New force law settings: the NAIC weights restart from the parameters.
+                        state.control = c.initial_state().control;
+                    }
+                    ctl = c;
+                }
+                Err(e) => log::error!("parameters not applied: {e}"),
+            }
+            if retracting {
+                log::info!("parameters changed: resuming force control");
+                retracting = false;
+            }
+        }
+
+        waiter.wait(Some(Duration::from_millis(100)));
+        while let Ok(Some((w, _))) = w_sub.take() {
+            let f = &w.wrench.force;
+            let t = &w.wrench.torque;
+            wrench = [f.x, f.y, f.z, t.x, t.y, t.z];
+            wrench_stamp_ns = Some(w.header.stamp.to_nanos());
+            wrench_rx_ns = wall_ns();
+        }
+        // Newest joint state only; older samples in the queue are skipped.
+        let mut newest: Option<JointState> = None;
+        while let Ok(Some((js, _))) = js_sub.take() {
+            newest = Some(js);
+        }
+        let Some(js) = newest else { continue };
+        let js_stamp_ns = js.header.stamp.to_nanos();
+        jmap.update(&js.name);
+        let valid = jmap.get(&js.position, &mut q) & jmap.get(&js.velocity, &mut dq);
+        if !valid {
+            q = [f64::NAN; 6];
+            dq = [f64::NAN; 6];
+        }
+
+        // Time base: simulated stamps with use_sim_time, else the wall clock.
+        let t0 = *t0_ns.get_or_insert(js_stamp_ns);
+        let sec = |ns: i64| (ns - t0) as f64 * 1e-9;
+        let now_ns = if use_sim_time { js_stamp_ns } else { wall_ns() };
+        // Without sim time, staleness is judged by receive time (clocks of other hosts
+        // may differ); with sim time by the stamps.
+        let w_stamp = match wrench_stamp_ns {
+            None => f64::NEG_INFINITY,
+            Some(ns) if use_sim_time => sec(ns),
+            Some(_) => sec(wrench_rx_ns),
+        };
+        let m = RawMeasurements {
+            t: sec(now_ns),
+            q,
+            dq,
+            joints_stamp: if use_sim_time { sec(js_stamp_ns) } else { sec(now_ns) },
+            wrench,
+            wrench_stamp: w_stamp,
+        };
+
+        // Reference: hold the start orientation; the free-space target is the start
+        // position moved `approach_depth` along n; retract to the start above force_limit.
+        if p_start.is_none() && valid && q.iter().all(|x| x.is_finite()) {
+            dynamics::forward_kinematics(&model, &mut fk, &Vector6::from(q));
+            let pose = fk.frame_se3(tip);
+            let r = UnitQuaternion::from_matrix(&pose.rot);
+            p_start = Some((pose.trans, r));
+            log::info!("start tip position {:?}", pose.trans.as_slice());
+        }
+        let (p0, r0) = p_start.unwrap_or((Vector3::zeros(), UnitQuaternion::identity()));
+        let axis = ctl.params().control.force_axis;
+        let mut n = Vector3::zeros();
+        n[axis.axis] = axis.sign;
+        let reference = Reference {
+            p_d: if retracting { p0 } else { p0 + n * approach },
+            r_d: r0,
+            v_d: Vector6::zeros(),
+            a_d: Vector6::zeros(),
+            f_d: if retracting { 0.0 } else { f_d },
+        };
+
+        let (next, out) = controller::step(&ctl, &state, &m, &reference, &mut ws);
+        state = next;
+        cycles += 1;
+        let st = &out.status;
+        if st.f_ext > force_limit && !retracting {
+            retracting = true;
+            log::warn!("measured force {:.1} N above force_limit {force_limit} N: retracting (set any parameter to resume)", st.f_ext);
+        }
+        if let Some(f) = st.fault {
+            let now = wall_ns();
+            if st.fault_count != prev_fault_count || now - last_fault_log > 1_000_000_000 {
+                last_fault_log = now;
+                log::warn!("holding: {f} (faults so far: {})", st.fault_count);
+            }
+        }
+        prev_fault_count = st.fault_count;
+
+        // Never publish a non-finite torque: skip the cycle (the driver holds after 20 ms).
+        if out.tau.iter().all(|t| t.is_finite()) {
+            let _ = effort_pub.publish(msgs::effort_msg(&out.tau, Some(js_stamp_ns)));
+        } else {
+            log::error!("controller produced a non-finite torque; not published");
+        }
+        let fault = match (st.fault, retracting) {
+            (Some(f), _) => f.to_string(),
+            (None, true) => format!("force above force_limit ({force_limit} N): retracting"),
+            (None, false) => String::new(),
+        };
+        let _ = params_pub.publish(NaicParams {
+            header: Header { stamp: time_from_ns(js_stamp_ns), frame_id: String::new() },
+            mode: mode.clone(),
+            phase: match st.phase {
+                Phase::Free => NaicParams::PHASE_FREE,
+                Phase::Contact => NaicParams::PHASE_CONTACT,
+                Phase::Hold => NaicParams::PHASE_HOLD,
+            },
+            force_axis: st.force_axis as u8,
+            desired_force: st.f_d,
+            measured_force: st.f_ext,
+            e_f: st.e_f,
+            m_d: st.m_d,
+            b_d: st.b_d,
+            k_d: st.k_d,
+            sigma: st.sigma,
+            phi: st.phi,
+            gamma: st.gamma,
+            gamma_bound: st.gamma_bound,
+            gamma_clipped: st.gamma_clipped,
+            fault,
+            fault_count: st.fault_count,
+        });
+    }
+    log::info!("stopped after {cycles} cycles");
+    Ok(())
+}

@@ -1,0 +1,111 @@
+//! `naic_ros`: the thin DDS shell every naic ROS 2 node shares (ros2-client 0.12 / RustDDS).
+//!
+//! - [`context`]: one DDS participant per process, honouring `ROS_DOMAIN_ID`,
+//!   `ROS_LOCALHOST_ONLY=1` and `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST|OFF`
+//!   (loopback-only networks, 127.0.0.1);
+//! - [`args`]: `--ros-args` (`-p`, `--params-file`, `-r __node:=`, `-r __ns:=`, topic remaps);
+//! - [`params_file`]: ROS 2 parameter YAML (`node: ros__parameters:`, `/**`);
+//! - [`params`]: declared parameters with descriptors, ranges and validation;
+//! - [`node`]: [`RosNode`], which serves the six `rcl_interfaces` parameter services
+//!   itself (with descriptors, which ros2-client lacks) and publishes `/parameter_events`;
+//! - [`msgs`]: the message types on the wire;
+//! - [`log`]: stderr logging with the node name.
+//!
+//! Nodes are thin shells: they copy messages into preallocated step-function inputs,
+//! call the core/simulator step functions and publish the outputs.
+
+pub mod args;
+pub mod context;
+pub mod log;
+pub mod msgs;
+pub mod node;
+pub mod params;
+pub mod params_file;
+pub mod time;
+
+pub use args::RosArgs;
+pub use node::RosNode;
+pub use params::{ParamSpec, ParamTable, ParamView, Range};
+pub use ros2_client::ParameterValue;
+
+/// Everything that can go wrong setting up a node; the message names the input and the fix.
+#[derive(Debug)]
+pub enum RosError {
+    /// `--help` was given: the text is the usage.
+    Help(String),
+    /// Bad command-line arguments.
+    Args(String),
+    /// Unreadable or malformed `--params-file`.
+    ParamsFile(String),
+    /// A parameter value from the command line or a file was rejected.
+    Param(String),
+    /// Bad ROS environment variable (e.g. `ROS_DOMAIN_ID=abc`).
+    Env(String),
+    /// DDS participant/topic/service creation failed.
+    Dds(String),
+    /// Anything else a node reports at start-up (e.g. a model file it could not load).
+    Node(String),
+}
+
+impl std::fmt::Display for RosError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RosError::Help(s) => f.write_str(s),
+            RosError::Args(s) => write!(f, "bad arguments: {s}"),
+            RosError::ParamsFile(s) => f.write_str(s),
+            RosError::Param(s) => write!(f, "bad parameter: {s}"),
+            RosError::Env(s) => write!(f, "bad environment: {s}"),
+            RosError::Dds(s) => write!(f, "DDS: {s}"),
+            RosError::Node(s) => f.write_str(s),
+        }
+    }
+}
+
+impl std::error::Error for RosError {}
+
+impl RosError {
+    /// Exit code: 0 for help, 2 for user input, 1 for failures.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            RosError::Help(_) => 0,
+            RosError::Args(_) | RosError::ParamsFile(_) | RosError::Param(_) | RosError::Env(_) => 2,
+            RosError::Dds(_) | RosError::Node(_) => 1,
+        }
+    }
+}
+
+/// Run a node's `main` body: print errors as one line naming the node, exit with its code.
+pub fn run_main(node_name: &str, f: impl FnOnce() -> Result<(), RosError>) -> ! {
+    match f() {
+        Ok(()) => std::process::exit(0),
+        Err(RosError::Help(u)) => {
+            println!("{u}");
+            std::process::exit(0)
+        }
+        Err(e) => {
+            eprintln!("{node_name}: error: {e}");
+            std::process::exit(e.exit_code())
+        }
+    }
+}
+
+/// Set by SIGINT/SIGTERM; the nodes' loops check it and exit cleanly.
+pub fn shutdown_requested() -> bool {
+    SHUTDOWN.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+static SHUTDOWN: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Install SIGINT/SIGTERM handlers that set [`shutdown_requested`].
+pub fn install_signal_handlers() {
+    extern "C" fn on_signal(_: libc::c_int) {
+        SHUTDOWN.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+    // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
+    unsafe {
+        libc::signal(libc::SIGINT, on_signal as *const () as libc::sighandler_t);
+        libc::signal(libc::SIGTERM, on_signal as *const () as libc::sighandler_t);
+    }
+}
+
+pub mod wait;

@@ -1,0 +1,363 @@
+//! [`RosNode`]: one ROS 2 node in its own DDS participant, with parameters served the
+//! ROS way.
+//!
+//! ros2-client's built-in parameter services answer `describe_parameters` without
+//! descriptions or ranges, and its spinner subscribes `/clock` as `builtin_interfaces/Time`
+//! (rclpy publishes `rosgraph_msgs/Clock`). So the node is created with
+//! `start_parameter_services(false)` and no spinner; this module serves
+//! `get_parameters`, `get_parameter_types`, `set_parameters`, `set_parameters_atomically`,
+//! `list_parameters` and `describe_parameters` from a [`ParamTable`] on a background
+//! thread (mio poll, no busy wait) and publishes `/parameter_events` for every accepted
+//! change.
+
+use std::{
+    sync::{
+        atomic::{AtomicBool, Ordering},
+        Arc,
+    },
+    thread::JoinHandle,
+    time::Duration,
+};
+
+use ros2_client::{
+    parameters::raw,
+    qos::{History, Reliability, WhenFull},
+    rcl_interfaces as rcl,
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher,
+    QosProfile, Server, ServiceMapping, ServiceTypeName, Subscription,
+};
+use serde::{de::DeserializeOwned, Serialize};
+
+use crate::{
+    args::RosArgs,
+    context::{create_context, DdsSettings},
+    params::{Changes, ParamSpec, ParamTable, SetCheck},
+    RosError,
+};
+
+/// QoS for the 1 kHz topics: reliable, keep last 10, never block the cycle when full.
+pub const QOS_PUB: QosProfile = QosProfile::publisher_default()
+    .reliability(Reliability::Reliable { when_full: WhenFull::Fail })
+    .history(History::KeepLast { depth: 10 });
+/// QoS for subscriptions: best effort, keep last 10 (matches reliable and best-effort writers).
+pub const QOS_SUB: QosProfile = QosProfile::subscription_default().history(History::KeepLast { depth: 10 });
+/// QoS for the lockstep command path: reliable, so no step is lost.
+pub const QOS_SUB_RELIABLE: QosProfile = QosProfile::publisher_default()
+    .reliability(Reliability::Reliable { when_full: WhenFull::Fail })
+    .history(History::KeepLast { depth: 10 });
+
+/// A node: DDS context + ros2-client node + parameter table + parameter services.
+pub struct RosNode {
+    pub args: RosArgs,
+    pub context: Context,
+    pub node: Node,
+    pub params: Arc<ParamTable>,
+    fqn: String,
+    stop: Arc<AtomicBool>,
+    service_thread: Option<JoinHandle<()>>,
+}
+
+impl RosNode {
+    /// Build the node from the process arguments and environment.
+    pub fn from_env(
+        default_name: &str,
+        specs: Vec<ParamSpec>,
+        check: Option<SetCheck>,
+    ) -> Result<RosNode, RosError> {
+        let args = RosArgs::parse(std::env::args().skip(1))?;
+        Self::new(args, default_name, specs, check)
+    }
+
+    pub fn new(
+        args: RosArgs,
+        default_name: &str,
+        specs: Vec<ParamSpec>,
+        check: Option<SetCheck>,
+    ) -> Result<RosNode, RosError> {
+        let name = args.node_name.clone().unwrap_or_else(|| default_name.to_string());
+        let ns = args.namespace.clone().unwrap_or_else(|| "/".to_string());
+        crate::log::init(&name, args.log_level.as_deref());
+        let fqn = args.fqn(default_name);
+        let overrides = args.overrides(default_name)?;
+        let params = ParamTable::new(specs, check, &overrides).map_err(RosError::Param)?;
+
+        let settings = DdsSettings::from_env()?;
+        let context = create_context(&settings)?;
+        let node_name = NodeName::new(&ns, &name)
+            .map_err(|e| RosError::Args(format!("bad node name '{ns}/{name}': {e:?}")))?;
+        let mut node = context
+            .new_node(node_name, NodeOptions::new().enable_rosout(true).start_parameter_services(false))
+            .map_err(|e| RosError::Dds(format!("cannot create node {fqn}: {e}")))?;
+
+        let params = Arc::new(params);
+        let stop = Arc::new(AtomicBool::new(false));
+        let services = ParamServices::new(&mut node, &context, &fqn)?;
+        // Announce the declared parameters, as rclcpp does on declaration.
+        services.publish_event(&fqn, params.all(), true);
+        let service_thread = {
+            let params = Arc::clone(&params);
+            let stop = Arc::clone(&stop);
+            let fqn = fqn.clone();
+            std::thread::Builder::new()
+                .name("param-services".into())
+                .spawn(move || services.run(&params, &stop, &fqn))
+                .map_err(|e| RosError::Node(format!("cannot start parameter thread: {e}")))?
+        };
+        log::info!(
+            "started {fqn} on ROS_DOMAIN_ID={}{}",
+            settings.domain_id,
+            if settings.localhost_only { " (localhost only)" } else { "" }
+        );
+        Ok(RosNode { args, context, node, params, fqn, stop, service_thread: Some(service_thread) })
+    }
+
+    /// Fully qualified node name, `/ns/name`.
+    pub fn fqn(&self) -> &str {
+        &self.fqn
+    }
+
+    fn topic(
+        &self,
+        topic: &str,
+        ty: (&str, &str),
+        qos: &QosProfile,
+    ) -> Result<ros2_client::dds::rustdds::Topic, RosError> {
+        let topic = self.args.remap_topic(topic);
+        // Resolve relative names in the node namespace here: ros2-client would join
+        // namespace "/" and "name" into "//name".
+        let resolved;
+        let topic = if topic.starts_with('/') {
+            topic
+        } else {
+            let ns = self.node.namespace().trim_end_matches('/');
+            resolved = format!("{ns}/{topic}");
+            resolved.as_str()
+        };
+        let name = Name::parse(topic)
+            .map_err(|e| RosError::Args(format!("bad topic name '{topic}': {e:?}")))?;
+        self.node
+            .create_topic(&name, MessageTypeName::new(ty.0, ty.1), qos)
+            .map_err(|e| RosError::Dds(format!("cannot create topic {topic}: {e:?}")))
+    }
+
+    /// A publisher on `topic` (relative names resolve in the node namespace) of ROS type
+    /// `ty = (package, Type)`.
+    pub fn publisher<M: Serialize>(
+        &mut self,
+        topic: &str,
+        ty: (&str, &str),
+        qos: QosProfile,
+    ) -> Result<Publisher<M>, RosError> {
+        let t = self.topic(topic, ty, &qos)?;
+        self.node
+            .create_publisher(&t, Some(qos))
+            .map_err(|e| RosError::Dds(format!("cannot publish {topic}: {e:?}")))
+    }
+
+    pub fn subscription<M: DeserializeOwned + 'static>(
+        &mut self,
+        topic: &str,
+        ty: (&str, &str),
+        qos: QosProfile,
+    ) -> Result<Subscription<M>, RosError> {
+        let t = self.topic(topic, ty, &qos)?;
+        self.node
+            .create_subscription(&t, Some(qos))
+            .map_err(|e| RosError::Dds(format!("cannot subscribe {topic}: {e:?}")))
+    }
+}
+
+impl Drop for RosNode {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.service_thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+type Srv<Req, Resp> = Server<Req, Resp>;
+
+struct ParamServices {
+    get: Srv<rcl::GetParametersRequest, rcl::GetParametersResponse>,
+    types: Srv<rcl::GetParameterTypesRequest, rcl::GetParameterTypesResponse>,
+    set: Srv<rcl::SetParametersRequest, rcl::SetParametersResponse>,
+    set_atomic: Srv<rcl::SetParametersRequest, rcl::SetParametersAtomicallyResponse>,
+    list: Srv<rcl::ListParametersRequest, rcl::ListParametersResponse>,
+    describe: Srv<rcl::DescribeParametersRequest, rcl::DescribeParametersResponse>,
+    events: Publisher<raw::ParameterEvent>,
+}
+
+fn server<Req, Resp>(node: &mut Node, fqn: &str, srv: &str, ty: &str) -> Result<Srv<Req, Resp>, RosError>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + 'static,
+{
+    let qos = QosProfile::publisher_default().history(History::KeepLast { depth: 10 });
+    let name = Name::new(fqn, srv).map_err(|e| RosError::Dds(format!("service name {fqn}/{srv}: {e:?}")))?;
+    node.create_server(
+        ServiceMapping::Enhanced,
+        &name,
+        &ServiceTypeName::new("rcl_interfaces", ty),
+        qos.clone(),
+        qos,
+    )
+    .map_err(|e| RosError::Dds(format!("cannot create service {fqn}/{srv}: {e:?}")))
+}
+
+impl ParamServices {
+    fn new(node: &mut Node, context: &Context, fqn: &str) -> Result<Self, RosError> {
+        let events = node
+            .create_publisher(&context.get_parameter_events_topic(), None)
+            .map_err(|e| RosError::Dds(format!("cannot publish /parameter_events: {e:?}")))?;
+        Ok(ParamServices {
+            get: server(node, fqn, "get_parameters", "GetParameters")?,
+            types: server(node, fqn, "get_parameter_types", "GetParameterTypes")?,
+            set: server(node, fqn, "set_parameters", "SetParameters")?,
+            set_atomic: server(node, fqn, "set_parameters_atomically", "SetParametersAtomically")?,
+            list: server(node, fqn, "list_parameters", "ListParameters")?,
+            describe: server(node, fqn, "describe_parameters", "DescribeParameters")?,
+            events,
+        })
+    }
+
+    fn publish_event(&self, fqn: &str, changes: Changes, new: bool) {
+        if changes.is_empty() {
+            return;
+        }
+        let ps: Vec<raw::Parameter> = changes
+            .into_iter()
+            .map(|(name, v)| raw::Parameter { name, value: v.into() })
+            .collect();
+        let (new_parameters, changed_parameters) = if new { (ps, vec![]) } else { (vec![], ps) };
+        let ev = raw::ParameterEvent {
+            stamp: ros2_client::builtin_interfaces::Time::now(),
+            node: fqn.to_string(),
+            new_parameters,
+            changed_parameters,
+            deleted_parameters: vec![],
+        };
+        if let Err(e) = self.events.publish(ev) {
+            log::warn!("cannot publish /parameter_events: {e:?}");
+        }
+    }
+
+    fn run(self, params: &ParamTable, stop: &AtomicBool, fqn: &str) {
+        use mio::{Events, Interest, Poll, Token};
+        let mut poll = match Poll::new() {
+            Ok(p) => p,
+            Err(e) => {
+                log::error!("parameter services disabled: cannot create poll: {e}");
+                return;
+            }
+        };
+        let mut s = self;
+        let reg = poll.registry();
+        let ok = reg.register(&mut s.get, Token(0), Interest::READABLE).is_ok()
+            & reg.register(&mut s.types, Token(1), Interest::READABLE).is_ok()
+            & reg.register(&mut s.set, Token(2), Interest::READABLE).is_ok()
+            & reg.register(&mut s.set_atomic, Token(3), Interest::READABLE).is_ok()
+            & reg.register(&mut s.list, Token(4), Interest::READABLE).is_ok()
+            & reg.register(&mut s.describe, Token(5), Interest::READABLE).is_ok();
+        if !ok {
+            log::warn!("parameter services: poll registration failed; falling back to 10 ms polling");
+        }
+        let mut events = Events::with_capacity(16);
+        while !stop.load(Ordering::Relaxed) {
+            let timeout = if ok { Duration::from_millis(100) } else { Duration::from_millis(10) };
+            let _ = poll.poll(&mut events, Some(timeout));
+            // Serve every pending request on every service (cheap when idle).
+            s.serve_all(params, fqn);
+        }
+    }
+
+    fn serve_all(&self, params: &ParamTable, fqn: &str) {
+        while let Ok(Some((id, req))) = self.get.receive_request() {
+            let values = params.with(|v| {
+                req.names
+                    .iter()
+                    .map(|n| raw::ParameterValue::from(v.get(n).cloned().unwrap_or(ParameterValue::NotSet)))
+                    .collect()
+            });
+            let _ = self.get.send_response(id, rcl::GetParametersResponse { values });
+        }
+        while let Ok(Some((id, req))) = self.types.receive_request() {
+            let values = params.with(|v| {
+                req.names
+                    .iter()
+                    .map(|n| v.get(n).map(|x| x.to_parameter_type() as u8).unwrap_or(0))
+                    .collect()
+            });
+            let _ = self.types.send_response(id, rcl::GetParameterTypesResponse { values });
+        }
+        while let Ok(Some((id, req))) = self.set.receive_request() {
+            // One result per parameter, each applied on its own (rclcpp semantics).
+            let results = req
+                .parameter
+                .into_iter()
+                .map(|p| {
+                    let name = p.name.clone();
+                    let v: ParameterValue = p.value.into();
+                    match params.set_atomically(&[(name.clone(), v)]) {
+                        Ok(ch) => {
+                            log::info!("parameter {name} set to {:?}", ch[0].1);
+                            self.publish_event(fqn, ch, false);
+                            raw::SetParametersResult { successful: true, reason: String::new() }
+                        }
+                        Err(reason) => {
+                            log::warn!("rejected set of {name}: {reason}");
+                            raw::SetParametersResult { successful: false, reason }
+                        }
+                    }
+                })
+                .collect();
+            let _ = self.set.send_response(id, rcl::SetParametersResponse { results });
+        }
+        while let Ok(Some((id, req))) = self.set_atomic.receive_request() {
+            let ps: Vec<(String, ParameterValue)> =
+                req.parameter.into_iter().map(|p| (p.name, p.value.into())).collect();
+            let result = match params.set_atomically(&ps) {
+                Ok(ch) => {
+                    self.publish_event(fqn, ch, false);
+                    raw::SetParametersResult { successful: true, reason: String::new() }
+                }
+                Err(reason) => {
+                    log::warn!("rejected atomic set: {reason}");
+                    raw::SetParametersResult { successful: false, reason }
+                }
+            };
+            let _ = self.set_atomic.send_response(id, rcl::SetParametersAtomicallyResponse { result });
+        }
+        while let Ok(Some((id, req))) = self.list.receive_request() {
+            let (names, prefixes) = params.list(&req.prefixes, req.depth);
+            let _ = self
+                .list
+                .send_response(id, rcl::ListParametersResponse { result: rcl::ListParametersResult { names, prefixes } });
+        }
+        while let Ok(Some((id, req))) = self.describe.receive_request() {
+            let values = req
+                .names
+                .iter()
+                .map(|n| match params.specs().iter().find(|s| &s.name == n) {
+                    Some(s) => s.descriptor(),
+                    // Unknown names: an empty descriptor (type NOT_SET), as rclcpp would
+                    // throw; rclpy clients see type 0.
+                    None => raw::ParameterDescriptor {
+                        name: n.clone(),
+                        r#type: 0,
+                        description: String::new(),
+                        additional_constraints: String::new(),
+                        read_only: false,
+                        dynamic_typing: false,
+                        integer_range: vec![],
+                        floating_point_range: vec![],
+                    },
+                })
+                .collect();
+            let _ = self.describe.send_response(id, rcl::DescribeParametersResponse { values });
+        }
+    }
+}
+
+/// Publisher alias used by the nodes.
+pub type Pub<M> = Publisher<M>;

@@ -1,0 +1,495 @@
+//! Declared parameters with ROS descriptors, validation and change tracking.
+//!
+//! ros2-client 0.12 keeps parameter values but has no descriptor API (its
+//! `describe_parameters` answers "description missing"), so naic serves the six
+//! `rcl_interfaces` parameter services itself (see [`crate::node`]) from this table.
+//!
+//! Rules (as rclcpp applies them, plus ranges on array elements):
+//! - only declared parameters exist; setting anything else is rejected;
+//! - the type is fixed (an integer given for a double parameter is converted);
+//! - numeric values must lie in the declared range, strings in the declared choices,
+//!   arrays have the declared length;
+//! - read-only parameters are fixed after start-up;
+//! - a node-specific check sees the whole proposed set and may reject it with a reason.
+//!
+//! The control loop polls [`ParamTable::generation`] (one atomic load) and copies the
+//! values only when it changed, so an accepted value takes effect at the next cycle.
+
+use std::sync::{
+    atomic::{AtomicU64, Ordering},
+    Mutex,
+};
+
+use ros2_client::{
+    parameters::raw,
+    ParameterValue,
+};
+
+/// Declared numeric range of a parameter (inclusive).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Range {
+    None,
+    Float { from: f64, to: f64 },
+    Int { from: i64, to: i64 },
+}
+
+/// Declaration of one parameter.
+#[derive(Debug, Clone)]
+pub struct ParamSpec {
+    pub name: String,
+    pub description: String,
+    pub default: ParameterValue,
+    pub range: Range,
+    /// Allowed values of a string parameter (empty: any string).
+    pub choices: Vec<String>,
+    /// Required length of an array parameter.
+    pub len: Option<usize>,
+    pub read_only: bool,
+}
+
+impl ParamSpec {
+    pub fn new(name: &str, default: ParameterValue, description: &str) -> Self {
+        ParamSpec {
+            name: name.into(),
+            description: description.into(),
+            default,
+            range: Range::None,
+            choices: vec![],
+            len: None,
+            read_only: false,
+        }
+    }
+    pub fn double(name: &str, default: f64, from: f64, to: f64, description: &str) -> Self {
+        Self::new(name, ParameterValue::Double(default), description).range(Range::Float { from, to })
+    }
+    pub fn int(name: &str, default: i64, from: i64, to: i64, description: &str) -> Self {
+        Self::new(name, ParameterValue::Integer(default), description).range(Range::Int { from, to })
+    }
+    pub fn boolean(name: &str, default: bool, description: &str) -> Self {
+        Self::new(name, ParameterValue::Boolean(default), description)
+    }
+    pub fn string(name: &str, default: &str, description: &str) -> Self {
+        Self::new(name, ParameterValue::String(default.into()), description)
+    }
+    pub fn choice(name: &str, default: &str, choices: &[&str], description: &str) -> Self {
+        let mut s = Self::string(name, default, description);
+        s.choices = choices.iter().map(|c| c.to_string()).collect();
+        s
+    }
+    pub fn doubles(name: &str, default: &[f64], from: f64, to: f64, description: &str) -> Self {
+        let mut s = Self::new(name, ParameterValue::DoubleArray(default.to_vec()), description)
+            .range(Range::Float { from, to });
+        s.len = Some(default.len());
+        s
+    }
+    pub fn range(mut self, range: Range) -> Self {
+        self.range = range;
+        self
+    }
+    pub fn read_only(mut self) -> Self {
+        self.read_only = true;
+        self
+    }
+
+    /// Human-readable constraints, also sent as the descriptor's `additional_constraints`.
+    pub fn constraints(&self) -> String {
+        let mut parts = vec![];
+        if !self.choices.is_empty() {
+            parts.push(format!("one of: {}", self.choices.join(", ")));
+        }
+        if let Some(n) = self.len {
+            parts.push(format!("exactly {n} elements"));
+        }
+        if matches!(self.default, ParameterValue::DoubleArray(_)) {
+            if let Range::Float { from, to } = self.range {
+                parts.push(format!("each element in [{from}, {to}]"));
+            }
+        }
+        if matches!(self.default, ParameterValue::Double(_) | ParameterValue::DoubleArray(_)) {
+            parts.push("finite".into());
+        }
+        parts.join("; ")
+    }
+
+    /// The `rcl_interfaces/ParameterDescriptor` rclpy's `describe_parameters` returns.
+    pub fn descriptor(&self) -> raw::ParameterDescriptor {
+        let scalar = !matches!(
+            self.default,
+            ParameterValue::DoubleArray(_) | ParameterValue::IntegerArray(_)
+        );
+        let (integer_range, floating_point_range) = match self.range {
+            Range::Int { from, to } if scalar => {
+                (vec![raw::IntegerRange { from_value: from, to_value: to, step: 0 }], vec![])
+            }
+            Range::Float { from, to } if scalar => (
+                vec![],
+                vec![raw::FloatingPointRange { from_value: from, to_value: to, step: 0.0 }],
+            ),
+            _ => (vec![], vec![]),
+        };
+        raw::ParameterDescriptor {
+            name: self.name.clone(),
+            r#type: self.default.to_parameter_type() as u8,
+            description: self.description.clone(),
+            additional_constraints: self.constraints(),
+            read_only: self.read_only,
+            dynamic_typing: false,
+            integer_range,
+            floating_point_range,
+        }
+    }
+
+    /// Check `value` against this declaration; returns the value to store (ints → doubles).
+    pub fn validate(&self, value: ParameterValue) -> Result<ParameterValue, String> {
+        use ParameterValue as V;
+        let name = &self.name;
+        let value = match (&self.default, value) {
+            (V::Double(_), V::Integer(i)) => V::Double(i as f64),
+            (V::DoubleArray(_), V::IntegerArray(a)) => V::DoubleArray(a.iter().map(|&i| i as f64).collect()),
+            (_, v) => v,
+        };
+        if value.to_parameter_type() != self.default.to_parameter_type() {
+            return Err(format!(
+                "parameter '{name}' has type {}, got {}",
+                type_name(&self.default),
+                type_name(&value)
+            ));
+        }
+        let in_float = |x: f64| -> Result<(), String> {
+            if !x.is_finite() {
+                return Err(format!("parameter '{name}' must be finite, got {x}"));
+            }
+            if let Range::Float { from, to } = self.range {
+                if !(from..=to).contains(&x) {
+                    return Err(format!("parameter '{name}' = {x} is outside its range [{from}, {to}]"));
+                }
+            }
+            Ok(())
+        };
+        match &value {
+            V::Double(x) => in_float(*x)?,
+            V::DoubleArray(a) => {
+                for x in a {
+                    in_float(*x)?
+                }
+            }
+            V::Integer(i) => {
+                if let Range::Int { from, to } = self.range {
+                    if !(from..=to).contains(i) {
+                        return Err(format!("parameter '{name}' = {i} is outside its range [{from}, {to}]"));
+                    }
+                }
+            }
+            V::String(s) => {
+                if !self.choices.is_empty() && !self.choices.iter().any(|c| c == s) {
+                    return Err(format!(
+                        "parameter '{name}' = '{s}' is not one of: {}",
+                        self.choices.join(", ")
+                    ));
+                }
+            }
+            _ => {}
+        }
+        if let Some(n) = self.len {
+            let got = match &value {
+                V::DoubleArray(a) => a.len(),
+                V::IntegerArray(a) => a.len(),
+                V::StringArray(a) => a.len(),
+                V::BooleanArray(a) => a.len(),
+                _ => n,
+            };
+            if got != n {
+                return Err(format!("parameter '{name}' needs exactly {n} elements, got {got}"));
+            }
+        }
+        Ok(value)
+    }
+}
+
+pub fn type_name(v: &ParameterValue) -> &'static str {
+    use ParameterValue as V;
+    match v {
+        V::NotSet => "not set",
+        V::Boolean(_) => "bool",
+        V::Integer(_) => "integer",
+        V::Double(_) => "double",
+        V::String(_) => "string",
+        V::ByteArray(_) => "byte array",
+        V::BooleanArray(_) => "bool array",
+        V::IntegerArray(_) => "integer array",
+        V::DoubleArray(_) => "double array",
+        V::StringArray(_) => "string array",
+    }
+}
+
+/// Read access to a complete set of parameter values (current or proposed).
+pub struct ParamView<'a> {
+    specs: &'a [ParamSpec],
+    values: &'a [ParameterValue],
+}
+
+impl<'a> ParamView<'a> {
+    pub fn get(&self, name: &str) -> Option<&'a ParameterValue> {
+        self.specs.iter().position(|s| s.name == name).map(|i| &self.values[i])
+    }
+    /// A declared double (0.0 if the name is not a declared double: a programming error
+    /// caught by the node's unit tests).
+    pub fn f64(&self, name: &str) -> f64 {
+        match self.get(name) {
+            Some(ParameterValue::Double(x)) => *x,
+            Some(ParameterValue::Integer(i)) => *i as f64,
+            _ => {
+                debug_assert!(false, "parameter {name} is not a declared double");
+                0.0
+            }
+        }
+    }
+    pub fn i64(&self, name: &str) -> i64 {
+        match self.get(name) {
+            Some(ParameterValue::Integer(i)) => *i,
+            _ => {
+                debug_assert!(false, "parameter {name} is not a declared integer");
+                0
+            }
+        }
+    }
+    pub fn bool(&self, name: &str) -> bool {
+        matches!(self.get(name), Some(ParameterValue::Boolean(true)))
+    }
+    pub fn str(&self, name: &str) -> &'a str {
+        match self.get(name) {
+            Some(ParameterValue::String(s)) => s,
+            _ => {
+                debug_assert!(false, "parameter {name} is not a declared string");
+                ""
+            }
+        }
+    }
+    pub fn f64s(&self, name: &str) -> &'a [f64] {
+        match self.get(name) {
+            Some(ParameterValue::DoubleArray(a)) => a,
+            _ => {
+                debug_assert!(false, "parameter {name} is not a declared double array");
+                &[]
+            }
+        }
+    }
+}
+
+/// A whole-set check run on every proposed change (cross-parameter rules).
+pub type SetCheck = Box<dyn Fn(&ParamView) -> Result<(), String> + Send + Sync>;
+
+/// The node's declared parameters and their current values.
+pub struct ParamTable {
+    specs: Vec<ParamSpec>,
+    values: Mutex<Vec<ParameterValue>>,
+    generation: AtomicU64,
+    check: Option<SetCheck>,
+}
+
+/// Outcome of one set request: the changed (name, value) pairs, for `/parameter_events`.
+pub type Changes = Vec<(String, ParameterValue)>;
+
+impl ParamTable {
+    /// Declare `specs` (the standard `use_sim_time` is added when missing) and apply the
+    /// start-up overrides in order (files, then `-p`). Unknown names and bad values in the
+    /// overrides are errors naming the parameter.
+    pub fn new(
+        mut specs: Vec<ParamSpec>,
+        check: Option<SetCheck>,
+        overrides: &[(String, ParameterValue)],
+    ) -> Result<ParamTable, String> {
+        if !specs.iter().any(|s| s.name == "use_sim_time") {
+            specs.push(ParamSpec::boolean(
+                "use_sim_time",
+                false,
+                "Stamp and time with /clock (rosgraph_msgs/Clock) instead of the system clock",
+            ));
+        }
+        for (i, s) in specs.iter().enumerate() {
+            if specs[..i].iter().any(|o| o.name == s.name) {
+                return Err(format!("parameter '{}' declared twice", s.name));
+            }
+            s.validate(s.default.clone())
+                .map_err(|e| format!("default of {e}"))?;
+        }
+        let mut values: Vec<ParameterValue> = specs.iter().map(|s| s.default.clone()).collect();
+        for (name, v) in overrides {
+            let Some(i) = specs.iter().position(|s| &s.name == name) else {
+                return Err(format!(
+                    "unknown parameter '{name}'; this node declares: {}",
+                    specs.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", ")
+                ));
+            };
+            values[i] = specs[i].validate(v.clone())?;
+        }
+        if let Some(c) = &check {
+            c(&ParamView { specs: &specs, values: &values })?;
+        }
+        Ok(ParamTable { specs, values: Mutex::new(values), generation: AtomicU64::new(1), check })
+    }
+
+    pub fn specs(&self) -> &[ParamSpec] {
+        &self.specs
+    }
+
+    /// Changes every time a set is accepted (start: 1).
+    pub fn generation(&self) -> u64 {
+        self.generation.load(Ordering::Acquire)
+    }
+
+    /// Run `f` on a consistent view of the current values.
+    pub fn with<R>(&self, f: impl FnOnce(&ParamView) -> R) -> R {
+        let values = self.values.lock().unwrap_or_else(|p| p.into_inner());
+        f(&ParamView { specs: &self.specs, values: &values })
+    }
+
+    pub fn get(&self, name: &str) -> Option<ParameterValue> {
+        self.with(|v| v.get(name).cloned())
+    }
+
+    pub fn all(&self) -> Vec<(String, ParameterValue)> {
+        self.with(|v| self.specs.iter().map(|s| (s.name.clone(), v.get(&s.name).cloned().unwrap_or(ParameterValue::NotSet))).collect())
+    }
+
+    /// Set several parameters all-or-nothing. Errors carry the reason for the caller.
+    pub fn set_atomically(&self, params: &[(String, ParameterValue)]) -> Result<Changes, String> {
+        let mut values = self.values.lock().unwrap_or_else(|p| p.into_inner());
+        let mut proposed = values.clone();
+        let mut changes = Changes::new();
+        for (name, v) in params {
+            let Some(i) = self.specs.iter().position(|s| &s.name == name) else {
+                return Err(format!("parameter '{name}' is not declared by this node"));
+            };
+            let spec = &self.specs[i];
+            if matches!(v, ParameterValue::NotSet) {
+                return Err(format!("parameter '{name}' cannot be undeclared"));
+            }
+            if spec.read_only {
+                return Err(format!("parameter '{name}' is read-only"));
+            }
+            let v = spec.validate(v.clone())?;
+            proposed[i] = v.clone();
+            changes.push((name.clone(), v));
+        }
+        if let Some(c) = &self.check {
+            c(&ParamView { specs: &self.specs, values: &proposed })?;
+        }
+        *values = proposed;
+        self.generation.fetch_add(1, Ordering::AcqRel);
+        Ok(changes)
+    }
+
+    /// `list_parameters` the rclcpp way: names under any of `prefixes` (all when empty),
+    /// at most `depth` dotted levels (0: unlimited); returns (names, prefixes).
+    pub fn list(&self, prefixes: &[String], depth: u64) -> (Vec<String>, Vec<String>) {
+        let mut names = vec![];
+        let mut pfx: Vec<String> = vec![];
+        for s in &self.specs {
+            let n = &s.name;
+            let dots = n.matches('.').count() as u64;
+            let depth_ok = depth == 0 || dots < depth;
+            let prefix_ok = prefixes.is_empty()
+                || prefixes.iter().any(|p| n == p || n.starts_with(&format!("{p}.")));
+            if depth_ok && prefix_ok {
+                names.push(n.clone());
+                if let Some((p, _)) = n.rsplit_once('.') {
+                    if !pfx.iter().any(|x| x == p) {
+                        pfx.push(p.to_string());
+                    }
+                }
+            }
+        }
+        (names, pfx)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ParameterValue as V;
+
+    fn table() -> ParamTable {
+        ParamTable::new(
+            vec![
+                ParamSpec::double("learning_rate", 0.01, 0.0, 1.0, "gamma"),
+                ParamSpec::choice("mode", "naic", &["naic", "aic", "fixed"], "controller"),
+                ParamSpec::doubles("m_d", &[1.0, 1.0, 1.0], 0.01, 100.0, "mass"),
+                ParamSpec::double("contact_threshold", 2.0, 0.0, 100.0, "N"),
+                ParamSpec::double("force_limit", 50.0, 0.0, 500.0, "N"),
+                ParamSpec::int("rate", 1000, 1, 10000, "Hz").read_only(),
+            ],
+            Some(Box::new(|v: &ParamView| {
+                if v.f64("contact_threshold") >= v.f64("force_limit") {
+                    return Err("contact_threshold must be below force_limit".into());
+                }
+                Ok(())
+            })),
+            &[("learning_rate".into(), V::Double(0.5))],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn accepts_valid_and_bumps_generation() {
+        let t = table();
+        assert_eq!(t.get("learning_rate"), Some(V::Double(0.5)));
+        let g = t.generation();
+        let ch = t.set_atomically(&[("learning_rate".into(), V::Integer(1))]).unwrap();
+        assert_eq!(ch, vec![("learning_rate".to_string(), V::Double(1.0))]);
+        assert!(t.generation() > g);
+        assert_eq!(t.get("use_sim_time"), Some(V::Boolean(false)));
+    }
+
+    #[test]
+    fn rejects_with_reasons_and_keeps_old_values() {
+        let t = table();
+        let g = t.generation();
+        let e = |p: (&str, V)| t.set_atomically(&[(p.0.to_string(), p.1)]).unwrap_err();
+        assert!(e(("learning_rate", V::Double(-1.0))).contains("outside its range [0, 1]"));
+        assert!(e(("learning_rate", V::Double(f64::NAN))).contains("finite"));
+        assert!(e(("learning_rate", V::String("x".into()))).contains("type double, got string"));
+        assert!(e(("mode", V::String("pid".into()))).contains("not one of: naic, aic, fixed"));
+        assert!(e(("m_d", V::DoubleArray(vec![1.0]))).contains("exactly 3 elements"));
+        assert!(e(("m_d", V::DoubleArray(vec![1.0, 0.0, 1.0]))).contains("outside"));
+        assert!(e(("nope", V::Double(1.0))).contains("not declared"));
+        assert!(e(("rate", V::Integer(10))).contains("read-only"));
+        assert!(e(("contact_threshold", V::Double(60.0))).contains("below force_limit"));
+        assert_eq!(t.generation(), g);
+        assert_eq!(t.get("learning_rate"), Some(V::Double(0.5)));
+    }
+
+    #[test]
+    fn atomic_set_is_all_or_nothing() {
+        let t = table();
+        let r = t.set_atomically(&[
+            ("learning_rate".into(), V::Double(0.2)),
+            ("mode".into(), V::String("bad".into())),
+        ]);
+        assert!(r.is_err());
+        assert_eq!(t.get("learning_rate"), Some(V::Double(0.5)));
+    }
+
+    #[test]
+    fn bad_overrides_fail_at_start() {
+        let specs = || vec![ParamSpec::double("a", 1.0, 0.0, 2.0, "a")];
+        let e = ParamTable::new(specs(), None, &[("b".into(), V::Double(1.0))]).err().unwrap();
+        assert!(e.contains("unknown parameter 'b'") && e.contains("declares: a"), "{e}");
+        let e = ParamTable::new(specs(), None, &[("a".into(), V::Double(3.0))]).err().unwrap();
+        assert!(e.contains("outside"), "{e}");
+    }
+
+    #[test]
+    fn descriptor_carries_range_and_text() {
+        let t = table();
+        let d = t.specs()[0].descriptor();
+        assert_eq!(d.description, "gamma");
+        assert_eq!(d.r#type, 3);
+        assert_eq!(d.floating_point_range.len(), 1);
+        assert_eq!(d.floating_point_range[0].to_value, 1.0);
+        let d = t.specs()[1].descriptor();
+        assert!(d.additional_constraints.contains("naic, aic, fixed"));
+        let (names, _) = t.list(&[], 0);
+        assert_eq!(names.len(), 7);
+    }
+}

@@ -1,0 +1,40 @@
+//! Waiting for DDS data without busy loops: a mio poll over subscriptions.
+
+use std::time::Duration;
+
+use mio::{Events, Interest, Poll, Token};
+
+/// Blocks until one of the registered sources is readable (or the timeout passes).
+pub struct Waiter {
+    poll: Poll,
+    events: Events,
+}
+
+impl Waiter {
+    pub fn new() -> std::io::Result<Waiter> {
+        Ok(Waiter { poll: Poll::new()?, events: Events::with_capacity(16) })
+    }
+
+    /// Register a subscription (or any mio source) under `token`.
+    pub fn add<S: mio::event::Source>(&mut self, s: &mut S, token: usize) -> std::io::Result<()> {
+        self.poll.registry().register(s, Token(token), Interest::READABLE)
+    }
+
+    /// Wait for readiness; returns the ready tokens' bitmask (bit i for token i < 64).
+    /// Note: epoll timeouts have millisecond granularity; readiness wakes immediately.
+    pub fn wait(&mut self, timeout: Option<Duration>) -> u64 {
+        if let Err(e) = self.poll.poll(&mut self.events, timeout) {
+            if e.kind() != std::io::ErrorKind::Interrupted {
+                log::warn!("poll failed: {e}");
+            }
+            return 0;
+        }
+        let mut mask = 0u64;
+        for ev in self.events.iter() {
+            if ev.token().0 < 64 {
+                mask |= 1 << ev.token().0;
+            }
+        }
+        mask
+    }
+}

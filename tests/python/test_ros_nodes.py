@@ -1,0 +1,349 @@
+"""The naic ROS 2 node suite (Rust, ros2-client/RustDDS) checked with real rclpy on Jazzy.
+
+All DDS traffic stays on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST for both
+sides; RustDDS then uses loopback-only networks) on a test-private ROS_DOMAIN_ID.
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "ros"))
+import rostest_util as ru  # noqa: E402
+
+rclpy = pytest.importorskip("rclpy")
+from rcl_interfaces.msg import ParameterEvent  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from geometry_msgs.msg import WrenchStamped  # noqa: E402
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension  # noqa: E402
+
+JOINTS = [f"joint{i}" for i in range(1, 7)]
+
+
+@pytest.fixture(scope="module")
+def bins():
+    return ru.build_nodes()
+
+
+@pytest.fixture(scope="module")
+def suite(bins):
+    """`naic launch` (three node processes, params/ defaults) on a private domain."""
+    domain = ru.fresh_domain()
+    launch = ru.Proc([str(bins / "naic"), "launch"], ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "naic_suite_test")
+    ok = r.spin_until(lambda: set(ru.NODES) <= {n for n, _ in r.node.get_node_names_and_namespaces()}, 20)
+    assert ok, f"nodes not discovered (seen: {r.node.get_node_names_and_namespaces()}, domain {domain}); launch output:\n{launch.output()[:3000]}"
+    yield {"domain": domain, "launch": launch, "rclpy": r, "bins": bins}
+    r.close()
+    rc = launch.stop(timeout=15)
+    # naic launch stops all three nodes cleanly on SIGINT.
+    assert rc == 0, f"naic launch exit {rc}:\n{launch.output()}"
+    out = launch.output()
+    for n in ru.NODES:
+        assert f"[{n}]" in out, f"no prefixed log lines from {n}"
+    assert "had to kill" not in out, out
+
+
+def test_ros_graph_names_and_topic_types(suite):
+    r = suite["rclpy"]
+    want = {
+        "/joint_states": "sensor_msgs/msg/JointState",
+        "/wrench": "geometry_msgs/msg/WrenchStamped",
+        "/joint_effort_cmd": "std_msgs/msg/Float64MultiArray",
+        "/naic/effort": "std_msgs/msg/Float64MultiArray",
+        "/naic/params": "naic_msgs/msg/NaicParams",
+        "/clock": "rosgraph_msgs/msg/Clock",
+        "/parameter_events": "rcl_interfaces/msg/ParameterEvent",
+    }
+
+    def have():
+        return {t: ty for t, ty in r.node.get_topic_names_and_types()}
+
+    r.spin_until(lambda: all(t in have() for t in want), 15)
+    topics = have()
+    for t, ty in want.items():
+        assert topics.get(t) == [ty], f"{t}: {topics.get(t)}"
+    names = {n for n, ns in r.node.get_node_names_and_namespaces() if ns == "/"}
+    assert set(ru.NODES) <= names
+    # Who publishes and subscribes what.
+    pubs = lambda t: {i.node_name for i in r.node.get_publishers_info_by_topic(t)}  # noqa: E731
+    subs = lambda t: {i.node_name for i in r.node.get_subscriptions_info_by_topic(t)}  # noqa: E731
+    assert "jk5_sim_driver" in pubs("/joint_states") and "naic_controller" in subs("/joint_states")
+    assert "naic_controller" in pubs("/naic/effort") and "friction_compensation" in subs("/naic/effort")
+    assert "friction_compensation" in pubs("/joint_effort_cmd") and "jk5_sim_driver" in subs("/joint_effort_cmd")
+
+
+def test_ros_joint_states_and_wrench_at_published_rate(suite):
+    r = suite["rclpy"]
+    js, ws = [], []
+    s1 = r.node.create_subscription(JointState, "/joint_states", lambda m: js.append((time.time(), m)), 100)
+    s2 = r.node.create_subscription(WrenchStamped, "/wrench", lambda m: ws.append((time.time(), m)), 100)
+    r.spin(1.0)
+    js.clear()
+    ws.clear()
+    r.spin(3.0)
+    r.node.destroy_subscription(s1)
+    r.node.destroy_subscription(s2)
+    for name, got in (("joint_states", js), ("wrench", ws)):
+        assert len(got) > 100, f"/{name}: only {len(got)} messages in 3 s"
+        stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for _, m in got]
+        gaps = sorted(b - a for a, b in zip(stamps, stamps[1:]))
+        rate_pub = 1.0 / gaps[len(gaps) // 2]
+        # Published rate (median stamp spacing of what arrived): the 1 kHz parameter.
+        assert 950 < rate_pub < 1050, f"/{name}: stamps say {rate_pub:.0f} Hz"
+        # Received: rclpy keeps up with most of it on a loaded 2-core machine.
+        rx = (len(got) - 1) / (stamps[-1] - stamps[0])
+        assert rx > 600, f"/{name}: received {rx:.0f} Hz"
+        assert all(b > a for a, b in zip(stamps, stamps[1:])), f"/{name}: stamps not increasing"
+    m = js[-1][1]
+    assert list(m.name) == JOINTS
+    assert len(m.position) == len(m.velocity) == len(m.effort) == 6
+    assert ws[-1][1].header.frame_id == "ft_sensor"
+
+
+def test_ros_parameters_list_get_describe_set(suite):
+    r = suite["rclpy"]
+    c = AsyncParameterClient(r.node, "naic_controller")
+    assert c.wait_for_services(10.0)
+    names = r.wait(c.list_parameters()).result.names
+    for p in ["desired_force", "learning_rate", "mode", "m_d", "b_d", "k_d", "sigma", "force_axis",
+              "contact_threshold", "force_limit", "wrench_timeout", "use_sim_time"]:
+        assert p in names, f"{p} not declared: {names}"
+    vals = r.wait(c.get_parameters(["desired_force", "mode", "m_d"])).values
+    assert vals[0].double_value == 10.0
+    assert vals[1].string_value == "naic"
+    assert list(vals[2].double_array_value) == [1.0] * 6
+    d = r.wait(c.describe_parameters(["learning_rate", "mode", "m_d"])).descriptors
+    assert d[0].name == "learning_rate" and "eq 15" in d[0].description
+    assert d[0].type == 3  # PARAMETER_DOUBLE
+    assert d[0].floating_point_range[0].from_value == 0.0
+    assert d[0].floating_point_range[0].to_value > 0.0
+    assert "naic, aic, fixed" in d[1].additional_constraints
+    assert "6 elements" in d[2].additional_constraints
+    # Set: accepted, announced on /parameter_events, read back.
+    events = []
+    sub = r.node.create_subscription(ParameterEvent, "/parameter_events", events.append, 10)
+    r.spin(0.5)
+    res = r.wait(c.set_parameters([Parameter("desired_force", value=12.0)])).results
+    assert res[0].successful, res[0].reason
+    assert r.spin_until(lambda: any(
+        e.node == "/naic_controller" and any(p.name == "desired_force" and p.value.double_value == 12.0
+                                              for p in e.changed_parameters) for e in events), 5)
+    r.node.destroy_subscription(sub)
+    assert r.wait(c.get_parameters(["desired_force"])).values[0].double_value == 12.0
+    # Undeclared parameters do not exist and cannot be set.
+    res = r.wait(c.set_parameters([Parameter("no_such_parameter", value=1.0)])).results
+    assert not res[0].successful and "not declared" in res[0].reason
+    # Other nodes declare theirs.
+    for node, p in (("jk5_sim_driver", "rate"), ("friction_compensation", "friction_file")):
+        c2 = AsyncParameterClient(r.node, node)
+        assert c2.wait_for_services(10.0)
+        assert p in r.wait(c2.list_parameters()).result.names
+
+
+def test_ros_invalid_learning_rate_rejected_with_reason(suite):
+    r = suite["rclpy"]
+    c = AsyncParameterClient(r.node, "naic_controller")
+    assert c.wait_for_services(10.0)
+    before = r.wait(c.get_parameters(["learning_rate"])).values[0].double_value
+    for bad in (-0.5, float("nan"), "fast"):
+        res = r.wait(c.set_parameters([Parameter("learning_rate", value=bad)])).results[0]
+        assert not res.successful, f"learning_rate={bad!r} was accepted"
+        assert "learning_rate" in res.reason and len(res.reason) > 20, res.reason
+    # The node keeps running with the old value.
+    assert r.wait(c.get_parameters(["learning_rate"])).values[0].double_value == before
+    effort = []
+    sub = r.node.create_subscription(Float64MultiArray, "/naic/effort", effort.append, 10)
+    assert r.spin_until(lambda: len(effort) > 50, 5), "controller stopped publishing"
+    r.node.destroy_subscription(sub)
+
+
+def test_ros_naic_params_received_by_rclpy_with_built_naic_msgs(suite):
+    """naic_msgs built with colcon from PyPI wheels; rclpy decodes /naic/params."""
+    overlay = ru.naic_msgs_env()
+    script = textwrap.dedent("""
+        import json, time, rclpy
+        from naic_msgs.msg import NaicParams
+        from rclpy.parameter import Parameter
+        from rclpy.parameter_client import AsyncParameterClient
+        rclpy.init()
+        n = rclpy.create_node("naic_params_probe")
+        got = []
+        n.create_subscription(NaicParams, "/naic/params", got.append, 100)
+        c = AsyncParameterClient(n, "naic_controller")
+        c.wait_for_services(10.0)
+        f = c.set_parameters([Parameter("desired_force", value=7.5), Parameter("mode", value="aic")])
+        rclpy.spin_until_future_complete(n, f, timeout_sec=10)
+        got.clear()
+        t0 = time.time()
+        while time.time() - t0 < 3 and len(got) < 200:
+            rclpy.spin_once(n, timeout_sec=0.05)
+        m = got[-1]
+        print(json.dumps(dict(n=len(got), mode=m.mode, desired_force=m.desired_force, force_axis=m.force_axis,
+            phase=m.phase, m_d=m.m_d, b_d=m.b_d, sigma=m.sigma, gamma=m.gamma, gamma_bound=m.gamma_bound,
+            stamp=m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, fault=m.fault,
+            fault_count=m.fault_count, measured=m.measured_force, e_f=m.e_f, set_ok=[r.successful for r in f.result().results])))
+    """)
+    env = {**ru.ros_env(suite["domain"]), **overlay}
+    env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
+    env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    m = json.loads(out.stdout.strip().splitlines()[-1])
+    assert m["set_ok"] == [True, True]
+    assert m["n"] > 100
+    assert m["mode"] == "aic"
+    assert m["desired_force"] in (7.5, 0.0)  # 0.0 only while retracting above force_limit
+    assert m["force_axis"] == 2
+    assert m["phase"] in (0, 1, 2)
+    # The fields carry the controller's numbers (paper defaults on the force axis).
+    assert m["m_d"] == 1.0 and m["b_d"] == 40.0 and m["sigma"] == 0.01
+    assert math.isfinite(m["e_f"]) or m["phase"] == 2  # the hold has no force error
+    assert abs(m["stamp"] - time.time()) < 5
+    # Put the defaults back for the other tests.
+    r = suite["rclpy"]
+    c = AsyncParameterClient(r.node, "naic_controller")
+    assert c.wait_for_services(10.0)
+    r.wait(c.set_parameters([Parameter("mode", value="naic"), Parameter("desired_force", value=10.0)]))
+
+
+@pytest.fixture(scope="module")
+def lone_driver(bins):
+    """The driver alone (no controller): rclpy is the only commander."""
+    domain = ru.fresh_domain(40)
+    p = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file", "params/jk5_sim_driver.yaml"],
+                ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "naic_commander_test")
+    assert r.spin_until(lambda: "jk5_sim_driver" in r.node.get_node_names(), 20), p.output()
+    yield r, p
+    r.close()
+    assert p.stop() == 0, p.output()
+
+
+def test_ros_rclpy_commands_joint_effort_and_driver_obeys(lone_driver):
+    r, proc = lone_driver
+    js = []
+    r.node.create_subscription(JointState, "/joint_states", js.append, 100)
+    pub = r.node.create_publisher(Float64MultiArray, "/joint_effort_cmd", 10)
+    assert r.spin_until(lambda: len(js) > 10, 10)
+    tau = [1.5, -2.0, 2.5, 0.5, -0.25, 0.125]
+    msg = Float64MultiArray(data=tau)
+    msg.layout.dim = [MultiArrayDimension(label="joints", size=6, stride=6)]
+    q0 = list(js[-1].position)
+    t0 = time.time()
+    while time.time() - t0 < 1.0:  # 1 s of commands at ~200 Hz (within the 20 ms timeout)
+        pub.publish(msg)
+        r.spin(0.005)
+    # effort = the measured joint torque = what was commanded.
+    assert js[-1].effort.tolist() == pytest.approx(tau, abs=1e-9), js[-1].effort
+    q1 = list(js[-1].position)
+    assert max(abs(a - b) for a, b in zip(q0, q1)) > 1e-3, "the arm did not move under the command"
+    # Commands stop: the driver holds the arm itself within its 20 ms timeout.
+    r.spin(0.2)
+    assert js[-1].effort.tolist() != pytest.approx(tau, abs=1e-6)
+    # A malformed command is refused (and logged), not applied.
+    bad = Float64MultiArray(data=[1.0, float("nan"), 0.0, 0.0, 0.0, 0.0])
+    for _ in range(20):
+        pub.publish(bad)
+        r.spin(0.005)
+    assert all(math.isfinite(x) for x in js[-1].effort)
+    assert proc.alive()
+
+
+def test_ros_remap_node_name_and_namespace(bins):
+    domain = ru.fresh_domain(80)
+    p = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "-r", "__node:=drv2", "-r", "__ns:=/robot1",
+                 "-p", "rate:=250.0"], ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "naic_remap_test")
+    try:
+        assert r.spin_until(lambda: ("drv2", "/robot1") in r.node.get_node_names_and_namespaces(), 20), p.output()
+        assert r.spin_until(lambda: "/robot1/joint_states" in dict(r.node.get_topic_names_and_types()), 10)
+        c = AsyncParameterClient(r.node, "/robot1/drv2")
+        assert c.wait_for_services(10.0)
+        assert r.wait(c.get_parameters(["rate"])).values[0].double_value == 250.0
+    finally:
+        r.close()
+        assert p.stop() == 0, p.output()
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--ros-args", "-p", "learning_rate:=-1.0"], "learning_rate"),
+    (["--ros-args", "-p", "no_such:=1"], "unknown parameter 'no_such'"),
+    (["--ros-args", "--params-file", "/nonexistent/x.yaml"], "/nonexistent/x.yaml"),
+    (["--ros-args", "-r", "__node:=9bad"], "starts with a digit"),
+    (["--bogus"], "unexpected argument '--bogus'"),
+])
+def test_ros_bad_arguments_give_clear_errors(bins, args, needle):
+    out = subprocess.run([str(bins / "naic_controller"), *args], cwd=ru.ROOT, capture_output=True, text=True,
+                         timeout=30, env=ru.ros_env(ru.fresh_domain()))
+    assert out.returncode == 2, out.stderr
+    assert needle in out.stderr and "panicked" not in out.stderr, out.stderr
+
+
+def test_ros_bad_params_file_names_the_problem(bins, tmp_path):
+    f = tmp_path / "bad.yaml"
+    f.write_text("naic_controller:\n  ros__parameters:\n    m_d: [1.0, oops]\n")
+    out = subprocess.run([str(bins / "naic_controller"), "--ros-args", "--params-file", str(f)], cwd=ru.ROOT,
+                         capture_output=True, text=True, timeout=30, env=ru.ros_env(ru.fresh_domain()))
+    assert out.returncode == 2
+    assert str(f) in out.stderr and "m_d" in out.stderr, out.stderr
+
+
+def test_ros_bad_domain_id_is_refused(bins):
+    env = ru.ros_env(0)
+    env["ROS_DOMAIN_ID"] = "abc"
+    out = subprocess.run([str(bins / "jk5_sim_driver")], cwd=ru.ROOT, capture_output=True, text=True,
+                         timeout=30, env=env)
+    assert out.returncode == 2 and "ROS_DOMAIN_ID='abc'" in out.stderr, out.stderr
+
+
+def test_ros_new_desired_force_is_followed(suite):
+    r = suite["rclpy"]
+    c = AsyncParameterClient(r.node, "jk5_sim_driver")
+    assert c.wait_for_services(10.0)
+    plant = r.wait(c.get_parameters(["plant"])).values[0].string_value
+    if plant == "placeholder":
+        pytest.skip("the driver runs the placeholder plant: naic_sim's arm is not integrated yet")
+    overlay = ru.naic_msgs_env()
+    script = textwrap.dedent("""
+        import json, time, rclpy
+        from naic_msgs.msg import NaicParams
+        from rclpy.parameter import Parameter
+        from rclpy.parameter_client import AsyncParameterClient
+        rclpy.init()
+        n = rclpy.create_node("naic_force_probe")
+        got = []
+        n.create_subscription(NaicParams, "/naic/params", got.append, 100)
+        c = AsyncParameterClient(n, "naic_controller")
+        c.wait_for_services(10.0)
+        def run(seconds):
+            t0 = time.time()
+            while time.time() - t0 < seconds:
+                rclpy.spin_once(n, timeout_sec=0.01)
+        run(8.0)   # approach and settle on the first set point
+        first = got[-1].measured_force
+        f = c.set_parameters([Parameter("desired_force", value=15.0)])
+        rclpy.spin_until_future_complete(n, f, timeout_sec=10)
+        t_set = time.time(); got.clear(); trace = []
+        while time.time() - t_set < 6.0:
+            rclpy.spin_once(n, timeout_sec=0.01)
+            if got: trace.append((time.time() - t_set, got[-1].measured_force, got[-1].phase))
+        print(json.dumps(dict(first=first, trace=trace[::20], last=trace[-1])))
+    """)
+    env = {**ru.ros_env(suite["domain"]), **overlay}
+    env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
+    env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=90)
+    assert out.returncode == 0, out.stderr
+    m = json.loads(out.stdout.strip().splitlines()[-1])
+    assert m["first"] == pytest.approx(10.0, abs=2.0), m
+    # Within a few seconds the measured contact force follows the new set point.
+    late = [f for t, f, ph in m["trace"] if t > 3.0]
+    assert late and all(abs(f - 15.0) < 1.5 for f in late), m
