@@ -366,6 +366,65 @@ fn fold_grams(js: &JointSamples, st: &Structure, sh: &NominalShape, cols: &[Col]
     g
 }
 
+/// Like [`fold_grams`] for a structure that differs from the one behind `base` only in
+/// the columns flagged in `scan_cols`: only their rows/columns are recomputed.
+fn fold_grams_update(
+    js: &JointSamples,
+    st: &Structure,
+    sh: &NominalShape,
+    cols: &[Col],
+    scan_cols: &[usize],
+    base: &[DMatrix<f64>],
+) -> Vec<DMatrix<f64>> {
+    let p = cols.len();
+    let mut g: Vec<DMatrix<f64>> = base.to_vec();
+    for gm in &mut g {
+        for &a in scan_cols {
+            for b in 0..=p {
+                gm[(a, b)] = 0.0;
+                gm[(b, a)] = 0.0;
+            }
+        }
+    }
+    let mut x = vec![0.0; p + 1];
+    for i in 0..js.len() {
+        for (c, xc) in cols.iter().zip(x.iter_mut()) {
+            *xc = js.col(*c, st, sh, i);
+        }
+        x[p] = js.y[i];
+        let gm = &mut g[js.fold[i] as usize];
+        for &a in scan_cols {
+            let xa = x[a];
+            if xa == 0.0 {
+                continue;
+            }
+            for b in 0..=p {
+                gm[(a, b)] += xa * x[b];
+            }
+        }
+    }
+    for gm in &mut g {
+        for &a in scan_cols {
+            for b in 0..=p {
+                if !scan_cols.contains(&b) {
+                    gm[(b, a)] = gm[(a, b)];
+                }
+            }
+        }
+    }
+    g
+}
+
+fn scan_param_of(c: Col) -> Option<ScanParam> {
+    match c {
+        Col::Strib(Dir::Both) => Some(ScanParam::Qs),
+        Col::Strib(Dir::Pos) => Some(ScanParam::QsPos),
+        Col::Strib(Dir::Neg) => Some(ScanParam::QsNeg),
+        Col::RipSin | Col::RipCos => Some(ScanParam::K),
+        _ => None,
+    }
+}
+
 /// Fits `st` with the shape parameters in `scan` chosen per fold (grid + refinement).
 pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &NominalShape, k_folds: usize) -> Eval {
     let cols = st.columns();
@@ -394,6 +453,12 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         grams.push(fold_grams(js, st, sh, &cols, k_folds));
     } else {
         configs.clear();
+        let scan_cols: Vec<usize> = cols
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| scan_param_of(**c).is_some_and(|sp| scan.contains(&sp)))
+            .map(|(i, _)| i)
+            .collect();
         // stage 1: coarse grids, one parameter at a time (others at current values)
         let mut best_vals: Vec<f64> = scan.iter().map(|&sp| st.get(sp)).collect();
         let mut tried: Vec<(Vec<f64>, Vec<DMatrix<f64>>)> = Vec::new();
@@ -404,7 +469,11 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
             }
             let pairs: Vec<(ScanParam, f64)> = scan.iter().copied().zip(vals.iter().copied()).collect();
             let s = build(&pairs);
-            let g = fold_grams(js, &s, sh, &cols, k_folds);
+            let g = match tried.first() {
+                // only the scanned columns change between configurations
+                Some((_, base)) => fold_grams_update(js, &s, sh, &cols, &scan_cols, base),
+                None => fold_grams(js, &s, sh, &cols, k_folds),
+            };
             let ssr = solve(&sum(&g), p).1;
             tried.push((vals.to_vec(), g));
             ssr
