@@ -95,6 +95,9 @@ impl TimeSeries {
                     self.t[i - 1]
                 )));
             }
+        }
+        for i in 1..n {
+            let d = self.t[i] - self.t[i - 1];
             if d > 1.5 * dt || d < 0.5 * dt {
                 return Err(ExplainError::input(format!(
                     "{name}: sample {} (t = {}): time step {d} s differs from the median step {dt} s by more than 50 %; \
