@@ -160,6 +160,16 @@ fn map_of(pairs: &[(usize, f64)]) -> Value {
 /// Per-direction held-out RMSE (out-of-fold residuals) of an Eval.
 pub fn direction_rmse(js: &JointSamples, ev: &Eval, sh: &NominalShape) -> (f64, f64) {
     let (oof, _) = residuals(js, ev, sh);
+    split_rmse(js, &oof)
+}
+
+/// Per-direction in-sample RMSE √(SSR/n) of the whole-data fit.
+pub fn direction_rmse_insample(js: &JointSamples, ev: &Eval, sh: &NominalShape) -> (f64, f64) {
+    let (_, ins) = residuals(js, ev, sh);
+    split_rmse(js, &ins)
+}
+
+fn split_rmse(js: &JointSamples, oof: &[f64]) -> (f64, f64) {
     let (mut sp, mut np, mut sn, mut nn) = (0.0, 0usize, 0.0, 0usize);
     for (i, r) in oof.iter().enumerate() {
         if js.s[i] > 0.0 {
@@ -210,9 +220,11 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
     for ((r, js), sh) in ex.results.iter().zip(&ex.joints).zip(ex.joints.iter().map(|js| ex.shapes.get(js.joint - 1).copied().unwrap_or_default())) {
         let (np, nn) = direction_rmse(js, &r.nominal, &sh);
         let (ep, en) = direction_rmse(js, &r.final_eval, &sh);
+        let (ip, inn) = direction_rmse_insample(js, &r.final_eval, &sh);
         per_dir.insert(
             jkey(r.joint),
             json!({"nominal": {"positive": np, "negative": nn}, "extended": {"positive": ep, "negative": en},
+                   "extended_insample": {"positive": ip, "negative": inn},
                    "model": r.final_eval.full_structure.effects.iter().map(|e| e.name()).collect::<Vec<_>>()}),
         );
     }
