@@ -116,7 +116,15 @@ pub fn run(a: ExplainArgs) -> CliResult {
         .map(|fs| {
             fs.iter()
                 .filter(|f| f["significant"].as_bool() == Some(true))
-                .map(|f| format!("{} (gain {:.3}, {})", f["effect"].as_str().unwrap_or("?"), f["gain"].as_f64().unwrap_or(0.0), f["targets"]))
+                .map(|f| {
+                    format!(
+                        "{} (gain {:.4}, step gain {:.3}, {})",
+                        f["effect"].as_str().unwrap_or("?"),
+                        f["gain"].as_f64().unwrap_or(0.0),
+                        f["step_gain"].as_f64().unwrap_or(0.0),
+                        f["targets"]
+                    )
+                })
                 .collect()
         })
         .unwrap_or_default();
