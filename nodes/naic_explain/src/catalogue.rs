@@ -95,7 +95,7 @@ impl Effect {
     pub fn meaning(self) -> &'static str {
         match self {
             Effect::FrictionAsymmetry => "friction differs between the positive and negative direction (eq. 5 per direction, Table 1)",
-            Effect::Stribeck => "a low-speed (Stribeck) friction rise that the nominal friction law lacks",
+            Effect::Stribeck => "a low-speed (Stribeck) friction shape that the nominal friction law lacks or gets wrong (f_b, q_s)",
             Effect::PositionRipple => "friction that varies periodically with joint position (gear/bearing ripple)",
             Effect::Payload => "an unmodelled mass at the tool",
             Effect::TorqueOffset => "a constant bias of the torque sensor",
