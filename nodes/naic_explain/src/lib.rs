@@ -16,6 +16,7 @@
 
 pub mod analysis;
 pub mod catalogue;
+pub mod closed_loop;
 pub mod generate;
 pub mod input;
 pub mod plots;

@@ -180,3 +180,24 @@ fn mcap_bag_input() {
     let got = fs[0].params[0].1[0].1;
     assert!((got - truth).abs() < 0.1 * truth.abs() + 0.05, "offset {got} vs {truth}");
 }
+
+/// Closing the loop: with the simulator's true per-direction friction in the plant, the
+/// extended compensation identified by `naic explain` gives (nearly) the force tracking of
+/// compensating with the true friction itself, closer than the best symmetric eq. 5 law.
+#[test]
+fn closed_loop_extended_matches_true_compensation() {
+    let rows = naic_explain::closed_loop::closed_loop(&root().join("urdf/jk5.urdf"), &root().join("params/friction_jk5.yaml"), None, &|_, _| {})
+        .expect("closed loop runs");
+    for sc in ["flat", "stiffness-step"] {
+        let get = |c: &str| {
+            rows.iter()
+                .find(|r| r.scenario == sc && r.compensation.starts_with(c))
+                .and_then(|r| r.rms_force_error)
+                .unwrap_or_else(|| panic!("{sc}/{c} has contact"))
+        };
+        let (sym, ext, truth) = (get("symmetric"), get("extended"), get("true"));
+        eprintln!("{sc}: symmetric {sym:.4}, extended {ext:.4}, true {truth:.4} N");
+        assert!((ext - truth).abs() < (sym - truth).abs(), "{sc}: extended {ext} not closer to true {truth} than symmetric {sym}");
+        assert!((ext - truth).abs() < 0.02 * truth, "{sc}: extended {ext} within 2 % of true-friction compensation {truth}");
+    }
+}

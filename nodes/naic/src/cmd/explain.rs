@@ -5,6 +5,9 @@
 //!   (+ SVG plots) and `DIR/extended_params.yaml`.
 //! * `naic explain --generate FILE.csv --seed N [--hide effect,…]` — write seeded synthetic
 //!   data with hidden effects (the tests' generator), to try the tool.
+//! * `naic explain --closed-loop [--out DIR]` — force tracking (`flat`, `stiffness-step`)
+//!   with symmetric vs extended friction compensation against the simulator's true
+//!   per-direction friction (see `naic_explain::closed_loop`).
 //! * `naic explain --bench [--minutes M] [--json]` — time the analysis of M minutes
 //!   (default 60) of 1 kHz six-joint data, with progress on stderr (`--out DIR` also writes its report).
 use super::{CliError, CliResult};
@@ -52,6 +55,12 @@ pub struct ExplainArgs {
     /// Print the benchmark result as JSON.
     #[arg(long)]
     json: bool,
+    /// Closing the loop: RMS force error with symmetric vs extended friction compensation in the simulator.
+    #[arg(long)]
+    closed_loop: bool,
+    /// True per-direction friction of the simulated plant for --closed-loop.
+    #[arg(long, default_value = "params/friction_jk5.yaml")]
+    truth: PathBuf,
     /// No progress on stderr.
     #[arg(long)]
     quiet: bool,
@@ -96,6 +105,9 @@ pub fn run(a: ExplainArgs) -> CliResult {
     }
     if a.bench {
         return run_bench(&a);
+    }
+    if a.closed_loop {
+        return run_closed_loop(&a);
     }
     let measured = a.measured.as_ref().ok_or_else(|| {
         CliError::usage("give --measured FILE (bag, time-series CSV or friction-points CSV) and --out DIR; or --generate / --bench")
@@ -217,6 +229,34 @@ fn run_bench(a: &ExplainArgs) -> CliResult {
         println!("{v}");
     } else {
         println!("{} samples ({hours:.3} h at 1 kHz): analysed in {analyse_s:.2} s ({:.2} s per hour of data), generation {gen_s:.2} s; reference (one RNEA per sample) {reference_s:.2} s, ratio {:.1}; found {found:?}", g.ts.len(), analyse_s / hours, analyse_s / reference_s);
+    }
+    Ok(())
+}
+
+fn run_closed_loop(a: &ExplainArgs) -> CliResult {
+    let progress = progress_printer(a.quiet);
+    let rows = naic_explain::closed_loop::closed_loop(&a.urdf, &a.truth, a.out.as_deref(), &progress).map_err(err)?;
+    if !a.quiet {
+        eprintln!();
+    }
+    let mut md = String::from("| scenario | friction compensation | RMS force error from first contact [N] |\n| --- | --- | --- |\n");
+    for r in &rows {
+        md.push_str(&format!(
+            "| {} | {} | {} |\n",
+            r.scenario,
+            r.compensation,
+            r.rms_force_error.map_or_else(|| "no contact".to_string(), |v| format!("{v:.4}"))
+        ));
+    }
+    print!("{md}");
+    if let Some(dir) = &a.out {
+        let v: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|r| serde_json::json!({"scenario": r.scenario, "compensation": r.compensation, "rms_force_error_n": r.rms_force_error}))
+            .collect();
+        std::fs::write(dir.join("closed_loop.json"), serde_json::to_string_pretty(&v).unwrap_or_default())
+            .map_err(|e| CliError::failure(format!("{}: {e}", dir.display())))?;
+        std::fs::write(dir.join("closed_loop.md"), md).map_err(|e| CliError::failure(format!("{}: {e}", dir.display())))?;
     }
     Ok(())
 }
