@@ -266,6 +266,30 @@ impl JointSamples {
     }
 }
 
+/// The friction part (Coulomb, viscous, Stribeck, s·q̇² columns) of a whole-data fit at
+/// velocity `v`, with sgn(v) exact.
+pub fn friction_part(ev: &Eval, sh: &NominalShape, v: f64) -> f64 {
+    let js = JointSamples {
+        y: vec![0.0],
+        v: vec![v],
+        s: vec![v.signum()],
+        q: vec![0.0],
+        t: vec![0.0],
+        tn: vec![0.0],
+        a: vec![0.0],
+        dtau: vec![0.0],
+        payload: vec![0.0],
+        fold: vec![0],
+        ..Default::default()
+    };
+    ev.columns
+        .iter()
+        .zip(&ev.full_theta)
+        .filter(|(c, _)| matches!(c, Col::Coul(_) | Col::Visc(_) | Col::Strib(_) | Col::Visc2))
+        .map(|(c, th)| th * js.col(*c, &ev.full_structure, sh, 0))
+        .sum()
+}
+
 /// Fit of one structure: per-fold and whole-data results.
 #[derive(Clone, Debug)]
 pub struct Eval {

@@ -11,7 +11,7 @@
 use crate::analysis::{residuals, Candidate, Col, Dir, Eval, JointResult, JointSamples, NominalShape};
 use crate::catalogue::{Effect, ALL_EFFECTS};
 use crate::{ExplainError, Explained};
-use naic_core::friction::{FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
+use naic_core::friction::{fit, FitForm, FitOptions, FrictionData, FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
 use serde_json::{json, Map, Value};
 use std::fmt::Write;
 use std::path::Path;
@@ -258,9 +258,56 @@ fn nonneg(x: f64) -> f64 {
     }
 }
 
-/// The extended friction law of one joint (the friction part of its final model), with
-/// the notes about clamped values.
-pub fn extended_friction(r: &JointResult, sh: &NominalShape, notes: &mut Vec<String>) -> JointFriction {
+/// The extended friction law of one joint in the friction schema (eq. 5, per direction when
+/// asymmetric). When the final model has terms the schema cannot hold (s·q̇²) or a level
+/// came out negative, the model's friction part is evaluated at 200 speeds per direction
+/// spanning the data and eq. 5 is fitted to it with the project's bounded fitter
+/// (`naic_core::friction::fit`); the note gives the largest deviation.
+pub fn extended_friction(r: &JointResult, js: &JointSamples, sh: &NominalShape, notes: &mut Vec<String>) -> JointFriction {
+    let mut direct_notes = Vec::new();
+    let direct = extended_friction_direct(r, sh, &mut direct_notes);
+    let st = &r.final_eval.full_structure;
+    if !st.has(Effect::ViscousNonlinearity) && direct_notes.is_empty() {
+        return direct;
+    }
+    // speeds: quantiles of |v| per direction
+    let mut pts = Vec::new();
+    for dir in [1.0, -1.0] {
+        let mut sp: Vec<f64> = (0..js.len()).filter(|&i| js.s[i] * dir > 0.0).map(|i| js.v[i].abs()).collect();
+        if sp.is_empty() {
+            continue;
+        }
+        sp.sort_by(f64::total_cmp);
+        for k in 0..200 {
+            let v = dir * sp[(k * (sp.len() - 1)) / 199];
+            pts.push((1usize, v, crate::analysis::friction_part(&r.final_eval, sh, v)));
+        }
+    }
+    let form = if st.has(Effect::FrictionAsymmetry) { FitForm::PerDirection } else { FitForm::Symmetric };
+    let fitted = FrictionData::from_points("extended model", &pts)
+        .ok()
+        .and_then(|d| fit(&d, &FitOptions { form, ..Default::default() }).ok())
+        .and_then(|rep| rep.joints.first().map(|j| j.friction));
+    match fitted {
+        Some(f) => {
+            let dev = pts.iter().map(|&(_, v, t)| (f.tau_f(v) - t).abs()).fold(0.0, f64::max);
+            notes.push(format!(
+                "joint {}: the extended law ({}) is outside the eq. 5 schema; written as the eq. 5 {} fit to it at {} speeds (largest deviation {dev:.4} N·m).",
+                r.joint,
+                st.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + "),
+                form.name(),
+                pts.len()
+            ));
+            f
+        }
+        None => {
+            notes.extend(direct_notes);
+            direct
+        }
+    }
+}
+
+fn extended_friction_direct(r: &JointResult, sh: &NominalShape, notes: &mut Vec<String>) -> JointFriction {
     let ev = &r.final_eval;
     let st = &ev.full_structure;
     let strib = st.has(Effect::Stribeck);
@@ -297,13 +344,13 @@ pub fn extended_friction(r: &JointResult, sh: &NominalShape, notes: &mut Vec<Str
 pub fn extended_params(ex: &Explained, fs: &[Finding]) -> FrictionParams {
     let mut notes = Vec::new();
     let mut joints = Vec::new();
-    for r in &ex.results {
+    for (r, js) in ex.results.iter().zip(&ex.joints) {
         let sh = ex.shapes.get(r.joint - 1).copied().unwrap_or_default();
-        joints.push(JointParams { joint: r.joint, friction: extended_friction(r, &sh, &mut notes), stats: JointStats::default() });
+        joints.push(JointParams { joint: r.joint, friction: extended_friction(r, js, &sh, &mut notes), stats: JointStats::default() });
     }
     let mut extra = Vec::new();
     for f in fs.iter().filter(|f| f.significant) {
-        if matches!(f.effect, Effect::FrictionAsymmetry | Effect::Stribeck) {
+        if matches!(f.effect, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::ViscousNonlinearity) {
             continue;
         }
         for (j, ps) in &f.params {
