@@ -306,6 +306,7 @@ fn load_bag(path: &Path, bytes: Vec<u8>) -> Result<TimeSeries, ExplainError> {
     let mut ci = 0usize;
     let mut wi = 0usize;
     let mut wv = Vec::new();
+    let mut t_first: Option<u64> = None;
     for (k, m) in js.iter().enumerate() {
         let s = &m.msg;
         if s.position.len() < NJ {
@@ -317,7 +318,10 @@ fn load_bag(path: &Path, bytes: Vec<u8>) -> Result<TimeSeries, ExplainError> {
         }
         let stamp = s.header.stamp.to_nanos();
         let t_ns = if stamp > 0 { stamp as u64 } else { m.log_time };
-        let t = t_ns as f64 * 1e-9;
+        // time from the first message, subtracted in integer ns: epoch stamps (~1.7e18 ns)
+        // as f64 seconds would keep only ~0.2 µs resolution
+        let t0_ns = *t_first.get_or_insert(t_ns);
+        let t = (t_ns as i128 - t0_ns as i128) as f64 * 1e-9;
         let mut q = [0.0; NJ];
         let mut dq = [0.0; NJ];
         let mut tau = [0.0; NJ];
