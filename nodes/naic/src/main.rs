@@ -34,6 +34,8 @@ enum Command {
     Plot(cmd::plot::PlotArgs),
     /// Run a paper scenario in the in-process simulator (default: flat, all controllers).
     Sim(cmd::sim::SimArgs),
+    /// Explain measured data: where the nominal model is wrong, which extension fixes it, and by how much.
+    Explain(cmd::explain::ExplainArgs),
     /// Start the three ROS 2 nodes (driver, controller, friction compensation) as processes.
     Launch(cmd::launch::LaunchArgs),
 }
@@ -46,6 +48,7 @@ fn main() {
         Command::Friction(c) => cmd::friction::run(c),
         Command::Bench(c) => cmd::bench::run(c),
         Command::Sim(a) => cmd::sim::run(a),
+        Command::Explain(a) => cmd::explain::run(a),
         Command::Bag(c) => cmd::bag::run(c),
         Command::Record(a) => cmd::record::record(a),
         Command::Replay(a) => cmd::record::replay(a),

@@ -2,6 +2,7 @@
 
 pub mod bag;
 pub mod bench;
+pub mod explain;
 pub mod bench_chain;
 pub mod friction;
 pub mod launch;

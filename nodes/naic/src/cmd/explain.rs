@@ -1,0 +1,262 @@
+//! `naic explain`: find what the nominal model gets wrong in measured data (issue 6).
+//!
+//! * `naic explain --measured FILE --out DIR [--nominal params/…]` — analyse a bag, a CSV
+//!   time series or a friction-points CSV; writes `DIR/report.json`, `DIR/report.md`
+//!   (+ SVG plots) and `DIR/extended_params.yaml`.
+//! * `naic explain --generate FILE.csv --seed N [--hide effect,…]` — write seeded synthetic
+//!   data with hidden effects (the tests' generator), to try the tool.
+//! * `naic explain --closed-loop [--out DIR]` — force tracking (`flat`, `stiffness-step`)
+//!   with symmetric vs extended friction compensation against the simulator's true
+//!   per-direction friction (see `naic_explain::closed_loop`).
+//! * `naic explain --bench [--minutes M] [--json]` — time the analysis of M minutes
+//!   (default 60) of 1 kHz six-joint data, with progress on stderr (`--out DIR` also writes its report).
+use super::{CliError, CliResult};
+use naic_core::model::Model;
+use naic_explain::catalogue::Effect;
+use naic_explain::generate::{generate, GenSpec};
+use naic_explain::{input, report, ExplainError, ExplainOptions};
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(clap::Args, Default)]
+pub struct ExplainArgs {
+    /// Measured data: an .mcap bag (/joint_states …), a CSV time series `t,q1..q6,dq1..dq6,tau1..tau6`,
+    /// or friction points `joint,velocity_rad_s,torque_nm`.
+    #[arg(long)]
+    measured: Option<PathBuf>,
+    /// Output directory for report.json, report.md, plots and extended_params.yaml.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Nominal friction params YAML; its Stribeck shape is kept (directions averaged), its levels recalibrated.
+    #[arg(long)]
+    nominal: Option<PathBuf>,
+    /// Robot model for the rigid-body part.
+    #[arg(long, default_value = "urdf/jk5.urdf")]
+    urdf: PathBuf,
+    /// Comma-separated effects to consider [default: the whole catalogue].
+    #[arg(long)]
+    effects: Option<String>,
+    /// Write seeded synthetic data to this CSV instead of analysing.
+    #[arg(long)]
+    generate: Option<PathBuf>,
+    /// Seed for --generate.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Comma-separated effects to hide in --generate data (empty: noise only).
+    #[arg(long, default_value = "")]
+    hide: String,
+    /// Benchmark: analyse --minutes of generated 1 kHz data and print the timing.
+    #[arg(long)]
+    bench: bool,
+    /// Length of the benchmark data [min].
+    #[arg(long, default_value_t = 60.0)]
+    minutes: f64,
+    /// Print the benchmark result as JSON.
+    #[arg(long)]
+    json: bool,
+    /// Closing the loop: RMS force error with symmetric vs extended friction compensation in the simulator.
+    #[arg(long)]
+    closed_loop: bool,
+    /// True per-direction friction of the simulated plant for --closed-loop.
+    #[arg(long, default_value = "params/friction_jk5.yaml")]
+    truth: PathBuf,
+    /// No progress on stderr.
+    #[arg(long)]
+    quiet: bool,
+}
+
+fn err(e: ExplainError) -> CliError {
+    if e.is_input() {
+        CliError::usage(e.to_string())
+    } else {
+        CliError::failure(e.to_string())
+    }
+}
+
+fn parse_effects(s: &str) -> Result<Vec<Effect>, CliError> {
+    s.split(',')
+        .map(str::trim)
+        .filter(|x| !x.is_empty())
+        .map(|x| {
+            Effect::parse(x).ok_or_else(|| {
+                CliError::usage(format!(
+                    "unknown effect `{x}`; known: {}",
+                    naic_explain::catalogue::ALL_EFFECTS.iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")
+                ))
+            })
+        })
+        .collect()
+}
+
+fn progress_printer(quiet: bool) -> impl Fn(f64, &str) + Sync {
+    let start = Instant::now();
+    move |f: f64, what: &str| {
+        if !quiet {
+            eprint!("\r[{:5.1} s] {:3.0} % {what:<60}", start.elapsed().as_secs_f64(), 100.0 * f);
+            let _ = std::io::stderr().flush();
+        }
+    }
+}
+
+pub fn run(a: ExplainArgs) -> CliResult {
+    if let Some(out) = &a.generate {
+        return run_generate(&a, out);
+    }
+    if a.bench {
+        return run_bench(&a);
+    }
+    if a.closed_loop {
+        return run_closed_loop(&a);
+    }
+    let measured = a.measured.as_ref().ok_or_else(|| {
+        CliError::usage("give --measured FILE (bag, time-series CSV or friction-points CSV) and --out DIR; or --generate / --bench")
+    })?;
+    let out = a.out.as_ref().ok_or_else(|| CliError::usage("give --out DIR for report.json, report.md and extended_params.yaml"))?;
+    let mut opts = ExplainOptions { urdf: a.urdf.clone(), nominal: a.nominal.clone(), ..Default::default() };
+    if let Some(e) = &a.effects {
+        opts.analysis.effects = parse_effects(e)?;
+    }
+    let progress = progress_printer(a.quiet);
+    let ex = naic_explain::explain(measured, &opts, &progress).map_err(err)?;
+    let v = report::write_all(&ex, out).map_err(err)?;
+    if !a.quiet {
+        eprintln!();
+    }
+    let sig: Vec<String> = v["findings"]
+        .as_array()
+        .map(|fs| {
+            fs.iter()
+                .filter(|f| f["significant"].as_bool() == Some(true))
+                .map(|f| {
+                    format!(
+                        "{} (gain {:.4}, step gain {:.3}, {})",
+                        f["effect"].as_str().unwrap_or("?"),
+                        f["gain"].as_f64().unwrap_or(0.0),
+                        f["step_gain"].as_f64().unwrap_or(0.0),
+                        f["targets"]
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    if sig.is_empty() {
+        println!("nothing significant; report in {}", out.display());
+    } else {
+        println!("findings, ranked by held-out gain:");
+        for s in sig {
+            println!("  {s}");
+        }
+        println!("report in {}", out.display());
+    }
+    Ok(())
+}
+
+fn load_model(a: &ExplainArgs) -> Result<Model, CliError> {
+    Model::from_urdf_file(&a.urdf).map_err(|e| CliError::usage(format!("--urdf {}: {e}", a.urdf.display())))
+}
+
+fn run_generate(a: &ExplainArgs, out: &PathBuf) -> CliResult {
+    let model = load_model(a)?;
+    let effects = parse_effects(&a.hide)?;
+    let g = generate(&model, &GenSpec::new(a.seed, &effects));
+    std::fs::write(out, input::write_timeseries_csv(&g.ts)).map_err(|e| CliError::failure(format!("{}: {e}", out.display())))?;
+    println!("wrote {} ({} samples, torque noise σ = {:.3} N·m)", out.display(), g.ts.len(), g.noise_tau);
+    for inj in &g.injected {
+        let ps: Vec<String> = inj.params.iter().map(|(j, k, v)| format!("J{j} {k} = {v:.4}")).collect();
+        println!("hidden: {} on joints {:?}: {}", inj.effect.name(), inj.joints, ps.join(", "));
+    }
+    Ok(())
+}
+
+fn run_bench(a: &ExplainArgs) -> CliResult {
+    if !(a.minutes > 0.0 && a.minutes.is_finite()) {
+        return Err(CliError::usage("--minutes must be > 0"));
+    }
+    let model = load_model(a)?;
+    let progress = progress_printer(a.quiet);
+    let t0 = Instant::now();
+    let mut spec = GenSpec::new(a.seed, &[Effect::FrictionAsymmetry, Effect::TorqueOffset]);
+    // one excitation period is ~100 s; repeat it to reach the length asked for
+    let period = {
+        let g = GenSpec { repeats: 1, ..spec.clone() };
+        let one = (6.0 * 4.0 * 2.0 * (2.0 * 0.15 + g.cruise_s + 0.4)) + g.multi_s;
+        one
+    };
+    spec.repeats = ((a.minutes * 60.0) / period).ceil().max(1.0) as usize;
+    progress(0.0, "generating data");
+    let g = generate(&model, &spec);
+    let gen_s = t0.elapsed().as_secs_f64();
+    let opts = ExplainOptions { urdf: a.urdf.clone(), ..Default::default() };
+    let t1 = Instant::now();
+    let ex = naic_explain::explain_series("bench", input::Kind::TimeSeries, &g.ts, &opts, &progress).map_err(err)?;
+    let fs = report::findings(&ex);
+    let analyse_s = t1.elapsed().as_secs_f64();
+    if let Some(out) = &a.out {
+        report::write_all(&ex, out).map_err(err)?;
+    }
+    if !a.quiet {
+        eprintln!();
+    }
+    // Reference measured in the same run: one RNEA(q, dq, 0) per raw sample, the least
+    // work any model-based analysis of every sample must do.
+    let t2 = Instant::now();
+    let mut data = naic_core::model::Data6::try_new(&model).map_err(|e| CliError::failure(e.to_string()))?;
+    let zero = nalgebra::SVector::<f64, 6>::zeros();
+    let mut acc = 0.0;
+    for i in 0..g.ts.len() {
+        let q = nalgebra::SVector::<f64, 6>::from(g.ts.q[i]);
+        let v = nalgebra::SVector::<f64, 6>::from(g.ts.dq[i]);
+        acc += naic_core::dynamics::rnea(&model, &mut data, &q, &v, &zero)[1];
+    }
+    let reference_s = t2.elapsed().as_secs_f64();
+    std::hint::black_box(acc);
+    let hours = g.ts.len() as f64 * 1e-3 / 3600.0;
+    let found: Vec<&str> = fs.iter().filter(|f| f.significant).map(|f| f.effect.name()).collect();
+    let v = serde_json::json!({
+        "benchmark": "explain",
+        "samples": g.ts.len(),
+        "hours_of_1khz_data": hours,
+        "generate_s": gen_s,
+        "analyse_s": analyse_s,
+        "analyse_s_per_hour": analyse_s / hours,
+        "threads": opts.threads,
+        "reference_rnea_every_sample_s": reference_s,
+        "ratio_analyse_to_reference": analyse_s / reference_s,
+        "found": found,
+    });
+    if a.json {
+        println!("{v}");
+    } else {
+        println!("{} samples ({hours:.3} h at 1 kHz): analysed in {analyse_s:.2} s ({:.2} s per hour of data), generation {gen_s:.2} s; reference (one RNEA per sample) {reference_s:.2} s, ratio {:.1}; found {found:?}", g.ts.len(), analyse_s / hours, analyse_s / reference_s);
+    }
+    Ok(())
+}
+
+fn run_closed_loop(a: &ExplainArgs) -> CliResult {
+    let progress = progress_printer(a.quiet);
+    let rows = naic_explain::closed_loop::closed_loop(&a.urdf, &a.truth, a.out.as_deref(), &progress).map_err(err)?;
+    if !a.quiet {
+        eprintln!();
+    }
+    let mut md = String::from("| scenario | friction compensation | RMS force error from first contact [N] |\n| --- | --- | --- |\n");
+    for r in &rows {
+        md.push_str(&format!(
+            "| {} | {} | {} |\n",
+            r.scenario,
+            r.compensation,
+            r.rms_force_error.map_or_else(|| "no contact".to_string(), |v| format!("{v:.4}"))
+        ));
+    }
+    print!("{md}");
+    if let Some(dir) = &a.out {
+        let v: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|r| serde_json::json!({"scenario": r.scenario, "compensation": r.compensation, "rms_force_error_n": r.rms_force_error}))
+            .collect();
+        std::fs::write(dir.join("closed_loop.json"), serde_json::to_string_pretty(&v).unwrap_or_default())
+            .map_err(|e| CliError::failure(format!("{}: {e}", dir.display())))?;
+        std::fs::write(dir.join("closed_loop.md"), md).map_err(|e| CliError::failure(format!("{}: {e}", dir.display())))?;
+    }
+    Ok(())
+}

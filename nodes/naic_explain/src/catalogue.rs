@@ -1,0 +1,123 @@
+//! The catalogue of candidate model extensions and the regressor columns they add.
+//!
+//! Every candidate is linear in its amplitude parameters once its shape parameters
+//! (Stribeck velocity `q_s`, ripple wave number `k`) are fixed; shape parameters are
+//! found by a grid scan on the training part (see [`crate::analysis`]).
+//!
+//! Notation: `s = tanh(q̇/v_s)` (v_s = 1 mrad/s, the simulation friction's smoothing) with 0 at rest (regime, see [`crate::prepare`]), `p = [q̇ > 0]`,
+//! `n = [q̇ < 0]`. The residual explained is `y = τ_measured − τ_rigid_body(q, q̇, q̈)`.
+//!
+//! | effect | columns added (per joint) | parameters |
+//! | --- | --- | --- |
+//! | nominal (eq. 5 symmetric) | `s·σ₀(q̇)`, `q̇` | f_a, f_v (σ₀ = Stribeck shape of `--nominal`, flat by default) |
+//! | `friction_asymmetry` | friction columns split by direction (`p·…`, `n·…`) | f_c⁺, f_c⁻, f_v⁺, f_v⁻ |
+//! | `stribeck` | `s·e^{−(q̇/q_s)²}` (per direction if asymmetric) | f_s = f_b − f_a, q_s |
+//! | `position_ripple` | `s·sin(k q)`, `s·cos(k q)` | amplitude, k [rad⁻¹], phase |
+//! | `payload` | `[J_tip,linᵀ (p̈_tip − g)]_j` | mass [kg] at the `tip` frame |
+//! | `torque_offset` | `1` | offset [N·m] |
+//! | `delay` | `−τ̇` (first-order shift of the torque channel) | delay [s] (torque lags motion when > 0) |
+//! | `drift` | `s·(t − t_mid)/T` | change of the Coulomb level over the session [N·m] |
+//! | `rotor_inertia` | `q̈_j` (engineer's check: unmodelled motor/gear inertia) | I_a [kg·m²] |
+//! | `viscous_nonlinearity` | `s·q̇²` (engineer's check: non-Newtonian lubricant) | f_v2 [N·m·s²/rad²] |
+//!
+//! Contact effects (`contact_nonlinearity`, `contact_damping`, `ft_bias`, `tool_gravity`)
+//! are not implemented yet: data with wrench columns is accepted and the wrench ignored
+//! (the report says so).
+
+/// One candidate extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Effect {
+    FrictionAsymmetry,
+    Stribeck,
+    PositionRipple,
+    Payload,
+    TorqueOffset,
+    Delay,
+    Drift,
+    RotorInertia,
+    ViscousNonlinearity,
+}
+
+pub const ALL_EFFECTS: [Effect; 9] = [
+    Effect::FrictionAsymmetry,
+    Effect::Stribeck,
+    Effect::PositionRipple,
+    Effect::Payload,
+    Effect::TorqueOffset,
+    Effect::Delay,
+    Effect::Drift,
+    Effect::RotorInertia,
+    Effect::ViscousNonlinearity,
+];
+
+impl Effect {
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::FrictionAsymmetry => "friction_asymmetry",
+            Effect::Stribeck => "stribeck",
+            Effect::PositionRipple => "position_ripple",
+            Effect::Payload => "payload",
+            Effect::TorqueOffset => "torque_offset",
+            Effect::Delay => "delay",
+            Effect::Drift => "drift",
+            Effect::RotorInertia => "rotor_inertia",
+            Effect::ViscousNonlinearity => "viscous_nonlinearity",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Effect> {
+        ALL_EFFECTS.iter().copied().find(|e| e.name() == s)
+    }
+
+    /// Whether the effect can be seen in steady-state friction points (no time, position, acceleration).
+    pub fn applies_to_points(self) -> bool {
+        matches!(self, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::ViscousNonlinearity)
+    }
+
+    /// Extra parameters it adds (amplitudes + scanned shape parameters), for the information criterion.
+    pub fn n_params(self, asymmetric: bool, stribeck: bool) -> usize {
+        match self {
+            // splitting every friction column by direction
+            Effect::FrictionAsymmetry => 2 + if stribeck { 2 } else { 0 },
+            Effect::Stribeck => {
+                if asymmetric {
+                    4
+                } else {
+                    2
+                }
+            }
+            Effect::PositionRipple => 3,
+            _ => 1,
+        }
+    }
+
+    /// What a finding of this effect means, for the report.
+    pub fn meaning(self) -> &'static str {
+        match self {
+            Effect::FrictionAsymmetry => "friction differs between the positive and negative direction (eq. 5 per direction, Table 1)",
+            Effect::Stribeck => "a low-speed (Stribeck) friction shape that the nominal friction law lacks or gets wrong (f_b, q_s)",
+            Effect::PositionRipple => "friction that varies periodically with joint position (gear/bearing ripple)",
+            Effect::Payload => "an unmodelled mass at the tool",
+            Effect::TorqueOffset => "a constant bias of the torque sensor",
+            Effect::Delay => "a time shift between the torque and the motion channels",
+            Effect::Drift => "friction that changes over the session (warm-up, wear)",
+            Effect::RotorInertia => "unmodelled motor/gear inertia (torque proportional to joint acceleration)",
+            Effect::ViscousNonlinearity => "viscous friction that grows faster than linearly with speed",
+        }
+    }
+}
+
+/// Log-spaced grid from `lo` to `hi` with `n` points.
+pub fn log_grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|i| lo * (hi / lo).powf(i as f64 / (n - 1).max(1) as f64)).collect()
+}
+
+/// Grid of Stribeck velocities q_s [rad/s].
+pub fn q_s_grid() -> Vec<f64> {
+    log_grid(1.5e-3, 0.5, 18)
+}
+
+/// Grid of ripple wave numbers k [rad⁻¹] (cycles per radian × 2π).
+pub fn k_grid() -> Vec<f64> {
+    log_grid(2.0, 120.0, 72)
+}

@@ -1,0 +1,376 @@
+//! Seeded synthetic "measured" data with hidden effects (for the tests and the benchmark).
+//!
+//! Truth model: rigid body of `urdf/jk5.urdf` (inverse dynamics along a known smooth
+//! trajectory), symmetric Coulomb + viscous friction per joint in the simulator's smooth
+//! form (`tanh(q̇/v_s)`, v_s = 1 mrad/s; levels drawn from the seed), plus the injected
+//! effects, plus measurement errors: white torque noise (σ drawn from the seed),
+//! encoder quantisation of q (2²⁰ counts per turn), white noise on the drive velocity.
+//!
+//! Excitation: each joint in turn moves back and forth at stepped speeds with rests in
+//! between (cosine velocity ramps), then all joints move together (sum of sines).
+
+use crate::catalogue::Effect;
+use crate::input::{TimeSeries, NJ};
+use nalgebra::{SVector, Vector3};
+use naic_core::dynamics::{frame_jacobian, frame_jdot_qdot, rnea};
+use naic_core::model::{Data6, Model};
+
+/// Small deterministic RNG (SplitMix64 + Box–Muller).
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Self(seed ^ 0x9E37_79B9_7F4A_7C15)
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.uniform()
+    }
+    pub fn normal(&mut self) -> f64 {
+        let u1 = self.uniform().max(1e-300);
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+    pub fn pick(&mut self, n: usize) -> usize {
+        (self.uniform() * n as f64) as usize % n
+    }
+    pub fn sign(&mut self) -> f64 {
+        if self.uniform() < 0.5 {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+}
+
+/// One injected effect and its true parameters.
+#[derive(Clone, Debug)]
+pub struct Injected {
+    pub effect: Effect,
+    /// 1-based joints it acts on.
+    pub joints: Vec<usize>,
+    /// Per joint: (name, true value), names as in the report's `params`.
+    pub params: Vec<(usize, String, f64)>,
+}
+
+/// What to generate.
+#[derive(Clone, Debug)]
+pub struct GenSpec {
+    pub seed: u64,
+    /// Effects to hide (0, 1 or more).
+    pub effects: Vec<Effect>,
+    /// Sample period [s].
+    pub dt: f64,
+    /// Repeat the whole excitation this many times (longer data).
+    pub repeats: usize,
+    /// Cruise time per speed step [s].
+    pub cruise_s: f64,
+    /// Duration of the multi-joint phase [s].
+    pub multi_s: f64,
+}
+
+impl GenSpec {
+    pub fn new(seed: u64, effects: &[Effect]) -> Self {
+        Self { seed, effects: effects.to_vec(), dt: 1e-3, repeats: 1, cruise_s: 1.0, multi_s: 20.0 }
+    }
+}
+
+/// The generated data and its truth.
+#[derive(Clone, Debug)]
+pub struct Generated {
+    pub ts: TimeSeries,
+    pub injected: Vec<Injected>,
+    /// True base friction per joint: (f_c, f_v).
+    pub base: [(f64, f64); NJ],
+    pub noise_tau: f64,
+}
+
+/// Home posture: arm bent, wrist away from singularities.
+pub const HOME: [f64; NJ] = [0.2, 0.6, -1.1, 0.5, 0.9, 0.1];
+const SPEEDS: [f64; 4] = [0.01, 0.04, 0.12, 0.35];
+const RAMP: f64 = 0.15;
+const REST: f64 = 0.4;
+
+/// Joint trajectory (q, q̇, q̈) at time t of one excitation period.
+struct Excitation {
+    single_len: f64,
+    per_joint: f64,
+    multi: f64,
+    cruise: f64,
+    /// Multi-joint sines: per joint (amplitude, frequency Hz, phase) × 3.
+    sines: [[(f64, f64, f64); 3]; NJ],
+}
+
+impl Excitation {
+    fn new(cruise: f64, multi: f64, rng: &mut Rng) -> Self {
+        let seg = 2.0 * RAMP + cruise + REST;
+        let per_joint = SPEEDS.len() as f64 * 2.0 * seg;
+        let mut sines = [[(0.0, 0.0, 0.0); 3]; NJ];
+        for s in sines.iter_mut() {
+            for (k, x) in s.iter_mut().enumerate() {
+                let f = [0.11, 0.23, 0.41][k] * rng.range(0.85, 1.15);
+                // velocity amplitude ≈ 0.12 rad/s per component
+                let a = 0.12 / (2.0 * std::f64::consts::PI * f);
+                *x = (a, f, rng.range(0.0, 6.283));
+            }
+        }
+        Self { single_len: NJ as f64 * per_joint, per_joint, multi, cruise, sines }
+    }
+    fn period(&self) -> f64 {
+        self.single_len + self.multi
+    }
+    /// Velocity profile of one segment (cosine ramps), returns (displacement, v, a) at τ.
+    fn segment(&self, tau: f64, v: f64) -> (f64, f64, f64) {
+        let c = self.cruise;
+        let w = std::f64::consts::PI / RAMP;
+        if tau < RAMP {
+            let x = v * (tau / 2.0 - (w * tau).sin() / (2.0 * w));
+            (x, v * (1.0 - (w * tau).cos()) / 2.0, v * w * (w * tau).sin() / 2.0)
+        } else if tau < RAMP + c {
+            (v * (RAMP / 2.0 + (tau - RAMP)), v, 0.0)
+        } else if tau < 2.0 * RAMP + c {
+            let u = tau - RAMP - c;
+            let x = v * (RAMP / 2.0 + c) + v * (u / 2.0 + (w * u).sin() / (2.0 * w));
+            (x, v * (1.0 + (w * u).cos()) / 2.0, -v * w * (w * u).sin() / 2.0)
+        } else {
+            (v * (RAMP + c), 0.0, 0.0)
+        }
+    }
+    fn at(&self, t: f64) -> ([f64; NJ], [f64; NJ], [f64; NJ]) {
+        let mut q = HOME;
+        let mut dq = [0.0; NJ];
+        let mut ddq = [0.0; NJ];
+        let t = t % self.period();
+        if t < self.single_len {
+            let j = ((t / self.per_joint) as usize).min(NJ - 1);
+            let tj = t - j as f64 * self.per_joint;
+            let seg = 2.0 * RAMP + self.cruise + REST;
+            let k = (tj / seg) as usize;
+            let speed = SPEEDS[(k / 2).min(SPEEDS.len() - 1)];
+            let tau = tj - k as f64 * seg;
+            let (x, v, a) = if k % 2 == 0 { self.segment(tau, speed) } else { self.segment(tau, -speed) };
+            // odd segments start where the even one ended (back to HOME)
+            let x0 = if k % 2 == 0 { 0.0 } else { speed * (RAMP + self.cruise) };
+            q[j] += x0 + x;
+            dq[j] = v;
+            ddq[j] = a;
+        } else {
+            let tm = t - self.single_len;
+            // fade in/out over 1 s so motion starts and ends at rest
+            let (fade, dfade, ddfade) = fade(tm, self.multi);
+            for j in 0..NJ {
+                let (mut s, mut ds, mut dds) = (0.0, 0.0, 0.0);
+                for &(a, f, ph) in &self.sines[j] {
+                    let w = 2.0 * std::f64::consts::PI * f;
+                    s += a * ((w * tm + ph).sin() - ph.sin());
+                    ds += a * w * (w * tm + ph).cos();
+                    dds -= a * w * w * (w * tm + ph).sin();
+                }
+                q[j] += fade * s;
+                dq[j] = dfade * s + fade * ds;
+                ddq[j] = ddfade * s + 2.0 * dfade * ds + fade * dds;
+            }
+        }
+        (q, dq, ddq)
+    }
+}
+
+fn fade(t: f64, len: f64) -> (f64, f64, f64) {
+    let r = 1.0f64.min(len / 4.0);
+    let w = std::f64::consts::PI / r;
+    if t < r {
+        ((1.0 - (w * t).cos()) / 2.0, w * (w * t).sin() / 2.0, w * w * (w * t).cos() / 2.0)
+    } else if t > len - r {
+        let u = len - t;
+        ((1.0 - (w * u).cos()) / 2.0, -w * (w * u).sin() / 2.0, w * w * (w * u).cos() / 2.0)
+    } else {
+        (1.0, 0.0, 0.0)
+    }
+}
+
+/// Generates the data (see module docs). `model` is `urdf/jk5.urdf`.
+pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
+    let mut rng = Rng::new(spec.seed);
+    let exc = Excitation::new(spec.cruise_s, spec.multi_s, &mut rng);
+    let n = ((exc.period() * spec.repeats as f64) / spec.dt).round() as usize;
+    let noise_tau = rng.range(0.02, 0.08);
+    let mut base = [(0.0, 0.0); NJ];
+    for (j, b) in base.iter_mut().enumerate() {
+        let big = j < 3;
+        *b = (if big { rng.range(2.0, 6.0) } else { rng.range(1.0, 3.0) }, rng.range(1.0, 5.0));
+    }
+    let tip = model.frame_id("tip").or_else(|| model.frames().last().map(|_| naic_core::model::FrameId(model.frames().len() - 1)));
+    // draw the hidden effects
+    let mut injected = Vec::new();
+    let mut asym = [0.0; NJ]; // f_c_neg − f_c_pos
+    let mut strib = [(0.0, 0.02); NJ];
+    let mut ripple = [(0.0, 1.0, 0.0); NJ];
+    let mut offset = [0.0; NJ];
+    let mut drift = [0.0; NJ];
+    let mut rotor = [0.0; NJ];
+    let mut visc2 = [0.0; NJ];
+    let mut payload = 0.0;
+    let mut delay = 0.0;
+    let mut used_joints: Vec<usize> = Vec::new();
+    let mut pick_joint = |rng: &mut Rng, allowed: &[usize]| -> usize {
+        loop {
+            let j = allowed[rng.pick(allowed.len())];
+            if !used_joints.contains(&j) || used_joints.len() >= allowed.len() {
+                used_joints.push(j);
+                return j;
+            }
+        }
+    };
+    let all: Vec<usize> = (0..NJ).collect();
+    for &e in &spec.effects {
+        let mut inj = Injected { effect: e, joints: vec![], params: vec![] };
+        match e {
+            Effect::FrictionAsymmetry => {
+                let j = pick_joint(&mut rng, &all);
+                let d = rng.sign() * rng.range(0.3, 0.5) * base[j].0;
+                asym[j] = d;
+                inj.joints.push(j + 1);
+                // report convention: f_c_difference = f_c_pos − f_c_neg
+                inj.params.push((j + 1, "f_c_difference".into(), -d));
+            }
+            Effect::Stribeck => {
+                let j = pick_joint(&mut rng, &all);
+                let fs = rng.range(0.6, 1.0) * base[j].0;
+                let qs = rng.range(0.015, 0.05);
+                strib[j] = (fs, qs);
+                inj.joints.push(j + 1);
+                inj.params.push((j + 1, "f_s".into(), fs));
+                inj.params.push((j + 1, "q_s".into(), qs));
+            }
+            Effect::PositionRipple => {
+                let j = pick_joint(&mut rng, &all);
+                let a = rng.range(0.25, 0.45) * base[j].0;
+                let k = rng.range(6.0, 40.0);
+                ripple[j] = (a, k, rng.range(0.0, 6.283));
+                inj.joints.push(j + 1);
+                inj.params.push((j + 1, "amplitude_nm".into(), a));
+                inj.params.push((j + 1, "k_per_rad".into(), k));
+            }
+            Effect::Payload => {
+                payload = rng.range(0.8, 2.0);
+                for j in [2, 3, 4, 5] {
+                    inj.joints.push(j);
+                }
+                for j in 1..=NJ {
+                    inj.params.push((j, "mass_kg".into(), payload));
+                }
+            }
+            Effect::TorqueOffset => {
+                let j = pick_joint(&mut rng, &all);
+                offset[j] = rng.sign() * rng.range(0.3, 0.8);
+                inj.joints.push(j + 1);
+                inj.params.push((j + 1, "offset_nm".into(), offset[j]));
+            }
+            Effect::Delay => {
+                delay = rng.range(0.006, 0.02);
+                inj.joints = (1..=NJ).collect();
+                for j in 1..=NJ {
+                    inj.params.push((j, "delay_s".into(), delay));
+                }
+            }
+            Effect::Drift => {
+                let j = pick_joint(&mut rng, &all);
+                drift[j] = rng.sign() * rng.range(0.3, 0.5) * base[j].0;
+                inj.joints.push(j + 1);
+                inj.params.push((j + 1, "delta_f_c_nm".into(), drift[j]));
+            }
+            Effect::RotorInertia => {
+                let j = pick_joint(&mut rng, &all);
+                rotor[j] = rng.range(0.3, 0.8);
+                inj.joints.push(j + 1);
+                inj.params.push((j + 1, "inertia_kgm2".into(), rotor[j]));
+            }
+            Effect::ViscousNonlinearity => {
+                let j = pick_joint(&mut rng, &all);
+                let c = rng.range(8.0, 15.0);
+                inj.joints.push(j + 1);
+                inj.params.push((j + 1, "f_v2".into(), c));
+                visc2[j] = c;
+            }
+        }
+        injected.push(inj);
+    }
+    let total_t = n as f64 * spec.dt;
+    let mut data = Data6::try_new(model).expect("generator needs a 6-joint model");
+    let g = Vector3::new(0.0, 0.0, -9.81);
+    let mut tau_true = Vec::with_capacity(n);
+    let mut ts = TimeSeries::default();
+    let quant = 2.0 * std::f64::consts::PI / (1u64 << 20) as f64;
+    let v_s = 1e-3;
+    for i in 0..n {
+        let t = i as f64 * spec.dt;
+        let (q, dq, ddq) = exc.at(t);
+        let qv = SVector::<f64, 6>::from(q);
+        let vv = SVector::<f64, 6>::from(dq);
+        let av = SVector::<f64, 6>::from(ddq);
+        let mut tau: [f64; NJ] = (*rnea(model, &mut data, &qv, &vv, &av)).into();
+        if payload != 0.0 {
+            if let Some(tip) = tip {
+                let jdqd = frame_jdot_qdot(model, &mut data, &qv, &vv, tip);
+                let jac = *frame_jacobian(model, &mut data, &qv, tip);
+                let jl = jac.fixed_rows::<3>(0);
+                let acc = jl * av + Vector3::new(jdqd[0], jdqd[1], jdqd[2]);
+                let extra = jl.transpose() * (payload * (acc - g));
+                for j in 0..NJ {
+                    tau[j] += extra[j];
+                }
+            }
+        }
+        for j in 0..NJ {
+            let v = dq[j];
+            let s = (v / v_s).tanh();
+            let (fc, fv) = base[j];
+            let mut f_c = fc + drift[j] * (t / total_t - 0.5);
+            if v < 0.0 {
+                f_c += asym[j];
+            }
+            let (fs, qs) = strib[j];
+            let x = v / qs;
+            let (ra, rk, rph) = ripple[j];
+            let fric = s * (f_c + fs * (-x * x).exp() + ra * (rk * q[j] + rph).sin()) + fv * v + visc2[j] * s * v * v;
+            tau[j] += fric + offset[j] + rotor[j] * ddq[j];
+        }
+        tau_true.push(tau);
+        let mut qm = [0.0; NJ];
+        let mut dqm = [0.0; NJ];
+        for j in 0..NJ {
+            qm[j] = (q[j] / quant).round() * quant;
+            dqm[j] = dq[j] + 1e-3 * rng.normal();
+        }
+        ts.t.push(t);
+        ts.q.push(qm);
+        ts.dq.push(dqm);
+    }
+    // torque channel: delayed by `delay` (linear interpolation), plus noise
+    for i in 0..n {
+        let ts_ = i as f64 - delay / spec.dt;
+        let k = ts_.floor().max(0.0) as usize;
+        let fr = (ts_ - ts_.floor()).clamp(0.0, 1.0);
+        let a = tau_true[k.min(n - 1)];
+        let b = tau_true[(k + 1).min(n - 1)];
+        let mut tau = [0.0; NJ];
+        for j in 0..NJ {
+            let val = if ts_ < 0.0 { a[j] } else { a[j] * (1.0 - fr) + b[j] * fr };
+            tau[j] = val + noise_tau * rng.normal();
+        }
+        ts.tau.push(tau);
+    }
+    Generated { ts, injected, base, noise_tau }
+}
+

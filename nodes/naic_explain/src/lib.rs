@@ -1,0 +1,469 @@
+//! # naic_explain — find what the model gets wrong in measured data (issue 6)
+//!
+//! Given measured data of the JK5 (an MCAP bag, a CSV time series, or steady-state
+//! friction points), [`explain`] compares it with the nominal model — rigid body from
+//! `urdf/jk5.urdf` plus symmetric friction (eq. 5) whose levels are calibrated on the
+//! training part — and searches a catalogue of candidate extensions
+//! ([`catalogue::Effect`]). Each candidate is fitted on training folds and scored on
+//! held-out time blocks; a significance rule keeps noise from becoming a finding
+//! ([`analysis`]). The result is a [`report::Report`] (`report.json`, `report.md` with
+//! SVG plots) and an extended friction parameter file that the friction loader reads.
+//!
+//! Modules: [`input`] (reading and validating the three kinds), [`prepare`]
+//! (Savitzky–Golay velocity/acceleration, rigid-body torques), [`catalogue`],
+//! [`analysis`] (folds, fits, selection), [`report`], [`generate`] (seeded synthetic
+//! "measured" data with hidden effects, for tests and benchmarks).
+
+pub mod analysis;
+pub mod catalogue;
+pub mod closed_loop;
+pub mod generate;
+pub mod input;
+pub mod plots;
+pub mod prepare;
+pub mod report;
+
+use analysis::{AnalysisOptions, JointResult, JointSamples, NominalShape};
+use input::{Kind, Measured, NJ};
+use naic_core::friction::{FrictionData, FrictionParams, JointFriction};
+use naic_core::model::Model;
+use prepare::{PrepareOptions, Prepared};
+use std::path::{Path, PathBuf};
+
+/// Errors of the explain tool. `Input` = the user's data or files (exit 2), `Model` = the robot model.
+#[derive(Debug, thiserror::Error)]
+pub enum ExplainError {
+    #[error("{0}")]
+    Input(String),
+    #[error("robot model: {0}")]
+    Model(String),
+    #[error("{0}")]
+    Io(String),
+}
+
+impl ExplainError {
+    pub fn input(s: impl Into<String>) -> Self {
+        Self::Input(s.into())
+    }
+    pub fn model(s: impl Into<String>) -> Self {
+        Self::Model(s.into())
+    }
+    pub fn is_input(&self) -> bool {
+        matches!(self, Self::Input(_))
+    }
+}
+
+/// Everything [`explain`] needs.
+#[derive(Clone, Debug)]
+pub struct ExplainOptions {
+    /// The robot model (URDF) used for the rigid-body part.
+    pub urdf: PathBuf,
+    /// Frame where a payload would sit.
+    pub tip_frame: String,
+    /// Nominal friction parameter file; its Stribeck shape (symmetrised) is kept, its levels recalibrated.
+    pub nominal: Option<PathBuf>,
+    pub prepare: PrepareOptions,
+    pub analysis: AnalysisOptions,
+    /// Held-out block length for time series [s] (raised for long files to keep ≤ 400 blocks).
+    pub block_s: f64,
+    /// Worker threads (joints are analysed in parallel).
+    pub threads: usize,
+}
+
+impl Default for ExplainOptions {
+    fn default() -> Self {
+        Self {
+            urdf: PathBuf::from("urdf/jk5.urdf"),
+            tip_frame: "tip".into(),
+            nominal: None,
+            prepare: PrepareOptions::default(),
+            analysis: AnalysisOptions::default(),
+            block_s: 2.0,
+            threads: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(NJ),
+        }
+    }
+}
+
+/// The analysed data and its results (input to [`report`]).
+#[derive(Clone, Debug)]
+pub struct Explained {
+    pub path: String,
+    pub kind: Kind,
+    /// Raw samples (time series) or points.
+    pub samples: usize,
+    pub joints: Vec<JointSamples>,
+    pub results: Vec<JointResult>,
+    pub shapes: Vec<NominalShape>,
+    pub notes: Vec<String>,
+    /// Analysis rate, filter window etc. (time series).
+    pub method: Vec<(String, String)>,
+    pub nominal_source: String,
+    /// Friction points left out as outlier segments (friction-points kind only).
+    pub outliers: Vec<Outlier>,
+    /// Friction points: (joint, held-out RMSE, + , −) of the extended model before outliers were left out.
+    pub first_pass: Vec<(usize, f64, f64, f64)>,
+}
+
+/// Nominal Stribeck shape per joint from a params file (symmetrised by averaging the directions).
+pub fn nominal_shapes(params: Option<&FrictionParams>, n: usize) -> Vec<NominalShape> {
+    let mut out = vec![NominalShape::default(); n];
+    if let Some(p) = params {
+        for jp in &p.joints {
+            if jp.joint == 0 || jp.joint > n {
+                continue;
+            }
+            let (fa, fb, qs) = match jp.friction {
+                JointFriction::CoulombViscous { .. } => continue,
+                JointFriction::Stribeck(s) => (s.f_a, s.f_b, s.q_s),
+                JointFriction::StribeckPerDirection { positive, negative } => (
+                    0.5 * (positive.f_a + negative.f_a),
+                    0.5 * (positive.f_b + negative.f_b),
+                    0.5 * (positive.q_s + negative.q_s),
+                ),
+            };
+            if fa > 0.0 && qs > 0.0 {
+                out[jp.joint - 1] = NominalShape { r0: fb / fa - 1.0, q_s0: qs };
+            }
+        }
+    }
+    out
+}
+
+/// Per-joint samples from prepared time-series data.
+pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Vec<JointSamples> {
+    let t0 = p.t.first().copied().unwrap_or(0.0);
+    let t1 = p.t.last().copied().unwrap_or(1.0);
+    let dur = (t1 - t0).max(1e-9);
+    let block = block_s.max(dur / 400.0);
+    let corr = (p.window_samples as f64 / p.stride as f64).max(1.0);
+    (0..NJ)
+        .map(|j| {
+            let mut js = JointSamples { joint: j + 1, corr_len: corr, time_series: true, ..Default::default() };
+            for i in 0..p.len() {
+                if !p.keep[i][j] {
+                    continue;
+                }
+                js.y.push(p.tau[i][j] - p.tau_rb[i][j]);
+                js.v.push(p.v[i][j]);
+                // sgn(q̇) as the project's simulation friction evaluates it: tanh(q̇/v_s), 0 at rest
+                js.s.push(if p.regime[i][j] == 0 { 0.0 } else { (p.v[i][j] / naic_core::friction::DEFAULT_V_S).tanh() });
+                js.q.push(p.q[i][j]);
+                js.t.push(p.t[i]);
+                js.tn.push((p.t[i] - t0) / dur - 0.5);
+                js.a.push(p.a[i][j]);
+                js.dtau.push(p.dtau[i][j]);
+                js.payload.push(p.payload[i][j]);
+                js.fold.push((((p.t[i] - t0) / block).floor() as usize % folds) as u8);
+            }
+            js
+        })
+        .collect()
+}
+
+/// Per-joint samples from friction points (interleaved velocity folds, see [`analysis`]).
+/// Points slower than `v_min` (pre-sliding / stiction: the joint did not slide steadily,
+/// so no friction law of eq. 4/5 applies) are left out.
+pub fn joint_samples_from_points(d: &FrictionData, folds: usize, v_min: f64) -> Vec<JointSamples> {
+    d.joints()
+        .into_iter()
+        .map(|joint| {
+            let pts: Vec<_> = d.joint_samples(joint).filter(|s| s.qdot.abs() >= v_min).collect();
+            let n = pts.len();
+            let mut js = JointSamples { joint, corr_len: 1.0, time_series: false, ..Default::default() };
+            for (r, s) in pts.iter().enumerate() {
+                js.y.push(s.tau);
+                js.v.push(s.qdot);
+                js.s.push(if s.qdot > 0.0 { 1.0 } else if s.qdot < 0.0 { -1.0 } else { 0.0 });
+                js.q.push(0.0);
+                js.t.push(s.line as f64);
+                js.tn.push(r as f64 / n.max(2) as f64 - 0.5);
+                js.a.push(0.0);
+                js.dtau.push(0.0);
+                js.payload.push(0.0);
+                js.fold.push(0);
+            }
+            js.assign_velocity_folds(folds);
+            js
+        })
+        .collect()
+}
+
+/// Runs the analysis on every joint (in parallel), calling `progress(fraction, what)`.
+pub fn analyse_all(
+    joints: &[JointSamples],
+    shapes: &[NominalShape],
+    o: &AnalysisOptions,
+    threads: usize,
+    progress: &(dyn Fn(f64, &str) + Sync),
+) -> Vec<JointResult> {
+    let n = joints.len();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let results: std::sync::Mutex<Vec<Option<JointResult>>> = std::sync::Mutex::new(vec![None; n]);
+    std::thread::scope(|sc| {
+        for _ in 0..threads.clamp(1, n.max(1)) {
+            sc.spawn(|| loop {
+                let k = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                if k >= n {
+                    break;
+                }
+                let js = &joints[k];
+                let sh = shapes.get(js.joint - 1).copied().unwrap_or_default();
+                let r = analysis::analyse_joint(js, &sh, o);
+                if let Ok(mut g) = results.lock() {
+                    g[k] = Some(r);
+                }
+                let d = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+                progress(d as f64 / n as f64, &format!("joint {} analysed", js.joint));
+            });
+        }
+    });
+    let mut results: Vec<JointResult> = results.into_inner().unwrap_or_default().into_iter().flatten().collect();
+    // A payload is one mass: keep it only if it is significant on ≥ 2 joints with
+    // consistent positive mass estimates (max/min < 2); otherwise re-analyse the joints
+    // that selected it without the payload candidate.
+    let with_payload: Vec<usize> = results
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.final_eval.full_structure.has(catalogue::Effect::Payload))
+        .map(|(k, _)| k)
+        .collect();
+    if !with_payload.is_empty() {
+        let masses: Vec<f64> = with_payload
+            .iter()
+            .filter_map(|&k| results[k].final_eval.coef(analysis::Col::Payload))
+            .collect();
+        let lo = masses.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = masses.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let consistent = masses.len() >= 2 && lo > 0.0 && hi / lo < 2.0;
+        if !consistent {
+            let mut o2 = o.clone();
+            o2.effects.retain(|e| *e != catalogue::Effect::Payload);
+            for k in with_payload {
+                let js = &joints[k];
+                let sh = shapes.get(js.joint - 1).copied().unwrap_or_default();
+                let mut r = analysis::analyse_joint(js, &sh, &o2);
+                // keep the payload's score as a rejected candidate for the report
+                r.rejected.extend(results[k].steps.iter().filter(|c| c.effect == catalogue::Effect::Payload).map(|c| {
+                    let mut c = c.clone();
+                    c.significant = false;
+                    c
+                }));
+                results[k] = r;
+            }
+        }
+    }
+    results
+}
+
+/// Analyses a time series that is already in memory.
+pub fn explain_series(
+    name: &str,
+    kind: Kind,
+    ts: &input::TimeSeries,
+    opts: &ExplainOptions,
+    progress: &(dyn Fn(f64, &str) + Sync),
+) -> Result<Explained, ExplainError> {
+    let model = Model::from_urdf_file(&opts.urdf).map_err(|e| ExplainError::model(format!("{}: {e}", opts.urdf.display())))?;
+    if model.nv() != NJ {
+        return Err(ExplainError::model(format!("{} has {} joints; the time-series analysis needs 6", opts.urdf.display(), model.nv())));
+    }
+    let tip = model.frame_id(&opts.tip_frame).ok_or_else(|| {
+        ExplainError::model(format!("{} has no frame `{}`; pass the tool frame", opts.urdf.display(), opts.tip_frame))
+    })?;
+    let (params, nominal_source) = load_nominal(opts)?;
+    let shapes = nominal_shapes(params.as_ref(), NJ);
+    let prep = prepare::prepare(ts, &model, tip, &opts.prepare, &mut |f| progress(0.3 * f, "estimating velocity, acceleration, rigid-body torque"))?;
+    let joints = joint_samples_from_series(&prep, opts.block_s, opts.analysis.folds);
+    for js in &joints {
+        if js.len() < 50 {
+            return Err(ExplainError::input(format!(
+                "{name}: joint {} has only {} usable samples (moving or resting steadily); record longer or move the joint",
+                js.joint,
+                js.len()
+            )));
+        }
+    }
+    let results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(0.3 + 0.7 * f, w));
+    let mut notes = Vec::new();
+    if ts.wrench.is_some() {
+        notes.push(
+            "The data has wrench columns; the contact effects (contact_nonlinearity, contact_damping, ft_bias, tool_gravity) \
+             are not implemented yet, so the wrench was not analysed."
+                .to_string(),
+        );
+    }
+    if !ts.ignored_columns.is_empty() {
+        notes.push(format!("Columns ignored: {}.", ts.ignored_columns.join(", ")));
+    }
+    let method = vec![
+        ("velocity/acceleration".into(), format!(
+            "Savitzky–Golay, cubic, window {} samples ({:.0} ms), derivatives of q; torque smoothed by the same filter",
+            prep.window_samples,
+            prep.window_samples as f64 * prep.dt_raw * 1e3
+        )),
+        ("analysis rate".into(), format!("{:.1} Hz (every {} raw samples, raw dt {:.4} ms)", 1.0 / prep.dt(), prep.stride, prep.dt_raw * 1e3)),
+        ("held-out".into(), format!("{} folds of interleaved time blocks of ≥ {} s", opts.analysis.folds, opts.block_s)),
+        ("samples used".into(), "steady motion and rest; samples within a filter window of a direction change are left out".into()),
+    ];
+    Ok(Explained {
+        path: name.to_string(),
+        kind,
+        samples: ts.len(),
+        joints,
+        results,
+        shapes,
+        notes,
+        method,
+        nominal_source,
+        outliers: vec![],
+        first_pass: vec![],
+    })
+}
+
+fn load_nominal(opts: &ExplainOptions) -> Result<(Option<FrictionParams>, String), ExplainError> {
+    match &opts.nominal {
+        Some(p) => {
+            let params = FrictionParams::from_yaml_file(p).map_err(|e| ExplainError::input(format!("--nominal: {e}")))?;
+            Ok((Some(params), format!("Stribeck shape (f_b/f_a, q_s; directions averaged) from {}; levels f_a, f_v calibrated on the training folds", p.display())))
+        }
+        None => Ok((None, "eq. 5 symmetric with a flat shape (f_b = f_a, no --nominal given); levels f_a, f_v calibrated on the training folds".into())),
+    }
+}
+
+/// Analyses steady-state friction points.
+pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progress: &(dyn Fn(f64, &str) + Sync)) -> Result<Explained, ExplainError> {
+    let (params, nominal_source) = load_nominal(opts)?;
+    let nmax = d.joints().into_iter().max().unwrap_or(1);
+    let shapes = nominal_shapes(params.as_ref(), nmax);
+    let v_min = POINTS_V_MIN;
+    let joints = joint_samples_from_points(d, opts.analysis.folds, v_min);
+    let mut notes: Vec<String> = Vec::new();
+    let slow: Vec<String> = d
+        .samples
+        .iter()
+        .filter(|s| s.qdot.abs() < v_min)
+        .map(|s| format!("joint {} at {:.2e} rad/s, {:.3} N·m (line {})", s.joint, s.qdot, s.tau, s.line))
+        .collect();
+    if !slow.is_empty() {
+        notes.push(format!(
+            "{} point(s) slower than {v_min} rad/s left out (pre-sliding/stiction, not steady sliding friction): {}",
+            slow.len(),
+            slow.join("; ")
+        ));
+    }
+    notes.push(
+        "torque_offset, delay, drift, position_ripple, payload and rotor_inertia cannot be told apart in steady-state \
+         segment means (no time, position or acceleration; an offset is indistinguishable from a friction asymmetry \
+         without rest segments), so only friction_asymmetry, stribeck and viscous_nonlinearity are scored."
+            .into(),
+    );
+    for js in &joints {
+        if js.len() < 2 * opts.analysis.folds {
+            return Err(ExplainError::input(format!(
+                "{name}: joint {} has only {} points; the held-out scheme needs at least {} (two per fold)",
+                js.joint,
+                js.len(),
+                2 * opts.analysis.folds
+            )));
+        }
+    }
+    let mut joints = joints;
+    let joints_before = joints.clone();
+    let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, progress);
+    // Outlier segments: points whose out-of-fold residual under the joint's final model
+    // exceeds OUTLIER_K robust standard deviations (1.4826·MAD). They are listed, left
+    // out, and the analysis is repeated once on the rest.
+    let mut outliers = Vec::new();
+    let mut cleaned = false;
+    for (k, js) in joints.iter_mut().enumerate() {
+        let sh = shapes.get(js.joint - 1).copied().unwrap_or_default();
+        let (oof, _) = analysis::residuals(js, &results[k].final_eval, &sh);
+        let mut abs: Vec<f64> = oof.iter().map(|r| r.abs()).collect();
+        abs.sort_by(f64::total_cmp);
+        let sigma = 1.4826 * abs[abs.len() / 2];
+        let bad: Vec<usize> = (0..js.len()).filter(|&i| oof[i].abs() > OUTLIER_K * sigma && sigma > 0.0).collect();
+        if bad.is_empty() {
+            continue;
+        }
+        for &i in &bad {
+            outliers.push(Outlier { joint: js.joint, line: js.t[i] as usize, velocity: js.v[i], torque: js.y[i], residual: oof[i], sigma });
+        }
+        let keep: Vec<bool> = (0..js.len()).map(|i| !bad.contains(&i)).collect();
+        *js = js.filtered(&keep, opts.analysis.folds);
+        cleaned = true;
+    }
+    let first_pass: Vec<(usize, f64, f64, f64)> = results
+        .iter()
+        .zip(&joints_before)
+        .map(|(r, js)| {
+            let sh = shapes.get(js.joint - 1).copied().unwrap_or_default();
+            let (p, n) = report::direction_rmse(js, &r.final_eval, &sh);
+            (r.joint, r.final_eval.heldout_rmse(), p, n)
+        })
+        .collect();
+    if cleaned {
+        results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, progress);
+        notes.push(format!(
+            "{} outlier segment(s) (out-of-fold residual > {OUTLIER_K}·1.4826·MAD of the joint) left out and the analysis repeated: {}",
+            outliers.len(),
+            outliers
+                .iter()
+                .map(|o| format!("joint {} line {} ({:+.4} rad/s, {:.3} N·m, residual {:+.3} = {:.0} σ)", o.joint, o.line, o.velocity, o.torque, o.residual, o.residual.abs() / o.sigma))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ));
+    }
+    let method = vec![
+        ("outliers".into(), format!("points with out-of-fold residual > {OUTLIER_K} robust σ (1.4826·MAD) are listed in the notes, left out, and the analysis repeated once")),
+        ("held-out".into(), format!(
+            "{} folds of interleaved velocity blocks: per joint and direction, points sorted by speed, point r in fold r mod {}",
+            opts.analysis.folds, opts.analysis.folds
+        )),
+        ("samples used".into(), format!("points with |velocity| ≥ {v_min} rad/s (slower ones are stiction, see notes)")),
+    ];
+    Ok(Explained {
+        path: name.to_string(),
+        kind: Kind::FrictionPoints,
+        samples: d.samples.len(),
+        joints,
+        results,
+        shapes,
+        notes,
+        method,
+        nominal_source,
+        outliers,
+        first_pass,
+    })
+}
+
+/// Friction points slower than this [rad/s] are not sliding (0.1 mrad/s ≈ one encoder
+/// count per second on a 2²⁰-count encoder): left out.
+pub const POINTS_V_MIN: f64 = 1e-4;
+
+/// Robust-σ multiple beyond which a friction point is an outlier segment.
+pub const OUTLIER_K: f64 = 6.0;
+
+/// A friction point left out as an outlier segment.
+#[derive(Clone, Debug)]
+pub struct Outlier {
+    pub joint: usize,
+    /// 1-based line in the CSV file.
+    pub line: usize,
+    pub velocity: f64,
+    pub torque: f64,
+    /// Out-of-fold residual under the first-pass model [N·m].
+    pub residual: f64,
+    /// Robust residual σ of the joint [N·m].
+    pub sigma: f64,
+}
+
+/// Reads `path` (any kind) and analyses it.
+pub fn explain(path: &Path, opts: &ExplainOptions, progress: &(dyn Fn(f64, &str) + Sync)) -> Result<Explained, ExplainError> {
+    let (kind, m) = input::load(path)?;
+    let name = path.display().to_string();
+    match m {
+        Measured::Series(ts) => explain_series(&name, kind, &ts, opts, progress),
+        Measured::Points(d) => explain_points(&name, &d, opts, progress),
+    }
+}

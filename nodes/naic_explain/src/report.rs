@@ -1,0 +1,476 @@
+//! The outputs: `report.json` (schema of issue 6), `report.md` and `extended_params.yaml`.
+//!
+//! * `gain` of a finding = the share of the nominal model's held-out mean-square residual
+//!   that adding the effect removed, averaged over the joints of the data (each joint
+//!   normalised by its own nominal held-out mean square; joints where the effect was not
+//!   selected contribute 0). The gains of the findings of one joint add up to that joint's
+//!   total improvement.
+//! * Non-significant candidates are listed too (`significant: false`) with their best
+//!   joint, so a reader sees what was checked and how close it came.
+
+use crate::analysis::{residuals, Candidate, Col, Dir, Eval, JointResult, JointSamples, NominalShape};
+use crate::catalogue::{Effect, ALL_EFFECTS};
+use crate::{ExplainError, Explained};
+use naic_core::friction::{fit, FitForm, FitOptions, FrictionData, FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
+use serde_json::{json, Map, Value};
+use std::fmt::Write;
+use std::path::Path;
+
+/// One finding (an effect, possibly on several joints).
+#[derive(Clone, Debug)]
+pub struct Finding {
+    pub effect: Effect,
+    pub targets: Vec<usize>,
+    pub significant: bool,
+    /// Per target joint: parameter name → value.
+    pub params: Vec<(usize, Vec<(String, f64)>)>,
+    pub rmse_before: Vec<(usize, f64)>,
+    pub rmse_after: Vec<(usize, f64)>,
+    pub gain: f64,
+    /// Mean over the target joints of the relative held-out reduction when the effect was added.
+    pub step_gain: f64,
+    pub evidence: String,
+}
+
+fn jkey(j: usize) -> String {
+    format!("joint{j}")
+}
+
+/// Physical parameters of `effect` read from a fitted model.
+pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(String, f64)> {
+    let c = |col: Col| ev.coef(col).unwrap_or(0.0);
+    let st = &ev.full_structure;
+    let mut out: Vec<(String, f64)> = Vec::new();
+    let mut push = |k: &str, v: f64| out.push((k.to_string(), v));
+    match effect {
+        Effect::FrictionAsymmetry => {
+            let (p, n) = (c(Col::Coul(Dir::Pos)), c(Col::Coul(Dir::Neg)));
+            push("f_c_pos", p);
+            push("f_c_neg", n);
+            push("f_c_difference", p - n);
+            push("f_v_pos", c(Col::Visc(Dir::Pos)));
+            push("f_v_neg", c(Col::Visc(Dir::Neg)));
+        }
+        Effect::Stribeck => {
+            if st.has(Effect::FrictionAsymmetry) {
+                push("f_s_pos", c(Col::Strib(Dir::Pos)));
+                push("q_s_pos", st.q_s_pos);
+                push("f_s_neg", c(Col::Strib(Dir::Neg)));
+                push("q_s_neg", st.q_s_neg);
+            } else {
+                push("f_s", c(Col::Strib(Dir::Both)));
+                push("q_s", st.q_s_pos);
+            }
+        }
+        Effect::PositionRipple => {
+            let (a, b) = (c(Col::RipSin), c(Col::RipCos));
+            push("amplitude_nm", a.hypot(b));
+            push("k_per_rad", st.k);
+            push("phase_rad", b.atan2(a));
+        }
+        Effect::Payload => push("mass_kg", c(Col::Payload)),
+        Effect::TorqueOffset => push("offset_nm", c(Col::Offset)),
+        Effect::Delay => push("delay_s", c(Col::Delay)),
+        Effect::Drift => {
+            push("delta_f_c_nm", c(Col::Drift));
+            let dur = js.t.last().copied().unwrap_or(0.0) - js.t.first().copied().unwrap_or(0.0);
+            if js.time_series && dur > 0.0 {
+                push("rate_nm_per_hour", c(Col::Drift) / dur * 3600.0);
+            }
+        }
+        Effect::RotorInertia => push("inertia_kgm2", c(Col::Rotor)),
+        Effect::ViscousNonlinearity => push("f_v2", c(Col::Visc2)),
+    }
+    out
+}
+
+fn rmse(ssr: f64, n: usize) -> f64 {
+    (ssr / n.max(1) as f64).sqrt()
+}
+
+fn evidence_line(j: usize, c: &Candidate, n: usize) -> String {
+    let b = rmse(c.before_ssr, n);
+    let a = c.eval.heldout_rmse();
+    format!(
+        "joint {j}: held-out RMSE {b:.4} → {a:.4} N·m ({:+.1} % mean square), better in {}/{} folds, ΔBIC {:.1}",
+        -100.0 * c.gain,
+        c.fold_wins,
+        c.eval.fold_ssr.len(),
+        c.delta_bic
+    )
+}
+
+/// Builds the ranked list of findings.
+pub fn findings(ex: &Explained) -> Vec<Finding> {
+    let nj = ex.results.len().max(1) as f64;
+    let mut out = Vec::new();
+    for e in ALL_EFFECTS {
+        let mut f = Finding {
+            effect: e,
+            targets: vec![],
+            significant: false,
+            params: vec![],
+            rmse_before: vec![],
+            rmse_after: vec![],
+            gain: 0.0,
+            step_gain: 0.0,
+            evidence: String::new(),
+        };
+        let mut ev_lines = Vec::new();
+        for (r, js) in ex.results.iter().zip(&ex.joints) {
+            if let Some(c) = r.steps.iter().find(|c| c.effect == e) {
+                f.significant = true;
+                f.targets.push(r.joint);
+                f.params.push((r.joint, effect_params(e, &r.final_eval, js)));
+                f.rmse_before.push((r.joint, rmse(c.before_ssr, r.n)));
+                f.rmse_after.push((r.joint, c.eval.heldout_rmse()));
+                f.gain += (c.before_ssr - c.eval.heldout_ssr) / r.nominal.heldout_ssr.max(1e-300) / nj;
+                f.step_gain += c.gain;
+                ev_lines.push(evidence_line(r.joint, c, r.n));
+            }
+        }
+        if !f.significant {
+            // best non-significant attempt
+            let best = ex
+                .results
+                .iter()
+                .zip(&ex.joints)
+                .filter_map(|(r, js)| r.rejected.iter().find(|c| c.effect == e).map(|c| (r, js, c)))
+                .max_by(|a, b| a.2.gain.total_cmp(&b.2.gain));
+            let Some((r, js, c)) = best else { continue };
+            f.targets.push(r.joint);
+            f.params.push((r.joint, effect_params(e, &c.eval, js)));
+            f.rmse_before.push((r.joint, rmse(c.before_ssr, r.n)));
+            f.rmse_after.push((r.joint, c.eval.heldout_rmse()));
+            f.gain = ((c.before_ssr - c.eval.heldout_ssr) / r.nominal.heldout_ssr.max(1e-300) / nj).max(0.0);
+            f.step_gain = c.gain;
+            ev_lines.push(format!("not significant; best: {}", evidence_line(r.joint, c, r.n)));
+        }
+        f.gain = f.gain.clamp(0.0, 1.0);
+        if f.significant {
+            f.step_gain /= f.targets.len() as f64;
+        }
+        f.evidence = format!("{}. {}", e.meaning(), ev_lines.join("; "));
+        out.push(f);
+    }
+    out.sort_by(|a, b| b.significant.cmp(&a.significant).then(b.gain.total_cmp(&a.gain)));
+    out
+}
+
+fn map_of(pairs: &[(usize, f64)]) -> Value {
+    let mut m = Map::new();
+    for &(j, v) in pairs {
+        m.insert(jkey(j), json!(v));
+    }
+    Value::Object(m)
+}
+
+/// Per-direction held-out RMSE (out-of-fold residuals) of an Eval.
+pub fn direction_rmse(js: &JointSamples, ev: &Eval, sh: &NominalShape) -> (f64, f64) {
+    let (oof, _) = residuals(js, ev, sh);
+    split_rmse(js, &oof)
+}
+
+/// Per-direction in-sample RMSE √(SSR/n) of the whole-data fit.
+pub fn direction_rmse_insample(js: &JointSamples, ev: &Eval, sh: &NominalShape) -> (f64, f64) {
+    let (_, ins) = residuals(js, ev, sh);
+    split_rmse(js, &ins)
+}
+
+fn split_rmse(js: &JointSamples, oof: &[f64]) -> (f64, f64) {
+    let (mut sp, mut np, mut sn, mut nn) = (0.0, 0usize, 0.0, 0usize);
+    for (i, r) in oof.iter().enumerate() {
+        if js.s[i] > 0.0 {
+            sp += r * r;
+            np += 1;
+        } else if js.s[i] < 0.0 {
+            sn += r * r;
+            nn += 1;
+        }
+    }
+    (rmse(sp, np), rmse(sn, nn))
+}
+
+/// The `report.json` value.
+pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
+    let nominal: Vec<(usize, f64)> = ex.results.iter().map(|r| (r.joint, r.nominal.heldout_rmse())).collect();
+    let extended: Vec<(usize, f64)> = ex.results.iter().map(|r| (r.joint, r.final_eval.heldout_rmse())).collect();
+    let findings: Vec<Value> = fs
+        .iter()
+        .map(|f| {
+            let mut params = Map::new();
+            for (j, ps) in &f.params {
+                let mut m = Map::new();
+                for (k, v) in ps {
+                    m.insert(k.clone(), json!(v));
+                }
+                params.insert(jkey(*j), Value::Object(m));
+            }
+            if f.effect == Effect::Payload && f.significant && !f.params.is_empty() {
+                // combined estimate: median over the target joints
+                let mut ms: Vec<f64> = f.params.iter().filter_map(|(_, p)| p.first().map(|x| x.1)).collect();
+                ms.sort_by(f64::total_cmp);
+                params.insert("mass_kg_median".into(), json!(ms[ms.len() / 2]));
+            }
+            json!({
+                "effect": f.effect.name(),
+                "targets": f.targets.iter().map(|&j| jkey(j)).collect::<Vec<_>>(),
+                "significant": f.significant,
+                "params": Value::Object(params),
+                "heldout_rmse_before": map_of(&f.rmse_before),
+                "heldout_rmse_after": map_of(&f.rmse_after),
+                "gain": f.gain,
+                "step_gain": f.step_gain,
+                "evidence": f.evidence,
+            })
+        })
+        .collect();
+    let mut per_dir = Map::new();
+    for ((r, js), sh) in ex.results.iter().zip(&ex.joints).zip(ex.joints.iter().map(|js| ex.shapes.get(js.joint - 1).copied().unwrap_or_default())) {
+        let (np, nn) = direction_rmse(js, &r.nominal, &sh);
+        let (ep, en) = direction_rmse(js, &r.final_eval, &sh);
+        let (ip, inn) = direction_rmse_insample(js, &r.final_eval, &sh);
+        per_dir.insert(
+            jkey(r.joint),
+            json!({"nominal": {"positive": np, "negative": nn}, "extended": {"positive": ep, "negative": en},
+                   "extended_insample": {"positive": ip, "negative": inn},
+                   "model": r.final_eval.full_structure.effects.iter().map(|e| e.name()).collect::<Vec<_>>()}),
+        );
+    }
+    json!({
+        "data": {"path": ex.path, "kind": ex.kind.name(), "samples": ex.samples},
+        "nominal": {"heldout_rmse": map_of(&nominal), "model": ex.nominal_source},
+        "findings": findings,
+        "extended": {"heldout_rmse": map_of(&extended), "params_file": params_file, "heldout_rmse_by_direction": Value::Object(per_dir)},
+        "outliers": ex.outliers.iter().map(|o| json!({"joint": jkey(o.joint), "line": o.line, "velocity_rad_s": o.velocity,
+            "torque_nm": o.torque, "residual_nm": o.residual, "robust_sigma_nm": o.sigma})).collect::<Vec<_>>(),
+        "extended_before_outlier_removal": ex.first_pass.iter().map(|&(j, a, p, n)| (jkey(j), json!({"heldout_rmse": a, "positive": p, "negative": n}))).collect::<Map<_, _>>(),
+        "method": ex.method.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<Map<_, _>>(),
+        "notes": ex.notes,
+    })
+}
+
+fn nonneg(x: f64) -> f64 {
+    if x.is_finite() && x > 0.0 {
+        x
+    } else {
+        0.0
+    }
+}
+
+/// The extended friction law of one joint in the friction schema (eq. 5, per direction when
+/// asymmetric). When the final model has terms the schema cannot hold (s·q̇²) or a level
+/// came out negative, the model's friction part is evaluated at 200 speeds per direction
+/// spanning the data and eq. 5 is fitted to it with the project's bounded fitter
+/// (`naic_core::friction::fit`); the note gives the largest deviation.
+pub fn extended_friction(r: &JointResult, js: &JointSamples, sh: &NominalShape, notes: &mut Vec<String>) -> JointFriction {
+    let mut direct_notes = Vec::new();
+    let direct = extended_friction_direct(r, sh, &mut direct_notes);
+    let st = &r.final_eval.full_structure;
+    if !st.has(Effect::ViscousNonlinearity) && direct_notes.is_empty() {
+        return direct;
+    }
+    // speeds: quantiles of |v| per direction
+    let mut pts = Vec::new();
+    for dir in [1.0, -1.0] {
+        let mut sp: Vec<f64> = (0..js.len()).filter(|&i| js.s[i] * dir > 0.0).map(|i| js.v[i].abs()).collect();
+        if sp.is_empty() {
+            continue;
+        }
+        sp.sort_by(f64::total_cmp);
+        for k in 0..200 {
+            let v = dir * sp[(k * (sp.len() - 1)) / 199];
+            pts.push((1usize, v, crate::analysis::friction_part(&r.final_eval, sh, v)));
+        }
+    }
+    let form = if st.has(Effect::FrictionAsymmetry) { FitForm::PerDirection } else { FitForm::Symmetric };
+    let fitted = FrictionData::from_points("extended model", &pts)
+        .ok()
+        .and_then(|d| fit(&d, &FitOptions { form, ..Default::default() }).ok())
+        .and_then(|rep| rep.joints.first().map(|j| j.friction));
+    match fitted {
+        Some(f) => {
+            let dev = pts.iter().map(|&(_, v, t)| (f.tau_f(v) - t).abs()).fold(0.0, f64::max);
+            notes.push(format!(
+                "joint {}: the extended law ({}) is outside the eq. 5 schema; written as the eq. 5 {} fit to it at {} speeds (largest deviation {dev:.4} N·m).",
+                r.joint,
+                st.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + "),
+                form.name(),
+                pts.len()
+            ));
+            f
+        }
+        None => {
+            notes.extend(direct_notes);
+            direct
+        }
+    }
+}
+
+fn extended_friction_direct(r: &JointResult, sh: &NominalShape, notes: &mut Vec<String>) -> JointFriction {
+    let ev = &r.final_eval;
+    let st = &ev.full_structure;
+    let strib = st.has(Effect::Stribeck);
+    let branch = |d: Dir, q_s: f64, notes: &mut Vec<String>| -> StribeckParams {
+        let f_a_raw = ev.coef(Col::Coul(d)).unwrap_or(0.0);
+        let f_v_raw = ev.coef(Col::Visc(d)).unwrap_or(0.0);
+        let (f_b_raw, q_s) = if strib {
+            (f_a_raw + ev.coef(Col::Strib(d)).unwrap_or(0.0), q_s)
+        } else {
+            (f_a_raw * (1.0 + sh.r0), sh.q_s0)
+        };
+        let p = StribeckParams { f_a: nonneg(f_a_raw), f_b: nonneg(f_b_raw), q_s, f_v: nonneg(f_v_raw) };
+        for (name, raw, v) in [("f_a", f_a_raw, p.f_a), ("f_b", f_b_raw, p.f_b), ("f_v", f_v_raw, p.f_v)] {
+            if raw != v {
+                notes.push(format!(
+                    "joint {} ({:?}): fitted {name} = {raw:.4} is negative; written as 0 (the friction loader requires ≥ 0)",
+                    r.joint, d
+                ));
+            }
+        }
+        p
+    };
+    if st.has(Effect::FrictionAsymmetry) {
+        JointFriction::StribeckPerDirection {
+            positive: branch(Dir::Pos, st.q_s_pos, notes),
+            negative: branch(Dir::Neg, st.q_s_neg, notes),
+        }
+    } else {
+        JointFriction::Stribeck(branch(Dir::Both, st.q_s_pos, notes))
+    }
+}
+
+/// The extended parameter file (loadable by `FrictionParams::from_yaml_file`).
+pub fn extended_params(ex: &Explained, fs: &[Finding]) -> FrictionParams {
+    let mut notes = Vec::new();
+    let mut joints = Vec::new();
+    for (r, js) in ex.results.iter().zip(&ex.joints) {
+        let sh = ex.shapes.get(r.joint - 1).copied().unwrap_or_default();
+        joints.push(JointParams { joint: r.joint, friction: extended_friction(r, js, &sh, &mut notes), stats: JointStats::default() });
+    }
+    let mut extra = Vec::new();
+    for f in fs.iter().filter(|f| f.significant) {
+        if matches!(f.effect, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::ViscousNonlinearity) {
+            continue;
+        }
+        for (j, ps) in &f.params {
+            let s: Vec<String> = ps.iter().map(|(k, v)| format!("{k} = {v:.5}")).collect();
+            extra.push(format!("joint {j}: {} ({})", f.effect.name(), s.join(", ")));
+        }
+    }
+    let mut text = String::new();
+    if !extra.is_empty() {
+        let _ = write!(
+            text,
+            "Findings that are not part of the friction law (the friction schema cannot hold them; apply them separately): {}. ",
+            extra.join("; ")
+        );
+    }
+    if !notes.is_empty() {
+        let _ = write!(text, "{}", notes.join(" "));
+    }
+    FrictionParams {
+        source: format!(
+            "naic explain on {} ({}): nominal eq. 5 symmetric + significant findings, fitted on all data (amplitudes by least squares, shapes by grid scan)",
+            ex.path,
+            ex.kind.name()
+        ),
+        notes: if text.is_empty() { None } else { Some(text) },
+        smoothing_v_s: None,
+        joints,
+    }
+}
+
+/// Writes report.json, report.md, extended_params.yaml and the SVG plots into `dir`.
+pub fn write_all(ex: &Explained, dir: &Path) -> Result<Value, ExplainError> {
+    std::fs::create_dir_all(dir).map_err(|e| ExplainError::Io(format!("{}: cannot create ({e})", dir.display())))?;
+    let fs = findings(ex);
+    let params = extended_params(ex, &fs);
+    let yaml_path = dir.join("extended_params.yaml");
+    params.save(&yaml_path).map_err(|e| ExplainError::Io(e.to_string()))?;
+    // check it loads back with the project's loader
+    FrictionParams::from_yaml_file(&yaml_path).map_err(|e| ExplainError::Io(format!("extended_params.yaml does not load back: {e}")))?;
+    let v = report_json(ex, &fs, "extended_params.yaml");
+    let text = serde_json::to_string_pretty(&v).unwrap_or_default();
+    std::fs::write(dir.join("report.json"), text).map_err(|e| ExplainError::Io(format!("report.json: {e}")))?;
+    let plots = crate::plots::plots(ex, &fs);
+    for (name, svg) in &plots {
+        std::fs::write(dir.join(name), svg).map_err(|e| ExplainError::Io(format!("{name}: {e}")))?;
+    }
+    let md = report_md(ex, &fs, &v, &plots);
+    std::fs::write(dir.join("report.md"), md).map_err(|e| ExplainError::Io(format!("report.md: {e}")))?;
+    Ok(v)
+}
+
+fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String)]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# naic explain: {}\n", ex.path);
+    let _ = writeln!(s, "Kind: **{}**, {} samples. Nominal model: rigid body (`urdf/jk5.urdf`) + {}.\n", ex.kind.name(), ex.samples, ex.nominal_source);
+    let _ = writeln!(s, "## Method\n");
+    for (k, m) in &ex.method {
+        let _ = writeln!(s, "- {k}: {m}");
+    }
+    let _ = writeln!(
+        s,
+        "- significance: held-out gain ≥ 2 % of the joint's mean-square residual, better in ≥ 8 of 10 folds, and BIC (effective sample count) lower; candidates added greedily per joint\n"
+    );
+    for n in &ex.notes {
+        let _ = writeln!(s, "> {n}\n");
+    }
+    let sig: Vec<&Finding> = fs.iter().filter(|f| f.significant).collect();
+    let _ = writeln!(s, "## Findings\n");
+    if sig.is_empty() {
+        let _ = writeln!(s, "**Nothing significant**: no candidate extension improved the held-out fit by the rule above; the nominal model explains the data to its noise level.\n");
+    } else {
+        let _ = writeln!(s, "`gain` = share of the nominal held-out mean-square residual the effect removed (averaged over joints); `step gain` = relative held-out reduction on its joints when it was added.\n");
+        let _ = writeln!(s, "| rank | effect | joints | gain | step gain | parameters |\n| --- | --- | --- | --- | --- | --- |");
+        for (i, f) in sig.iter().enumerate() {
+            let ps: Vec<String> = f
+                .params
+                .iter()
+                .map(|(j, p)| format!("J{j}: {}", p.iter().map(|(k, v)| format!("{k} {v:.4}")).collect::<Vec<_>>().join(", ")))
+                .collect();
+            let _ = writeln!(
+                s,
+                "| {} | `{}` | {} | {:.4} | {:.3} | {} |",
+                i + 1,
+                f.effect.name(),
+                f.targets.iter().map(|j| j.to_string()).collect::<Vec<_>>().join(", "),
+                f.gain,
+                f.step_gain,
+                ps.join("; ")
+            );
+        }
+        let _ = writeln!(s);
+        for f in &sig {
+            let _ = writeln!(s, "- **{}**: {}", f.effect.name(), f.evidence);
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(s, "### Checked, not significant\n");
+    for f in fs.iter().filter(|f| !f.significant) {
+        let _ = writeln!(s, "- `{}`: {}", f.effect.name(), f.evidence);
+    }
+    let _ = writeln!(s, "\n## Held-out RMSE per joint [N·m]\n");
+    let _ = writeln!(s, "| joint | nominal | extended | extended + | extended − | model |\n| --- | --- | --- | --- | --- | --- |");
+    for r in &ex.results {
+        let k = jkey(r.joint);
+        let d = &v["extended"]["heldout_rmse_by_direction"][&k];
+        let _ = writeln!(
+            s,
+            "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {} |",
+            r.joint,
+            r.nominal.heldout_rmse(),
+            r.final_eval.heldout_rmse(),
+            d["extended"]["positive"].as_f64().unwrap_or(f64::NAN),
+            d["extended"]["negative"].as_f64().unwrap_or(f64::NAN),
+            r.final_eval.full_structure.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + ")
+        );
+    }
+    let _ = writeln!(s, "\nExtended parameters: `extended_params.yaml` (loads with the project's friction loader).\n");
+    let _ = writeln!(s, "## Plots\n");
+    for (name, _) in plots {
+        let _ = writeln!(s, "![{name}]({name})\n");
+    }
+    s
+}
