@@ -81,6 +81,11 @@ impl RosNode {
         let overrides = args.overrides(default_name)?;
         let params = ParamTable::new(specs, check, &overrides).map_err(RosError::Param)?;
 
+        // Real-time scheduling before any thread exists, so the DDS threads inherit it.
+        let prio = params.with(|p| p.i64("realtime_priority"));
+        if prio > 0 {
+            set_realtime(prio as i32);
+        }
         let settings = DdsSettings::from_env()?;
         let context = create_context(&settings)?;
         let node_name = NodeName::new(&ns, &name)
@@ -361,3 +366,18 @@ impl ParamServices {
 
 /// Publisher alias used by the nodes.
 pub type Pub<M> = Publisher<M>;
+
+/// SCHED_FIFO for the calling thread (and the threads it creates afterwards).
+fn set_realtime(priority: i32) {
+    let param = libc::sched_param { sched_priority: priority };
+    // SAFETY: valid sched_param for the calling thread (pid 0).
+    let r = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
+    if r != 0 {
+        log::warn!(
+            "realtime_priority {priority}: cannot use SCHED_FIFO ({}); running with normal scheduling",
+            std::io::Error::last_os_error()
+        );
+    } else {
+        log::info!("running with SCHED_FIFO priority {priority}");
+    }
+}
