@@ -17,6 +17,8 @@
 //! JSON to `latency_report` at exit (see `naic bench chain`).
 
 mod plant;
+#[cfg(feature = "naic_sim_plant")]
+mod sim_plant;
 
 use std::{
     sync::{Arc, Condvar, Mutex},
@@ -30,11 +32,18 @@ use naic_ros::{
     wait::Waiter,
     ParamSpec, RosError, RosNode,
 };
-use plant::{PlaceholderPlant, Plant};
+use plant::Plant;
+#[cfg(not(feature = "naic_sim_plant"))]
+use plant::{make_plant, PLANT_NAME};
+#[cfg(feature = "naic_sim_plant")]
+use sim_plant::{make_plant, PLANT_NAME};
 
 fn specs() -> Vec<ParamSpec> {
     vec![
-        ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz] (real-time mode)"),
+        ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz]; the simulator's control period is 1/rate").read_only(),
+        ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model of the simulator").read_only(),
+        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Joint friction acting in the simulator (naic_core::friction YAML)").read_only(),
+        ParamSpec::double("friction_smoothing", 0.01, 1.0e-5, 1.0, "v_s [rad/s] of the simulator's tanh-smoothed friction").read_only(),
         ParamSpec::boolean(
             "lockstep",
             false,
@@ -48,8 +57,14 @@ fn specs() -> Vec<ParamSpec> {
             "Hold the arm (gravity compensation + damping) when no command arrived for this long [s]",
         ),
         ParamSpec::double("hold_damping", 5.0, 0.0, 200.0, "Joint damping of the driver's own hold [N m s/rad]"),
-        ParamSpec::choice("scenario", "flat", &["flat"], "Paper scenario (environment and trajectory)").read_only(),
-        ParamSpec::string("plant", plant::PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
+        ParamSpec::choice(
+            "scenario",
+            "flat",
+            &["flat", "stiffness-step", "slope", "foam", "two-material"],
+            "Paper scenario of naic_sim: environment and start pose",
+        )
+        .read_only(),
+        ParamSpec::string("plant", PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
         ParamSpec::double("latency_warmup", 2.0, 0.0, 3600.0, "Chain-latency statistics ignore the first seconds after start").read_only(),
         ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),
     ]
@@ -145,8 +160,10 @@ fn run() -> Result<(), RosError> {
             .map_err(|e| RosError::Node(format!("cannot start receive thread: {e}")))?;
     }
 
-    let mut plant = PlaceholderPlant::new();
-    log::warn!("using the placeholder plant (naic_sim arm simulator not integrated yet)");
+    let mut plant = node.params.with(make_plant).map_err(RosError::Node)?;
+    if PLANT_NAME == "placeholder" {
+        log::warn!("using the placeholder plant (build with --features naic_sim_plant for naic_sim's arm)");
+    }
 
     let mut gen = 0;
     let (mut rate, mut lockstep, mut timeout_ns, mut damping, mut use_sim_time) = (1000.0, false, 20_000_000i64, 5.0, false);
@@ -257,7 +274,7 @@ fn run() -> Result<(), RosError> {
 
 /// Publish joint states, wrench and clock; returns the stamp used [ns].
 fn publish_state(
-    plant: &dyn Plant,
+    plant: &impl Plant,
     js: &mut JointState,
     js_pub: &naic_ros::node::Pub<JointState>,
     w_pub: &naic_ros::node::Pub<WrenchStamped>,

@@ -6,7 +6,7 @@ pub trait Plant {
     fn step(&mut self, tau: &[f64; 6], dt: f64);
     /// Torques that hold the arm where it is: gravity compensation + joint damping
     /// (`damping` N m s/rad). Used when no command arrives in time.
-    fn hold_torque(&self, damping: f64) -> [f64; 6];
+    fn hold_torque(&mut self, damping: f64) -> [f64; 6];
     /// Joint positions [rad], velocities [rad/s] and measured joint torques [N m].
     fn joints(&self) -> ([f64; 6], [f64; 6], [f64; 6]);
     /// Raw F/T sensor reading in the `ft_sensor` frame: [fx, fy, fz, tx, ty, tz].
@@ -16,11 +16,13 @@ pub trait Plant {
 }
 
 /// Which simulator the driver runs (the read-only `plant` parameter).
+#[cfg_attr(feature = "naic_sim_plant", allow(dead_code))]
 pub const PLANT_NAME: &str = "placeholder";
 
 /// SCRATCH placeholder until `naic_sim`'s arm simulator lands on main: six decoupled
 /// joints (unit inertia, light viscous friction, no gravity, no contact). It only
 /// exercises the DDS plumbing; no test of physics may rely on it.
+#[cfg_attr(feature = "naic_sim_plant", allow(dead_code))]
 pub struct PlaceholderPlant {
     q: [f64; 6],
     v: [f64; 6],
@@ -28,10 +30,17 @@ pub struct PlaceholderPlant {
     t: f64,
 }
 
+#[cfg_attr(feature = "naic_sim_plant", allow(dead_code))]
 impl PlaceholderPlant {
     pub fn new() -> Self {
         PlaceholderPlant { q: [0.0, 0.5, -1.0, 0.0, 1.0, 0.0], v: [0.0; 6], tau: [0.0; 6], t: 0.0 }
     }
+}
+
+/// The plant the driver's parameters describe (the placeholder ignores them).
+#[cfg_attr(feature = "naic_sim_plant", allow(dead_code))]
+pub fn make_plant(_p: &naic_ros::ParamView) -> Result<PlaceholderPlant, String> {
+    Ok(PlaceholderPlant::new())
 }
 
 impl Plant for PlaceholderPlant {
@@ -44,7 +53,7 @@ impl Plant for PlaceholderPlant {
         self.tau = *tau;
         self.t += dt;
     }
-    fn hold_torque(&self, damping: f64) -> [f64; 6] {
+    fn hold_torque(&mut self, damping: f64) -> [f64; 6] {
         let mut t = [0.0; 6];
         for i in 0..6 {
             t[i] = -damping * self.v[i];
