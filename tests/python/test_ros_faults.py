@@ -86,7 +86,9 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
     bins = ru.build_nodes()
     domain = ru.fresh_domain(110)
     env = ru.ros_env(domain)
-    start = lambda n: ru.Proc([str(bins / n), "--ros-args", "--params-file", f"params/{n}.yaml"], env)  # noqa: E731
+    rate_limit = {"friction_compensation": ["-p", "torque_rate_limit:=1.0"]}
+    start = lambda n: ru.Proc([str(bins / n), "--ros-args", "--params-file", f"params/{n}.yaml",  # noqa: E731
+                               *rate_limit.get(n, [])], env)
     procs = {n: start(n) for n in ("naic_controller", "friction_compensation", "jk5_sim_driver")}
     r = ru.RclpyDomain(domain, "naic_restart_test")
     try:
@@ -110,8 +112,8 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
         t_first, first = cmds[n_before]
         held = [e for t, e in js if t < t_first][-1]
         jump = max(abs(a - b) for a, b in zip(first, held))
-        # params/friction_compensation.yaml: torque_rate_limit 1.0 N m per command (+ one
-        # cycle of hold-torque change between the two samples).
+        # torque_rate_limit 1.0 N m per command (+ one cycle of hold-torque change between
+        # the two samples).
         assert jump <= 1.5, f"torque jump {jump:.3f} N m at take-over"
         assert all(p.alive() for p in procs.values())
     finally:

@@ -43,7 +43,7 @@ fn specs() -> Vec<ParamSpec> {
         ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz]; the simulator's control period is 1/rate").read_only(),
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model of the simulator").read_only(),
         ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Joint friction acting in the simulator (naic_core::friction YAML)").read_only(),
-        ParamSpec::double("friction_smoothing", 0.01, 1.0e-5, 1.0, "v_s [rad/s] of the simulator's tanh-smoothed friction").read_only(),
+        ParamSpec::double("friction_smoothing", naic_core::friction::DEFAULT_V_S, 1.0e-5, 1.0, "v_s [rad/s] of the simulator's tanh-smoothed friction").read_only(),
         ParamSpec::boolean(
             "lockstep",
             false,
@@ -83,6 +83,8 @@ struct CmdSlot {
     latencies_ns: Vec<i64>,
     /// Latencies are recorded from this wall time on (after the warm-up).
     record_after_ns: i64,
+    /// Stamps are simulated time (lockstep / use_sim_time): no latency statistics.
+    sim_stamps: bool,
     rejected: u64,
 }
 
@@ -112,6 +114,7 @@ fn run() -> Result<(), RosError> {
             source_stamp_ns: None,
             latencies_ns: Vec::with_capacity(4 * 3600 * 1000),
             record_after_ns: wall_ns() + node.params.with(|p| (p.f64("latency_warmup") * 1e9) as i64),
+            sim_stamps: node.params.with(|p| p.bool("lockstep") || p.bool("use_sim_time")),
             rejected: 0,
         }),
         cv: Condvar::new(),
@@ -138,7 +141,8 @@ fn run() -> Result<(), RosError> {
                                 s.arrival_ns = now;
                                 s.seq += 1;
                                 s.source_stamp_ns = msgs::effort_source_stamp(&m);
-                                if let Some(st) = s.source_stamp_ns {
+                                // Latency only when stamps are wall-clock time.
+                                if let (Some(st), false) = (s.source_stamp_ns, s.sim_stamps) {
                                     if now >= s.record_after_ns && s.latencies_ns.len() < s.latencies_ns.capacity() {
                                         s.latencies_ns.push(now - st);
                                     }
@@ -193,6 +197,7 @@ fn run() -> Result<(), RosError> {
                 damping = p.f64("hold_damping");
                 use_sim_time = p.bool("use_sim_time");
             });
+            shared.slot.lock().unwrap_or_else(|p| p.into_inner()).sim_stamps = lockstep || use_sim_time;
         }
         let dt = 1.0 / rate;
         let period_ns = (1e9 / rate) as i64;

@@ -6,10 +6,10 @@ use naic_core::{
     model::{Data6, Model},
 };
 use naic_sim::{
-    plant::{self, Encoders, Integrator, Observation, PlantParams, PlantState, PlantWorkspace},
+    plant::{self, Integrator, Observation, PlantParams, PlantState, PlantWorkspace},
     rng::Rng,
     scenario,
-    sensor::Mini45,
+    sensor::{Encoders, Mini45},
 };
 use nalgebra::{Vector3, Vector6};
 
