@@ -107,14 +107,16 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
         assert late, "driver stopped publishing"
         assert all(max(abs(a - b) for a, b in zip(e, last_cmd)) > 1e-9 for e in late[-10:])
         n_before = len(cmds)
+        t_restart = time.time()
         procs["friction_compensation"] = start("friction_compensation")
-        assert r.spin_until(lambda: len(cmds) > n_before + 50, 20), procs["friction_compensation"].output()[-2000:]
-        t_first, first = cmds[n_before]
-        held = [e for t, e in js if t < t_first][-1]
-        jump = max(abs(a - b) for a, b in zip(first, held))
-        # torque_rate_limit 1.0 N m per command (+ one cycle of hold-torque change between
-        # the two samples).
-        assert jump <= 1.5, f"torque jump {jump:.3f} N m at take-over"
+        assert r.spin_until(lambda: len(cmds) > n_before + 500, 20), procs["friction_compensation"].output()[-2000:]
+        # What the arm got, cycle by cycle, across the take-over (the driver publishes the
+        # applied torque as effort): no step larger than the rate limit of 1 N m per cycle
+        # (2 when rclpy dropped the sample in between, + the slow change of the hold).
+        seq = [(t, e) for t, e in js if t > t_restart - 0.2]
+        steps = [max(abs(a - b) for a, b in zip(e1, e0)) for (_, e0), (_, e1) in zip(seq, seq[1:])]
+        assert len(steps) > 500
+        assert max(steps) <= 2.5, f"torque step {max(steps):.3f} N m at take-over"
         assert all(p.alive() for p in procs.values())
     finally:
         r.close()

@@ -8,7 +8,8 @@
 //! URDF, never NaN); publishes `/joint_effort_cmd` for the driver.
 //!
 //! On start the rate limit starts from the measured joint torque (`/joint_states` effort),
-//! so a restarted node takes over without a torque jump. Without fresh joint data the
+//! so a restarted node takes over without a torque jump; until the first joint state
+//! arrives it publishes nothing. Without fresh joint data the
 //! feedforward is left out (it needs q̇); without commands nothing is published and the
 //! driver holds the arm after its own timeout.
 
@@ -164,6 +165,11 @@ fn run() -> Result<(), RosError> {
                 last_warn = now;
                 log::warn!("ignoring /naic/effort: {e}");
             }
+            continue;
+        }
+        if !act_s.started {
+            // No measured torque yet to start the rate limit from: send nothing (the driver
+            // keeps holding) rather than jump.
             continue;
         }
         let fresh = wall_ns().saturating_sub(dq_rx_ns) <= js_timeout_ns;
