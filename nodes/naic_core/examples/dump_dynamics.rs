@@ -8,6 +8,12 @@
 //! Output: `{"nv", "joint_names", "frame_names", "results": [{"rnea", "bias", "gravity", "M", "aba",
 //! "frames": {name: {"pos", "rot", "J", "jdot_qdot"}}, "cartesian": {"D", "h", "damped", "sigma_min"} | null}]}`
 //! (`cartesian` for the first requested frame of a 6-joint model).
+//!
+//! `dump_dynamics --test-urdf arm6|planar3` prints one of the URDFs of the Rust
+//! dynamics tests, so the Python cross-check can run Pinocchio on it too.
+
+#[path = "../tests/dynamics_common/mod.rs"]
+mod dynamics_common;
 
 use naic_core::dynamics::{self, Damping};
 use naic_core::model::{Data, Model};
@@ -26,6 +32,14 @@ fn vecj<R: nalgebra::Dim, S: nalgebra::storage::Storage<f64, R>>(v: &nalgebra::V
 
 fn run() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--test-urdf") {
+        match args.get(1).map(String::as_str) {
+            Some("arm6") => print!("{}", dynamics_common::arm6_urdf()),
+            Some("planar3") => print!("{}", dynamics_common::planar3_urdf()),
+            other => return Err(format!("--test-urdf takes arm6 or planar3, not {other:?}")),
+        }
+        return Ok(());
+    }
     let [urdf, states] = args.as_slice() else {
         return Err("usage: dump_dynamics URDF STATES.json".into());
     };

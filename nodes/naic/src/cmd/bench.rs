@@ -1,17 +1,262 @@
-//! `naic bench …` (in progress).
+//! `naic bench …`: speed benchmarks that print JSON (`dynamics` here, `chain` in `bench_chain.rs`).
+//!
+//! `naic bench dynamics [--json] [--urdf PATH]`: median nanoseconds per call of
+//! RNEA, CRBA, ABA and the `tip` frame Jacobian (including the forward
+//! kinematics it needs), over 1000 pre-generated random states per batch and
+//! the median over the batches; the same method as the Pinocchio reference
+//! (`bench/reference/README.md`): q uniform in the joint range (±π where
+//! unlimited), q̇ in ± the velocity limit, q̈ in ±10, τ in ± the effort limit,
+//! 20 warm-up batches, 200 timed batches by default. A 6-joint URDF runs the stack 6-DOF path
+//! (`Data<U6>`), any other the dynamic-size path. `controller_step_ns` is one
+//! NAIC cycle of `naic_core::pipeline::controller::step` (see [`controller_step`]).
 use super::{CliError, CliResult};
+use naic_core::dynamics;
+use naic_core::model::{Data, FrameId, Model};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, Dyn, OVector, U6};
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::Instant;
 
 #[derive(clap::Subcommand)]
 pub enum BenchCmd {
-    /// Median ns per call of the dynamics algorithms and one NAIC controller step.
-    Dynamics,
+    /// Median ns per call of the dynamics algorithms and of one NAIC controller step.
+    Dynamics(DynamicsArgs),
+    /// Closed-loop simulator steps per second (plant + sensor + NAIC, flat, in contact) vs MuJoCo mj_step.
+    Sim(super::sim::SimBenchArgs),
     /// Latency of the 1 kHz DDS chain across the three node processes, Rust vs rclpy.
     Chain(super::bench_chain::ChainArgs),
 }
 
+#[derive(clap::Args)]
+pub struct DynamicsArgs {
+    /// Print one JSON line instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Robot description to benchmark.
+    #[arg(long, default_value = "urdf/jk5.urdf")]
+    pub urdf: PathBuf,
+    /// Frame whose Jacobian is timed.
+    #[arg(long, default_value = "tip")]
+    pub frame: String,
+    /// Number of timed batches of 1000 calls (at least 50).
+    #[arg(long, default_value_t = 200)]
+    pub batches: usize,
+}
+
 pub fn run(c: BenchCmd) -> CliResult {
     match c {
+        BenchCmd::Dynamics(a) => run_dynamics(a),
+        BenchCmd::Sim(a) => super::sim::bench(a),
         BenchCmd::Chain(a) => super::bench_chain::run(a),
-        BenchCmd::Dynamics => Err(CliError::failure("naic bench dynamics is not implemented yet")),
     }
+}
+
+const STATES: usize = 1000;
+
+/// Deterministic xorshift64* random numbers in [lo, hi) (no extra dependency).
+struct Rng(u64);
+impl Rng {
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let x = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
+        lo + (hi - lo) * (x as f64 / (1u64 << 53) as f64)
+    }
+}
+
+struct Timings {
+    rnea: f64,
+    crba: f64,
+    aba: f64,
+    jac: f64,
+}
+
+fn median(mut xs: Vec<f64>) -> f64 {
+    xs.sort_by(|a, b| a.total_cmp(b));
+    let n = xs.len();
+    if n % 2 == 1 { xs[n / 2] } else { 0.5 * (xs[n / 2 - 1] + xs[n / 2]) }
+}
+
+/// Median over `batches` of the mean ns per call of `f` over all states.
+fn time_batches(batches: usize, mut f: impl FnMut(usize)) -> f64 {
+    for k in 0..STATES * 20 {
+        f(k % STATES); // 20 warm-up batches
+    }
+    let per_batch: Vec<f64> = (0..batches)
+        .map(|_| {
+            let t = Instant::now();
+            for k in 0..STATES {
+                f(k);
+            }
+            t.elapsed().as_nanos() as f64 / STATES as f64
+        })
+        .collect();
+    median(per_batch)
+}
+
+fn bench<D: Dim>(model: &Model, mut data: Data<D>, frame: FrameId, batches: usize, dim: D) -> Timings
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U6, D>,
+{
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let lower = model.lower_limits();
+    let upper = model.upper_limits();
+    let gen = |f: &mut dyn FnMut(usize) -> f64| -> Vec<OVector<f64, D>> {
+        (0..STATES).map(|_| OVector::<f64, D>::from_fn_generic(dim, nalgebra::U1, |i, _| f(i))).collect()
+    };
+    let qs = gen(&mut |i| {
+        let lo = if lower[i].is_finite() { lower[i] } else { -std::f64::consts::PI };
+        let hi = if upper[i].is_finite() { upper[i] } else { std::f64::consts::PI };
+        rng.uniform(lo, hi)
+    });
+    let (vel, eff) = (model.velocity_limits(), model.effort_limits());
+    let finite_or = |x: f64, d: f64| if x.is_finite() && x > 0.0 { x } else { d };
+    let vs = gen(&mut |i| {
+        let l = finite_or(vel[i], std::f64::consts::PI);
+        rng.uniform(-l, l)
+    });
+    let as_ = gen(&mut |_| rng.uniform(-10.0, 10.0));
+    let taus = gen(&mut |i| {
+        let l = finite_or(eff[i], 100.0);
+        rng.uniform(-l, l)
+    });
+    let rnea = time_batches(batches, |k| {
+        black_box(dynamics::rnea(model, &mut data, black_box(&qs[k]), &vs[k], &as_[k]));
+    });
+    let crba = time_batches(batches, |k| {
+        black_box(dynamics::crba(model, &mut data, black_box(&qs[k])));
+    });
+    let aba = time_batches(batches, |k| {
+        black_box(dynamics::aba(model, &mut data, black_box(&qs[k]), &vs[k], &taus[k]));
+    });
+    let jac = time_batches(batches, |k| {
+        black_box(dynamics::frame_jacobian(model, &mut data, black_box(&qs[k]), frame));
+    });
+    Timings { rnea, crba, aba, jac }
+}
+
+/// Median ns of one NAIC controller cycle (`naic_core::pipeline::controller::step`,
+/// paper defaults, γ = 1e-6) in contact near the paper's start pose: 1000
+/// pre-generated measurements (q within ±0.2 rad of (0, −30°, 120°, 0, −90°, 0),
+/// q̇ within ±0.3 rad/s, the tool weight plus a 10 N push at the tip in the
+/// F/T reading), after the F/T tare; the state carries over between calls.
+fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
+    use naic_core::pipeline::control::force_law::Mode;
+    use naic_core::pipeline::controller::{self, Controller, ControllerParams, Reference};
+    use naic_core::pipeline::estimate;
+    use naic_core::pipeline::sense::RawMeasurements;
+    use nalgebra::{Rotation3, UnitQuaternion, Vector3, Vector6};
+    let params = ControllerParams::paper_defaults(model, Mode::Naic, 1e-6);
+    let ctl = Controller::new(model.clone(), params)
+        .map_err(|e| CliError::usage(format!("--urdf: the controller cannot run on this model: {e}")))?;
+    let (tip, sensor) = match (model.frame_id("tip"), model.frame_id("ft_sensor")) {
+        (Some(t), Some(s)) => (t, s),
+        _ => return Err(CliError::usage("--urdf: the controller needs frames 'tip' and 'ft_sensor'")),
+    };
+    let mut data = Data::<U6>::try_new(model).map_err(|e| CliError::failure(e.to_string()))?;
+    let d = std::f64::consts::PI / 180.0;
+    let q0 = [0.0, -30.0 * d, 120.0 * d, 0.0, -90.0 * d, 0.0];
+    let tool = ctl.params().tool;
+    let reading = |data: &mut Data<U6>, q: &[f64; 6], push: f64| -> [f64; 6] {
+        dynamics::forward_kinematics(model, data, &Vector6::from(*q));
+        let r = data.frame_se3(sensor).rot;
+        let weight = estimate::tool_weight_wrench(&tool, &r);
+        let f = r.transpose() * Vector3::new(0.0, 0.0, push);
+        let m = tool.tip.cross(&f);
+        (weight + Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)).into()
+    };
+    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    let inputs: Vec<([f64; 6], [f64; 6], [f64; 6])> = (0..STATES)
+        .map(|_| {
+            let q: [f64; 6] = std::array::from_fn(|i| q0[i] + rng.uniform(-0.2, 0.2));
+            let dq: [f64; 6] = std::array::from_fn(|_| rng.uniform(-0.3, 0.3));
+            (q, dq, reading(&mut data, &q, 10.0))
+        })
+        .collect();
+    dynamics::forward_kinematics(model, &mut data, &Vector6::from(q0));
+    let start = *data.frame_se3(tip);
+    let reference = Reference {
+        p_d: start.trans - Vector3::new(0.0, 0.0, 0.01),
+        r_d: UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(start.rot)),
+        v_d: Vector6::zeros(),
+        a_d: Vector6::zeros(),
+        f_d: 10.0,
+    };
+    let mut ws = ctl.workspace();
+    let mut s = ctl.initial_state();
+    let mut t = 0.0;
+    let free = reading(&mut data, &q0, 0.0);
+    for _ in 0..=ctl.params().tare_samples {
+        t += 1e-3;
+        let m = RawMeasurements { t, q: q0, dq: [0.0; 6], joints_stamp: t, wrench: free, wrench_stamp: t };
+        s = controller::step(&ctl, &s, &m, &reference, &mut ws).0;
+    }
+    let mut faults = 0usize;
+    let mut calls = 0usize;
+    let ns = time_batches(batches, |k| {
+        t += 1e-3;
+        let (q, dq, wrench) = inputs[k];
+        let m = RawMeasurements { t, q, dq, joints_stamp: t, wrench, wrench_stamp: t };
+        let (next, out) = controller::step(&ctl, &s, black_box(&m), &reference, &mut ws);
+        faults += out.status.fault.is_some() as usize;
+        calls += 1;
+        s = black_box(next);
+    });
+    if faults * 100 > calls {
+        return Err(CliError::failure(format!(
+            "controller benchmark: {faults} of {calls} cycles were rejected by the sense stage, so the timing would be of the safe hold"
+        )));
+    }
+    Ok(ns)
+}
+
+fn run_dynamics(a: DynamicsArgs) -> CliResult {
+    if a.batches < 50 {
+        return Err(CliError::usage(format!("--batches {} is too few; use at least 50", a.batches)));
+    }
+    let model = Model::from_urdf_file(&a.urdf).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    let frame = model.frame_id(&a.frame).ok_or_else(|| {
+        let names: Vec<&str> = model.frames().iter().map(|f| f.name.as_str()).collect();
+        CliError::usage(format!(
+            "--frame: no frame '{}' in {}; frames are: {}",
+            a.frame,
+            a.urdf.display(),
+            names.join(", ")
+        ))
+    })?;
+    let (t, path) = if model.nv() == 6 {
+        let data = Data::<U6>::try_new(&model).map_err(|e| CliError::failure(e.to_string()))?;
+        (bench(&model, data, frame, a.batches, nalgebra::Const::<6>), "static6")
+    } else {
+        (bench(&model, Data::new(&model), frame, a.batches, Dyn(model.nv())), "dynamic")
+    };
+    // One NAIC cycle of the lead's pure controller step (6-joint models only).
+    let controller_step_ns = if model.nv() == 6 { Some(controller_step(&model, a.batches)?) } else { None };
+    if a.json {
+        let line = serde_json::json!({
+            "rnea_ns": t.rnea,
+            "crba_ns": t.crba,
+            "aba_ns": t.aba,
+            "frame_jacobian_ns": t.jac,
+            "controller_step_ns": controller_step_ns,
+            "nv": model.nv(),
+            "path": path,
+            "batches": a.batches,
+            "calls_per_batch": STATES,
+        });
+        println!("{line}");
+    } else {
+        println!("naic bench dynamics: {} ({} joints, {path} path), median ns/call over {} batches of {STATES}", a.urdf.display(), model.nv(), a.batches);
+        println!("  rnea            {:8.1}", t.rnea);
+        println!("  crba            {:8.1}", t.crba);
+        println!("  aba             {:8.1}", t.aba);
+        println!("  frame_jacobian  {:8.1}  ({})", t.jac, a.frame);
+        match controller_step_ns {
+            Some(ns) => println!("  controller_step {ns:8.1}  (one NAIC cycle, naic_core::pipeline::controller::step)"),
+            None => println!("  controller_step      n/a  (needs a 6-joint model)"),
+        }
+    }
+    Ok(())
 }

@@ -4,7 +4,8 @@ use super::{bias_torques, crba, frame_jacobian, frame_jdot_qdot};
 use crate::model::{Data, FrameId, Model};
 use nalgebra::allocator::Allocator;
 use nalgebra::storage::Storage;
-use nalgebra::{DefaultAllocator, Dim, Matrix6, Vector, Vector6, SVD, U6};
+use super::damped::DampedSvd;
+use nalgebra::{DefaultAllocator, Dim, Matrix6, Vector, Vector6, U6};
 
 /// Damping of the Jacobian inverse near singularities.
 ///
@@ -109,31 +110,10 @@ where
     if !finite(m.as_slice()) || !finite(bias.as_slice()) || !finite(j.as_slice()) || !finite(jdot_qdot.as_slice()) {
         return Err(CartesianError::NonFinite);
     }
-    let svd = SVD::<f64, U6, U6>::try_new_unordered(j, true, true, f64::EPSILON, 200).ok_or(CartesianError::SvdFailed)?;
-    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else { return Err(CartesianError::SvdFailed) };
-    let sigma = svd.singular_values;
-    let sigma_min = sigma.min();
-    let damped = sigma_min < damping.sigma_threshold;
-    let lambda2 = if damped {
-        let r = sigma_min / damping.sigma_threshold;
-        damping.lambda_max * damping.lambda_max * (1.0 - r * r)
-    } else {
-        0.0
-    };
-    let mut inv_s = Vector6::<f64>::zeros();
-    for k in 0..6 {
-        let s = sigma[k];
-        inv_s[k] = if damped { s / (s * s + lambda2) } else { 1.0 / s };
-    }
-    // J⁻¹ = V diag(inv_s) Uᵀ
-    let mut v_scaled: Matrix6<f64> = v_t.transpose();
-    for k in 0..6 {
-        let mut col = v_scaled.column_mut(k);
-        col *= inv_s[k];
-    }
-    let j_inv = v_scaled * u.transpose();
+    let inv = DampedSvd::new(&j, damping).ok_or(CartesianError::SvdFailed)?;
+    let j_inv = inv.inverse();
     let j_inv_t = j_inv.transpose();
     let d = j_inv_t * m * j_inv;
     let h = j_inv_t * bias - d * jdot_qdot;
-    Ok(CartesianTerms { d, h, j, j_inv, jdot_qdot, m, bias, damped, sigma_min, lambda: lambda2.sqrt() })
+    Ok(CartesianTerms { d, h, j, j_inv, jdot_qdot, m, bias, damped: inv.damped, sigma_min: inv.sigma_min, lambda: inv.lambda })
 }

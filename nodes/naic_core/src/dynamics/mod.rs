@@ -12,6 +12,7 @@
 //! | [`crba`] | `M(q)`, full symmetric | Composite Rigid Body Algorithm (Featherstone §6.2, table 6.2) |
 //! | [`aba`] | `q̈ = M⁻¹(τ − C q̇ − G)` | Articulated Body Algorithm (Featherstone §7.3, table 7.1) |
 //! | [`cartesian_terms`] | `D`, `h` of the paper's eq. 3 | from `M`, `C q̇ + G`, `J`, `J̇ q̇` with a (damped) SVD inverse of `J` |
+//! | [`solve_damped`] | `J x = b` for a 6×6 `J` | the same damping rule ([`Damping`]); LU fast path away from singularities |
 //!
 //! All of them work in *local* joint frames like Pinocchio's default
 //! convention: body velocities, accelerations and forces are expressed in the
@@ -59,7 +60,7 @@ use crate::model::{Data, FrameId, Model};
 use nalgebra::allocator::Allocator;
 use nalgebra::storage::Storage;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, Vector, Vector6, U6};
-use spatial::{Force, Motion, Se3};
+use spatial::{Force, Motion};
 
 #[inline(always)]
 fn check<D: Dim, S: Storage<f64, D>>(model: &Model, data: &Data<D>, x: &Vector<f64, D, S>, what: &str)
@@ -292,26 +293,30 @@ where
 {
     check(model, data, q, "q");
     let n = data.nv();
-    for i in 0..n {
+    // M does not depend on the first joint's position (everything is relative
+    // to body 0), so λM₀ is never needed: only joints 1.. are placed.
+    data.ycrb[0] = model.joints[0].inertia;
+    for i in 1..n {
         let jm = &model.joints[i];
         data.li_m_i[i] = jm.transform(q[i]);
         data.ycrb[i] = jm.inertia;
     }
-    // Composite inertias, leaf to root.
-    for i in (1..n).rev() {
-        let yc = data.li_m_i[i].act_inertia(&data.ycrb[i]);
-        data.ycrb[i - 1] = data.ycrb[i - 1].add(&yc);
-    }
-    // Column i: F = Ic_i S_i carried to every ancestor j, M[j,i] = S_jᵀ F.
-    for i in 0..n {
+    // Leaf to root: when body i is reached its composite inertia Ic_i is complete.
+    // Column i: F = Ic_i S_i carried to every ancestor j, M[j,i] = S_jᵀ F; then Ic_i joins its parent.
+    for i in (0..n).rev() {
         let jm = &model.joints[i];
-        let mut f = data.ycrb[i].mul_motion(&jm.s_mul(1.0));
+        let yc = data.ycrb[i];
+        let mut f = jm.inertia_s(&yc);
         data.m[(i, i)] = jm.s_t_force(&f);
         for j in (0..i).rev() {
             f = data.li_m_i[j + 1].act_force(&f);
             let mji = model.joints[j].s_t_force(&f);
             data.m[(j, i)] = mji;
             data.m[(i, j)] = mji;
+        }
+        if i > 0 {
+            let yp = data.li_m_i[i].act_inertia(&yc);
+            data.ycrb[i - 1] = data.ycrb[i - 1].add(&yp);
         }
     }
     &data.m
@@ -378,6 +383,3 @@ where
     }
     &data.ddq
 }
-
-#[allow(unused_imports)]
-use Se3 as _;

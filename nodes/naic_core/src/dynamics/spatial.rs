@@ -20,6 +20,15 @@ pub fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
 
+/// `R S Rᵀ` for a symmetric `S` (computes the upper triangle only).
+#[inline(always)]
+pub fn rotate_symmetric(r: &Matrix3<f64>, s: &Matrix3<f64>) -> Matrix3<f64> {
+    let a = r * s;
+    let e = |i: usize, j: usize| a[(i, 0)] * r[(j, 0)] + a[(i, 1)] * r[(j, 1)] + a[(i, 2)] * r[(j, 2)];
+    let (xx, xy, xz, yy, yz, zz) = (e(0, 0), e(0, 1), e(0, 2), e(1, 1), e(1, 2), e(2, 2));
+    Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
+}
+
 /// Rigid transform `aMb`: `p_a = rot * p_b + trans`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Se3 {
@@ -90,22 +99,22 @@ impl Se3 {
         Inertia {
             mass: y.mass,
             com: self.act_point(&y.com),
-            inertia: self.rot * y.inertia * self.rot.transpose(),
+            inertia: rotate_symmetric(&self.rot, &y.inertia),
         }
     }
 
     /// Articulated inertia expressed in b → expressed in a (`aX*_b · I · bX_a`).
     ///
     /// With `I = [A B; Bᵀ C]` (force = I · motion, both (linear, angular)),
-    /// rotation R and translation P = [p]×: A' = R A Rᵀ, B' = R B Rᵀ, C' = R C Rᵀ, then
+    /// rotation R and translation P = `[p]×`: A' = R A Rᵀ, B' = R B Rᵀ, C' = R C Rᵀ, then
     /// A'' = A', B'' = B' − A' P, C'' = C' − B'ᵀ P + P B' − P A' P.
     #[inline(always)]
     pub fn act_articulated(&self, ia: &ArticulatedInertia) -> ArticulatedInertia {
         let r = &self.rot;
         let rt = r.transpose();
-        let a = r * ia.a * rt;
+        let a = rotate_symmetric(r, &ia.a);
         let b = r * ia.b * rt;
-        let c = r * ia.c * rt;
+        let c = rotate_symmetric(r, &ia.c);
         let p = skew(&self.trans);
         let ap = a * p;
         let btp = b.transpose() * p;

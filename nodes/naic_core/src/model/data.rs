@@ -3,7 +3,7 @@
 use super::{FrameId, Model, ModelError};
 use crate::dynamics::spatial::{ArticulatedInertia, Force, Inertia, Motion, Se3};
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, Dim, Dyn, Isometry3, OMatrix, OVector, U6};
+use nalgebra::{DefaultAllocator, Dim, DimName, Dyn, Isometry3, OMatrix, OVector, U6};
 
 /// Workspace for one [`Model`]: every buffer the algorithms touch is
 /// allocated here once, so no algorithm allocates per call.
@@ -118,4 +118,3 @@ where
     }
 }
 
-use nalgebra::DimName;

@@ -157,9 +157,37 @@ impl JointModel {
     /// `Sᵀ f` for a spatial force in the joint frame.
     #[inline(always)]
     pub(crate) fn s_t_force(&self, f: &crate::dynamics::spatial::Force) -> f64 {
-        match self.jtype {
-            JointType::Prismatic => self.axis.dot(&f.f),
-            _ => self.axis.dot(&f.n),
+        match (self.jtype, self.axis_kind) {
+            (JointType::Prismatic, _) => self.axis.dot(&f.f),
+            (_, AxisKind::Z) => f.n.z,
+            (_, AxisKind::X) => f.n.x,
+            (_, AxisKind::Y) => f.n.y,
+            (_, AxisKind::General) => self.axis.dot(&f.n),
+        }
+    }
+
+    /// `I · S` for a body inertia in the joint frame (the momentum of a unit joint rate).
+    #[inline(always)]
+    pub(crate) fn inertia_s(&self, y: &Inertia) -> crate::dynamics::spatial::Force {
+        use crate::dynamics::spatial::Force;
+        match (self.jtype, self.axis_kind) {
+            (JointType::Prismatic, _) => {
+                let f = self.axis * y.mass;
+                Force { f, n: y.com.cross(&f) }
+            }
+            (_, AxisKind::Z) => {
+                let f = Vector3::new(-y.com.y, y.com.x, 0.0) * y.mass;
+                Force { f, n: y.inertia.column(2) + y.com.cross(&f) }
+            }
+            (_, AxisKind::X) => {
+                let f = Vector3::new(0.0, -y.com.z, y.com.y) * y.mass;
+                Force { f, n: y.inertia.column(0) + y.com.cross(&f) }
+            }
+            (_, AxisKind::Y) => {
+                let f = Vector3::new(y.com.z, 0.0, -y.com.x) * y.mass;
+                Force { f, n: y.inertia.column(1) + y.com.cross(&f) }
+            }
+            (_, AxisKind::General) => y.mul_motion(&self.s_mul(1.0)),
         }
     }
 

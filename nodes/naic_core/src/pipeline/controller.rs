@@ -183,6 +183,8 @@ pub struct Status {
     pub f_e: Vector6<f64>,
     /// The Jacobian inverse was damped this cycle (near a singularity).
     pub jacobian_damped: bool,
+    /// `f_ext` exceeded the force limit: the tool is retracting.
+    pub force_limited: bool,
 }
 
 /// Output of one cycle.
@@ -242,6 +244,7 @@ pub fn step(
     let task = TaskInputs {
         e: Vector6::new(e_p.x, e_p.y, e_p.z, e_r.x, e_r.y, e_r.z),
         e_dot: r.v_d - x_dot,
+        x_dot,
         a_d: r.a_d,
         f_e,
         f_d: r.f_d,
@@ -277,6 +280,7 @@ pub fn step(
         tip_position: tip.trans,
         f_e,
         jacobian_damped: damped,
+        force_limited: out.retracting,
     };
     (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, status })
 }
@@ -333,6 +337,7 @@ fn hold(
         tip_position: Vector3::new(f64::NAN, f64::NAN, f64::NAN),
         f_e: Vector6::zeros(),
         jacobian_damped: false,
+        force_limited: false,
     };
     (next, ControlOutputs { tau, dq: [0.0; 6], status })
 }
@@ -348,7 +353,7 @@ impl ControllerParams {
     /// the paper; `gamma` is the caller's choice.
     pub fn paper_defaults(model: &Model, mode: Mode, gamma: f64) -> Self {
         use super::control::force_law::{ForceLawParams, WeightBounds};
-        use super::control::{ContactDetect, ForceAxis, ImpedanceParams};
+        use super::control::{ContactDetect, ForceAxis, ForceLimit, ImpedanceParams};
         let mut q_min = [-std::f64::consts::PI; 6];
         let mut q_max = [std::f64::consts::PI; 6];
         let mut dq_max = [2.0 * std::f64::consts::PI; 6];
@@ -396,6 +401,7 @@ impl ControllerParams {
                     sigma_margin: 0.5,
                 },
                 contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
+                force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500 },
             },
             hold_damping: [5.0; 6],
             damping: Damping::default(),

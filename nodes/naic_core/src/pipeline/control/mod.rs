@@ -70,6 +70,17 @@ pub struct ContactDetect {
     pub exit_cycles: u32,
 }
 
+/// What happens when the contact force gets too large.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ForceLimit {
+    /// Above this `f_ext` [N] the controller stops pushing and retracts (`inf` disables).
+    pub limit_n: f64,
+    /// Speed of the retraction along −n [m/s].
+    pub retract_speed: f64,
+    /// How long the retraction lasts [cycles]; then free space resumes and contact is re-detected.
+    pub retract_cycles: u32,
+}
+
 /// All parameters of the control stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ControlParams {
@@ -77,6 +88,7 @@ pub struct ControlParams {
     pub force_axis: ForceAxis,
     pub force_law: ForceLawParams,
     pub contact: ContactDetect,
+    pub force_limit: ForceLimit,
 }
 
 impl ControlParams {
@@ -123,6 +135,16 @@ impl ControlParams {
         if !(b.sigma.0 <= fl.sigma && fl.sigma <= b.sigma.1) {
             return Err(format!("sigma ({}) must lie in the NAIC weight bounds {:?}", fl.sigma, b.sigma));
         }
+        let fl = &self.force_limit;
+        if !(fl.limit_n > self.contact.enter_n) {
+            return Err(format!(
+                "force_limit = {} N must be above the contact threshold {} N",
+                fl.limit_n, self.contact.enter_n
+            ));
+        }
+        if !(fl.retract_speed > 0.0 && fl.retract_speed <= 0.5) {
+            return Err(format!("retract speed = {} m/s must be in (0, 0.5]", fl.retract_speed));
+        }
         let c = &self.contact;
         if !(c.enter_n > 0.0 && c.enter_n.is_finite() && c.exit_n >= 0.0 && c.exit_n <= c.enter_n) {
             return Err(format!(
@@ -150,6 +172,8 @@ pub struct ControlState {
     /// Consecutive cycles with `f_ext` below the exit threshold.
     pub below_exit: u32,
     pub law: ForceLawState,
+    /// Cycles of retraction left after the force limit was exceeded (0: not retracting).
+    pub retract_left: u32,
 }
 
 impl ControlState {
@@ -159,6 +183,7 @@ impl ControlState {
             phase: Phase::Free,
             below_exit: 0,
             law: ForceLawState::new(&p.force_law, p.impedance.m_d[n], p.impedance.b_d[n]),
+            retract_left: 0,
         }
     }
 }
@@ -170,6 +195,8 @@ pub struct TaskInputs {
     pub e: Vector6<f64>,
     /// `Ė = Ẋ_d − Ẋ`.
     pub e_dot: Vector6<f64>,
+    /// Measured `Ẋ` (tip twist).
+    pub x_dot: Vector6<f64>,
     /// `Ẍ_d`.
     pub a_d: Vector6<f64>,
     /// `F_e`: wrench the robot applies to the environment.
@@ -189,6 +216,8 @@ pub struct TaskOutputs {
     pub k_d: f64,
     /// The force law's report (zeros in free space).
     pub law: ForceLawOutputs,
+    /// The force limit was exceeded and the tool is retracting.
+    pub retracting: bool,
 }
 
 /// One cycle of the control stage (contact detection + eq 6/8 per axis).
@@ -198,6 +227,26 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     let sign = p.force_axis.sign;
     let f_ext = sign * u.f_e[ax];
     let mut next = *s;
+
+    // Force limit: stop pushing, leave contact, back off along −n for a while.
+    if f_ext > p.force_limit.limit_n {
+        next.retract_left = p.force_limit.retract_cycles.max(1);
+        next.phase = Phase::Free;
+    }
+    if next.retract_left > 0 {
+        next.retract_left -= 1;
+        next.phase = Phase::Free;
+        let imp = &p.impedance;
+        let mut v = Vector6::zeros();
+        for i in 0..6 {
+            v[i] = u.a_d[i] + (imp.b_d[i] * u.e_dot[i] + imp.k_free[i] * u.e[i] - u.f_e[i]) / imp.m_d[i];
+        }
+        // Velocity servo along n to −retract_speed, with the free-space damping.
+        let xdot_n = sign * u.x_dot[ax];
+        v[ax] = sign * imp.b_d[ax] * (-p.force_limit.retract_speed - xdot_n) / imp.m_d[ax];
+        let law = ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() };
+        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true });
+    }
 
     // Phase transitions (a hold ends in free space: contact is re-detected).
     match s.phase {
@@ -224,7 +273,13 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     for i in 0..6 {
         v[i] = u.a_d[i] + (imp.b_d[i] * u.e_dot[i] + k[i] * u.e[i] - u.f_e[i]) / imp.m_d[i];
     }
-    let mut out = TaskOutputs { v, f_ext, k_d: k[ax], law: ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() } };
+    let mut out = TaskOutputs {
+        v,
+        f_ext,
+        k_d: k[ax],
+        law: ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() },
+        retracting: false,
+    };
     if contact {
         let inputs = ForceLawInputs { e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d };
         let (law, report) = force_law::step(&p.force_law, &next.law, &inputs);
@@ -252,6 +307,7 @@ mod tests {
             force_axis: ForceAxis { axis: 2, sign: -1.0 },
             force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5 },
             contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
+            force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500 },
         }
     }
 
@@ -272,7 +328,7 @@ mod tests {
             let pen = (-x[2]).max(0.0);
             let mut f_e = Vector6::zeros();
             f_e[2] = -k_e * pen; // the robot pushes down: F_e,z < 0, f_ext = −F_e,z > 0
-            let u = TaskInputs { e: x_d - x, e_dot: -v, a_d: Vector6::zeros(), f_e, f_d: 10.0 };
+            let u = TaskInputs { e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d: 10.0 };
             let (n, o) = step(&p, &s, &u);
             s = n;
             v += o.v * dt;
@@ -300,6 +356,7 @@ mod tests {
         let u = TaskInputs {
             e: Vector6::new(0.01, -0.02, 0.03, 0.1, -0.1, 0.05),
             e_dot: Vector6::new(0.1, 0.0, -0.2, 0.0, 0.3, 0.0),
+            x_dot: -Vector6::new(0.1, 0.0, -0.2, 0.0, 0.3, 0.0),
             a_d: Vector6::zeros(),
             f_e: Vector6::zeros(),
             f_d: 10.0,
@@ -321,6 +378,7 @@ mod tests {
         let mut u = TaskInputs {
             e: Vector6::zeros(),
             e_dot: Vector6::zeros(),
+            x_dot: Vector6::zeros(),
             a_d: Vector6::zeros(),
             f_e: Vector6::new(0.0, 0.0, -5.0, 0.0, 0.0, 0.0),
             f_d: 10.0,
@@ -333,6 +391,37 @@ mod tests {
             s = step(&p, &s, &u).0;
         }
         assert_eq!(s.phase, Phase::Free);
+    }
+
+    #[test]
+    fn above_the_force_limit_the_tool_backs_off_then_free_space_resumes() {
+        let p = params(Mode::Naic);
+        let mut s = ControlState::new(&p);
+        let mut u = TaskInputs {
+            e: Vector6::new(0.0, 0.0, -0.03, 0.0, 0.0, 0.0),
+            e_dot: Vector6::zeros(),
+            x_dot: Vector6::zeros(),
+            a_d: Vector6::zeros(),
+            f_e: Vector6::new(0.0, 0.0, -20.0, 0.0, 0.0, 0.0),
+            f_d: 10.0,
+        };
+        s = step(&p, &s, &u).0;
+        assert_eq!(s.phase, Phase::Contact);
+        u.f_e[2] = -80.0; // 80 N pushing down, limit 50 N
+        let (n, o) = step(&p, &s, &u);
+        assert!(o.retracting && n.phase == Phase::Free);
+        // Retraction = upward (−n = +z) acceleration while at rest.
+        assert!(o.v[2] > 0.0, "retract along −n: V_z = {}", o.v[2]);
+        // At the retract speed the force axis command vanishes.
+        u.f_e[2] = 0.0;
+        u.x_dot[2] = 0.02;
+        let (mut s2, o) = step(&p, &n, &u);
+        assert!(o.retracting && o.v[2].abs() < 1e-12);
+        for _ in 0..600 {
+            s2 = step(&p, &s2, &u).0;
+        }
+        assert_eq!(s2.retract_left, 0);
+        assert!(!step(&p, &s2, &u).1.retracting, "free space resumes after the retraction");
     }
 
     #[test]

@@ -1,0 +1,98 @@
+//! No heap allocation per call: a counting global allocator (per thread, so
+//! the test harness's own threads don't count) around every dynamics call.
+
+mod dynamics_common;
+
+use dynamics_common::*;
+use naic_core::dynamics::{self, Damping};
+use naic_core::model::{Data, Data6, Model};
+use nalgebra::{DVector, SVector};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+struct Counting;
+
+thread_local! {
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations(f: impl FnOnce()) -> usize {
+    let before = ALLOCS.with(|c| c.get());
+    f();
+    ALLOCS.with(|c| c.get()) - before
+}
+
+#[test]
+fn six_dof_path_does_not_allocate() {
+    let model = Model::from_urdf_str(&arm6_urdf()).unwrap();
+    let tip = model.frame_id("tip").unwrap();
+    let mut data = Data6::try_new(&model).unwrap();
+    // the counter works
+    assert!(allocations(|| drop(std::hint::black_box(vec![1u8; 16]))) >= 1);
+    let q = SVector::<f64, 6>::new(0.1, -0.5, 0.7, 0.05, 1.2, -0.3);
+    let v = SVector::<f64, 6>::new(0.3, 0.2, -0.1, 0.02, 0.5, 1.0);
+    let a = SVector::<f64, 6>::new(1.0, -2.0, 0.5, 0.1, 3.0, -1.0);
+    let damping = Damping::default();
+    let n = allocations(|| {
+        for _ in 0..10 {
+            std::hint::black_box(dynamics::rnea(&model, &mut data, &q, &v, &a));
+            std::hint::black_box(dynamics::bias_torques(&model, &mut data, &q, &v));
+            std::hint::black_box(dynamics::gravity_torques(&model, &mut data, &q));
+            std::hint::black_box(dynamics::crba(&model, &mut data, &q));
+            std::hint::black_box(dynamics::aba(&model, &mut data, &q, &v, &a));
+            dynamics::forward_kinematics(&model, &mut data, &q);
+            std::hint::black_box(data.frame_placement(tip));
+            std::hint::black_box(dynamics::frame_jacobian(&model, &mut data, &q, tip));
+            std::hint::black_box(dynamics::frame_jdot_qdot(&model, &mut data, &q, &v, tip));
+            std::hint::black_box(dynamics::cartesian_terms(&model, &mut data, &q, &v, tip, &damping).unwrap());
+            let j = *dynamics::frame_jacobian(&model, &mut data, &q, tip);
+            std::hint::black_box(dynamics::solve_damped(&j, &a, &damping));
+            std::hint::black_box(dynamics::solve_damped(&(j * 1e-3), &a, &damping)); // SVD branch
+        }
+        // near a singularity too (damped branch)
+        std::hint::black_box(dynamics::cartesian_terms(&model, &mut data, &SVector::zeros(), &v, tip, &damping).unwrap());
+    });
+    assert_eq!(n, 0, "the 6-DOF path allocated {n} times");
+}
+
+#[test]
+fn dynamic_path_does_not_allocate_after_data_new() {
+    let model = Model::from_urdf_str(&planar3_urdf()).unwrap();
+    let tip = model.frame_id("tip").unwrap();
+    let mut data = Data::new(&model);
+    let q = DVector::from_vec(vec![0.1, -0.5, 0.7]);
+    let v = DVector::from_vec(vec![0.3, 0.2, -0.1]);
+    let a = DVector::from_vec(vec![1.0, -2.0, 0.5]);
+    let n = allocations(|| {
+        for _ in 0..10 {
+            std::hint::black_box(dynamics::rnea(&model, &mut data, &q, &v, &a));
+            std::hint::black_box(dynamics::crba(&model, &mut data, &q));
+            std::hint::black_box(dynamics::aba(&model, &mut data, &q, &v, &a));
+            dynamics::forward_kinematics(&model, &mut data, &q);
+            std::hint::black_box(dynamics::frame_jacobian(&model, &mut data, &q, tip));
+            std::hint::black_box(dynamics::frame_jdot_qdot(&model, &mut data, &q, &v, tip));
+        }
+    });
+    assert_eq!(n, 0, "the dynamic-size path allocated {n} times after Data::new");
+}
