@@ -93,7 +93,8 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
     r = ru.RclpyDomain(domain, "naic_restart_test")
     try:
         js, cmds = [], []
-        r.node.create_subscription(JointState, "/joint_states", lambda m: js.append((time.time(), list(m.effort))), 100)
+        r.node.create_subscription(JointState, "/joint_states", lambda m: js.append(
+            (time.time(), list(m.effort), m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec)), 100)
         r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd",
                                    lambda m: cmds.append((time.time(), list(m.data))), 100)
         assert r.spin_until(lambda: len(cmds) > 200, 20), procs["friction_compensation"].output()[-2000:]
@@ -103,7 +104,7 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
         t_kill = time.time()
         r.spin(0.5)
         # No commands any more, and the driver no longer applies the last one.
-        late = [e for t, e in js if t > t_kill + 0.1]
+        late = [e for t, e, _ in js if t > t_kill + 0.1]
         assert late, "driver stopped publishing"
         assert all(max(abs(a - b) for a, b in zip(e, last_cmd)) > 1e-9 for e in late[-10:])
         n_before = len(cmds)
@@ -111,12 +112,15 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
         procs["friction_compensation"] = start("friction_compensation")
         assert r.spin_until(lambda: len(cmds) > n_before + 500, 20), procs["friction_compensation"].output()[-2000:]
         # What the arm got, cycle by cycle, across the take-over (the driver publishes the
-        # applied torque as effort): no step larger than the rate limit of 1 N m per cycle
-        # (2 when rclpy dropped the sample in between, + the slow change of the hold).
-        seq = [(t, e) for t, e in js if t > t_restart - 0.2]
-        steps = [max(abs(a - b) for a, b in zip(e1, e0)) for (_, e0), (_, e1) in zip(seq, seq[1:])]
+        # applied torque as effort, stamped every 1 ms cycle): the change per cycle stays
+        # within the rate limit of 1 N m per *command*; under load two commands can land in
+        # one driver cycle, hence 2 (+ 0.2 for the slow change of the hold). Without the
+        # limit the take-over step is about 100 N m.
+        seq = [(st, e) for t, e, st in js if t > t_restart - 0.2]
+        steps = [max(abs(a - b) for a, b in zip(e1, e0)) / max(1, round((s1 - s0) * 1000))
+                 for (s0, e0), (s1, e1) in zip(seq, seq[1:])]
         assert len(steps) > 500
-        assert max(steps) <= 2.5, f"torque step {max(steps):.3f} N m at take-over"
+        assert max(steps) <= 2.2, f"torque step {max(steps):.3f} N m per cycle at take-over"
         assert all(p.alive() for p in procs.values())
     finally:
         r.close()
