@@ -308,9 +308,7 @@ def test_ros_new_desired_force_is_followed(suite):
     r = suite["rclpy"]
     c = AsyncParameterClient(r.node, "jk5_sim_driver")
     assert c.wait_for_services(10.0)
-    plant = r.wait(c.get_parameters(["plant"])).values[0].string_value
-    if plant == "placeholder":
-        pytest.skip("the driver runs the placeholder plant: naic_sim's arm is not integrated yet")
+    assert r.wait(c.get_parameters(["plant"])).values[0].string_value == "naic_sim"
     overlay = ru.naic_msgs_env()
     script = textwrap.dedent("""
         import json, time, rclpy

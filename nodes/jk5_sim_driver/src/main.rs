@@ -17,7 +17,6 @@
 //! JSON to `latency_report` at exit (see `naic bench chain`).
 
 mod plant;
-#[cfg(feature = "naic_sim_plant")]
 mod sim_plant;
 
 use std::{
@@ -33,9 +32,6 @@ use naic_ros::{
     ParamSpec, RosError, RosNode,
 };
 use plant::Plant;
-#[cfg(not(feature = "naic_sim_plant"))]
-use plant::{make_plant, PLANT_NAME};
-#[cfg(feature = "naic_sim_plant")]
 use sim_plant::{make_plant, PLANT_NAME};
 
 fn specs() -> Vec<ParamSpec> {
@@ -165,9 +161,6 @@ fn run() -> Result<(), RosError> {
     }
 
     let mut plant = node.params.with(make_plant).map_err(RosError::Node)?;
-    if PLANT_NAME == "placeholder" {
-        log::warn!("using the placeholder plant (build with --features naic_sim_plant for naic_sim's arm)");
-    }
 
     let mut gen = 0;
     let (mut rate, mut lockstep, mut timeout_ns, mut damping, mut use_sim_time) = (1000.0, false, 20_000_000i64, 5.0, false);
@@ -255,9 +248,9 @@ fn run() -> Result<(), RosError> {
                 log::warn!("no /joint_effort_cmd for {} ms: holding the arm", timeout_ns / 1_000_000);
             }
             holding = seq > 0 || holding;
-            plant.hold_torque(damping)
+            Plant::hold_torque(&mut plant, damping)
         };
-        plant.step(&tau, dt);
+        Plant::step(&mut plant, &tau, dt);
         cycles += 1;
         let stamp = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time, start_wall)?;
         last_published_stamp = Some(stamp);

@@ -29,7 +29,8 @@ pub struct ChainArgs {
     /// Only the Rust chain.
     #[arg(long)]
     pub skip_rclpy: bool,
-    /// SCHED_FIFO priority for the Rust nodes (0: normal scheduling, as the rclpy chain).
+    /// SCHED_FIFO priority for the Rust nodes (0: normal scheduling, as the rclpy chain;
+    /// overrides params/).
     #[arg(long, default_value_t = 0)]
     pub realtime_priority: u8,
     /// ROS_DOMAIN_ID of the Rust chain (the rclpy chain uses the next one).
@@ -58,9 +59,7 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
     let mut procs = vec![];
     for node in launch::NODES {
         let mut args = vec!["--ros-args".to_string(), "--params-file".into(), format!("params/{node}.yaml")];
-        if a.realtime_priority > 0 {
-            args.extend(["-p".into(), format!("realtime_priority:={}", a.realtime_priority)]);
-        }
+        args.extend(["-p".into(), format!("realtime_priority:={}", a.realtime_priority)]);
         if node == "jk5_sim_driver" {
             args.extend([
                 "-p".into(),
