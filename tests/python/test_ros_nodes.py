@@ -304,13 +304,14 @@ def test_ros_bad_domain_id_is_refused(bins):
     assert out.returncode == 2 and "ROS_DOMAIN_ID='abc'" in out.stderr, out.stderr
 
 
-def test_ros_new_desired_force_is_followed(suite):
-    r = suite["rclpy"]
-    c = AsyncParameterClient(r.node, "jk5_sim_driver")
-    assert c.wait_for_services(10.0)
-    plant = r.wait(c.get_parameters(["plant"])).values[0].string_value
-    if plant == "placeholder":
-        pytest.skip("the driver runs the placeholder plant: naic_sim's arm is not integrated yet")
+def test_ros_new_desired_force_is_followed(bins):
+    """The three nodes in lockstep (simulated time, deterministic, immune to machine load):
+    on the flat scenario NAIC holds 10 N; after desired_force := 15 the measured contact
+    force follows within a few (simulated) seconds. In real time the same works on a quiet
+    machine (README, Timing), but a loaded 2-core machine delays cycles enough to shake the
+    paper's high-gain impedance, so the assertion is made where timing is exact."""
+    domain = ru.fresh_domain(60)
+    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep"], ru.ros_env(domain))
     overlay = ru.naic_msgs_env()
     script = textwrap.dedent("""
         import json, time, rclpy
@@ -320,30 +321,82 @@ def test_ros_new_desired_force_is_followed(suite):
         rclpy.init()
         n = rclpy.create_node("naic_force_probe")
         got = []
-        n.create_subscription(NaicParams, "/naic/params", got.append, 100)
+        n.create_subscription(NaicParams, "/naic/params", got.append, 1000)
         c = AsyncParameterClient(n, "naic_controller")
-        c.wait_for_services(10.0)
-        def run(seconds):
-            t0 = time.time()
-            while time.time() - t0 < seconds:
-                rclpy.spin_once(n, timeout_sec=0.01)
-        run(8.0)   # approach and settle on the first set point
-        first = got[-1].measured_force
+        c.wait_for_services(20.0)
+        st = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+        seen = []
+        t0 = time.time()
+        # Settle on 10 N (5 s simulated), then one more simulated second to measure.
+        while (len(seen) < 1000 or seen[-1][0] < 6.0 or seen[-1][0] - seen[0][0] < 1.0) and time.time() - t0 < 60:
+            rclpy.spin_once(n, timeout_sec=0.01)
+            seen += [(st(m), m.measured_force) for m in got]
+            got.clear()
+        before = [f for t, f in seen if t >= seen[-1][0] - 1.0]
         f = c.set_parameters([Parameter("desired_force", value=15.0)])
         rclpy.spin_until_future_complete(n, f, timeout_sec=10)
-        t_set = time.time(); got.clear(); trace = []
-        while time.time() - t_set < 6.0:
+        t_set = None
+        trace = []
+        while time.time() - t0 < 120:
             rclpy.spin_once(n, timeout_sec=0.01)
-            if got: trace.append((time.time() - t_set, got[-1].measured_force, got[-1].phase))
-        print(json.dumps(dict(first=first, trace=trace[::20], last=trace[-1])))
+            for m in got:
+                if t_set is None and m.desired_force == 15.0:
+                    t_set = st(m)
+                if t_set is not None:
+                    trace.append((st(m) - t_set, m.measured_force, m.phase))
+            got.clear()
+            if trace and trace[-1][0] > 5.0:
+                break
+        print(json.dumps(dict(before=before, trace=trace, ok=f.result().results[0].successful)))
     """)
-    env = {**ru.ros_env(suite["domain"]), **overlay}
+    env = {**ru.ros_env(domain), **overlay}
     env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
     env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
-    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=90)
-    assert out.returncode == 0, out.stderr
+    try:
+        out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=180)
+    finally:
+        rc = launch.stop(timeout=15)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert rc == 0, launch.output()[-3000:]
     m = json.loads(out.stdout.strip().splitlines()[-1])
-    assert m["first"] == pytest.approx(10.0, abs=2.0), m
-    # Within a few seconds the measured contact force follows the new set point.
-    late = [f for t, f, ph in m["trace"] if t > 3.0]
-    assert late and all(abs(f - 15.0) < 1.5 for f in late), m
+    assert m["ok"]
+    b = sorted(m["before"])
+    assert b and b[len(b) // 2] == pytest.approx(10.0, abs=1.0), b[:: max(1, len(b) // 10)]
+    late = [f for t, f, ph in m["trace"] if t > 2.0]
+    assert len(late) > 100, m["trace"][-5:]
+    err = sorted(abs(f - 15.0) for f in late)
+    mean = sum(late) / len(late)
+    stats = dict(mean=mean, median_err=err[len(err) // 2], p95_err=err[int(0.95 * len(err))])
+    # 2-5 s after the step: on average at the new set point (±0.5 N), median error below
+    # 1 N, 95 % of the samples within 3 N (NAIC keeps adapting; in lockstep a late command
+    # makes the driver republish and step twice, so a few spikes remain).
+    assert abs(mean - 15.0) < 0.5 and stats["median_err"] < 1.0 and stats["p95_err"] < 3.0, stats
+
+
+def test_ros_lockstep_advances_simulated_time_per_command(bins):
+    """`naic launch --lockstep`: the driver steps once per command; stamps and /clock are
+    simulated time and advance only while the chain runs."""
+    from rosgraph_msgs.msg import Clock
+    domain = ru.fresh_domain(120)
+    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep"], ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "naic_lockstep_test")
+    try:
+        clocks, js = [], []
+        r.node.create_subscription(Clock, "/clock", clocks.append, 100)
+        r.node.create_subscription(JointState, "/joint_states", js.append, 100)
+        assert r.spin_until(lambda: len(js) > 50, 20), launch.output()[-3000:]
+        t_wall = time.time()
+        c0 = clocks[-1].clock.sec + 1e-9 * clocks[-1].clock.nanosec
+        r.spin(3.0)
+        c1 = clocks[-1].clock.sec + 1e-9 * clocks[-1].clock.nanosec
+        wall = time.time() - t_wall
+        assert c1 - c0 > 0.2, f"simulated time advanced {c1 - c0:.3f} s in {wall:.1f} s"
+        # Stamps are simulated time (from 0), not the wall clock, in 1 ms steps.
+        s = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in js[-50:]]
+        assert s[-1] < 1e6 and all(abs(round(x * 1000) - x * 1000) < 1e-6 for x in s), s[-5:]
+        c = AsyncParameterClient(r.node, "jk5_sim_driver")
+        assert c.wait_for_services(10.0)
+        assert r.wait(c.get_parameters(["lockstep"])).values[0].bool_value is True
+    finally:
+        r.close()
+        assert launch.stop(timeout=15) == 0, launch.output()[-3000:]

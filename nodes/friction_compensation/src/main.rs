@@ -8,16 +8,20 @@
 //! URDF, never NaN); publishes `/joint_effort_cmd` for the driver.
 //!
 //! On start the rate limit starts from the measured joint torque (`/joint_states` effort),
-//! so a restarted node takes over without a torque jump. Without fresh joint data the
+//! so a restarted node takes over without a torque jump; until the first joint state
+//! arrives it publishes nothing. Without fresh joint data the
 //! feedforward is left out (it needs q̇); without commands nothing is published and the
 //! driver holds the arm after its own timeout.
 
 use std::time::Duration;
 
 use naic_core::{
-    friction::{FrictionModel, FrictionParams, Smoothing},
+    friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S},
     model::Model,
-    pipeline::{actuate, feedforward},
+    pipeline::{
+        actuate, feedforward,
+        sense::{self, RawMeasurements, SenseParams, SenseState},
+    },
 };
 use naic_ros::{
     msgs::{self, Float64MultiArray, JointState},
@@ -32,9 +36,10 @@ fn specs() -> Vec<ParamSpec> {
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model: effort limits of the actuation guard").read_only(),
         ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Friction model YAML (naic_core::friction format; Table 1 of the paper by default)"),
         ParamSpec::boolean("enabled", true, "Add the friction feedforward (false: pass the controller torque through the actuation guard only)"),
-        ParamSpec::double("smoothing_velocity", 0.01, 0.0, 1.0, "v_s [rad/s] of sgn(q̇) → tanh(q̇/v_s) near rest (0: the printed discontinuous law; the file's own value when it sets one)"),
-        ParamSpec::double("torque_rate_limit", 1.0, 0.001, 1000.0, "Largest torque change per command [N m per cycle]"),
+        ParamSpec::double("smoothing_velocity", DEFAULT_V_S, 0.0, 1.0, "v_s [rad/s] of sgn(q̇) → tanh(q̇/v_s) near rest (0: the printed discontinuous law; the file's own value when it sets one)"),
+        ParamSpec::double("torque_rate_limit", 10.0, 0.001, 1000.0, "Largest torque change per command [N m per cycle] (1 N m destabilises the paper's impedance gains on the simulated JK5; 10 does not)"),
         ParamSpec::double("joint_state_timeout", 0.02, 0.001, 1.0, "Joint velocity older than this [s] is not used: no feedforward"),
+        ParamSpec::int("median_window", 5, 1, 9, "Median filter window of the joint velocity (the controller's sense stage, same filter)"),
     ]
 }
 
@@ -75,6 +80,20 @@ fn run() -> Result<(), RosError> {
         }
         std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i] } else { f64::INFINITY })
     };
+    // The velocity the feedforward uses: the core's sense stage (validity + median filter),
+    // as in the in-process pipeline.
+    let lim = |v: Vec<f64>, d: f64| -> [f64; 6] { std::array::from_fn(|i| v.get(i).copied().filter(|x| x.is_finite()).unwrap_or(d)) };
+    let mut sense_p = SenseParams {
+        q_min: lim(robot.lower_limits(), -std::f64::consts::PI),
+        q_max: lim(robot.upper_limits(), std::f64::consts::PI),
+        q_margin: 0.1,
+        dq_max: lim(robot.velocity_limits().iter().map(|v| 2.0 * v).collect(), 2.0 * std::f64::consts::PI),
+        wrench_max: [f64::INFINITY; 6],
+        median_window: 5,
+        joint_timeout: 1.0,
+        wrench_timeout: 1.0,
+    };
+    let mut sense_s = SenseState::default();
     // A friction file that does not load is rejected like any bad value.
     let check: naic_ros::params::SetCheck = Box::new(|p: &ParamView| load_model(p).map(|_| ()));
     let mut node = RosNode::new(args, "friction_compensation", specs(), Some(check))?;
@@ -103,6 +122,7 @@ fn run() -> Result<(), RosError> {
                 enabled = p.bool("enabled");
                 js_timeout_ns = (p.f64("joint_state_timeout") * 1e9) as i64;
                 act_p.max_delta = [p.f64("torque_rate_limit"); 6];
+                sense_p.median_window = p.i64("median_window") as usize;
                 match load_model(p) {
                     Ok(m) => model = m,
                     Err(e) => log::error!("{e}"),
@@ -111,13 +131,27 @@ fn run() -> Result<(), RosError> {
         }
         waiter.wait(Some(Duration::from_millis(100)));
         while let Ok(Some((js, _))) = js_sub.take() {
-            if js.velocity.len() >= 6 && js.velocity[..6].iter().all(|v| v.is_finite()) {
-                dq.copy_from_slice(&js.velocity[..6]);
-                dq_rx_ns = wall_ns();
+            let six = |v: &[f64]| -> Option<[f64; 6]> {
+                (v.len() >= 6 && v[..6].iter().all(|x| x.is_finite())).then(|| std::array::from_fn(|i| v[i]))
+            };
+            if let (Some(q), Some(v)) = (six(&js.position), six(&js.velocity)) {
+                let raw = RawMeasurements { t: 0.0, q, dq: v, joints_stamp: 0.0, wrench: [0.0; 6], wrench_stamp: 0.0 };
+                let (s, r) = sense::step(&sense_p, &sense_s, &raw);
+                sense_s = s;
+                match r {
+                    Ok(sensed) => {
+                        dq = sensed.dq;
+                        dq_rx_ns = wall_ns();
+                    }
+                    Err(_) => dq_rx_ns = i64::MIN, // implausible joint data: no feedforward
+                }
             }
-            // Smooth take-over: the rate limit starts from the torque the arm has now.
-            if !act_s.started && js.effort.len() >= 6 && js.effort[..6].iter().all(|t| t.is_finite()) {
-                act_s = actuate::ActuateState { tau_prev: std::array::from_fn(|i| js.effort[i]), started: true };
+            // Smooth take-over: until the first command goes out, the rate limit starts
+            // from the torque the arm has now.
+            if count == 0 {
+                if let Some(e) = six(&js.effort) {
+                    act_s = actuate::ActuateState { tau_prev: e, started: true };
+                }
             }
         }
         let mut newest = None;
@@ -131,6 +165,11 @@ fn run() -> Result<(), RosError> {
                 last_warn = now;
                 log::warn!("ignoring /naic/effort: {e}");
             }
+            continue;
+        }
+        if !act_s.started {
+            // No measured torque yet to start the rate limit from: send nothing (the driver
+            // keeps holding) rather than jump.
             continue;
         }
         let fresh = wall_ns().saturating_sub(dq_rx_ns) <= js_timeout_ns;

@@ -17,6 +17,7 @@
 //! JSON to `latency_report` at exit (see `naic bench chain`).
 
 mod plant;
+mod sim_plant;
 
 use std::{
     sync::{Arc, Condvar, Mutex},
@@ -30,11 +31,15 @@ use naic_ros::{
     wait::Waiter,
     ParamSpec, RosError, RosNode,
 };
-use plant::{PlaceholderPlant, Plant};
+use plant::Plant;
+use sim_plant::{make_plant, PLANT_NAME};
 
 fn specs() -> Vec<ParamSpec> {
     vec![
-        ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz] (real-time mode)"),
+        ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz]; the simulator's control period is 1/rate").read_only(),
+        ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model of the simulator").read_only(),
+        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Joint friction acting in the simulator (naic_core::friction YAML)").read_only(),
+        ParamSpec::double("friction_smoothing", naic_core::friction::DEFAULT_V_S, 1.0e-5, 1.0, "v_s [rad/s] of the simulator's tanh-smoothed friction").read_only(),
         ParamSpec::boolean(
             "lockstep",
             false,
@@ -48,8 +53,14 @@ fn specs() -> Vec<ParamSpec> {
             "Hold the arm (gravity compensation + damping) when no command arrived for this long [s]",
         ),
         ParamSpec::double("hold_damping", 5.0, 0.0, 200.0, "Joint damping of the driver's own hold [N m s/rad]"),
-        ParamSpec::choice("scenario", "flat", &["flat"], "Paper scenario (environment and trajectory)").read_only(),
-        ParamSpec::string("plant", plant::PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
+        ParamSpec::choice(
+            "scenario",
+            "flat",
+            &["flat", "stiffness-step", "slope", "foam", "two-material"],
+            "Paper scenario of naic_sim: environment and start pose",
+        )
+        .read_only(),
+        ParamSpec::string("plant", PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
         ParamSpec::double("latency_warmup", 2.0, 0.0, 3600.0, "Chain-latency statistics ignore the first seconds after start").read_only(),
         ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),
     ]
@@ -68,6 +79,8 @@ struct CmdSlot {
     latencies_ns: Vec<i64>,
     /// Latencies are recorded from this wall time on (after the warm-up).
     record_after_ns: i64,
+    /// Stamps are simulated time (lockstep / use_sim_time): no latency statistics.
+    sim_stamps: bool,
     rejected: u64,
 }
 
@@ -97,6 +110,7 @@ fn run() -> Result<(), RosError> {
             source_stamp_ns: None,
             latencies_ns: Vec::with_capacity(4 * 3600 * 1000),
             record_after_ns: wall_ns() + node.params.with(|p| (p.f64("latency_warmup") * 1e9) as i64),
+            sim_stamps: node.params.with(|p| p.bool("lockstep") || p.bool("use_sim_time")),
             rejected: 0,
         }),
         cv: Condvar::new(),
@@ -123,7 +137,8 @@ fn run() -> Result<(), RosError> {
                                 s.arrival_ns = now;
                                 s.seq += 1;
                                 s.source_stamp_ns = msgs::effort_source_stamp(&m);
-                                if let Some(st) = s.source_stamp_ns {
+                                // Latency only when stamps are wall-clock time.
+                                if let (Some(st), false) = (s.source_stamp_ns, s.sim_stamps) {
                                     if now >= s.record_after_ns && s.latencies_ns.len() < s.latencies_ns.capacity() {
                                         s.latencies_ns.push(now - st);
                                     }
@@ -145,8 +160,7 @@ fn run() -> Result<(), RosError> {
             .map_err(|e| RosError::Node(format!("cannot start receive thread: {e}")))?;
     }
 
-    let mut plant = PlaceholderPlant::new();
-    log::warn!("using the placeholder plant (naic_sim arm simulator not integrated yet)");
+    let mut plant = node.params.with(make_plant).map_err(RosError::Node)?;
 
     let mut gen = 0;
     let (mut rate, mut lockstep, mut timeout_ns, mut damping, mut use_sim_time) = (1000.0, false, 20_000_000i64, 5.0, false);
@@ -176,6 +190,7 @@ fn run() -> Result<(), RosError> {
                 damping = p.f64("hold_damping");
                 use_sim_time = p.bool("use_sim_time");
             });
+            shared.slot.lock().unwrap_or_else(|p| p.into_inner()).sim_stamps = lockstep || use_sim_time;
         }
         let dt = 1.0 / rate;
         let period_ns = (1e9 / rate) as i64;
@@ -233,9 +248,9 @@ fn run() -> Result<(), RosError> {
                 log::warn!("no /joint_effort_cmd for {} ms: holding the arm", timeout_ns / 1_000_000);
             }
             holding = seq > 0 || holding;
-            plant.hold_torque(damping)
+            Plant::hold_torque(&mut plant, damping)
         };
-        plant.step(&tau, dt);
+        Plant::step(&mut plant, &tau, dt);
         cycles += 1;
         let stamp = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time, start_wall)?;
         last_published_stamp = Some(stamp);
@@ -257,7 +272,7 @@ fn run() -> Result<(), RosError> {
 
 /// Publish joint states, wrench and clock; returns the stamp used [ns].
 fn publish_state(
-    plant: &dyn Plant,
+    plant: &impl Plant,
     js: &mut JointState,
     js_pub: &naic_ros::node::Pub<JointState>,
     w_pub: &naic_ros::node::Pub<WrenchStamped>,

@@ -6,58 +6,11 @@ pub trait Plant {
     fn step(&mut self, tau: &[f64; 6], dt: f64);
     /// Torques that hold the arm where it is: gravity compensation + joint damping
     /// (`damping` N m s/rad). Used when no command arrives in time.
-    fn hold_torque(&self, damping: f64) -> [f64; 6];
+    fn hold_torque(&mut self, damping: f64) -> [f64; 6];
     /// Joint positions [rad], velocities [rad/s] and measured joint torques [N m].
     fn joints(&self) -> ([f64; 6], [f64; 6], [f64; 6]);
     /// Raw F/T sensor reading in the `ft_sensor` frame: [fx, fy, fz, tx, ty, tz].
     fn wrench(&self) -> [f64; 6];
     /// Simulated time since start [s].
     fn time(&self) -> f64;
-}
-
-/// Which simulator the driver runs (the read-only `plant` parameter).
-pub const PLANT_NAME: &str = "placeholder";
-
-/// SCRATCH placeholder until `naic_sim`'s arm simulator lands on main: six decoupled
-/// joints (unit inertia, light viscous friction, no gravity, no contact). It only
-/// exercises the DDS plumbing; no test of physics may rely on it.
-pub struct PlaceholderPlant {
-    q: [f64; 6],
-    v: [f64; 6],
-    tau: [f64; 6],
-    t: f64,
-}
-
-impl PlaceholderPlant {
-    pub fn new() -> Self {
-        PlaceholderPlant { q: [0.0, 0.5, -1.0, 0.0, 1.0, 0.0], v: [0.0; 6], tau: [0.0; 6], t: 0.0 }
-    }
-}
-
-impl Plant for PlaceholderPlant {
-    fn step(&mut self, tau: &[f64; 6], dt: f64) {
-        for i in 0..6 {
-            let a = tau[i] - 0.5 * self.v[i];
-            self.v[i] += a * dt;
-            self.q[i] += self.v[i] * dt;
-        }
-        self.tau = *tau;
-        self.t += dt;
-    }
-    fn hold_torque(&self, damping: f64) -> [f64; 6] {
-        let mut t = [0.0; 6];
-        for i in 0..6 {
-            t[i] = -damping * self.v[i];
-        }
-        t
-    }
-    fn joints(&self) -> ([f64; 6], [f64; 6], [f64; 6]) {
-        (self.q, self.v, self.tau)
-    }
-    fn wrench(&self) -> [f64; 6] {
-        [0.0; 6]
-    }
-    fn time(&self) -> f64 {
-        self.t
-    }
 }

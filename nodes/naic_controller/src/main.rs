@@ -13,6 +13,7 @@
 //! + joint damping); the fault is logged (rate-limited) and published in `/naic/params`.
 
 mod config;
+mod reference;
 
 use std::time::Duration;
 
@@ -111,6 +112,10 @@ fn run() -> Result<(), RosError> {
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut js_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 
+    let scenario_ref = {
+        let name = node.params.with(|p| p.str("scenario").to_string());
+        reference::ScenarioReference::new(&name, &model).map_err(RosError::Param)?
+    };
     let mut gen = node.params.generation();
     let (mut f_d, mut force_limit, mut approach, mut use_sim_time, mut mode) =
         (0.0, 0.0, 0.0, false, String::new());
@@ -210,14 +215,15 @@ fn run() -> Result<(), RosError> {
         let axis = ctl.params().control.force_axis;
         let mut n = Vector3::zeros();
         n[axis.axis] = axis.sign;
-        let reference = Reference {
-            p_d: if retracting { p0 } else { p0 + n * approach },
-            r_d: r0,
-            v_d: Vector6::zeros(),
-            a_d: Vector6::zeros(),
-            f_d: if retracting { 0.0 } else { f_d },
+        let reference = if retracting {
+            Reference { p_d: p0, r_d: r0, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d: 0.0 }
+        } else {
+            match &scenario_ref {
+                // The scenario's trajectory; the force set point is the parameter.
+                Some(sr) => Reference { f_d, ..sr.at(m.t) },
+                None => Reference { p_d: p0 + n * approach, r_d: r0, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d },
+            }
         };
-
         let (next, out) = controller::step(&ctl, &state, &m, &reference, &mut ws);
         state = next;
         cycles += 1;

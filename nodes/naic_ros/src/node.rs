@@ -81,6 +81,11 @@ impl RosNode {
         let overrides = args.overrides(default_name)?;
         let params = ParamTable::new(specs, check, &overrides).map_err(RosError::Param)?;
 
+        // Real-time scheduling before any thread exists, so the DDS threads inherit it.
+        let prio = params.with(|p| p.i64("realtime_priority"));
+        if prio > 0 {
+            set_realtime(prio as i32);
+        }
         let settings = DdsSettings::from_env()?;
         let context = create_context(&settings)?;
         let node_name = NodeName::new(&ns, &name)
@@ -186,6 +191,38 @@ struct ParamServices {
     list: Srv<rcl::ListParametersRequest, rcl::ListParametersResponse>,
     describe: Srv<rcl::DescribeParametersRequest, rcl::DescribeParametersResponse>,
     events: Publisher<raw::ParameterEvent>,
+    /// Re-announces this participant's nodes on `ros_discovery_info` (see [`Rediscovery`]).
+    rediscovery: Option<Rediscovery>,
+}
+
+/// Periodic re-publication of the participant's `ros_discovery_info`.
+///
+/// ros2-client publishes it only when the node set changes; the sample is transient-local,
+/// but a Fast DDS (rclpy) participant that discovers ours later sometimes never receives
+/// it, and then lists none of our nodes. Publishing the same information again every
+/// second (as a second writer of this participant) closes that gap.
+struct Rediscovery {
+    context: Context,
+    writer: ros2_client::dds::rustdds::no_key::DataWriterCdr<ros2_client::entities_info::ParticipantEntitiesInfo>,
+    last: std::time::Instant,
+}
+
+impl Rediscovery {
+    fn new(context: &Context) -> Option<Rediscovery> {
+        use ros2_client::{builtin_topics::ros_discovery as rd, dds::rustdds::TopicKind};
+        let dp = context.domain_participant();
+        let topic = dp.create_topic(rd::TOPIC_NAME.to_string(), rd::TYPE_NAME.to_string(), &rd::QOS_PUB, TopicKind::NoKey).ok()?;
+        let publisher = dp.create_publisher(&rd::QOS_PUB).ok()?;
+        let writer = publisher.create_datawriter_no_key_cdr(&topic, None).ok()?;
+        Some(Rediscovery { context: context.clone(), writer, last: std::time::Instant::now() })
+    }
+
+    fn tick(&mut self) {
+        if self.last.elapsed() >= Duration::from_secs(1) {
+            self.last = std::time::Instant::now();
+            let _ = self.writer.write(self.context.participant_entities_info(), None);
+        }
+    }
 }
 
 fn server<Req, Resp>(node: &mut Node, fqn: &str, srv: &str, ty: &str) -> Result<Srv<Req, Resp>, RosError>
@@ -218,6 +255,13 @@ impl ParamServices {
             list: server(node, fqn, "list_parameters", "ListParameters")?,
             describe: server(node, fqn, "describe_parameters", "DescribeParameters")?,
             events,
+            rediscovery: {
+                let r = Rediscovery::new(context);
+                if r.is_none() {
+                    log::warn!("cannot re-announce nodes on ros_discovery_info; late rclpy peers may not list this node");
+                }
+                r
+            },
         })
     }
 
@@ -268,6 +312,9 @@ impl ParamServices {
             let _ = poll.poll(&mut events, Some(timeout));
             // Serve every pending request on every service (cheap when idle).
             s.serve_all(params, fqn);
+            if let Some(r) = s.rediscovery.as_mut() {
+                r.tick();
+            }
         }
     }
 
@@ -361,3 +408,18 @@ impl ParamServices {
 
 /// Publisher alias used by the nodes.
 pub type Pub<M> = Publisher<M>;
+
+/// SCHED_FIFO for the calling thread (and the threads it creates afterwards).
+fn set_realtime(priority: i32) {
+    let param = libc::sched_param { sched_priority: priority };
+    // SAFETY: valid sched_param for the calling thread (pid 0).
+    let r = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
+    if r != 0 {
+        log::warn!(
+            "realtime_priority {priority}: cannot use SCHED_FIFO ({}); running with normal scheduling",
+            std::io::Error::last_os_error()
+        );
+    } else {
+        log::info!("running with SCHED_FIFO priority {priority}");
+    }
+}

@@ -306,6 +306,18 @@ impl ParamTable {
                 "Stamp and time with /clock (rosgraph_msgs/Clock) instead of the system clock",
             ));
         }
+        if !specs.iter().any(|s| s.name == "realtime_priority") {
+            specs.push(
+                ParamSpec::int(
+                    "realtime_priority",
+                    0,
+                    0,
+                    98,
+                    "SCHED_FIFO priority of all the node's threads (0: normal scheduling); needs CAP_SYS_NICE",
+                )
+                .read_only(),
+            );
+        }
         for (i, s) in specs.iter().enumerate() {
             if specs[..i].iter().any(|o| o.name == s.name) {
                 return Err(format!("parameter '{}' declared twice", s.name));
@@ -490,6 +502,6 @@ mod tests {
         let d = t.specs()[1].descriptor();
         assert!(d.additional_constraints.contains("naic, aic, fixed"));
         let (names, _) = t.list(&[], 0);
-        assert_eq!(names.len(), 7);
+        assert_eq!(names.len(), 8);
     }
 }

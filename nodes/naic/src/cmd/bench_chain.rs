@@ -29,6 +29,10 @@ pub struct ChainArgs {
     /// Only the Rust chain.
     #[arg(long)]
     pub skip_rclpy: bool,
+    /// SCHED_FIFO priority for the Rust nodes (0: normal scheduling, as the rclpy chain;
+    /// overrides params/).
+    #[arg(long, default_value_t = 0)]
+    pub realtime_priority: u8,
     /// ROS_DOMAIN_ID of the Rust chain (the rclpy chain uses the next one).
     #[arg(long, default_value_t = 211)]
     pub domain: u16,
@@ -55,6 +59,7 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
     let mut procs = vec![];
     for node in launch::NODES {
         let mut args = vec!["--ros-args".to_string(), "--params-file".into(), format!("params/{node}.yaml")];
+        args.extend(["-p".into(), format!("realtime_priority:={}", a.realtime_priority)]);
         if node == "jk5_sim_driver" {
             args.extend([
                 "-p".into(),
@@ -181,6 +186,7 @@ pub fn run(a: ChainArgs) -> CliResult {
         "bench": "chain",
         "what": "latency /joint_states stamp -> matching /joint_effort_cmd at the driver, 3 processes, 1 kHz",
         "rust": rust,
+        "rust_realtime_priority": a.realtime_priority,
         "rclpy": rclpy,
         "median_ratio_rust_over_rclpy": ratio,
         "machine": machine(),

@@ -1,0 +1,46 @@
+//! The driver's simulator: `naic_sim`'s JK5 + ATI mini45 (`SimArm`) in a paper scenario.
+
+use naic_core::{
+    friction::{FrictionParams, Smoothing},
+    model::Model,
+};
+use naic_sim::{arm::SimArm, scenario, sensor::tool_from_urdf};
+
+use crate::plant::Plant;
+
+/// Which simulator the driver runs (the read-only `plant` parameter).
+pub const PLANT_NAME: &str = "naic_sim";
+
+/// The plant of scenario `scenario` (naic_sim presets) on `urdf`, with the friction of
+/// `friction_file` (tanh-smoothed with `v_s`) acting on the joints, at period `1/rate`.
+pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimArm, String> {
+    let (urdf, name, friction_file) = (p.str("urdf"), p.str("scenario"), p.str("friction_file"));
+    let model = Model::from_urdf_file(urdf).map_err(|e| format!("robot model '{urdf}': {e}"))?;
+    let mut scen = scenario::preset(name, &model).map_err(|e| format!("scenario '{name}': {e}"))?;
+    scen.dt = 1.0 / p.f64("rate");
+    let friction = FrictionParams::from_yaml_file(friction_file)
+        .and_then(|f| f.to_model())
+        .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: p.f64("friction_smoothing") }))
+        .map_err(|e| format!("friction_file '{friction_file}': {e}"))?;
+    let tool = tool_from_urdf(std::path::Path::new(urdf))?;
+    let params = scenario::plant_for(&scen, model, Some(friction), tool).map_err(|e| e.to_string())?;
+    Ok(SimArm::new(params, scen.q0, scen.seed))
+}
+
+impl Plant for SimArm {
+    fn step(&mut self, tau: &[f64; 6], _dt: f64) {
+        SimArm::step(self, tau)
+    }
+    fn hold_torque(&mut self, damping: f64) -> [f64; 6] {
+        SimArm::hold_torque(self, damping)
+    }
+    fn joints(&self) -> ([f64; 6], [f64; 6], [f64; 6]) {
+        SimArm::joints(self)
+    }
+    fn wrench(&self) -> [f64; 6] {
+        SimArm::wrench(self)
+    }
+    fn time(&self) -> f64 {
+        SimArm::time(self)
+    }
+}
