@@ -7,8 +7,9 @@
 //! actuation guard (`naic_core::pipeline::actuate`: torque-rate limit, effort limits of the
 //! URDF, never NaN); publishes `/joint_effort_cmd` for the driver.
 //!
-//! On start the rate limit starts from the measured joint torque (`/joint_states` effort),
-//! so a restarted node takes over without a torque jump. Without fresh joint data the
+//! On start, and after a gap in `/naic/effort` longer than `takeover_gap` (a restarted
+//! controller; the driver held the arm meanwhile), the rate limit starts from the measured
+//! joint torque (`/joint_states` effort), so a restarted node takes over without a torque jump. Without fresh joint data the
 //! feedforward is left out (it needs q̇); without commands nothing is published and the
 //! driver holds the arm after its own timeout.
 
@@ -35,6 +36,7 @@ fn specs() -> Vec<ParamSpec> {
         ParamSpec::double("smoothing_velocity", 0.01, 0.0, 1.0, "v_s [rad/s] of sgn(q̇) → tanh(q̇/v_s) near rest (0: the printed discontinuous law; the file's own value when it sets one)"),
         ParamSpec::double("torque_rate_limit", 1.0, 0.001, 1000.0, "Largest torque change per command [N m per cycle]"),
         ParamSpec::double("joint_state_timeout", 0.02, 0.001, 1.0, "Joint velocity older than this [s] is not used: no feedforward"),
+        ParamSpec::double("takeover_gap", 0.005, 0.001, 1.0, "After a gap in /naic/effort longer than this [s] (controller restarted, driver holding), the rate limit restarts from the measured joint torque"),
     ]
 }
 
@@ -67,11 +69,11 @@ fn run() -> Result<(), RosError> {
         Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
     };
     let robot = Model::from_urdf_file(&urdf)
-        .map_err(|e| RosError::Node(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
+        .map_err(|e| RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
     let effort_limit: [f64; 6] = {
         let l = robot.effort_limits();
         if l.len() != 6 {
-            return Err(RosError::Node(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
+            return Err(RosError::Param(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
         }
         std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i] } else { f64::INFINITY })
     };
@@ -95,6 +97,10 @@ fn run() -> Result<(), RosError> {
     let mut tau_in = [0.0; 6];
     let mut last_warn = 0i64;
     let mut count = 0u64;
+    // Torque the driver applies now (/joint_states effort) and when the last command went out.
+    let mut effort_meas: Option<[f64; 6]> = None;
+    let mut last_pub_ns = i64::MIN;
+    let mut gap_ns = 5_000_000i64;
 
     while !naic_ros::shutdown_requested() {
         if node.params.generation() != gen {
@@ -103,6 +109,7 @@ fn run() -> Result<(), RosError> {
                 enabled = p.bool("enabled");
                 js_timeout_ns = (p.f64("joint_state_timeout") * 1e9) as i64;
                 act_p.max_delta = [p.f64("torque_rate_limit"); 6];
+                gap_ns = (p.f64("takeover_gap") * 1e9) as i64;
                 match load_model(p) {
                     Ok(m) => model = m,
                     Err(e) => log::error!("{e}"),
@@ -115,9 +122,8 @@ fn run() -> Result<(), RosError> {
                 dq.copy_from_slice(&js.velocity[..6]);
                 dq_rx_ns = wall_ns();
             }
-            // Smooth take-over: the rate limit starts from the torque the arm has now.
-            if !act_s.started && js.effort.len() >= 6 && js.effort[..6].iter().all(|t| t.is_finite()) {
-                act_s = actuate::ActuateState { tau_prev: std::array::from_fn(|i| js.effort[i]), started: true };
+            if js.effort.len() >= 6 && js.effort[..6].iter().all(|t| t.is_finite()) {
+                effort_meas = Some(std::array::from_fn(|i| js.effort[i]));
             }
         }
         let mut newest = None;
@@ -135,10 +141,18 @@ fn run() -> Result<(), RosError> {
         }
         let fresh = wall_ns().saturating_sub(dq_rx_ns) <= js_timeout_ns;
         let tau = if enabled && fresh { feedforward::step(&model, &dq, &tau_in) } else { tau_in };
+        // Smooth take-over (first command, or after a gap in which the driver held the arm
+        // itself): the rate limit starts from the torque the arm has now.
+        if !act_s.started || wall_ns().saturating_sub(last_pub_ns) > gap_ns {
+            if let Some(e) = effort_meas {
+                act_s = actuate::ActuateState { tau_prev: e, started: true };
+            }
+        }
         let (s, r) = actuate::step(&act_p, &act_s, &tau);
         act_s = s;
         if r.tau.iter().all(|t| t.is_finite()) {
             let _ = cmd_pub.publish(msgs::effort_msg(&r.tau, msgs::effort_source_stamp(&m)));
+            last_pub_ns = wall_ns();
             count += 1;
         }
     }
