@@ -22,6 +22,8 @@ use std::time::Instant;
 pub enum BenchCmd {
     /// Median ns per call of the dynamics algorithms and of one NAIC controller step.
     Dynamics(DynamicsArgs),
+    /// Closed-loop simulator steps per second (plant + sensor + NAIC, flat, in contact) vs MuJoCo mj_step.
+    Sim(super::sim::SimBenchArgs),
     /// Latency of the 1 kHz DDS chain across the three node processes, Rust vs rclpy.
     Chain(super::bench_chain::ChainArgs),
 }
@@ -45,6 +47,7 @@ pub struct DynamicsArgs {
 pub fn run(c: BenchCmd) -> CliResult {
     match c {
         BenchCmd::Dynamics(a) => run_dynamics(a),
+        BenchCmd::Sim(a) => super::sim::bench(a),
         BenchCmd::Chain(a) => super::bench_chain::run(a),
     }
 }

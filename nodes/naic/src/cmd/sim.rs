@@ -1,9 +1,510 @@
-//! `naic sim` (in progress).
+//! `naic sim`: run a paper scenario in the in-process simulator with one or
+//! every controller; write `metrics.json`, one CSV of recorded signals per
+//! controller and the paper-style figure; print a summary table.
+//!
+//! `naic sim --replay TORQUES.csv --q0 …` instead applies a joint torque
+//! sequence open loop (no contact, no friction, ideal sensors) and writes the
+//! joint trajectory: the cross-check against MuJoCo uses it.
+
 use super::{CliError, CliResult};
+use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
+use naic_core::model::Model;
+use naic_core::pipeline::control::force_law::Mode;
+use naic_sim::controllers::{LoopSettings, PipelineController};
+use naic_sim::environment::{Environment, Material, MaterialMap};
+use naic_sim::metrics::MetricsFile;
+use naic_sim::plant::{self, Integrator, PlantParams};
+use naic_sim::rng::Rng;
+use naic_sim::runner::{self, RunResult};
+use naic_sim::scenario::{self, Scenario, SCENARIOS};
+use naic_sim::sensor::{Encoders, Mini45};
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
 
-#[derive(clap::Args, Default)]
-pub struct SimArgs {}
+#[derive(clap::Args, Default, Debug)]
+pub struct SimArgs {
+    /// Scenario: flat, stiffness-step, slope, foam or two-material [default: flat].
+    #[arg(long)]
+    pub scenario: Option<String>,
+    /// Controller: naic, aic, fixed or all [default: all].
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Output folder [default: a new folder runs/<UTC time>-<scenario>/].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Robot model [default: urdf/jk5.urdf].
+    #[arg(long)]
+    pub urdf: Option<PathBuf>,
+    /// Joint friction of the plant and of the feedforward [default: params/friction_jk5.yaml].
+    #[arg(long)]
+    pub friction: Option<PathBuf>,
+    /// Run without joint friction (plant and feedforward).
+    #[arg(long)]
+    pub no_friction: bool,
+    /// NAIC learning rate γ requested (clipped to the eq-15 bound every cycle) [default: 1e-4].
+    #[arg(long, allow_hyphen_values = true)]
+    pub gamma: Option<f64>,
+    /// NAIC σ margin: fraction of the force-loop stability limit σ may reach;
+    /// `inf` runs the law as written [default: 0.5].
+    #[arg(long, allow_hyphen_values = true)]
+    pub sigma_margin: Option<f64>,
+    /// Median window on the measured joint velocity (1 = off) [default: 5].
+    #[arg(long)]
+    pub median_window: Option<usize>,
+    /// Seed of the simulated noise and sensor bias [default: 1].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Run this many seeds (from --seed on) and write a median [min–max]
+    /// table to OUT/summary.md (each seed in OUT/seed-<k>/).
+    #[arg(long)]
+    pub seeds: Option<u32>,
+    /// Simulated duration [s] [default: the scenario's].
+    #[arg(long, allow_hyphen_values = true)]
+    pub duration: Option<f64>,
+    /// Open-loop replay of a torque CSV (header tau1..tau6, one row per period).
+    #[arg(long, value_name = "CSV")]
+    pub replay: Option<PathBuf>,
+    /// Replay: initial joints, 6 comma-separated radians.
+    #[arg(long, allow_hyphen_values = true)]
+    pub q0: Option<String>,
+    /// Replay: initial joint velocities [default: zeros].
+    #[arg(long, allow_hyphen_values = true)]
+    pub dq0: Option<String>,
+    /// Replay: integrator euler | rk4 | implicit-friction [default: euler].
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Replay: period of one torque row [s] [default: 0.001].
+    #[arg(long)]
+    pub dt: Option<f64>,
+    /// Replay: integration steps per period [default: 1].
+    #[arg(long)]
+    pub substeps: Option<u32>,
+}
 
-pub fn run(_a: SimArgs) -> CliResult {
-    Err(CliError::failure("naic sim is not implemented yet"))
+/// Default files, found from the current directory or the source tree.
+fn default_path(rel: &str) -> PathBuf {
+    let here = PathBuf::from(rel);
+    if here.exists() {
+        return here;
+    }
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(rel);
+    if src.exists() {
+        src
+    } else {
+        here
+    }
+}
+
+pub fn load_model(path: Option<&Path>) -> Result<Model, CliError> {
+    let p = path.map_or_else(|| default_path("urdf/jk5.urdf"), Path::to_path_buf);
+    Model::from_urdf_file(&p).map_err(|e| CliError::usage(format!("--urdf {}: {e}", p.display())))
+}
+
+/// The identified friction model, smooth (tanh) variant.
+pub fn load_friction(path: Option<&Path>) -> Result<FrictionModel, CliError> {
+    let p = path.map_or_else(|| default_path("params/friction_jk5.yaml"), Path::to_path_buf);
+    let params = FrictionParams::from_yaml_file(&p).map_err(|e| {
+        CliError::usage(format!("--friction {}: {e} (or run with --no-friction)", p.display()))
+    })?;
+    params
+        .to_model()
+        .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S }))
+        .map_err(|e| CliError::usage(format!("--friction {}: {e}", p.display())))
+}
+
+fn parse_joints(s: &str, what: &str) -> Result<[f64; 6], CliError> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| CliError::usage(format!("{what} '{s}': {e}; give 6 comma-separated numbers (rad)")))?;
+    if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
+        return Err(CliError::usage(format!("{what} '{s}': give exactly 6 finite comma-separated numbers (rad)")));
+    }
+    Ok([v[0], v[1], v[2], v[3], v[4], v[5]])
+}
+
+/// Plant of a scenario (see `naic_sim::scenario::plant_for`).
+pub fn scenario_plant(
+    s: &Scenario,
+    model: Model,
+    friction: Option<FrictionModel>,
+    tool: (f64, Vector3<f64>),
+) -> Result<PlantParams, CliError> {
+    scenario::plant_for(s, model, friction, tool).map_err(|e| CliError::usage(e.to_string()))
+}
+
+fn replay(a: &SimArgs) -> CliResult {
+    let csv = a.replay.as_ref().expect("checked");
+    let q0 = parse_joints(a.q0.as_deref().ok_or_else(|| CliError::usage("--replay needs --q0 (6 joint angles in rad)"))?, "--q0")?;
+    let dq0 = match &a.dq0 {
+        Some(s) => parse_joints(s, "--dq0")?,
+        None => [0.0; 6],
+    };
+    let integrator = Integrator::parse(a.integrator.as_deref().unwrap_or("euler")).map_err(|e| CliError::usage(format!("--integrator: {e}")))?;
+    let text = std::fs::read_to_string(csv).map_err(|e| CliError::usage(format!("--replay {}: {e}", csv.display())))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').map(str::trim).collect();
+    let cols: Vec<usize> = (1..=6)
+        .map(|i| header.iter().position(|h| *h == format!("tau{i}")))
+        .collect::<Option<_>>()
+        .ok_or_else(|| CliError::usage(format!("--replay {}: the header must name columns tau1..tau6", csv.display())))?;
+    let mut torques = Vec::new();
+    for (n, line) in lines.enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let mut row = [0.0; 6];
+        for (j, &c) in cols.iter().enumerate() {
+            row[j] = f.get(c).and_then(|x| x.trim().parse::<f64>().ok()).filter(|x| x.is_finite()).ok_or_else(|| {
+                CliError::usage(format!("--replay {} line {}: tau{} is missing or not a finite number", csv.display(), n + 2, j + 1))
+            })?;
+        }
+        torques.push(row);
+    }
+    let model = load_model(a.urdf.as_deref())?;
+    let dt = a.dt.unwrap_or(1e-3);
+    let env = Environment { enabled: false, ..Environment::horizontal(0.0, MaterialMap::Uniform(Material { k_e: 0.0, b_e: 0.0, mu: 0.0 })) };
+    let ft = Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(0)).ideal();
+    let mut p = PlantParams::new(model, None, integrator, dt, a.substeps.unwrap_or(1), env, ft, Encoders::ideal())
+        .map_err(|e| CliError::usage(e.to_string()))?;
+    p.effort_limit = [f64::INFINITY; 6];
+    let states = plant::replay(&p, q0, dq0, &torques);
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("."));
+    std::fs::create_dir_all(&out).map_err(|e| CliError::failure(format!("--out {}: {e}", out.display())))?;
+    let mut s = String::from("t,q1,q2,q3,q4,q5,q6,dq1,dq2,dq3,dq4,dq5,dq6\n");
+    for st in &states {
+        s.push_str(&format!("{:.6}", st.t));
+        for v in st.q.iter().chain(&st.dq) {
+            s.push_str(&format!(",{v:.17e}"));
+        }
+        s.push('\n');
+    }
+    let path = out.join("replay.csv");
+    std::fs::write(&path, s).map_err(|e| CliError::failure(format!("{}: {e}", path.display())))?;
+    eprintln!("wrote {} ({} periods)", path.display(), torques.len());
+    Ok(())
+}
+
+/// `YYYYmmdd-HHMMSS` in UTC.
+fn utc_stamp() -> String {
+    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // civil-from-days (Howard Hinnant's algorithm)
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!("{y:04}{m:02}{d:02}-{:02}{:02}{:02}", rem / 3600, rem % 3600 / 60, rem % 60)
+}
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map_or_else(|| "never".to_string(), |x| format!("{x:.3}"))
+}
+
+/// Run the scenario with the given controllers; returns the runs.
+#[allow(clippy::too_many_arguments)]
+pub fn run_scenario(
+    s: &Scenario,
+    plant: &PlantParams,
+    model: &Model,
+    friction_ff: Option<&FrictionModel>,
+    tool: (f64, Vector3<f64>),
+    modes: &[Mode],
+    settings: &LoopSettings,
+    show_progress: bool,
+) -> Result<Vec<RunResult>, CliError> {
+    let mut runs = Vec::new();
+    for &mode in modes {
+        let mut c = PipelineController::new(mode, s, model, friction_ff.cloned(), tool.0, tool.1, settings).map_err(CliError::usage)?;
+        let name = mode.as_str();
+        let mut last = -1i64;
+        let mut progress = |f: f64| {
+            if !show_progress {
+                return;
+            }
+            let pct = (f * 100.0) as i64;
+            if pct != last {
+                last = pct;
+                let filled = (pct / 4) as usize;
+                eprint!("\r{:<6} [{}{}] {:3}%", name, "#".repeat(filled), ".".repeat(25 - filled.min(25)), pct);
+                let _ = std::io::stderr().flush();
+            }
+        };
+        let r = runner::run(s, plant, &mut c, &mut progress);
+        if show_progress {
+            eprintln!();
+        }
+        runs.push(r);
+    }
+    Ok(runs)
+}
+
+/// The summary table (markdown) of a scenario's runs.
+pub fn summary_table(s: &Scenario, runs: &[RunResult]) -> String {
+    let mut t = String::new();
+    t.push_str("| scenario | controller | contact [s] | phase start [s] | f_d [N] | settle 2 % [s] | settle 5 % [s] | overshoot [%] | ss error [N] | RMS error [N] | max force [N] |\n");
+    t.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for r in runs {
+        let m = &r.metrics;
+        if m.phases.is_empty() {
+            t.push_str(&format!("| {} | {} | {} | – | – | – | – | – | – | – | – |\n", s.name, r.controller, fmt_opt(m.contact_time_s)));
+        }
+        for ph in &m.phases {
+            t.push_str(&format!(
+                "| {} | {} | {} | {:.3} | {:.1} | {} | {} | {:.1} | {:.3} | {:.3} | {:.2} |\n",
+                s.name,
+                r.controller,
+                fmt_opt(m.contact_time_s),
+                ph.t_start_s,
+                ph.desired_force_n,
+                fmt_opt(ph.settling_time_2pct_s),
+                fmt_opt(ph.settling_time_5pct_s),
+                ph.overshoot_pct,
+                ph.steady_state_error_n,
+                ph.rms_error_n,
+                ph.max_force_n
+            ));
+        }
+    }
+    t
+}
+
+/// Write metrics.json, CSVs and the figure into `out`.
+pub fn write_outputs(out: &Path, s: &Scenario, runs: &[RunResult]) -> Result<(), CliError> {
+    let fail = |p: &Path, e: std::io::Error| CliError::failure(format!("cannot write {}: {e}", p.display()));
+    std::fs::create_dir_all(out).map_err(|e| fail(out, e))?;
+    let mut controllers = BTreeMap::new();
+    for r in runs {
+        controllers.insert(r.controller.clone(), r.metrics.clone());
+        let p = out.join(format!("{}.csv", r.controller));
+        std::fs::write(&p, runner::to_csv(&r.records)).map_err(|e| fail(&p, e))?;
+    }
+    let mf = MetricsFile { scenario: s.name.clone(), controllers };
+    let p = out.join("metrics.json");
+    let json = serde_json::to_string_pretty(&mf).map_err(|e| CliError::failure(e.to_string()))?;
+    std::fs::write(&p, json + "\n").map_err(|e| fail(&p, e))?;
+    let p = out.join(format!("{}.svg", s.name));
+    std::fs::write(&p, naic_sim::plots::figure(s, runs).to_svg()).map_err(|e| fail(&p, e))?;
+    Ok(())
+}
+
+pub fn run(a: SimArgs) -> CliResult {
+    if a.replay.is_some() {
+        return replay(&a);
+    }
+    let name = a.scenario.clone().unwrap_or_else(|| "flat".into());
+    if !SCENARIOS.contains(&name.as_str()) {
+        return Err(CliError::usage(format!("--scenario '{name}': use one of {}", SCENARIOS.join(", "))));
+    }
+    let which = a.controller.clone().unwrap_or_else(|| "all".into());
+    let modes: Vec<Mode> = if which == "all" {
+        vec![Mode::Naic, Mode::Aic, Mode::Fixed]
+    } else {
+        vec![Mode::parse(&which).map_err(|e| CliError::usage(format!("--controller: {e} (or all)")))?]
+    };
+    let model = load_model(a.urdf.as_deref())?;
+    let friction = if a.no_friction { None } else { Some(load_friction(a.friction.as_deref())?) };
+    let mut s = scenario::preset(&name, &model).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    if let Some(seed) = a.seed {
+        s.seed = seed;
+    }
+    if let Some(d) = a.duration {
+        if !(d > 0.0 && d.is_finite()) {
+            return Err(CliError::usage(format!("--duration {d}: must be a positive number of seconds")));
+        }
+        s.duration = d;
+    }
+    let mut settings = LoopSettings::default();
+    if let Some(g) = a.gamma {
+        if !(g >= 0.0 && g.is_finite()) {
+            return Err(CliError::usage(format!("--gamma {g}: must be a finite number >= 0")));
+        }
+        settings.gamma = g;
+    }
+    if let Some(m) = a.sigma_margin {
+        if m.is_nan() || m <= 0.0 {
+            return Err(CliError::usage(format!("--sigma-margin {m}: must be > 0 (inf for the law as written)")));
+        }
+        settings.sigma_margin = m;
+    }
+    if let Some(w) = a.median_window {
+        if w == 0 || w > naic_core::pipeline::sense::MAX_MEDIAN_WINDOW {
+            return Err(CliError::usage(format!(
+                "--median-window {w}: must be in 1..={}",
+                naic_core::pipeline::sense::MAX_MEDIAN_WINDOW
+            )));
+        }
+        settings.median_window = w;
+    }
+    let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
+    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", utc_stamp(), s.name)));
+    let show = std::io::stderr().is_terminal();
+    let n_seeds = a.seeds.unwrap_or(1);
+    if n_seeds == 0 {
+        return Err(CliError::usage("--seeds 0: give at least 1"));
+    }
+    let first_seed = s.seed;
+    let mut files = Vec::new();
+    let mut rms: BTreeMap<String, Vec<Option<f64>>> = BTreeMap::new();
+    for k in 0..n_seeds {
+        let mut s = s.clone();
+        s.seed = first_seed + u64::from(k);
+        let dir = if a.seeds.is_some() { out.join(format!("seed-{}", s.seed)) } else { out.clone() };
+        let plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
+        eprintln!(
+            "naic sim: scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
+            s.name,
+            s.seed,
+            s.duration,
+            plant.substeps,
+            plant.h() * 1e3,
+            dir.display()
+        );
+        let runs = run_scenario(&s, &plant, &model, friction.as_ref(), tool, &modes, &settings, show)?;
+        write_outputs(&dir, &s, &runs)?;
+        for r in &runs {
+            if r.limit_violation {
+                eprintln!("naic sim: warning: {} left the joint position limits", r.controller);
+            }
+            rms.entry(r.controller.clone()).or_default().push(runner::contact_rms(&r.records));
+        }
+        if a.seeds.is_none() {
+            println!("{}", summary_table(&s, &runs));
+        }
+        let mut controllers = BTreeMap::new();
+        for r in &runs {
+            controllers.insert(r.controller.clone(), r.metrics.clone());
+        }
+        files.push(MetricsFile { scenario: s.name.clone(), controllers });
+    }
+    if a.seeds.is_some() {
+        let mut md = format!(
+            "Scenario '{}', seeds {}–{}: median [min–max]\n\n{}\nRMS of f_ext − f_d from first contact to the end:",
+            s.name,
+            first_seed,
+            first_seed + u64::from(n_seeds) - 1,
+            naic_sim::metrics::spread_table(&files, true)
+        );
+        for (name, v) in &rms {
+            md.push_str(&format!(" {name} {},", naic_sim::metrics::fmt_spread(v, 3)));
+        }
+        md.pop();
+        md.push_str(" N\n");
+        let p = out.join("summary.md");
+        std::fs::write(&p, &md).map_err(|e| CliError::failure(format!("cannot write {}: {e}", p.display())))?;
+        println!("{md}");
+    }
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+/// `naic bench sim`: closed-loop steps per second.
+#[derive(clap::Args, Debug)]
+pub struct SimBenchArgs {
+    /// Print one JSON object (the default output is the same JSON, pretty).
+    #[arg(long)]
+    pub json: bool,
+    /// Timed control periods per repeat.
+    #[arg(long, default_value_t = 20_000)]
+    pub steps: usize,
+    /// Repeats (the median is reported).
+    #[arg(long, default_value_t = 7)]
+    pub repeats: usize,
+    /// Skip the MuJoCo reference (bench/reference/mujoco_step_bench.py).
+    #[arg(long)]
+    pub no_reference: bool,
+}
+
+/// Python for the reference benchmark: $NAIC_PYTHON, $NAIC_VENV/bin/python, python3.
+fn python() -> String {
+    if let Ok(p) = std::env::var("NAIC_PYTHON") {
+        return p;
+    }
+    if let Ok(v) = std::env::var("NAIC_VENV") {
+        return format!("{v}/bin/python");
+    }
+    "python3".into()
+}
+
+/// Closed loop (plant + sensor + NAIC pipeline + friction feedforward, 1 ms,
+/// flat scenario in contact from t = 2.5 s) and MuJoCo's `mj_step` on the
+/// authors' MJCF measured in the same run.
+pub fn bench(a: SimBenchArgs) -> CliResult {
+    if a.steps == 0 || a.repeats == 0 {
+        return Err(CliError::usage("--steps and --repeats must be at least 1"));
+    }
+    let model = load_model(None)?;
+    let friction = load_friction(None)?;
+    let s = scenario::preset("flat", &model).map_err(CliError::failure)?;
+    let urdf_path = default_path("urdf/jk5.urdf");
+    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(CliError::failure)?;
+    let plant = scenario_plant(&s, model.clone(), Some(friction.clone()), tool)?;
+    let c = PipelineController::new(Mode::Naic, &s, &model, Some(friction), tool.0, tool.1, &LoopSettings::default())
+        .map_err(CliError::failure)?;
+    let t_start = 2.5;
+    let max_steps = ((s.duration - t_start) / s.dt) as usize;
+    let steps = a.steps.min(max_steps.max(1));
+    let (rate, last) = runner::bench_closed_loop(&s, &plant, &c, t_start, steps, a.repeats);
+    // the same without joint friction (as MuJoCo's model): plant Euler-like, no feedforward
+    let plant_nf = scenario_plant(&s, model.clone(), None, tool)?;
+    let c_nf = PipelineController::new(Mode::Naic, &s, &model, None, tool.0, tool.1, &LoopSettings::default())
+        .map_err(CliError::failure)?;
+    let (rate_nf, _) = runner::bench_closed_loop(&s, &plant_nf, &c_nf, t_start, steps, a.repeats);
+    let mut out = serde_json::json!({
+        "steps_per_s": rate.closed_loop.round(),
+        "frictionless_steps_per_s": rate_nf.closed_loop.round(),
+        "frictionless_plant_only_steps_per_s": rate_nf.plant_only.round(),
+        "plant_only_steps_per_s": rate.plant_only.round(),
+        "controller_only_steps_per_s": rate.controller_only.round(),
+        "what": "closed loop: plant (ABA, implicit friction, contact) + encoders + mini45 + NAIC pipeline + friction feedforward + actuation, 1 ms period, flat scenario in contact",
+        "in_contact_at_end": last.truth.contact.in_contact,
+        "substeps": plant.substeps,
+        "timed_steps": steps,
+        "repeats": a.repeats,
+    });
+    if !a.no_reference {
+        let script = default_path("bench/reference/mujoco_step_bench.py");
+        let py = python();
+        match std::process::Command::new(&py).arg(&script).output() {
+            Ok(o) if o.status.success() => {
+                let text = String::from_utf8_lossy(&o.stdout);
+                match serde_json::from_str::<serde_json::Value>(text.lines().last().unwrap_or("")) {
+                    Ok(v) => {
+                        if let Some(mj) = v.get("mj_step_per_s").and_then(|x| x.as_f64()) {
+                            out["mujoco_mj_step_per_s"] = serde_json::json!(mj);
+                            out["ratio_vs_mj_step"] = serde_json::json!((rate.closed_loop / mj * 100.0).round() / 100.0);
+                            out["plant_only_ratio_vs_mj_step"] = serde_json::json!((rate.plant_only / mj * 100.0).round() / 100.0);
+                            out["frictionless_plant_only_ratio_vs_mj_step"] =
+                                serde_json::json!((rate_nf.plant_only / mj * 100.0).round() / 100.0);
+                        }
+                        out["mujoco_reference"] = v;
+                    }
+                    Err(e) => eprintln!("naic bench sim: cannot parse the output of {}: {e}", script.display()),
+                }
+            }
+            Ok(o) => eprintln!(
+                "naic bench sim: {} {} failed: {}",
+                py,
+                script.display(),
+                String::from_utf8_lossy(&o.stderr).trim()
+            ),
+            Err(e) => eprintln!("naic bench sim: cannot run {py} (set NAIC_PYTHON or NAIC_VENV): {e}"),
+        }
+    }
+    if a.json {
+        println!("{out}");
+    } else {
+        println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    }
+    Ok(())
 }

@@ -1,0 +1,62 @@
+//! A stateful handle on the simulator for drivers (e.g. the `jk5_sim_driver`
+//! ROS node): the pure [`crate::plant::step`] with its state and workspace
+//! kept inside, one call per control period.
+
+use crate::plant::{self, Observation, PlantParams, PlantState, PlantWorkspace};
+use naic_core::dynamics;
+use naic_core::model::Data6;
+use nalgebra::Vector6;
+
+/// The simulated JK5 + mini45 in one scenario's world.
+pub struct SimArm {
+    params: PlantParams,
+    state: PlantState,
+    ws: PlantWorkspace,
+    obs: Observation,
+    data: Data6,
+}
+
+impl SimArm {
+    /// At rest at `q0`, noise seeded with `seed`. The control period is `params.dt`.
+    pub fn new(params: PlantParams, q0: [f64; 6], seed: u64) -> Self {
+        let mut ws = PlantWorkspace::new(&params);
+        let (state, obs) = plant::observe(&params, &PlantState::at_rest(q0, seed), &mut ws, [0.0; 6], false);
+        let data = Data6::try_new(&params.model).expect("PlantParams checked 6 joints");
+        Self { params, state, ws, obs, data }
+    }
+
+    /// Advance one control period (`params().dt`) under `tau` [N·m] (saturated at the effort limits).
+    pub fn step(&mut self, tau: &[f64; 6]) {
+        (self.state, self.obs) = plant::step(&self.params, &self.state, tau, &mut self.ws);
+    }
+
+    /// Gravity compensation + joint damping at the true state (for a driver's hold).
+    pub fn hold_torque(&mut self, damping: f64) -> [f64; 6] {
+        let g = *dynamics::gravity_torques(&self.params.model, &mut self.data, &Vector6::from(self.state.q));
+        std::array::from_fn(|i| g[i] - damping * self.state.dq[i])
+    }
+
+    /// Measured joint positions [rad], velocities [rad/s], and the applied joint torques [N·m].
+    pub fn joints(&self) -> ([f64; 6], [f64; 6], [f64; 6]) {
+        (self.obs.meas.q, self.obs.meas.dq, self.obs.truth.tau_applied)
+    }
+
+    /// Raw F/T reading in the `ft_sensor` frame (force then torque).
+    pub fn wrench(&self) -> [f64; 6] {
+        self.obs.meas.wrench
+    }
+
+    /// Simulated time [s].
+    pub fn time(&self) -> f64 {
+        self.state.t
+    }
+
+    /// The last observation (measurements and ground truth).
+    pub fn observation(&self) -> &Observation {
+        &self.obs
+    }
+
+    pub fn params(&self) -> &PlantParams {
+        &self.params
+    }
+}

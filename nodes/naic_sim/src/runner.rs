@@ -1,0 +1,274 @@
+//! The closed loop, in process and deterministic: plant + sensor →
+//! controller → torque, one control period per iteration, recording every
+//! period; then metrics, CSV and plots.
+
+use crate::metrics::{controller_metrics, ControllerMetrics, PhaseSpec, PhaseStart};
+use crate::plant::{self, Measurements, Observation, PlantParams, PlantState, PlantWorkspace};
+use crate::scenario::{ReferenceSample, Scenario};
+
+/// What a controller reports besides its torque (for logs and plots).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ControlReport {
+    pub tau: [f64; 6],
+    /// Impedance weights on the force axis (eq 10–15 weights for NAIC).
+    pub m_d: f64,
+    pub b_d: f64,
+    pub sigma: f64,
+    /// Learning rate applied and its eq-15 bound (NAIC).
+    pub gamma: f64,
+    pub gamma_bound: f64,
+    /// The controller's own estimate of f_ext along the force axis [N].
+    pub f_ext: f64,
+    /// 0 free, 1 contact, 2 hold (controller's phase).
+    pub phase: u8,
+}
+
+/// A force-tracking controller as the simulator drives it: measured signals
+/// and the reference in, torque out. Implementations keep their own state and
+/// preallocated workspace (the pure `(params, state, inputs)` step lives
+/// inside; this trait only threads the state through).
+pub trait Controller {
+    /// Name used in files and legends (`naic`, `aic`, `fixed`).
+    fn name(&self) -> &str;
+    fn step(&mut self, meas: &Measurements, reference: &ReferenceSample) -> ControlReport;
+}
+
+/// One recorded control period.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Record {
+    pub t: f64,
+    pub q: [f64; 6],
+    pub dq: [f64; 6],
+    pub tau: [f64; 6],
+    pub tip: [f64; 3],
+    /// Reference tip position.
+    pub p_d: [f64; 3],
+    /// True force the robot applies to the environment along the force axis [N].
+    pub f_ext: f64,
+    /// The controller's estimate of it [N].
+    pub f_ext_est: f64,
+    pub f_d: f64,
+    /// Surface height under the tip [m].
+    pub surface_z: f64,
+    pub penetration: f64,
+    pub in_contact: bool,
+    pub k_e: f64,
+    /// Raw F/T reading (sensor frame).
+    pub wrench: [f64; 6],
+    pub m_d: f64,
+    pub b_d: f64,
+    pub sigma: f64,
+    pub gamma: f64,
+    pub gamma_bound: f64,
+    pub phase: u8,
+    pub saturated: bool,
+}
+
+/// The outcome of one closed-loop run.
+#[derive(Clone, Debug)]
+pub struct RunResult {
+    pub controller: String,
+    pub records: Vec<Record>,
+    pub metrics: ControllerMetrics,
+    /// A joint left its position limits at some point.
+    pub limit_violation: bool,
+    /// Some torque command saturated at some point.
+    pub saturated: bool,
+}
+
+fn record(s: &Scenario, k: usize, obs: &Observation, rep: &ControlReport, reference: &ReferenceSample, ps: &PlantState, p: &PlantParams) -> Record {
+    let tr = &obs.truth;
+    let tip = tr.tip.translation.vector;
+    Record {
+        t: k as f64 * s.dt,
+        q: ps.q,
+        dq: ps.dq,
+        tau: tr.tau_applied,
+        tip: tip.into(),
+        p_d: reference.p_d.into(),
+        // F_robot_on_env = −F_contact
+        f_ext: -s.force_axis.dot(&tr.contact.force),
+        f_ext_est: rep.f_ext,
+        f_d: reference.f_d,
+        surface_z: p.env.height_at(tip.x, tip.y),
+        penetration: tr.contact.penetration,
+        in_contact: tr.contact.in_contact,
+        k_e: tr.contact.k_e,
+        wrench: obs.meas.wrench,
+        m_d: rep.m_d,
+        b_d: rep.b_d,
+        sigma: rep.sigma,
+        gamma: rep.gamma,
+        gamma_bound: rep.gamma_bound,
+        phase: rep.phase,
+        saturated: tr.saturated,
+    }
+}
+
+/// Run `scenario` with `controller` on the plant `p` from rest at
+/// `scenario.q0`. `progress(fraction)` is called about 100 times.
+/// The loop itself does not allocate (the record buffer is reserved up front).
+pub fn run(s: &Scenario, p: &PlantParams, controller: &mut dyn Controller, progress: &mut dyn FnMut(f64)) -> RunResult {
+    let n = s.steps();
+    let mut ws = PlantWorkspace::new(p);
+    let state0 = PlantState::at_rest(s.q0, s.seed);
+    let (mut state, mut obs) = plant::observe(p, &state0, &mut ws, [0.0; 6], false);
+    let mut records = Vec::with_capacity(n + 1);
+    let mut limit_violation = false;
+    let mut saturated = false;
+    let every = (n / 100).max(1);
+    for k in 0..=n {
+        let reference = s.reference(k as f64 * s.dt);
+        let rep = controller.step(&obs.meas, &reference);
+        records.push(record(s, k, &obs, &rep, &reference, &state, p));
+        limit_violation |= obs.truth.limit_violation;
+        saturated |= obs.truth.saturated;
+        if k == n {
+            break;
+        }
+        (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+        if k % every == 0 {
+            progress(k as f64 / n as f64);
+        }
+    }
+    progress(1.0);
+    let metrics = metrics_of(s, &records);
+    RunResult { controller: controller.name().to_string(), records, metrics, limit_violation, saturated }
+}
+
+/// Contact time and phase metrics of a recorded run.
+pub fn metrics_of(s: &Scenario, records: &[Record]) -> ControllerMetrics {
+    let t: Vec<f64> = records.iter().map(|r| r.t).collect();
+    let f: Vec<f64> = records.iter().map(|r| r.f_ext).collect();
+    let c: Vec<bool> = records.iter().map(|r| r.in_contact).collect();
+    let mut events = s.events();
+    // A change of the material under the tip (two-material surface) starts a
+    // phase too, like a scheduled stiffness step.
+    for w in records.windows(2) {
+        if w[1].k_e != w[0].k_e && w[1].in_contact && !events.iter().any(|e| (e.t_start - w[1].t).abs() < 1.5 * s.dt) {
+            events.push(PhaseSpec { t_start: w[1].t, desired_force: w[1].f_d, start: PhaseStart::Disturbance });
+        }
+    }
+    events.sort_by(|a, b| a.t_start.total_cmp(&b.t_start));
+    controller_metrics(&t, &f, &c, |t| s.f_d(t), &events)
+}
+
+/// The records as CSV (one row per control period).
+pub fn to_csv(records: &[Record]) -> String {
+    use std::fmt::Write;
+    let mut out = String::with_capacity(records.len() * 400);
+    out.push_str("t,q1,q2,q3,q4,q5,q6,dq1,dq2,dq3,dq4,dq5,dq6,tau1,tau2,tau3,tau4,tau5,tau6,");
+    out.push_str("tip_x,tip_y,tip_z,p_d_x,p_d_y,p_d_z,f_ext,f_ext_est,f_d,surface_z,penetration,in_contact,k_e,");
+    out.push_str("ft_fx,ft_fy,ft_fz,ft_tx,ft_ty,ft_tz,m_d,b_d,sigma,gamma,gamma_bound,phase,saturated\n");
+    for r in records {
+        let _ = write!(out, "{:.4}", r.t);
+        for v in r.q.iter().chain(&r.dq).chain(&r.tau).chain(&r.tip).chain(&r.p_d) {
+            let _ = write!(out, ",{v:.7}");
+        }
+        let _ = write!(
+            out,
+            ",{:.5},{:.5},{:.3},{:.6},{:.7},{},{}",
+            r.f_ext, r.f_ext_est, r.f_d, r.surface_z, r.penetration, r.in_contact as u8, r.k_e
+        );
+        for v in &r.wrench {
+            let _ = write!(out, ",{v:.5}");
+        }
+        let _ = writeln!(
+            out,
+            ",{:.6},{:.6},{:.6},{:.6e},{:.6e},{},{}",
+            r.m_d, r.b_d, r.sigma, r.gamma, r.gamma_bound, r.phase, r.saturated as u8
+        );
+    }
+    out
+}
+
+/// Closed-loop throughput (steps per second, medians over repeats).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopThroughput {
+    /// Plant + sensors + controller, one control period per step.
+    pub closed_loop: f64,
+    /// The plant alone (same torque sequence replayed, same start state).
+    pub plant_only: f64,
+    /// The controller alone (same measurement sequence).
+    pub controller_only: f64,
+}
+
+/// Closed-loop throughput: run `s` with `controller` up to `t_start` (e.g. in
+/// contact), then time `steps` periods of plant + sensor + controller from
+/// that state, `repeats` times (each from the same saved state; no
+/// recording inside the timed loop). Also times the plant alone on the
+/// torques of the first repeat and the controller alone on its measurements.
+pub fn bench_closed_loop<C: Controller + Clone>(
+    s: &Scenario,
+    p: &PlantParams,
+    controller: &C,
+    t_start: f64,
+    steps: usize,
+    repeats: usize,
+) -> (LoopThroughput, Observation) {
+    let mut ws = PlantWorkspace::new(p);
+    let mut c = controller.clone();
+    let (mut state, mut obs) = plant::observe(p, &PlantState::at_rest(s.q0, s.seed), &mut ws, [0.0; 6], false);
+    let k0 = (t_start / s.dt).round() as usize;
+    for k in 0..k0 {
+        let rep = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+        (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+    }
+    let (state0, obs0, c0) = (state, obs, c.clone());
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    // recorded once, outside the timed loops
+    let mut taus = Vec::with_capacity(steps);
+    let mut meas = Vec::with_capacity(steps);
+    {
+        let (mut state, mut obs, mut c) = (state0, obs0, c0.clone());
+        for k in k0..k0 + steps {
+            meas.push(obs.meas);
+            let rep = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+            taus.push(rep.tau);
+            (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+        }
+    }
+    let repeats = repeats.max(1);
+    let (mut closed, mut plant_only, mut ctrl_only) = (Vec::new(), Vec::new(), Vec::new());
+    let mut last = obs0;
+    for _ in 0..repeats {
+        let (mut state, mut obs, mut c) = (state0, obs0, c0.clone());
+        let t0 = std::time::Instant::now();
+        for k in k0..k0 + steps {
+            let rep = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+            (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+        }
+        closed.push(steps as f64 / t0.elapsed().as_secs_f64());
+        last = std::hint::black_box(obs);
+
+        let mut state = state0;
+        let t0 = std::time::Instant::now();
+        for tau in &taus {
+            let (st, o) = plant::step(p, &state, tau, &mut ws);
+            state = st;
+            std::hint::black_box(&o);
+        }
+        plant_only.push(steps as f64 / t0.elapsed().as_secs_f64());
+
+        let mut c = c0.clone();
+        let t0 = std::time::Instant::now();
+        for (i, m) in meas.iter().enumerate() {
+            let rep = c.step(m, &s.reference((k0 + i) as f64 * s.dt));
+            std::hint::black_box(&rep);
+        }
+        ctrl_only.push(steps as f64 / t0.elapsed().as_secs_f64());
+    }
+    let thr = LoopThroughput { closed_loop: median(closed), plant_only: median(plant_only), controller_only: median(ctrl_only) };
+    (thr, last)
+}
+
+/// RMS of `f_ext − f_d` from the first contact to the end of the run [N]
+/// (`None` without contact).
+pub fn contact_rms(records: &[Record]) -> Option<f64> {
+    let i0 = records.iter().position(|r| r.in_contact)?;
+    let n = (records.len() - i0) as f64;
+    Some((records[i0..].iter().map(|r| (r.f_ext - r.f_d).powi(2)).sum::<f64>() / n).sqrt())
+}

@@ -1,0 +1,272 @@
+//! ATI mini45 six-axis force/torque sensor at the `ft_sensor` frame, and the
+//! joint encoders.
+//!
+//! What the F/T sensor reports (team convention, BRIEF.md): the wrench the
+//! tool (sensor + rod beyond the measuring plane, 0.424 kg, centre of mass
+//! 0.015 m along the sensor z axis — the `ft_sensor` link inertial of
+//! `urdf/jk5.urdf`, from the authors' MJCF `ee_link`) exerts on the sensor, in
+//! the `ft_sensor` frame, force then torque, about the sensor origin. In static
+//! equilibrium that is the tool weight plus the contact force at the tip:
+//! `F = m g + F_contact`, `T = r_com × m g + r_tip × F_contact`
+//! (`r_tip` = 0.169 m along the sensor z axis). **Inertial forces of the tool
+//! are not included** (static weight only): at the accelerations of these
+//! scenarios (< 1 m/s²) they would add < 0.42 N.
+//!
+//! Errors added on top, in this order: a constant bias (drawn once per run
+//! from the seed), white Gaussian noise, saturation at the calibrated range,
+//! quantisation to the resolution. Range and resolution are the ATI Mini45
+//! datasheet figures for the SI-145-5 calibration as quoted in the team
+//! brief (range ±145 N Fx/Fy, ±290 N Fz, ±5 N·m torques; resolution 1/16 N
+//! for forces, 1/752 N·m for torques — the datasheet's DAQ/Net F/T class).
+//! The noise σ equals one resolution step (our choice: ATI quotes resolution
+//! as the smallest change above noise). Bias magnitude (±1 N, ±0.02 N·m) is
+//! our choice for an un-tared strain-gauge sensor. The sensor is sampled at
+//! the control rate (1 kHz; the mini45 electronics go up to 7 kHz, §5.2.1).
+
+use crate::rng::Rng;
+use nalgebra::{Rotation3, Vector3};
+
+/// Parameters of the F/T sensor model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mini45 {
+    /// ± saturation per axis (Fx, Fy, Fz [N], Tx, Ty, Tz [N·m]).
+    pub range: [f64; 6],
+    /// Quantisation step per axis.
+    pub resolution: [f64; 6],
+    /// Standard deviation of the white noise per axis.
+    pub noise_sigma: [f64; 6],
+    /// Constant bias added to every reading (drawn per run).
+    pub bias: [f64; 6],
+    /// Tool mass beyond the measuring plane [kg].
+    pub tool_mass: f64,
+    /// Tool centre of mass in the sensor frame [m].
+    pub tool_com: Vector3<f64>,
+    /// Gravity, base frame [m/s²].
+    pub gravity: Vector3<f64>,
+}
+
+/// SI-145-5 range (ATI Mini45 datasheet, via the team brief).
+pub const MINI45_SI_145_5_RANGE: [f64; 6] = [145.0, 145.0, 290.0, 5.0, 5.0, 5.0];
+/// SI-145-5 resolution class (ATI Mini45 datasheet, via the team brief).
+pub const MINI45_SI_145_5_RESOLUTION: [f64; 6] =
+    [1.0 / 16.0, 1.0 / 16.0, 1.0 / 16.0, 1.0 / 752.0, 1.0 / 752.0, 1.0 / 752.0];
+
+impl Mini45 {
+    /// The SI-145-5 model with the tool of the authors' MJCF and a bias drawn
+    /// from `rng` (uniform in ±1 N / ±0.02 N·m).
+    pub fn si_145_5(tool_mass: f64, tool_com: Vector3<f64>, rng: &mut Rng) -> Self {
+        let mut bias = [0.0; 6];
+        for (i, b) in bias.iter_mut().enumerate() {
+            *b = rng.symmetric(if i < 3 { 1.0 } else { 0.02 });
+        }
+        Self {
+            range: MINI45_SI_145_5_RANGE,
+            resolution: MINI45_SI_145_5_RESOLUTION,
+            noise_sigma: MINI45_SI_145_5_RESOLUTION,
+            bias,
+            tool_mass,
+            tool_com,
+            gravity: Vector3::new(0.0, 0.0, -9.81),
+        }
+    }
+
+    /// A perfect sensor (no bias, noise, saturation or quantisation), same tool.
+    pub fn ideal(&self) -> Self {
+        Self {
+            range: [f64::INFINITY; 6],
+            resolution: [0.0; 6],
+            noise_sigma: [0.0; 6],
+            bias: [0.0; 6],
+            ..self.clone()
+        }
+    }
+
+    /// The true wrench the tool exerts on the sensor, sensor frame.
+    /// `r_ws`: orientation of the sensor frame in the base frame;
+    /// `r_tip`: tip origin minus sensor origin, base frame;
+    /// `f_contact`: force of the environment on the tip, base frame.
+    pub fn true_wrench(&self, r_ws: &Rotation3<f64>, r_tip: &Vector3<f64>, f_contact: &Vector3<f64>) -> [f64; 6] {
+        let weight = self.gravity * self.tool_mass;
+        let r_com = r_ws * self.tool_com;
+        let f_world = weight + f_contact;
+        let t_world = r_com.cross(&weight) + r_tip.cross(f_contact);
+        let f = r_ws.inverse_transform_vector(&f_world);
+        let t = r_ws.inverse_transform_vector(&t_world);
+        [f.x, f.y, f.z, t.x, t.y, t.z]
+    }
+
+    /// One reading: true wrench + bias + noise, saturated and quantised.
+    pub fn measure(
+        &self,
+        r_ws: &Rotation3<f64>,
+        r_tip: &Vector3<f64>,
+        f_contact: &Vector3<f64>,
+        rng: &mut Rng,
+    ) -> [f64; 6] {
+        let w = self.true_wrench(r_ws, r_tip, f_contact);
+        let mut out = [0.0; 6];
+        for i in 0..6 {
+            let mut v = w[i] + self.bias[i];
+            if self.noise_sigma[i] > 0.0 {
+                v += self.noise_sigma[i] * rng.gaussian();
+            }
+            v = v.clamp(-self.range[i], self.range[i]);
+            if self.resolution[i] > 0.0 {
+                v = (v / self.resolution[i]).round() * self.resolution[i];
+            }
+            out[i] = v;
+        }
+        out
+    }
+}
+
+/// Joint encoders and the drive's velocity signal.
+///
+/// Position: quantised to `counts_per_rev` counts per joint revolution.
+/// JAKA publishes no encoder figure; we use 2^20 counts/rev (≈ 6.0 µrad), the
+/// class of the 20-bit absolute encoders common on cobot joints (our choice).
+/// Velocity: the true joint velocity plus white Gaussian noise of
+/// `velocity_noise_sigma` rad/s (our choice 0.002 rad/s; the paper's Fig 5
+/// shows the drive's velocity is noisy enough to need a median filter, but
+/// gives no number). The controller side may median-filter it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Encoders {
+    pub counts_per_rev: f64,
+    pub velocity_noise_sigma: f64,
+}
+
+impl Default for Encoders {
+    fn default() -> Self {
+        Self { counts_per_rev: (1u64 << 20) as f64, velocity_noise_sigma: 0.002 }
+    }
+}
+
+impl Encoders {
+    /// Perfect encoders.
+    pub fn ideal() -> Self {
+        Self { counts_per_rev: f64::INFINITY, velocity_noise_sigma: 0.0 }
+    }
+
+    pub fn resolution_rad(&self) -> f64 {
+        2.0 * std::f64::consts::PI / self.counts_per_rev
+    }
+
+    pub fn measure(&self, q: &[f64; 6], dq: &[f64; 6], rng: &mut Rng) -> ([f64; 6], [f64; 6]) {
+        let step = self.resolution_rad();
+        let mut qm = *q;
+        let mut dqm = *dq;
+        for i in 0..6 {
+            if step > 0.0 {
+                qm[i] = (q[i] / step).round() * step;
+            }
+            if self.velocity_noise_sigma > 0.0 {
+                dqm[i] += self.velocity_noise_sigma * rng.gaussian();
+            }
+        }
+        (qm, dqm)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Tool pointing down: sensor z = −base z (180° about base y).
+    fn down() -> Rotation3<f64> {
+        Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI)
+    }
+
+    fn tool() -> Mini45 {
+        Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(1)).ideal()
+    }
+
+    #[test]
+    fn static_weight_reads_along_sensor_z_and_contact_adds() {
+        let s = tool();
+        let r_tip = down() * Vector3::new(0.0, 0.0, 0.169);
+        // free space, tool pointing down: the tool pulls the sensor towards +z_s
+        let w = s.true_wrench(&down(), &r_tip, &Vector3::zeros());
+        assert!((w[2] - 0.424 * 9.81).abs() < 1e-12, "{w:?}");
+        assert!(w[0].abs() < 1e-12 && w[1].abs() < 1e-12);
+        assert!(w[3..].iter().all(|t| t.abs() < 1e-12), "COM on the axis: no torque");
+        // pushing 10 N on the table: the sensor reads −10 N more along z_s
+        // (the paper's "−10 N in the sensor frame", §5.2.1)
+        let w = s.true_wrench(&down(), &r_tip, &Vector3::new(0.0, 0.0, 10.0));
+        assert!((w[2] - (0.424 * 9.81 - 10.0)).abs() < 1e-12);
+        // tangential contact force 2 N along base x at 0.169 m lever arm
+        let w = s.true_wrench(&down(), &r_tip, &Vector3::new(2.0, 0.0, 0.0));
+        let t_norm = (w[3] * w[3] + w[4] * w[4] + w[5] * w[5]).sqrt();
+        assert!((t_norm - 2.0 * 0.169).abs() < 1e-12);
+    }
+
+    #[test]
+    fn horizontal_tool_weight_makes_a_moment() {
+        let s = tool();
+        // sensor z along base x: COM lever 0.015 m, weight 4.16 N
+        let r = Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::FRAC_PI_2);
+        let w = s.true_wrench(&r, &(r * Vector3::new(0.0, 0.0, 0.169)), &Vector3::zeros());
+        let t_norm = (w[3] * w[3] + w[4] * w[4] + w[5] * w[5]).sqrt();
+        assert!((t_norm - 0.424 * 9.81 * 0.015).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bias_noise_saturation_and_quantisation() {
+        let mut rng = Rng::seed(3);
+        let s = Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut rng);
+        assert!(s.bias[..3].iter().all(|b| b.abs() <= 1.0) && s.bias.iter().any(|b| *b != 0.0));
+        let r_tip = down() * Vector3::new(0.0, 0.0, 0.169);
+        let f = Vector3::new(0.0, 0.0, 10.0);
+        let truth = s.true_wrench(&down(), &r_tip, &f);
+        let n = 20_000;
+        let mut mean = [0.0; 6];
+        for _ in 0..n {
+            let m = s.measure(&down(), &r_tip, &f, &mut rng);
+            for i in 0..6 {
+                // quantised to the resolution grid
+                let k = m[i] / s.resolution[i];
+                assert!((k - k.round()).abs() < 1e-6);
+                mean[i] += m[i] / n as f64;
+            }
+        }
+        for i in 0..6 {
+            // the mean reading is truth + bias (noise averages out)
+            assert!((mean[i] - truth[i] - s.bias[i]).abs() < 0.1 * s.resolution[i] + 1e-4, "axis {i}");
+        }
+        // saturation: 400 N pushing saturates Fz at the 290 N range
+        let m = s.measure(&down(), &r_tip, &Vector3::new(0.0, 0.0, 400.0), &mut rng);
+        assert_eq!(m[2], -290.0);
+        let m = s.measure(&down(), &r_tip, &Vector3::new(200.0, 0.0, 0.0), &mut rng);
+        assert_eq!(m[0].abs(), 145.0);
+    }
+
+    #[test]
+    fn encoders_quantise_and_add_velocity_noise() {
+        let e = Encoders::default();
+        let mut rng = Rng::seed(5);
+        let q = [0.1234567, -1.0, 2.0, 0.0, 1e-7, 3.0];
+        let (qm, dqm) = e.measure(&q, &[0.0; 6], &mut rng);
+        for i in 0..6 {
+            assert!((qm[i] - q[i]).abs() <= 0.5 * e.resolution_rad() + 1e-15);
+            let k = qm[i] / e.resolution_rad();
+            assert!((k - k.round()).abs() < 1e-6);
+        }
+        assert_eq!(qm[4], 0.0, "below half a count reads zero");
+        assert!(dqm.iter().any(|v| *v != 0.0));
+        let (qi, dqi) = Encoders::ideal().measure(&q, &[0.5; 6], &mut rng);
+        assert_eq!(qi, q);
+        assert_eq!(dqi, [0.5; 6]);
+    }
+}
+
+/// The tool of the `ft_sensor` link of a URDF: its mass [kg] and centre of
+/// mass in the sensor frame [m] (the `<inertial>` of link `ft_sensor`).
+pub fn tool_from_urdf(path: &std::path::Path) -> Result<(f64, Vector3<f64>), String> {
+    let robot = urdf_rs::read_file(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let l = robot
+        .links
+        .iter()
+        .find(|l| l.name == "ft_sensor")
+        .ok_or_else(|| format!("{}: no link 'ft_sensor' (the F/T sensor + tool link) in the URDF", path.display()))?;
+    let o = l.inertial.origin.xyz;
+    Ok((l.inertial.mass.value, Vector3::new(o[0], o[1], o[2])))
+}

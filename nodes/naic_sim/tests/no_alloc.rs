@@ -1,0 +1,60 @@
+//! The 1 kHz path does not touch the heap: one plant step (with friction and
+//! contact) and one controller step, counted with a global allocator.
+
+use naic_core::friction::{FrictionParams, Smoothing, DEFAULT_V_S};
+use naic_core::model::Model;
+use naic_core::pipeline::control::force_law::Mode;
+use naic_sim::controllers::{LoopSettings, PipelineController};
+use naic_sim::plant::{self, Integrator, PlantParams, PlantState, PlantWorkspace};
+use naic_sim::rng::Rng;
+use naic_sim::runner::Controller;
+use naic_sim::scenario;
+use naic_sim::sensor::{Encoders, Mini45};
+use nalgebra::Vector3;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct Counting;
+static ALLOCS: AtomicUsize = AtomicUsize::new(0);
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        unsafe { System.dealloc(p, l) }
+    }
+}
+#[global_allocator]
+static A: Counting = Counting;
+
+#[test]
+fn plant_and_controller_steps_do_not_allocate() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+    let m = Model::from_urdf_file(format!("{root}/urdf/jk5.urdf")).unwrap();
+    let f = FrictionParams::from_yaml_file(format!("{root}/params/friction_jk5.yaml"))
+        .unwrap()
+        .to_model()
+        .unwrap()
+        .with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S })
+        .unwrap();
+    let s = scenario::preset("flat", &m).unwrap();
+    let ft = Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(1));
+    let p = PlantParams::new(m.clone(), Some(f.clone()), Integrator::ImplicitFriction, 1e-3, 2, s.env.clone(), ft, Encoders::default()).unwrap();
+    let mut c = PipelineController::new(Mode::Naic, &s, &m, Some(f), 0.424, Vector3::new(0.0, 0.0, 0.015), &LoopSettings::default()).unwrap();
+    let mut ws = PlantWorkspace::new(&p);
+    let (mut st, mut obs) = plant::observe(&p, &PlantState::at_rest(s.q0, 1), &mut ws, [0.0; 6], false);
+    // run into contact first (allocation-free too, but counted only below)
+    for k in 0..1700 {
+        let rep = c.step(&obs.meas, &s.reference(k as f64 * 1e-3));
+        (st, obs) = plant::step(&p, &st, &rep.tau, &mut ws);
+    }
+    assert!(obs.truth.contact.in_contact, "the check must cover the contact path");
+    let before = ALLOCS.load(Ordering::SeqCst);
+    for k in 1700..1800 {
+        let rep = c.step(&obs.meas, &s.reference(k as f64 * 1e-3));
+        (st, obs) = plant::step(&p, &st, &rep.tau, &mut ws);
+    }
+    let after = ALLOCS.load(Ordering::SeqCst);
+    assert_eq!(after - before, 0, "{} heap allocations in 100 closed-loop periods", after - before);
+}
