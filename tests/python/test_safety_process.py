@@ -114,10 +114,17 @@ def test_process_fault_driver_watchdog_holds_within_20ms(run):
         last_tau = list(last.data)
         src = _src_ns(last)
         assert src is not None, "commands carry their source stamp"
+        def same(m):
+            return max(abs(a - b) for a, b in zip(m.effort, last_tau)) <= 1e-9
         after = [m for m in js if _stamp_ns(m) > src]
-        first_hold = next((m for m in after if max(abs(a - b) for a, b in zip(m.effort, last_tau)) > 1e-9), None)
+        # The first state on which the driver had applied the last command, then the first
+        # on which it no longer does (its own hold).
+        i_applied = next((i for i, m in enumerate(after) if same(m)), None)
+        assert i_applied is not None, f"{node}: the last command was never applied"
+        first_hold = next((m for m in after[i_applied:] if not same(m)), None)
         assert first_hold is not None, f"{node} killed: the driver kept applying the old torque"
         delay = (_stamp_ns(first_hold) - src) * 1e-9
+        print(f"{node}: old torque applied until {delay * 1e3:.1f} ms after its source state")
         # The old torque may be applied for at most the timeout + loop latency + 2 cycles (+ scheduling
         # slack on a loaded 2-core machine).
         assert delay <= COMMAND_TIMEOUT + 0.015, f"{node}: hold after {delay * 1e3:.1f} ms"
