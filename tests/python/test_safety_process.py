@@ -28,6 +28,7 @@ from std_msgs.msg import Float64MultiArray  # noqa: E402
 
 RATE_LIMIT = 1.0  # params/friction_compensation.yaml torque_rate_limit [N m per cycle]
 COMMAND_TIMEOUT = 0.020  # params/jk5_sim_driver.yaml command_timeout [s]
+TAKEOVER_GAP = 0.005  # friction_compensation takeover_gap default [s]
 
 
 def _stamp_ns(m):
@@ -123,14 +124,15 @@ def test_process_fault_driver_watchdog_holds_within_20ms(run):
         assert i_applied is not None, f"{node}: the last command was never applied"
         first_hold = next((m for m in after[i_applied:] if not same(m)), None)
         assert first_hold is not None, f"{node} killed: the driver kept applying the old torque"
-        delay = (_stamp_ns(first_hold) - src) * 1e-9
-        print(f"{node}: old torque applied until {delay * 1e3:.1f} ms after its source state")
-        # The old torque may be applied for at most the timeout + loop latency + 2 cycles (+ scheduling
-        # slack on a loaded 2-core machine).
-        assert delay <= COMMAND_TIMEOUT + 0.015, f"{node}: hold after {delay * 1e3:.1f} ms"
+        # The command arrived before the first state that shows it applied: the watchdog
+        # counts from its arrival.
+        delay = (_stamp_ns(first_hold) - _stamp_ns(after[i_applied])) * 1e-9
+        print(f"{node}: old torque applied for {delay * 1e3:.1f} ms after the last command")
+        # At most the timeout + 2 cycles (+ scheduling slack on a loaded 2-core machine).
+        assert delay <= COMMAND_TIMEOUT + 0.010, f"{node}: hold after {delay * 1e3:.1f} ms"
         # And while the node is dead the driver holds: effort is the hold (damping only on this plant),
         # never the old command.
-        dead = [m for t, m in run["js"] if ev["kill"] + 0.1 < t < ev["restart"]]
+        dead = [m for t, m in run["js"] if _stamp_ns(m) >= _stamp_ns(first_hold) and t < ev["restart"]]
         assert len(dead) > 100, f"driver stopped publishing while {node} was dead"
         assert all(max(abs(a - b) for a, b in zip(m.effort, last_tau)) > 1e-9 for m in dead)
         assert ev["cmds_while_dead"] == 0, ev
@@ -138,25 +140,48 @@ def test_process_fault_driver_watchdog_holds_within_20ms(run):
     assert "commands resumed" in run["logs"]["jk5_sim_driver"]
 
 
-def test_process_fault_takeover_has_no_torque_step_above_the_rate_limit_on_the_wire(run):
+def _state_at(js_sorted, stamps, src):
+    """The newest driver state at or before `src` (within 3 ms): the torque applied then."""
+    import bisect
+    k = bisect.bisect_right(stamps, src) - 1
+    if k < 0 or src - stamps[k] > 3_000_000:
+        return None
+    return js_sorted[k]
+
+
+def test_process_fault_every_command_moves_by_at_most_the_rate_limit(run):
+    """Every /joint_effort_cmd, over the whole run with both outages, is within the rate
+    limit of the previous command, or (after a gap: a restarted node, or the driver holding
+    meanwhile) within the rate limit of the torque the driver applied in the state the
+    command was computed from. The first command after each restart is checked by the
+    second rule explicitly."""
+    js_sorted = sorted((m for _, m in run["js"]), key=_stamp_ns)
+    stamps = [_stamp_ns(m) for m in js_sorted]
     cmds = [m for _, m in run["cmds"]]
-    worst = 0.0
+    slack = 0.1  # the hold torque's own change between the state used and the newest one
+    bad, unverified, from_state = [], 0, 0
     for a, b in zip(cmds, cmds[1:]):
         assert all(math.isfinite(x) for x in b.data)
-        worst = max(worst, max(abs(x - y) for x, y in zip(a.data, b.data)))
-    assert worst <= RATE_LIMIT + 1e-9, f"largest step between consecutive /joint_effort_cmd: {worst:.3f} N m"
-
-
-def test_process_fault_takeover_applied_torque_has_no_step_above_the_rate_limit(run):
-    """The torque the driver actually applies (/joint_states effort) around each outage:
-    old command → hold → new command. The step into the first new command must be within
-    the rate limit of the hold torque the arm had."""
-    js = run["js"]
-    for node, ev in run["events"].items():
-        window = [m for t, m in js if ev["restart"] - 0.3 < t < ev["resumed"] + 0.5]
-        steps = [max(abs(x - y) for x, y in zip(a.effort, b.effort)) for a, b in zip(window, window[1:])]
-        assert steps, node
-        assert max(steps) <= RATE_LIMIT + 1e-6, f"{node} restart: applied torque stepped {max(steps):.3f} N m"
+        if max(abs(x - y) for x, y in zip(a.data, b.data)) <= RATE_LIMIT + 1e-9:
+            continue
+        st = _state_at(js_sorted, stamps, _src_ns(b))
+        if st is None:
+            unverified += 1
+            continue
+        from_state += 1
+        jump = max(abs(x - y) for x, y in zip(b.data, st.effort))
+        if jump > RATE_LIMIT + slack:
+            bad.append((jump, list(st.effort), list(b.data)))
+    firsts = [next(m for t, m in run["cmds"] if t > ev["restart"]) for ev in run["events"].values()]
+    for k, cmd in enumerate(firsts):
+        st = _state_at(js_sorted, stamps, _src_ns(cmd))
+        assert st is not None, f"restart {k}: source state not received by the test"
+        jump = max(abs(x - y) for x, y in zip(cmd.data, st.effort))
+        print(f"restart {k}: first command {jump:.3f} N m from the applied torque")
+        assert jump <= RATE_LIMIT + slack, f"restart {k}: first command {jump:.3f} N m from the applied torque"
+    print(f"{len(cmds)} commands; {from_state} re-seeded from the applied torque; {unverified} unverifiable")
+    assert not bad, f"{len(bad)} commands jumped: {bad[:3]}"
+    assert unverified <= max(2, len(cmds) // 1000), unverified
 
 
 def test_process_fault_recording_keeps_everything_it_received(run):

@@ -144,8 +144,10 @@ fn run() -> Result<(), RosError> {
         // Smooth take-over (first command, or after a gap in which the driver held the arm
         // itself): the rate limit starts from the torque the arm has now.
         if !act_s.started || wall_ns().saturating_sub(last_pub_ns) > gap_ns {
-            if let Some(e) = effort_meas {
-                act_s = actuate::ActuateState { tau_prev: e, started: true };
+            match effort_meas {
+                Some(e) => act_s = actuate::ActuateState { tau_prev: e, started: true },
+                // Not yet known what the arm gets: publish nothing (the driver holds).
+                None => continue,
             }
         }
         let (s, r) = actuate::step(&act_p, &act_s, &tau);
