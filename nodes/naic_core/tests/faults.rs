@@ -89,9 +89,12 @@ impl Rig {
     }
 }
 
-/// Every way a cycle's measurements can be bad, with the signal the fault must name.
-fn injections(p: &ControllerParams) -> Vec<(String, Box<dyn Fn(&mut RawMeasurements)>, Signal)> {
-    let mut v: Vec<(String, Box<dyn Fn(&mut RawMeasurements)>, Signal)> = Vec::new();
+/// One injected fault: what it is, how it damages a cycle's measurements, which signal the fault must name.
+type Injection = (String, Box<dyn Fn(&mut RawMeasurements)>, Signal);
+
+/// Every way a cycle's measurements can be bad.
+fn injections(p: &ControllerParams) -> Vec<Injection> {
+    let mut v: Vec<Injection> = Vec::new();
     let sp = p.sense;
     for i in 0..6 {
         for (bad, label) in [(f64::NAN, "NaN"), (f64::INFINITY, "+Inf"), (f64::NEG_INFINITY, "-Inf")] {
