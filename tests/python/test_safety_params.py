@@ -66,6 +66,8 @@ CASES = [
     ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE, float("inf")), "finite"),
     ("friction_compensation", Parameter("friction_file", P.STRING, "/nonexistent.yaml"), "/nonexistent.yaml"),
     ("friction_compensation", Parameter("urdf", P.STRING, "x.urdf"), "read-only"),
+    ("friction_compensation", Parameter("effort_limit", P.DOUBLE_ARRAY, [1000.0] * 6), "above the URDF effort limit"),
+    ("friction_compensation", Parameter("effort_limit", P.DOUBLE_ARRAY, [-1.0] + [10.0] * 5), "outside its range"),
     ("naic_controller", Parameter("no_such_param", P.DOUBLE, 1.0), "not declared"),
     ("naic_controller", Parameter("desired_force", P.DOUBLE, -5.0), "outside its range"),
     ("naic_controller", Parameter("desired_force", P.DOUBLE, 1e6), "outside its range"),
@@ -121,3 +123,23 @@ def test_params_in_range_values_are_accepted(nodes):
         res = _set(r, clients[node], [param])
         assert res[0].successful, (node, res[0].reason)
         assert _get(r, clients[node], [param.name]) == [param.value]
+
+
+def test_params_effort_limit_saturates_the_published_command(nodes):
+    """friction_compensation's per-joint saturation is a live parameter: after setting it,
+    no /joint_effort_cmd exceeds it (the chain runs: all three nodes are up)."""
+    from std_msgs.msg import Float64MultiArray
+    r, clients = nodes
+    c = clients["friction_compensation"]
+    default = _get(r, c, ["effort_limit"])[0]
+    got = []
+    sub = r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd", lambda m: got.append(list(m.data)), 1000)
+    assert r.spin_until(lambda: len(got) > 50, 20), "no commands from the chain"
+    lim = [3.0, 3.0, 2.0, 1.0, 1.0, 0.5]
+    assert _set(r, c, [Parameter("effort_limit", P.DOUBLE_ARRAY, lim)])[0].successful
+    r.spin(0.3)  # commands in flight before the change
+    got.clear()
+    assert r.spin_until(lambda: len(got) > 200, 20)
+    assert all(abs(x) <= l + 1e-12 for cmd in got for x, l in zip(cmd, lim)), max(max(map(abs, g)) for g in got)
+    assert _set(r, c, [Parameter("effort_limit", P.DOUBLE_ARRAY, default)])[0].successful
+    r.node.destroy_subscription(sub)

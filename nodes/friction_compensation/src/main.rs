@@ -28,8 +28,12 @@ use naic_ros::{
     ParamSpec, ParamView, ParameterValue, RosArgs, RosError, RosNode,
 };
 
-fn specs() -> Vec<ParamSpec> {
+/// Largest effort limit a parameter may set when the URDF gives none [N m].
+const EFFORT_CAP: f64 = 10_000.0;
+
+fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
     vec![
+        ParamSpec::doubles("effort_limit", urdf_effort, 0.0, EFFORT_CAP, "Per-joint torque saturation [N m], at most the URDF effort limit (default: the URDF's)"),
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model: effort limits of the actuation guard").read_only(),
         ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Friction model YAML (naic_core::friction format; Table 1 of the paper by default)"),
         ParamSpec::boolean("enabled", true, "Add the friction feedforward (false: pass the controller torque through the actuation guard only)"),
@@ -75,11 +79,17 @@ fn run() -> Result<(), RosError> {
         if l.len() != 6 {
             return Err(RosError::Param(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
         }
-        std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i] } else { f64::INFINITY })
+        std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i].min(EFFORT_CAP) } else { EFFORT_CAP })
     };
-    // A friction file that does not load is rejected like any bad value.
-    let check: naic_ros::params::SetCheck = Box::new(|p: &ParamView| load_model(p).map(|_| ()));
-    let mut node = RosNode::new(args, "friction_compensation", specs(), Some(check))?;
+    // A friction file that does not load, or a saturation above the URDF's, is rejected like any bad value.
+    let check: naic_ros::params::SetCheck = Box::new(move |p: &ParamView| {
+        let e = p.f64s("effort_limit");
+        if let Some(i) = (0..6).find(|&i| e[i] > effort_limit[i]) {
+            return Err(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], effort_limit[i], i + 1));
+        }
+        load_model(p).map(|_| ())
+    });
+    let mut node = RosNode::new(args, "friction_compensation", specs(&effort_limit), Some(check))?;
     let mut cmd_sub = node.subscription::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     let js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let cmd_pub = node.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB)?;
@@ -109,6 +119,8 @@ fn run() -> Result<(), RosError> {
                 enabled = p.bool("enabled");
                 js_timeout_ns = (p.f64("joint_state_timeout") * 1e9) as i64;
                 act_p.max_delta = [p.f64("torque_rate_limit"); 6];
+                let e = p.f64s("effort_limit");
+                act_p.effort_limit = std::array::from_fn(|i| e[i]);
                 gap_ns = (p.f64("takeover_gap") * 1e9) as i64;
                 match load_model(p) {
                     Ok(m) => model = m,
