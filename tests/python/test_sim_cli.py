@@ -32,7 +32,8 @@ def test_sim_writes_metrics_csv_and_svg(naic_bin, root, tmp_path):
             assert set(ph) == PHASE_KEYS
         assert ph["t_start_s"] == pytest.approx(3.0)
         assert ph["desired_force_n"] == 20.0
-        header = (out / f"{name}.csv").read_text().splitlines()[0].split(",")
+        header = (out / f"{name}.truth.csv").read_text().splitlines()[0].split(",")
+        assert (out / f"{name}.mcap").read_bytes()[:8] == b"\x89MCAP0\r\n"
         assert {"t", "f_ext", "f_d", "tip_z", "surface_z", "b_d", "ft_fz"} <= set(header)
     svg = (out / "flat.svg").read_text()
     assert svg.startswith("<svg") and "NAIC" in svg and "time [s]" in svg

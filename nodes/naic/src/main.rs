@@ -23,6 +23,15 @@ enum Command {
     /// Benchmarks that print JSON numbers.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
+    /// MCAP bags: info, repair, export-csv.
+    #[command(subcommand)]
+    Bag(cmd::bag::BagCmd),
+    /// Record naic topics from DDS into a rosbag2-compatible MCAP bag.
+    Record(cmd::record::RecordArgs),
+    /// Publish a bag's messages over DDS with their original timing.
+    Replay(cmd::record::ReplayArgs),
+    /// Force-tracking figures (SVG) of any recording.
+    Plot(cmd::plot::PlotArgs),
     /// Run a paper scenario in the in-process simulator (default: flat, all controllers).
     Sim(cmd::sim::SimArgs),
     /// Start the three ROS 2 nodes (driver, controller, friction compensation) as processes.
@@ -37,6 +46,10 @@ fn main() {
         Command::Friction(c) => cmd::friction::run(c),
         Command::Bench(c) => cmd::bench::run(c),
         Command::Sim(a) => cmd::sim::run(a),
+        Command::Bag(c) => cmd::bag::run(c),
+        Command::Record(a) => cmd::record::record(a),
+        Command::Replay(a) => cmd::record::replay(a),
+        Command::Plot(a) => cmd::plot::run(a),
         Command::Launch(a) => cmd::launch::run(a),
     };
     if let Err(e) = result {

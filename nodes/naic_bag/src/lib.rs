@@ -10,12 +10,14 @@ mod error;
 pub mod metadata;
 pub mod qos;
 mod reader;
+pub mod run;
 pub mod sample;
 mod writer;
 
 pub use error::BagError;
 pub use qos::Qos;
-pub use reader::{Bag, ChannelDef, Damage, MessageRef, SchemaDef, Stamped, TimeRange, TopicInfo, MAGIC};
+pub use reader::{AnyMessage, AnyStamped, Bag, ChannelDef, Damage, MessageRef, SchemaDef, Stamped, TimeRange, TopicInfo, MAGIC};
+pub use run::RunData;
 pub use writer::{BagWriter, TopicId, TopicSpec, ROSBAG2_METADATA_VERSION};
 
 use std::path::Path;

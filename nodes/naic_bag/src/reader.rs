@@ -14,7 +14,7 @@ use crate::error::BagError;
 use crate::qos::Qos;
 use crate::writer::TopicSpec;
 use naic_msgs::RosMessage;
-use std::cell::RefCell;
+use std::sync::Mutex;
 use std::collections::{BTreeMap, HashMap};
 use std::ops::{Bound, Range, RangeBounds};
 use std::path::{Path, PathBuf};
@@ -69,6 +69,7 @@ pub struct ChannelDef {
 /// One topic of the bag, for `info`.
 #[derive(Debug, Clone)]
 pub struct TopicInfo {
+    pub channel_id: u16,
     pub topic: String,
     pub type_name: String,
     pub count: u64,
@@ -132,7 +133,7 @@ pub struct Bag {
     counts: BTreeMap<u16, u64>,
     time_bounds: Option<(u64, u64)>,
     summary_ok: bool,
-    damage: RefCell<Vec<Damage>>,
+    damage: Mutex<Vec<Damage>>,
 }
 
 /// Little-endian cursor over a record body; every read is bounds-checked.
@@ -332,7 +333,7 @@ impl Bag {
             counts: BTreeMap::new(),
             time_bounds: None,
             summary_ok: false,
-            damage: RefCell::new(Vec::new()),
+            damage: Mutex::new(Vec::new()),
         };
         let data_end = bag.read_summary();
         bag.scan_data(data_end);
@@ -344,7 +345,7 @@ impl Bag {
 
     fn note(&self, offset: usize, message: impl Into<String>) {
         let d = Damage { offset: offset as u64, message: message.into() };
-        let mut v = self.damage.borrow_mut();
+        let mut v = self.damage.lock().unwrap_or_else(|e| e.into_inner());
         if !v.contains(&d) {
             v.push(d);
         }
@@ -701,13 +702,26 @@ impl Bag {
                 }
                 buf.clear();
                 let n = c.uncompressed_size as usize;
-                if c.compression == "zstd" {
+                // A size far beyond what the compressed bytes could plausibly hold is decoded
+                // with a streaming decoder capped at that size instead of being allocated up
+                // front (a corrupted size field must not exhaust memory).
+                let suspicious = n > (64 << 20) && n as u64 > raw.len() as u64 * 100;
+                if c.compression == "zstd" && !suspicious {
                     buf.resize(n, 0);
                     match zstd::bulk::decompress_to_buffer(raw, &mut buf[..]) {
                         Ok(m) if m == n => {}
                         Ok(m) => return Err(format!("chunk decompressed to {m} bytes, header says {n} (corrupted); its messages are skipped")),
                         Err(e) => return Err(format!("chunk does not decompress ({e}; corrupted bytes); its messages are skipped")),
                     }
+                } else if suspicious {
+                    let out = decompress_partial(&c.compression, raw);
+                    if out.len() != n {
+                        return Err(format!(
+                            "chunk header claims {n} uncompressed bytes but it holds {} (corrupted); its messages are skipped",
+                            out.len()
+                        ));
+                    }
+                    *buf = out;
                 } else {
                     use std::io::Read;
                     let r = lz4::Decoder::new(raw).and_then(|mut d| {
@@ -793,7 +807,7 @@ impl Bag {
     /// skipped and reported in [`Bag::damage`].
     pub fn messages<M: RosMessage>(&self, topic: &str, range: impl RangeBounds<u64>) -> Result<Vec<Stamped<M>>, BagError> {
         let ch = self.channel_for::<M>(topic)?;
-        let mut out = Vec::with_capacity(self.counts.get(&ch).copied().unwrap_or(0) as usize);
+        let mut out = Vec::with_capacity(self.capacity_hint(self.counts.get(&ch).copied().unwrap_or(0)));
         let mut bad = 0usize;
         let mut first_err = None;
         self.for_each_message(Some(&[ch]), TimeRange::from_bounds(range), |m| match M::from_cdr(m.data) {
@@ -807,6 +821,12 @@ impl Bag {
             self.note(0, format!("{bad} message(s) on {topic} do not decode as {} (first: {e}); skipped", M::type_name()));
         }
         Ok(out)
+    }
+
+    /// A preallocation size from a (possibly corrupted) count: never more messages than the
+    /// file could hold (each record takes at least 31 bytes).
+    fn capacity_hint(&self, count: u64) -> usize {
+        count.min(self.data.len() as u64 / 31) as usize
     }
 
     /// Type name of a channel (from its schema; empty if unknown).
@@ -824,6 +844,7 @@ impl Bag {
             .channels
             .values()
             .map(|c| TopicInfo {
+                channel_id: c.id,
                 topic: c.topic.clone(),
                 type_name: self.type_name(c.id).to_string(),
                 count: self.counts.get(&c.id).copied().unwrap_or(0),
@@ -898,6 +919,105 @@ impl Bag {
 
     /// Problems found so far (opening finds structural ones; reading adds chunk-level ones).
     pub fn damage(&self) -> Vec<Damage> {
-        self.damage.borrow().clone()
+        self.damage.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+}
+
+/// A message of any type naic knows, decoded.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AnyMessage {
+    JointState(naic_msgs::JointState),
+    WrenchStamped(naic_msgs::WrenchStamped),
+    Float64MultiArray(naic_msgs::Float64MultiArray),
+    NaicParams(naic_msgs::NaicParams),
+    Clock(naic_msgs::Clock),
+}
+
+#[derive(Clone, Copy)]
+enum Kind {
+    Js,
+    Ws,
+    Fa,
+    Np,
+    Ck,
+    Unknown,
+}
+
+impl Kind {
+    fn of(type_name: &str) -> Kind {
+        use naic_msgs::*;
+        match type_name {
+            t if t == JointState::type_name() => Kind::Js,
+            t if t == WrenchStamped::type_name() => Kind::Ws,
+            t if t == Float64MultiArray::type_name() => Kind::Fa,
+            t if t == NaicParams::type_name() => Kind::Np,
+            t if t == Clock::type_name() => Kind::Ck,
+            _ => Kind::Unknown,
+        }
+    }
+    #[inline]
+    fn decode(self, data: &[u8]) -> Option<Result<AnyMessage, naic_msgs::CdrError>> {
+        use naic_msgs::*;
+        Some(match self {
+            Kind::Js => JointState::from_cdr(data).map(AnyMessage::JointState),
+            Kind::Ws => WrenchStamped::from_cdr(data).map(AnyMessage::WrenchStamped),
+            Kind::Fa => Float64MultiArray::from_cdr(data).map(AnyMessage::Float64MultiArray),
+            Kind::Np => NaicParams::from_cdr(data).map(AnyMessage::NaicParams),
+            Kind::Ck => Clock::from_cdr(data).map(AnyMessage::Clock),
+            Kind::Unknown => return None,
+        })
+    }
+}
+
+/// A decoded message with its channel and bag times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnyStamped {
+    pub channel_id: u16,
+    pub log_time: u64,
+    pub publish_time: u64,
+    pub sequence: u32,
+    pub msg: AnyMessage,
+}
+
+impl Bag {
+    /// Streams, in one pass over the file, every message of a known type (JointState,
+    /// WrenchStamped, Float64MultiArray, NaicParams, Clock) with log time in `range`, decoded,
+    /// in file order. Messages of other types are left out (read them raw with
+    /// [`Bag::for_each_message`]); undecodable ones are skipped and reported in [`Bag::damage`].
+    pub fn for_each_decoded(&self, range: impl RangeBounds<u64>, mut f: impl FnMut(AnyStamped)) {
+        let range = TimeRange::from_bounds(range);
+        let mut kinds = vec![Kind::Unknown; 65536];
+        for c in self.channels.values() {
+            kinds[c.id as usize] = Kind::of(self.type_name(c.id));
+        }
+        let mut bad = 0usize;
+        let mut buf = Vec::new();
+        for s in 0..self.sources.len() {
+            self.with_records(s, &mut buf, range, &mut |opc, body| {
+                if opc != op::MESSAGE {
+                    return;
+                }
+                if let Some((ch, sequence, log_time, publish_time, data)) = parse_message(body) {
+                    if !range.contains(log_time) {
+                        return;
+                    }
+                    match kinds[ch as usize].decode(data) {
+                        Some(Ok(msg)) => f(AnyStamped { channel_id: ch, log_time, publish_time, sequence, msg }),
+                        Some(Err(_)) => bad += 1,
+                        None => {}
+                    }
+                }
+            });
+        }
+        if bad > 0 {
+            self.note(0, format!("{bad} message(s) do not decode as their channel's type; skipped"));
+        }
+    }
+
+    /// [`Bag::for_each_decoded`] collected into a vector.
+    pub fn decode_all(&self, range: impl RangeBounds<u64>) -> Vec<AnyStamped> {
+        let mut out = Vec::with_capacity(self.capacity_hint(self.message_count()));
+        self.for_each_decoded(range, |m| out.push(m));
+        out
     }
 }

@@ -113,7 +113,7 @@ impl BagWriter {
 
     fn mcap(&mut self) -> Result<&mut mcap::Writer<BufWriter<File>>, BagError> {
         let path = self.path.clone();
-        self.mcap.as_mut().ok_or_else(|| BagError::Closed { path })
+        self.mcap.as_mut().ok_or(BagError::Closed { path })
     }
 
     /// Adds a topic carrying `M`.
@@ -191,6 +191,12 @@ impl BagWriter {
         self.count += 1;
         let path = self.path.clone();
         self.mcap()?.write_to_known_channel(&header, data).map_err(|e| BagError::write(&path, e))?;
+        self.flush_if_due()
+    }
+
+    /// Flushes if the flush interval has passed since the last flush. A recorder whose topics
+    /// may go quiet calls this from its loop so the last messages reach the disk too.
+    pub fn flush_if_due(&mut self) -> Result<(), BagError> {
         if self.last_flush.elapsed() >= self.flush_interval {
             self.flush()?;
         }

@@ -68,6 +68,13 @@ fn round_trip_every_value_and_time() {
         assert_eq!(js[k].log_time, c.stamp_ns + 150_000);
         assert_eq!(js[k].sequence, i as u32 + 1);
     }
+    // The same in one pass as typed vectors.
+    let run = RunData::load(&bag, ..);
+    assert_eq!(run.joint_states, js);
+    assert_eq!(run.wrench, wr);
+    assert_eq!(run.effort_cmd, ef);
+    assert_eq!(run.params, pa);
+    assert!(run.naic_effort.is_empty() && run.clock.is_empty());
     // Time range: cycles 100..=199 by log time.
     let lo = T0_NS + 100_000_000;
     let hi = T0_NS + 199_000_000 + 150_000;
@@ -229,4 +236,40 @@ fn periodic_flush_limits_loss_on_crash() {
     let bag = Bag::from_bytes("crash.mcap", snapshot).unwrap();
     assert!(!bag.is_indexed());
     assert_eq!(bag.messages::<JointState>("/joint_states", ..).unwrap().len(), 300);
+}
+
+#[test]
+fn garbage_and_hostile_headers_never_panic() {
+    let mut rng = Rng(0xBAD_5EED);
+    // Random bytes after the magic.
+    for len in [8usize, 9, 17, 100, 1000, 20000] {
+        for _ in 0..20 {
+            let mut d = MAGIC.to_vec();
+            d.extend((0..len).map(|_| rng.next() as u8));
+            if let Ok(bag) = Bag::from_bytes("garbage.mcap", d) {
+                let _ = bag.messages::<JointState>("/joint_states", ..);
+                let _ = bag.decode_all(..);
+                let _ = bag.topics();
+            }
+        }
+    }
+    // A real file whose first chunk claims 2^40 or 2^31 uncompressed bytes: reported, not
+    // allocated; the other chunks still read.
+    let p = tmp("hostile.mcap");
+    write_small_chunks(&p, 100);
+    let clean = std::fs::read(&p).unwrap();
+    // the header record (opcode 0x01) comes first; the first chunk record follows it
+    let hlen = u64::from_le_bytes(clean[9..17].try_into().unwrap()) as usize;
+    let pos = 8 + 9 + hlen;
+    assert_eq!(clean[pos], 0x06);
+    for claim in [1u64 << 40, 1u64 << 31] {
+        let mut d = clean.clone();
+        // chunk body: start u64, end u64, uncompressed_size u64
+        d[pos + 9 + 16..pos + 9 + 24].copy_from_slice(&claim.to_le_bytes());
+        let bag = Bag::from_bytes("hostile.mcap", d).unwrap();
+        let js = bag.messages::<JointState>("/joint_states", ..).unwrap();
+        assert_eq!(js.len(), 50, "claim {claim}");
+        assert_eq!(js[0].msg, cycle(50, RATE).joint_states);
+        assert!(bag.damage().iter().any(|x| x.message.contains("claims")), "{:?}", bag.damage());
+    }
 }

@@ -6,16 +6,15 @@
 use crate::plant::Measurements;
 use crate::runner::{ControlReport, Controller as SimController};
 use crate::scenario::{ReferenceSample, Scenario};
-use naic_core::dynamics::Damping;
 use naic_core::friction::FrictionModel;
 use naic_core::model::Model;
 use naic_core::pipeline::actuate::ActuateParams;
-use naic_core::pipeline::control::force_law::{ForceLawParams, Mode, WeightBounds};
-use naic_core::pipeline::control::{ContactDetect, ControlParams, ForceAxis, ForceLimit, ImpedanceParams};
+use naic_core::pipeline::control::force_law::Mode;
+use naic_core::pipeline::control::{ForceAxis, ImpedanceParams};
 use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Workspace};
 use naic_core::pipeline::estimate::ToolParams;
 use naic_core::pipeline::{self, Pipeline, PipelineState};
-use naic_core::pipeline::sense::{RawMeasurements, SenseParams};
+use naic_core::pipeline::sense::RawMeasurements;
 use nalgebra::Vector3;
 
 /// Settings of the simulated controller that the paper does not fix.
@@ -76,48 +75,26 @@ impl PipelineController {
         if (n.norm() - 1.0).abs() > 1e-9 || (n[axis].abs() - 1.0).abs() > 1e-9 {
             return Err(format!("the force axis {n:?} must be ±x, ±y or ±z of the base frame"));
         }
-        let joints = model.joints();
-        let mut q_min = [0.0; 6];
-        let mut q_max = [0.0; 6];
-        let mut dq_max = [0.0; 6];
-        let mut effort = [0.0; 6];
-        for i in 0..6 {
-            q_min[i] = joints[i].limits.lower;
-            q_max[i] = joints[i].limits.upper;
-            dq_max[i] = 2.0 * joints[i].limits.velocity;
-            effort[i] = joints[i].limits.effort;
-        }
+        // The paper's settings on this model, then what the scenario and the loop settings change.
+        let gamma = if mode == Mode::Naic { settings.gamma } else { 0.0 };
+        let mut params = ControllerParams::paper_defaults(model, mode, gamma);
+        params.sense.median_window = settings.median_window;
+        params.tool = ToolParams { mass: tool_mass, com: tool_com, gravity: model.gravity, ..params.tool };
+        params.tare_samples = settings.tare_samples;
         let imp = &scenario.impedance;
-        let params = ControllerParams {
-            sense: SenseParams {
-                q_min,
-                q_max,
-                q_margin: 0.1,
-                dq_max,
-                wrench_max: [217.5, 217.5, 435.0, 7.5, 7.5, 7.5],
-                median_window: settings.median_window,
-                joint_timeout: 0.01,
-                wrench_timeout: 0.01,
-            },
-            tool: ToolParams { mass: tool_mass, com: tool_com, tip: Vector3::new(0.0, 0.0, 0.169), gravity: model.gravity },
-            tare_samples: settings.tare_samples,
-            control: ControlParams {
-                impedance: ImpedanceParams { m_d: imp.m_d, b_d: imp.b_d, k_free: imp.k_free, k_contact: imp.k_contact },
-                force_axis: ForceAxis { axis, sign: n[axis].signum() },
-                force_law: ForceLawParams {
-                    mode,
-                    sigma: imp.sigma,
-                    gamma: if mode == Mode::Naic { settings.gamma } else { 0.0 },
-                    bounds: WeightBounds::default(),
-                    lambda: scenario.dt,
-                    sigma_margin: settings.sigma_margin,
-                },
-                contact: ContactDetect { enter_n: settings.contact_enter_n, exit_n: settings.contact_exit_n, exit_cycles: 0 },
-                force_limit: ForceLimit { limit_n: settings.force_limit_n, retract_speed: 0.02, retract_cycles: 500 },
-            },
-            hold_damping: [5.0; 6],
-            damping: Damping::default(),
-        };
+        let c = &mut params.control;
+        c.impedance = ImpedanceParams { m_d: imp.m_d, b_d: imp.b_d, k_free: imp.k_free, k_contact: imp.k_contact };
+        c.force_axis = ForceAxis { axis, sign: n[axis].signum() };
+        c.force_law.sigma = imp.sigma;
+        c.force_law.lambda = scenario.dt;
+        c.force_law.sigma_margin = settings.sigma_margin;
+        c.contact.enter_n = settings.contact_enter_n;
+        c.contact.exit_n = settings.contact_exit_n;
+        c.force_limit.limit_n = settings.force_limit_n;
+        let mut effort = [0.0; 6];
+        for (e, j) in effort.iter_mut().zip(model.joints()) {
+            *e = j.limits.effort;
+        }
         let controller = Controller::new(model.clone(), params)?;
         let ws = controller.workspace();
         let pipeline = Pipeline {

@@ -24,8 +24,24 @@ pub enum BenchCmd {
     Dynamics(DynamicsArgs),
     /// Closed-loop simulator steps per second (plant + sensor + NAIC, flat, in contact) vs MuJoCo mj_step.
     Sim(super::sim::SimBenchArgs),
+    /// Bag read+decode messages/s (1 kHz, 4 topics, 60 s) against Python mcap_ros2, same file.
+    Bag {
+        #[arg(long)]
+        json: bool,
+        /// Length of the generated bag [s].
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
+    },
     /// Latency of the 1 kHz DDS chain across the three node processes, Rust vs rclpy.
     Chain(super::bench_chain::ChainArgs),
+    /// Record 4 topics at 1 kHz over DDS (naic replay -> naic record): drops and timing.
+    Record {
+        #[arg(long)]
+        json: bool,
+        /// Length of the replayed bag [s].
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
+    },
 }
 
 #[derive(clap::Args)]
@@ -49,6 +65,8 @@ pub fn run(c: BenchCmd) -> CliResult {
         BenchCmd::Dynamics(a) => run_dynamics(a),
         BenchCmd::Sim(a) => super::sim::bench(a),
         BenchCmd::Chain(a) => super::bench_chain::run(a),
+        BenchCmd::Bag { json, seconds } => super::bag::bench(json, seconds),
+        BenchCmd::Record { json, seconds } => super::record::bench_record(json, seconds),
     }
 }
 

@@ -1,9 +1,12 @@
 //! One module per subcommand.
 
+pub mod bag;
 pub mod bench;
 pub mod bench_chain;
 pub mod friction;
 pub mod launch;
+pub mod plot;
+pub mod record;
 pub mod sim;
 
 /// A command failure: a message for the user and whether it was their input.

@@ -278,14 +278,22 @@ pub fn summary_table(s: &Scenario, runs: &[RunResult]) -> String {
     t
 }
 
-/// Write metrics.json, CSVs and the figure into `out`.
+/// Write metrics.json, the recordings and the figure into `out`: per controller
+/// a rosbag2 MCAP bag `<controller>.mcap` with the node suite's topics (what the
+/// robot side publishes; `naic bag export-csv` turns it into CSV), and
+/// `<controller>.truth.csv` with the simulator's ground truth that no ROS topic
+/// carries (true contact force, surface height under the tip, …).
 pub fn write_outputs(out: &Path, s: &Scenario, runs: &[RunResult]) -> Result<(), CliError> {
     let fail = |p: &Path, e: std::io::Error| CliError::failure(format!("cannot write {}: {e}", p.display()));
     std::fs::create_dir_all(out).map_err(|e| fail(out, e))?;
+    let n = s.force_axis;
+    let force_axis = (0..3).max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs())).unwrap_or(2) as u8;
     let mut controllers = BTreeMap::new();
     for r in runs {
         controllers.insert(r.controller.clone(), r.metrics.clone());
-        let p = out.join(format!("{}.csv", r.controller));
+        let p = out.join(format!("{}.mcap", r.controller));
+        super::bag::write_sim_run(&p, &r.controller, &r.records, force_axis)?;
+        let p = out.join(format!("{}.truth.csv", r.controller));
         std::fs::write(&p, runner::to_csv(&r.records)).map_err(|e| fail(&p, e))?;
     }
     let mf = MetricsFile { scenario: s.name.clone(), controllers };
