@@ -85,7 +85,9 @@ def run(tmp_path_factory):
             events[node] = {"kill": time.time(), "cmd_index": n_before}
             r.spin(1.0)
             events[node]["restart"] = time.time()
-            events[node]["cmds_while_dead"] = sum(1 for t, _ in cmds if events[node]["kill"] + 0.1 < t < time.time())
+            # Commands computed from states of the outage (by source stamp: this reader may lag).
+            events[node]["cmds_while_dead"] = sum(
+                1 for _, m in cmds if (events[node]["kill"] + 0.05) * 1e9 < _src_ns(m) < time.time() * 1e9)
             procs[node].append(ru.Proc(args, env))
             assert r.spin_until(lambda: any(t > events[node]["restart"] for t, _ in cmds), 30), \
                 f"{node} did not take over:\n{procs[node][-1].output()[-3000:]}"
