@@ -29,7 +29,7 @@ from std_msgs.msg import Float64MultiArray  # noqa: E402
 
 RATE_LIMIT = 1.0  # params/friction_compensation.yaml torque_rate_limit [N m per cycle]
 COMMAND_TIMEOUT = 0.020  # params/jk5_sim_driver.yaml command_timeout [s]
-TAKEOVER_GAP = 0.005  # friction_compensation takeover_gap default [s]
+TAKEOVER_GAP = 0.020  # friction_compensation takeover_gap default [s]
 # The driver runs at 250 Hz here so that this test's single rclpy reader keeps up with every
 # /joint_states and /joint_effort_cmd on a loaded 2-core machine (at 1 kHz it drops samples
 # and the per-message checks below become guesses). The 20 ms watchdog is 5 cycles.

@@ -113,7 +113,7 @@ def soak(seconds, subscribers, sample_every=5.0, warmup=5.0, log=sys.stderr):
     for s in subs:
         s.send_signal(signal.SIGINT)
         try:
-            out, _ = s.communicate(timeout=15)
+            out, _ = s.communicate(timeout=40)
             sub_out.append(json.loads(out.strip().splitlines()[-1]) if out.strip() else {"error": "no output"})
         except (subprocess.TimeoutExpired, json.JSONDecodeError) as e:
             s.kill()

@@ -40,7 +40,7 @@ fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
         ParamSpec::double("smoothing_velocity", 0.01, 0.0, 1.0, "v_s [rad/s] of sgn(q̇) → tanh(q̇/v_s) near rest (0: the printed discontinuous law; the file's own value when it sets one)"),
         ParamSpec::double("torque_rate_limit", 1.0, 0.001, 1000.0, "Largest torque change per command [N m per cycle]"),
         ParamSpec::double("joint_state_timeout", 0.02, 0.001, 1.0, "Joint velocity older than this [s] is not used: no feedforward"),
-        ParamSpec::double("takeover_gap", 0.005, 0.001, 1.0, "After a gap in /naic/effort longer than this [s] (controller restarted, driver holding), the rate limit restarts from the measured joint torque"),
+        ParamSpec::double("takeover_gap", 0.02, 0.001, 1.0, "After a gap in /naic/effort longer than this [s] (the driver's command_timeout: it holds the arm itself by then), the rate limit restarts from the measured joint torque"),
     ]
 }
 
@@ -110,7 +110,7 @@ fn run() -> Result<(), RosError> {
     // Torque the driver applies now (/joint_states effort) and when the last command went out.
     let mut effort_meas: Option<[f64; 6]> = None;
     let mut last_pub_ns = i64::MIN;
-    let mut gap_ns = 5_000_000i64;
+    let mut gap_ns = 20_000_000i64;
 
     while !naic_ros::shutdown_requested() {
         if node.params.generation() != gen {
