@@ -7,9 +7,9 @@
 //! actuation guard (`naic_core::pipeline::actuate`: torque-rate limit, effort limits of the
 //! URDF, never NaN); publishes `/joint_effort_cmd` for the driver.
 //!
-//! On start the rate limit starts from the measured joint torque (`/joint_states` effort),
-//! so a restarted node takes over without a torque jump; until the first joint state
-//! arrives it publishes nothing. Without fresh joint data the
+//! On start, and after a gap in `/naic/effort` longer than `takeover_gap` (a restarted
+//! controller; the driver held the arm meanwhile), the rate limit starts from the measured
+//! joint torque (`/joint_states` effort), so a restarted node takes over without a torque jump. Without fresh joint data the
 //! feedforward is left out (it needs q̇); without commands nothing is published and the
 //! driver holds the arm after its own timeout.
 
@@ -31,8 +31,12 @@ use naic_ros::{
     ParamSpec, ParamView, ParameterValue, RosArgs, RosError, RosNode,
 };
 
-fn specs() -> Vec<ParamSpec> {
+/// Largest effort limit a parameter may set when the URDF gives none [N m].
+const EFFORT_CAP: f64 = 10_000.0;
+
+fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
     vec![
+        ParamSpec::doubles("effort_limit", urdf_effort, 0.0, EFFORT_CAP, "Per-joint torque saturation [N m], at most the URDF effort limit (default: the URDF's)"),
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model: effort limits of the actuation guard").read_only(),
         ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Friction model YAML (naic_core::friction format; Table 1 of the paper by default)"),
         ParamSpec::boolean("enabled", true, "Add the friction feedforward (false: pass the controller torque through the actuation guard only)"),
@@ -40,6 +44,7 @@ fn specs() -> Vec<ParamSpec> {
         ParamSpec::double("torque_rate_limit", 10.0, 0.001, 1000.0, "Largest torque change per command [N m per cycle] (1 N m destabilises the paper's impedance gains on the simulated JK5; 10 does not)"),
         ParamSpec::double("joint_state_timeout", 0.02, 0.001, 1.0, "Joint velocity older than this [s] is not used: no feedforward"),
         ParamSpec::int("median_window", 5, 1, 9, "Median filter window of the joint velocity (the controller's sense stage, same filter)"),
+        ParamSpec::double("takeover_gap", 0.02, 0.001, 1.0, "After a gap in /naic/effort longer than this [s] (the driver's command_timeout: it holds the arm itself by then), the rate limit restarts from the measured joint torque"),
     ]
 }
 
@@ -72,13 +77,13 @@ fn run() -> Result<(), RosError> {
         Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
     };
     let robot = Model::from_urdf_file(&urdf)
-        .map_err(|e| RosError::Node(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
+        .map_err(|e| RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
     let effort_limit: [f64; 6] = {
         let l = robot.effort_limits();
         if l.len() != 6 {
-            return Err(RosError::Node(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
+            return Err(RosError::Param(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
         }
-        std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i] } else { f64::INFINITY })
+        std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i].min(EFFORT_CAP) } else { EFFORT_CAP })
     };
     // The velocity the feedforward uses: the core's sense stage (validity + median filter),
     // as in the in-process pipeline.
@@ -94,9 +99,15 @@ fn run() -> Result<(), RosError> {
         wrench_timeout: 1.0,
     };
     let mut sense_s = SenseState::default();
-    // A friction file that does not load is rejected like any bad value.
-    let check: naic_ros::params::SetCheck = Box::new(|p: &ParamView| load_model(p).map(|_| ()));
-    let mut node = RosNode::new(args, "friction_compensation", specs(), Some(check))?;
+    // A friction file that does not load, or a saturation above the URDF's, is rejected like any bad value.
+    let check: naic_ros::params::SetCheck = Box::new(move |p: &ParamView| {
+        let e = p.f64s("effort_limit");
+        if let Some(i) = (0..6).find(|&i| e[i] > effort_limit[i]) {
+            return Err(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], effort_limit[i], i + 1));
+        }
+        load_model(p).map(|_| ())
+    });
+    let mut node = RosNode::new(args, "friction_compensation", specs(&effort_limit), Some(check))?;
     let mut cmd_sub = node.subscription::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     let js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let cmd_pub = node.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB)?;
@@ -114,6 +125,10 @@ fn run() -> Result<(), RosError> {
     let mut tau_in = [0.0; 6];
     let mut last_warn = 0i64;
     let mut count = 0u64;
+    // Torque the driver applies now (/joint_states effort) and when the last command went out.
+    let mut effort_meas: Option<[f64; 6]> = None;
+    let mut last_pub_ns = i64::MIN;
+    let mut gap_ns = 20_000_000i64;
 
     while !naic_ros::shutdown_requested() {
         if node.params.generation() != gen {
@@ -123,6 +138,9 @@ fn run() -> Result<(), RosError> {
                 js_timeout_ns = (p.f64("joint_state_timeout") * 1e9) as i64;
                 act_p.max_delta = [p.f64("torque_rate_limit"); 6];
                 sense_p.median_window = p.i64("median_window") as usize;
+                let e = p.f64s("effort_limit");
+                act_p.effort_limit = std::array::from_fn(|i| e[i]);
+                gap_ns = (p.f64("takeover_gap") * 1e9) as i64;
                 match load_model(p) {
                     Ok(m) => model = m,
                     Err(e) => log::error!("{e}"),
@@ -146,12 +164,8 @@ fn run() -> Result<(), RosError> {
                     Err(_) => dq_rx_ns = i64::MIN, // implausible joint data: no feedforward
                 }
             }
-            // Smooth take-over: until the first command goes out, the rate limit starts
-            // from the torque the arm has now.
-            if count == 0 {
-                if let Some(e) = six(&js.effort) {
-                    act_s = actuate::ActuateState { tau_prev: e, started: true };
-                }
+            if js.effort.len() >= 6 && js.effort[..6].iter().all(|t| t.is_finite()) {
+                effort_meas = Some(std::array::from_fn(|i| js.effort[i]));
             }
         }
         let mut newest = None;
@@ -167,17 +181,22 @@ fn run() -> Result<(), RosError> {
             }
             continue;
         }
-        if !act_s.started {
-            // No measured torque yet to start the rate limit from: send nothing (the driver
-            // keeps holding) rather than jump.
-            continue;
-        }
         let fresh = wall_ns().saturating_sub(dq_rx_ns) <= js_timeout_ns;
         let tau = if enabled && fresh { feedforward::step(&model, &dq, &tau_in) } else { tau_in };
+        // Smooth take-over (first command, or after a gap in which the driver held the arm
+        // itself): the rate limit starts from the torque the arm has now.
+        if !act_s.started || wall_ns().saturating_sub(last_pub_ns) > gap_ns {
+            match effort_meas {
+                Some(e) => act_s = actuate::ActuateState { tau_prev: e, started: true },
+                // Not yet known what the arm gets: publish nothing (the driver holds).
+                None => continue,
+            }
+        }
         let (s, r) = actuate::step(&act_p, &act_s, &tau);
         act_s = s;
         if r.tau.iter().all(|t| t.is_finite()) {
             let _ = cmd_pub.publish(msgs::effort_msg(&r.tau, msgs::effort_source_stamp(&m)));
+            last_pub_ns = wall_ns();
             count += 1;
         }
     }

@@ -91,7 +91,7 @@ fn run() -> Result<(), RosError> {
         Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
     };
     let model = Model::from_urdf_file(&urdf).map_err(|e| {
-        RosError::Node(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))
+        RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))
     })?;
     // Defaults: the core's paper settings on this model (learning rate: not in the paper).
     let base = ControllerParams::paper_defaults(&model, Mode::Naic, DEFAULT_LEARNING_RATE);
@@ -102,7 +102,7 @@ fn run() -> Result<(), RosError> {
     };
     let mut state: ControllerState = ctl.initial_state();
     let mut ws: Workspace = ctl.workspace();
-    let mut fk = Data6::try_new(&model).map_err(|e| RosError::Node(format!("{urdf}: {e}")))?;
+    let mut fk = Data6::try_new(&model).map_err(|e| RosError::Param(format!("{urdf}: {e}")))?;
     let tip = model.frame_id(controller::TIP_FRAME).ok_or_else(|| RosError::Node("URDF has no 'tip' frame".into()))?;
 
     let mut js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;

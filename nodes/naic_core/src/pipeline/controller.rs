@@ -295,9 +295,12 @@ fn hold(
     fault: Fault,
 ) -> (ControllerState, ControlOutputs) {
     let p = &c.params;
-    let q_ok = m.q.iter().all(|x| x.is_finite()) && !matches!(fault, Fault::OutOfRange { signal: sense::Signal::JointPosition, .. });
+    // Use q and q̇ only if they are plausible themselves (the fault reported may be another
+    // signal's): an implausible q̇ times the damping could be an infinite torque.
+    let sp = &p.sense;
+    let q_ok = (0..6).all(|i| m.q[i] >= sp.q_min[i] - sp.q_margin && m.q[i] <= sp.q_max[i] + sp.q_margin);
     let q = if q_ok { Some(m.q) } else { s.last_q };
-    let dq_ok = m.dq.iter().all(|x| x.is_finite()) && !matches!(fault, Fault::OutOfRange { signal: sense::Signal::JointVelocity, .. });
+    let dq_ok = (0..6).all(|i| m.dq[i].abs() <= sp.dq_max[i]);
     let mut tau = [0.0; 6];
     if let Some(q) = q {
         let qv = Vector6::from(q);

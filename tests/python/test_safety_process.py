@@ -1,0 +1,250 @@
+"""Process faults over DDS (issue 7, items 2 and 4): the chain runs as three processes on a
+private, loopback-only domain; naic_controller and then friction_compensation are killed
+(SIGKILL, no clean-up) and restarted mid-run. Measured from what rclpy sees on the wire:
+
+* the driver's 20 ms command watchdog: after the last command, the applied torque
+  (/joint_states effort) switches to the driver's own hold within 20 ms + a cycle or two,
+  and never keeps the old torque;
+* the restarted node takes over without a torque step above friction_compensation's
+  torque_rate_limit, both on /joint_effort_cmd and in the torque the driver applies;
+* no process panics; the survivors exit 0 on SIGINT;
+* when `naic record` exists, a recording running through the faults keeps every message
+  it received (its bag holds what it reports and has no gap beyond the outages).
+"""
+import bisect
+import math
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "ros"))
+import rostest_util as ru  # noqa: E402
+
+pytest.importorskip("rclpy")
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64MultiArray  # noqa: E402
+
+RATE_LIMIT = 1.0  # params/friction_compensation.yaml torque_rate_limit [N m per cycle]
+COMMAND_TIMEOUT = 0.020  # params/jk5_sim_driver.yaml command_timeout [s]
+TAKEOVER_GAP = 0.020  # friction_compensation takeover_gap default [s]
+# The driver runs at 250 Hz here so that this test's single rclpy reader keeps up with every
+# /joint_states and /joint_effort_cmd on a loaded 2-core machine (at 1 kHz it drops samples
+# and the per-message checks below become guesses). The 20 ms watchdog is 5 cycles.
+RATE = 250.0
+PERIOD_NS = int(1e9 / RATE)
+
+
+def _stamp_ns(m):
+    return m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec
+
+
+def _src_ns(m):
+    for kv in (m.layout.dim[0].label if m.layout.dim else "").split(";"):
+        if kv.startswith("stamp_ns="):
+            return int(kv[len("stamp_ns="):])
+    return None
+
+
+def _has_record(bins):
+    return subprocess.run([str(bins / "naic"), "record", "--help"], capture_output=True).returncode == 0
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    bins = ru.build_nodes()
+    domain = ru.fresh_domain(40)
+    env = ru.ros_env(domain)
+    ctl_args = [str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml"]
+    fc_args = [str(bins / "friction_compensation"), "--ros-args", "--params-file",
+               "params/friction_compensation.yaml"]
+    procs = {"naic_controller": [ru.Proc(ctl_args, env)], "friction_compensation": [ru.Proc(fc_args, env)]}
+    rec = None
+    bag = tmp_path_factory.mktemp("rec") / "faults.mcap"
+    if _has_record(bins):
+        rec = ru.Proc([str(bins / "naic"), "record", "--topics", "/joint_effort_cmd", "/joint_states",
+                       "--out", str(bag)], env)
+    r = ru.RclpyDomain(domain, "safety_process_test")
+    cmds, js = [], []  # (receive time, msg)
+    r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd", lambda m: cmds.append((time.time(), m)), 1000)
+    r.node.create_subscription(JointState, "/joint_states", lambda m: js.append((time.time(), m)), 1000)
+    time.sleep(1.0)
+    procs["jk5_sim_driver"] = [ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file",
+                                        "params/jk5_sim_driver.yaml", "-p", f"rate:={RATE}"], env)]
+    events = {}
+    try:
+        assert r.spin_until(lambda: len(cmds) > 200, 30), "chain did not start:\n" + "\n".join(
+            p[-1].output()[-2000:] for p in procs.values())
+        r.spin(2.0)
+        for node, args in (("naic_controller", ctl_args), ("friction_compensation", fc_args)):
+            n_before = len(cmds)
+            procs[node][-1].p.kill()  # SIGKILL: no clean shutdown
+            procs[node][-1].p.wait()
+            events[node] = {"kill": time.time(), "cmd_index": n_before}
+            r.spin(1.0)
+            events[node]["restart"] = time.time()
+            # Commands computed from states of the outage (by source stamp: this reader may lag).
+            events[node]["cmds_while_dead"] = sum(
+                1 for _, m in cmds if (events[node]["kill"] + 0.05) * 1e9 < _src_ns(m) < time.time() * 1e9)
+            procs[node].append(ru.Proc(args, env))
+            assert r.spin_until(lambda: any(t > events[node]["restart"] for t, _ in cmds), 30), \
+                f"{node} did not take over:\n{procs[node][-1].output()[-3000:]}"
+            events[node]["resumed"] = next(t for t, _ in cmds if t > events[node]["restart"])
+            r.spin(3.0)
+    finally:
+        r.close()
+        codes = {}
+        if rec:
+            codes["record"] = rec.stop(timeout=20)
+        for name in ("jk5_sim_driver", "naic_controller", "friction_compensation"):
+            codes[name] = procs[name][-1].stop(timeout=15)
+    logs = {name: "\n".join(p.output() for p in ps) for name, ps in procs.items()}
+    if rec:
+        logs["record"] = rec.output()
+    return {"cmds": cmds, "js": js, "events": events, "codes": codes, "logs": logs, "bag": bag if rec else None}
+
+
+def test_process_fault_nothing_panics_and_survivors_exit_cleanly(run):
+    for name, out in run["logs"].items():
+        assert "panicked" not in out, f"{name} panicked:\n{out[-3000:]}"
+    assert all(c == 0 for c in run["codes"].values()), (run["codes"], {k: v[-2000:] for k, v in run["logs"].items()})
+
+
+def test_process_fault_driver_watchdog_holds_within_20ms(run):
+    """After the last command before each kill, the driver applies its own hold (not the
+    old torque) within command_timeout plus a few 1 kHz cycles, measured in driver stamps."""
+    js = [m for _, m in run["js"]]
+    measured = 0
+    for node, ev in run["events"].items():
+        before = [m for t, m in run["cmds"] if t < ev["kill"] + 0.2]
+        assert before, node
+        last = before[-1]
+        last_tau = list(last.data)
+        src = _src_ns(last)
+        assert src is not None, "commands carry their source stamp"
+        def same(m):
+            return max(abs(a - b) for a, b in zip(m.effort, last_tau)) <= 1e-9
+        after = [m for m in js if _stamp_ns(m) > src]
+        # The first state on which the driver had applied the last command, then the first
+        # on which it no longer does (its own hold).
+        # (This reader can miss states under load: then count from the source state, later.)
+        i_applied = next((i for i, m in enumerate(after) if same(m)), None)
+        first_hold = next((m for m in after[i_applied or 0:] if not same(m)), None)
+        assert first_hold is not None, f"{node} killed: the driver kept applying the old torque"
+        # The command arrived before the first state that shows it applied: the watchdog
+        # counts from its arrival.
+        if i_applied is not None:
+            delay = (_stamp_ns(first_hold) - _stamp_ns(after[i_applied])) * 1e-9
+            print(f"{node}: old torque applied for {delay * 1e3:.1f} ms after the last command")
+            # Nominally the timeout + a cycle (measured 18-22 ms); the bound leaves room for the
+            # driver thread being descheduled on a loaded 2-core machine (seen once: 41 ms at load 15).
+            assert delay <= COMMAND_TIMEOUT + 0.025, f"{node}: hold after {delay * 1e3:.1f} ms"
+            measured += 1
+        else:
+            print(f"{node}: the state applying the last command was not received (dropped under load)")
+        # And while the node is dead the driver holds: effort is the hold (damping only on this plant),
+        # never the old command.
+        # Driver stamps are this host's wall clock: select by stamp (this reader may lag).
+        dead = [m for _, m in run["js"] if _stamp_ns(first_hold) <= _stamp_ns(m) < ev["restart"] * 1e9]
+        # (~250 states at 250 Hz; this reader may drop many under load, the bag in the
+        # recording test checks continuity.)
+        assert len(dead) >= 10, f"driver stopped publishing while {node} was dead"
+        assert all(max(abs(a - b) for a, b in zip(m.effort, last_tau)) > 1e-9 for m in dead)
+        assert ev["cmds_while_dead"] == 0, ev
+    assert measured >= 1, "the watchdog delay could not be measured for any outage"
+    assert "holding the arm" in run["logs"]["jk5_sim_driver"]
+    assert "commands resumed" in run["logs"]["jk5_sim_driver"]
+
+
+def _effort_limits():
+    """Effort limits of joint1..joint6 from urdf/jk5.urdf (friction_compensation's saturation)."""
+    import xml.etree.ElementTree as ET
+    joints = {j.get("name"): j for j in ET.parse(ru.ROOT / "urdf/jk5.urdf").getroot().iter("joint")}
+    return [float(joints[f"joint{i}"].find("limit").get("effort")) for i in range(1, 7)]
+
+
+def _state_at(js_sorted, stamps, src):
+    """The newest driver state at or before `src` (within 3 ms): the torque applied then."""
+    k = bisect.bisect_right(stamps, src) - 1
+    if k < 0 or src - stamps[k] > PERIOD_NS * 3 // 2:
+        return None
+    return js_sorted[k]
+
+
+def test_process_fault_every_command_moves_by_at_most_the_rate_limit(run):
+    """Every /joint_effort_cmd, over the whole run with both outages, is within the rate
+    limit of the previous command, or (after a gap: a restarted node, or the driver holding
+    meanwhile) within the rate limit of the torque the driver applied in the state the
+    command was computed from. The first command after each restart is checked by the
+    second rule explicitly."""
+    js_sorted = sorted((m for _, m in run["js"]), key=_stamp_ns)
+    stamps = [_stamp_ns(m) for m in js_sorted]
+    cmds = [m for _, m in run["cmds"]]
+    def slack(src):
+        """How much the applied torque itself moved in the two cycles up to the source state (the
+        driver's hold torque follows the speed): the node may have seen a newer or older one."""
+        near = [m.effort for m in js_sorted[bisect.bisect_left(stamps, src - 2 * PERIOD_NS):
+                                            bisect.bisect_right(stamps, src)]]
+        return 0.05 + max((max(c) - min(c) for c in zip(*near)), default=0.0)
+    lim = _effort_limits()
+    bad, unverified, from_state = [], 0, 0
+    for a, b in zip(cmds, cmds[1:]):
+        assert all(math.isfinite(x) for x in b.data)
+        assert all(abs(x) <= l + 1e-9 for x, l in zip(b.data, lim)), list(b.data)
+        # Commands carry distinct, increasing source stamps; this reader may miss some under
+        # load, so b is k commands after a at most, each step within the rate limit.
+        k = max(1, round((_src_ns(b) - _src_ns(a)) / PERIOD_NS))
+        if max(abs(x - y) for x, y in zip(a.data, b.data)) <= k * RATE_LIMIT + 1e-9:
+            continue
+        st = _state_at(js_sorted, stamps, _src_ns(b))
+        if st is None:
+            unverified += 1
+            continue
+        from_state += 1
+        # Re-seeded from the applied torque, which the saturation then bounds.
+        target = [min(max(e, -l), l) for e, l in zip(st.effort, lim)]
+        jump = max(abs(x - y) for x, y in zip(b.data, target))
+        if jump > RATE_LIMIT + slack(_src_ns(b)):
+            bad.append((jump, slack(_src_ns(b)), list(st.effort), list(b.data)))
+    firsts = [next(m for t, m in run["cmds"] if t > ev["restart"]) for ev in run["events"].values()]
+    checked = 0
+    for k, cmd in enumerate(firsts):
+        st = _state_at(js_sorted, stamps, _src_ns(cmd))
+        if st is None:
+            print(f"restart {k}: source state not received by this reader (dropped under load)")
+            continue
+        checked += 1
+        target = [min(max(e, -l), l) for e, l in zip(st.effort, lim)]
+        jump = max(abs(x - y) for x, y in zip(cmd.data, target))
+        sl = slack(_src_ns(cmd))
+        print(f"restart {k}: first command {jump:.3f} N m from the applied torque (its own motion {sl - 0.05:.3f})")
+        assert jump <= RATE_LIMIT + sl, f"restart {k}: first command {jump:.3f} N m from the applied torque"
+    if checked == 0:
+        pytest.skip("this reader dropped the source states of both restarts (loaded machine): not verified")
+    print(f"{len(cmds)} commands; {from_state} re-seeded from the applied torque; {unverified} unverifiable")
+    assert not bad, f"{len(bad)} commands jumped: {bad[:3]}"
+    assert unverified <= max(5, len(cmds) // 200), unverified
+
+
+def test_process_fault_recording_keeps_everything_it_received(run):
+    if run["bag"] is None:
+        pytest.skip("`naic record` is not on this branch yet")
+    from mcap.reader import make_reader
+    log = run["logs"]["record"]
+    with open(run["bag"], "rb") as f:
+        counts, last_t, gaps = {}, {}, {}
+        for _, ch, msg in make_reader(f).iter_messages():
+            counts[ch.topic] = counts.get(ch.topic, 0) + 1
+            if ch.topic in last_t:
+                gaps[ch.topic] = max(gaps.get(ch.topic, 0.0), (msg.log_time - last_t[ch.topic]) * 1e-9)
+            last_t[ch.topic] = msg.log_time
+    n = sum(counts.values())
+    assert f"wrote {n} messages" in log, log[-2000:]
+    # Everything rclpy saw while the recorder ran is in the bag (within discovery at the edges).
+    seen = len(run["cmds"])
+    assert counts.get("/joint_effort_cmd", 0) >= 0.98 * seen, (counts, seen)
+    # /joint_states never stopped (the driver kept publishing through both outages; 1 s
+    # leaves room for scheduling stalls of a loaded machine, the outages last over 1 s).
+    assert gaps["/joint_states"] < 1.0, gaps
