@@ -102,6 +102,9 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
         exit_n: p.f64("contact_exit_force"),
         exit_cycles: p.i64("contact_exit_cycles") as u32,
     };
+    // The core stops pushing and backs off above the limit; the node then also moves the
+    // reference back to the start pose until a parameter changes (main.rs).
+    c.control.force_limit.limit_n = p.f64("force_limit");
     c.sense.median_window = p.i64("median_window") as usize;
     c.sense.joint_timeout = p.f64("joint_timeout");
     c.sense.wrench_timeout = p.f64("wrench_timeout");
