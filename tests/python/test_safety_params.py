@@ -59,7 +59,7 @@ CASES = [
     ("jk5_sim_driver", Parameter("command_timeout", P.DOUBLE, 5.0), "outside its range"),
     ("jk5_sim_driver", Parameter("command_timeout", P.DOUBLE, 0.0), "outside its range"),
     ("jk5_sim_driver", Parameter("hold_damping", P.DOUBLE, float("nan")), "finite"),
-    ("jk5_sim_driver", Parameter("rate", P.STRING, "fast"), "type"),
+    ("jk5_sim_driver", Parameter("hold_damping", P.STRING, "fast"), "type"),
     ("jk5_sim_driver", Parameter("plant", P.STRING, "other"), "read-only"),
     ("friction_compensation", Parameter("no_such_param", P.BOOL, True), "not declared"),
     ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE, -1.0), "outside its range"),

@@ -12,6 +12,7 @@ private, loopback-only domain; naic_controller and then friction_compensation ar
   it received (its bag holds what it reports and has no gap beyond the outages).
 """
 import bisect
+import pathlib
 import math
 import os
 import subprocess
@@ -27,7 +28,15 @@ pytest.importorskip("rclpy")
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
 
-RATE_LIMIT = 1.0  # params/friction_compensation.yaml torque_rate_limit [N m per cycle]
+def _rate_limit():
+    """torque_rate_limit [N m per cycle] from params/friction_compensation.yaml (the node's default)."""
+    import yaml
+    path = pathlib.Path(__file__).resolve().parents[2] / "params" / "friction_compensation.yaml"
+    doc = yaml.safe_load(path.read_text())
+    return float(doc["friction_compensation"]["ros__parameters"]["torque_rate_limit"])
+
+
+RATE_LIMIT = _rate_limit()
 COMMAND_TIMEOUT = 0.020  # params/jk5_sim_driver.yaml command_timeout [s]
 TAKEOVER_GAP = 0.020  # friction_compensation takeover_gap default [s]
 # The driver runs at 250 Hz here so that this test's single rclpy reader keeps up with every
