@@ -74,27 +74,16 @@ pub fn run(c: BagCmd) -> CliResult {
 
 /// "Nov 14 2023 22:13:20.000150000" (UTC) from ns since the epoch.
 fn utc(ns: u64) -> String {
-    let secs = (ns / 1_000_000_000) as i64;
-    let (days, rem) = (secs.div_euclid(86400), secs.rem_euclid(86400));
-    // civil-from-days (Howard Hinnant's algorithm)
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
+    let (y, m, d, hh, mm, ss) = super::utc_civil((ns / 1_000_000_000) as i64);
     const MONTHS: [&str; 12] = ["Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"];
     format!(
         "{} {:02} {} {:02}:{:02}:{:02}.{:09} UTC",
         MONTHS[(m - 1) as usize],
         d,
         y,
-        rem / 3600,
-        rem % 3600 / 60,
-        rem % 60,
+        hh,
+        mm,
+        ss,
         ns % 1_000_000_000
     )
 }

@@ -133,23 +133,9 @@ const KNOWN_TYPES: &str = "sensor_msgs/msg/JointState, geometry_msgs/msg/WrenchS
 
 fn default_out() -> PathBuf {
     let ns = naic_ros::time::wall_ns();
-    let secs = ns / 1_000_000_000;
-    let (days, rem) = (secs.div_euclid(86400), secs.rem_euclid(86400));
-    // civil-from-days
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let mo = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(mo <= 2);
+    let (y, mo, d, hh, mm, ss) = super::utc_civil(ns / 1_000_000_000);
     PathBuf::from(format!(
-        "runs/naic_{y:04}{mo:02}{d:02}_{:02}{:02}{:02}.mcap",
-        rem / 3600,
-        rem % 3600 / 60,
-        rem % 60
+        "runs/naic_{y:04}{mo:02}{d:02}_{hh:02}{mm:02}{ss:02}.mcap"
     ))
 }
 
