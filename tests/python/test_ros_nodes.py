@@ -6,6 +6,7 @@ sides; RustDDS then uses loopback-only networks) on a test-private ROS_DOMAIN_ID
 import json
 import math
 import os
+import pathlib
 import subprocess
 import sys
 import textwrap
@@ -373,12 +374,16 @@ def test_ros_new_desired_force_is_followed(bins):
 
 
 def _lockstep_trace(bins, domain, until_s):
-    """Start an rclpy probe, then `naic launch --lockstep`; return {stamp_ns: (phase,
-    measured_force, m_d, b_d, sigma, e_f, fault)} of /naic/params for stamps <= until_s."""
+    """`naic launch --lockstep` with the driver paused; an rclpy probe subscribes
+    /naic/params, waits until it is matched, resumes the driver (parameter `paused`) and
+    returns {stamp_ns: (phase, measured_force, m_d, b_d, sigma, e_f, fault)} for stamps
+    <= until_s."""
     overlay = ru.naic_msgs_env()
     script = textwrap.dedent(f"""
         import json, time, rclpy
         from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
+        from rclpy.parameter import Parameter
+        from rclpy.parameter_client import AsyncParameterClient
         from naic_msgs.msg import NaicParams
         rclpy.init()
         n = rclpy.create_node("naic_lockstep_probe")
@@ -388,7 +393,17 @@ def _lockstep_trace(bins, domain, until_s):
             got[ns] = [m.phase, m.measured_force, m.m_d, m.b_d, m.sigma, m.e_f, m.fault]
         qos = QoSProfile(depth=100000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
         n.create_subscription(NaicParams, "/naic/params", cb, qos)
-        print("ready", flush=True)
+        c = AsyncParameterClient(n, "jk5_sim_driver")
+        t0 = time.time()
+        while n.count_publishers("/naic/params") == 0 and time.time() - t0 < 30:
+            rclpy.spin_once(n, timeout_sec=0.05)
+        assert c.wait_for_services(30.0)
+        t1 = time.time()
+        while time.time() - t1 < 1.0:  # let the controller's writer match this reader
+            rclpy.spin_once(n, timeout_sec=0.05)
+        f = c.set_parameters([Parameter("paused", value=False)])
+        rclpy.spin_until_future_complete(n, f, timeout_sec=10)
+        assert f.result().results[0].successful
         t0 = time.time()
         while time.time() - t0 < 90 and (not got or max(got) < {until_s} * 1e9):
             rclpy.spin_once(n, timeout_sec=0.01)
@@ -397,11 +412,10 @@ def _lockstep_trace(bins, domain, until_s):
     env = {**ru.ros_env(domain), **overlay}
     env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
     env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true"],
+                     ru.ros_env(domain))
     probe = subprocess.Popen([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True)
-    assert probe.stdout.readline().strip() == "ready", probe.stderr.read()[-2000:]
-    time.sleep(2.0)  # let the probe be discovered before the chain starts
-    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep"], ru.ros_env(domain))
     try:
         out, err = probe.communicate(timeout=120)
     finally:
@@ -457,3 +471,33 @@ def test_ros_lockstep_advances_simulated_time_per_command(bins):
     finally:
         r.close()
         assert launch.stop(timeout=15) == 0, launch.output()[-3000:]
+
+
+def test_ros_cpu_affinity_pins_every_thread(bins):
+    """`cpu_affinity` pins all of a node's threads (its own and the DDS ones) to one CPU,
+    set before any thread exists; a CPU the machine lacks is a warning, not a failure."""
+    def threads_cpus(pid):
+        out = {}
+        for t in pathlib.Path(f"/proc/{pid}/task").iterdir():
+            st = (t / "status").read_text()
+            out[t.name] = next(l.split(":")[1].strip() for l in st.splitlines() if l.startswith("Cpus_allowed_list"))
+        return out
+
+    env = ru.ros_env(ru.fresh_domain(160))
+    p = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "-p", "cpu_affinity:=0"], env)
+    try:
+        t0 = time.time()
+        while time.time() - t0 < 10 and not any("started" in l for l in p.lines):
+            time.sleep(0.05)
+        cpus = threads_cpus(p.p.pid)
+        assert len(cpus) >= 3 and set(cpus.values()) == {"0"}, cpus
+    finally:
+        assert p.stop() == 0, p.output()[-2000:]
+    p = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "-p", "cpu_affinity:=1023"], env)
+    try:
+        t0 = time.time()
+        while time.time() - t0 < 10 and not any("started" in l for l in p.lines):
+            time.sleep(0.05)
+        assert p.alive() and any("cpu_affinity 1023" in l and "running unpinned" in l for l in p.lines), p.output()
+    finally:
+        assert p.stop() == 0, p.output()[-2000:]

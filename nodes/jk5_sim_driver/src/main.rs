@@ -53,6 +53,11 @@ fn specs() -> Vec<ParamSpec> {
             false,
             "Advance one simulator step per /joint_effort_cmd received (deterministic, faster than real time); stamps become simulated time",
         ),
+        ParamSpec::boolean(
+            "paused",
+            false,
+            "Simulation paused: no steps, the current state is published again every command_timeout (set false to run)",
+        ),
         ParamSpec::double(
             "command_timeout",
             0.02,
@@ -191,6 +196,7 @@ fn run() -> Result<(), RosError> {
 
     let mut gen = 0;
     let (mut rate, mut lockstep, mut timeout_ns, mut damping, mut use_sim_time) = (1000.0, false, 20_000_000i64, 5.0, false);
+    let mut paused = false;
     let mut js = JointState {
         header: Header { stamp: Default::default(), frame_id: String::new() },
         name: msgs::JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
@@ -212,6 +218,7 @@ fn run() -> Result<(), RosError> {
             node.params.with(|p| {
                 rate = p.f64("rate");
                 lockstep = p.bool("lockstep");
+                paused = p.bool("paused");
                 timeout_ns = (p.f64("command_timeout") * 1e9) as i64;
                 damping = p.f64("hold_damping");
                 use_sim_time = p.bool("use_sim_time");
@@ -221,6 +228,15 @@ fn run() -> Result<(), RosError> {
         let dt = 1.0 / rate;
         let period_ns = (1e9 / rate) as i64;
 
+        if paused {
+            // Time stands still; the same state goes out again so late subscribers get it.
+            std::thread::sleep(Duration::from_nanos(timeout_ns as u64));
+            expect(&shared, lockstep.then(|| sim_stamp_ns(&plant)));
+            let st = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time, start_wall)?;
+            last_published_stamp = Some(st);
+            next = monotonic_ns();
+            continue;
+        }
         // Wait for the next step: a deadline (real time) or the command for the state just
         // published (lockstep).
         if lockstep {
