@@ -373,7 +373,7 @@ def test_ros_new_desired_force_is_followed(bins):
     assert abs(mean - 15.0) < 0.5 and stats["median_err"] < 1.0 and stats["p95_err"] < 3.0, stats
 
 
-def _lockstep_trace(bins, domain, until_s):
+def _lockstep_trace(bins, domain, until_s, extra=()):
     """`naic launch --lockstep` with the driver paused; an rclpy probe subscribes
     /naic/params, waits until it is matched, resumes the driver (parameter `paused`) and
     returns {stamp_ns: (phase, measured_force, m_d, b_d, sigma, e_f, fault)} for stamps
@@ -412,7 +412,7 @@ def _lockstep_trace(bins, domain, until_s):
     env = {**ru.ros_env(domain), **overlay}
     env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
     env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
-    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true"],
+    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true", *extra],
                      ru.ros_env(domain))
     probe = subprocess.Popen([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True)
