@@ -4,6 +4,7 @@ All DDS traffic stays on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST f
 sides; RustDDS then uses loopback-only networks) on a test-private ROS_DOMAIN_ID.
 """
 import json
+import re
 import math
 import os
 import pathlib
@@ -432,8 +433,12 @@ def test_ros_lockstep_closed_loop_is_deterministic(bins):
     controller pairs each joint state with the wrench of the same stamp. Machine load only
     changes how fast simulated time runs, not the result. 3 simulated seconds cover the
     approach, first contact (≈ 1.5 s) and NAIC adapting."""
-    a, log_a = _lockstep_trace(bins, ru.fresh_domain(140), 3.0)
+    # Run a: the driver gives up waiting after 1 ms, so states are published again and
+    # answered twice many times; run b: the default 20 ms.
+    a, log_a = _lockstep_trace(bins, ru.fresh_domain(140), 3.0, ["-p", "jk5_sim_driver:command_timeout:=0.001"])
     b, log_b = _lockstep_trace(bins, ru.fresh_domain(150), 3.0)
+    m = re.search(r"lockstep: (\d+) commands computed from an earlier state were dropped", log_a)
+    assert m and int(m.group(1)) > 0, "run a never published a state twice: " + log_a[-1500:]
     common = sorted(set(a) & set(b))
     assert len(common) > 2500, (len(a), len(b), log_a[-1500:])
     diff = [(k, a[k], b[k]) for k in common if a[k] != b[k]]
