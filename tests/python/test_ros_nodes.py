@@ -399,9 +399,11 @@ def _lockstep_trace(bins, domain, until_s, extra=()):
         while n.count_publishers("/naic/params") == 0 and time.time() - t0 < 30:
             rclpy.spin_once(n, timeout_sec=0.05)
         assert c.wait_for_services(30.0)
-        t1 = time.time()
-        while time.time() - t1 < 1.0:  # let the controller's writer match this reader
+        # Paused, the driver publishes the start state again every 20 ms and the controller
+        # answers with the same report: once one arrives, this reader is matched.
+        while not got and time.time() - t0 < 60:
             rclpy.spin_once(n, timeout_sec=0.05)
+        assert got, "no /naic/params while paused"
         f = c.set_parameters([Parameter("paused", value=False)])
         rclpy.spin_until_future_complete(n, f, timeout_sec=10)
         assert f.result().results[0].successful

@@ -8,6 +8,7 @@ Loopback only, private domain.
 import math
 import os
 import sys
+import time
 
 import pytest
 
@@ -133,13 +134,18 @@ def test_params_effort_limit_saturates_the_published_command(nodes):
     c = clients["friction_compensation"]
     default = _get(r, c, ["effort_limit"])[0]
     got = []
-    sub = r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd", lambda m: got.append(list(m.data)), 1000)
+    # Each command carries the wall-clock stamp of the joint state it answers (label
+    # `joints;stamp_ns=`): judge only commands computed after the change was accepted, not
+    # a backlog the executor had not yet delivered.
+    stamp = lambda m: int(m.layout.dim[0].label.split("stamp_ns=")[1]) * 1e-9  # noqa: E731
+    sub = r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd",
+                                     lambda m: got.append((stamp(m), list(m.data))), 1000)
     assert r.spin_until(lambda: len(got) > 50, 20), "no commands from the chain"
     lim = [3.0, 3.0, 2.0, 1.0, 1.0, 0.5]
     assert _set(r, c, [Parameter("effort_limit", P.DOUBLE_ARRAY, lim)])[0].successful
-    r.spin(0.3)  # commands in flight before the change
-    got.clear()
-    assert r.spin_until(lambda: len(got) > 200, 20)
-    assert all(abs(x) <= l + 1e-12 for cmd in got for x, l in zip(cmd, lim)), max(max(map(abs, g)) for g in got)
+    t_set = time.time()
+    assert r.spin_until(lambda: sum(t > t_set for t, _ in got) > 200, 20)
+    after = [cmd for t, cmd in got if t > t_set]
+    assert all(abs(x) <= l + 1e-12 for cmd in after for x, l in zip(cmd, lim)), max(max(map(abs, g)) for g in after)
     assert _set(r, c, [Parameter("effort_limit", P.DOUBLE_ARRAY, default)])[0].successful
     r.node.destroy_subscription(sub)

@@ -139,6 +139,7 @@ fn run() -> Result<(), RosError> {
     // lockstep driver publishing the same state again) gets the same command, and the
     // controller state advances once per state.
     let mut last_cmd: Option<(i64, [f64; 6])> = None;
+    let mut last_params: Option<NaicParams> = None;
 
     while !naic_ros::shutdown_requested() {
         if node.params.generation() != gen || reload {
@@ -181,6 +182,11 @@ fn run() -> Result<(), RosError> {
         let js_stamp_ns = js.header.stamp.to_nanos();
         if let Some((st, tau)) = last_cmd.filter(|(st, _)| *st == js_stamp_ns) {
             let _ = effort_pub.publish(msgs::effort_msg(&tau, Some(st)));
+            // The state report of that cycle again (a paused or waiting driver keeps
+            // /naic/params alive for late subscribers).
+            if let Some(p) = last_params.as_ref().filter(|p| p.header.stamp.to_nanos() == st) {
+                let _ = params_pub.publish(p.clone());
+            }
             continue;
         }
         if use_sim_time && wrench_stamp_ns != Some(js_stamp_ns) {
@@ -272,7 +278,7 @@ fn run() -> Result<(), RosError> {
             (None, true) => format!("force above force_limit ({force_limit} N): retracting"),
             (None, false) => String::new(),
         };
-        let _ = params_pub.publish(NaicParams {
+        let report = NaicParams {
             header: Header { stamp: time_from_ns(js_stamp_ns), frame_id: String::new() },
             mode: mode.clone(),
             phase: match st.phase {
@@ -294,7 +300,12 @@ fn run() -> Result<(), RosError> {
             gamma_clipped: st.gamma_clipped,
             fault,
             fault_count: st.fault_count,
-        });
+        };
+        // Kept for a repeated stamp only (lockstep); in real time stamps never repeat.
+        if use_sim_time {
+            last_params = Some(report.clone());
+        }
+        let _ = params_pub.publish(report);
     }
     log::info!("stopped after {cycles} cycles");
     Ok(())
