@@ -26,7 +26,7 @@
 //! Forward selection: the most gaining significant candidate is added to the joint's
 //! model, the rest are re-scored against the extended model, until none is significant.
 
-use crate::catalogue::{k_grid, q_s_grid, Effect, ALL_EFFECTS};
+use crate::catalogue::{k_grid, n_exp_grid, q_s_grid, Effect, ALL_EFFECTS};
 use nalgebra::{DMatrix, DVector};
 use std::collections::BTreeSet;
 
@@ -52,6 +52,13 @@ pub enum Col {
     Drift,
     Rotor,
     Visc2,
+    /// Contact spring `u·δ₊ⁿ` (n = 1 nominal).
+    Spring,
+    /// Contact damping `u·δ̇·[δ > 0]`.
+    CDamp,
+    /// Tool-gravity columns (see [`crate::catalogue`]).
+    Grav0,
+    Grav1,
 }
 
 /// A scanned shape parameter.
@@ -61,6 +68,10 @@ pub enum ScanParam {
     QsPos,
     QsNeg,
     K,
+    /// Surface height h [m] (contact).
+    H,
+    /// Contact exponent n.
+    NExp,
 }
 
 /// The nominal Stribeck shape σ₀(q̇) = 1 + r₀·e^{−(q̇/q_s0)²} (from `--nominal`; r₀ = 0 = flat).
@@ -83,16 +94,53 @@ pub struct Structure {
     pub q_s_pos: f64,
     pub q_s_neg: f64,
     pub k: f64,
+    /// Contact structures: the spring is `u·(h − z)₊ⁿ`.
+    pub contact: bool,
+    pub h: f64,
+    pub n_exp: f64,
 }
 
 impl Structure {
     pub fn nominal() -> Self {
-        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0 }
+        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, contact: false, h: 0.0, n_exp: 1.0 }
+    }
+    /// The nominal structure of a target and the shape parameters its calibration scans
+    /// (joints: none; contact axes: the surface height).
+    pub fn nominal_for(js: &JointSamples) -> (Self, Vec<ScanParam>) {
+        if js.contact {
+            let h = js.h_grid.get(js.h_grid.len() / 2).copied().unwrap_or(0.0);
+            (Self { contact: true, h, ..Self::nominal() }, vec![ScanParam::H])
+        } else {
+            (Self::nominal(), vec![])
+        }
+    }
+    /// Number of shape (non-linear, scanned) parameters of the structure, for the information criterion.
+    pub fn n_shape(&self) -> usize {
+        if self.contact {
+            return 1 + self.has(Effect::ContactNonlinearity) as usize;
+        }
+        let strib = if self.has(Effect::Stribeck) { 1 + self.has(Effect::FrictionAsymmetry) as usize } else { 0 };
+        strib + self.has(Effect::PositionRipple) as usize
     }
     pub fn has(&self, e: Effect) -> bool {
         self.effects.contains(&e)
     }
     pub fn columns(&self) -> Vec<Col> {
+        if self.contact {
+            let mut c = vec![Col::Spring];
+            for e in &self.effects {
+                match e {
+                    Effect::ContactDamping => c.push(Col::CDamp),
+                    Effect::FtBias => c.push(Col::Offset),
+                    Effect::ToolGravity => {
+                        c.push(Col::Grav0);
+                        c.push(Col::Grav1)
+                    }
+                    _ => {}
+                }
+            }
+            return c;
+        }
         let asym = self.has(Effect::FrictionAsymmetry);
         let dirs: &[Dir] = if asym { &[Dir::Pos, Dir::Neg] } else { &[Dir::Both] };
         let mut c = Vec::new();
@@ -116,6 +164,7 @@ impl Structure {
                 Effect::RotorInertia => c.push(Col::Rotor),
                 Effect::ViscousNonlinearity => c.push(Col::Visc2),
                 Effect::FrictionAsymmetry | Effect::Stribeck => {}
+                Effect::ContactNonlinearity | Effect::ContactDamping | Effect::FtBias | Effect::ToolGravity => {}
             }
         }
         c
@@ -125,6 +174,8 @@ impl Structure {
             ScanParam::Qs | ScanParam::QsPos => self.q_s_pos,
             ScanParam::QsNeg => self.q_s_neg,
             ScanParam::K => self.k,
+            ScanParam::H => self.h,
+            ScanParam::NExp => self.n_exp,
         }
     }
     fn set(&mut self, p: ScanParam, v: f64) {
@@ -136,12 +187,20 @@ impl Structure {
             ScanParam::QsPos => self.q_s_pos = v,
             ScanParam::QsNeg => self.q_s_neg = v,
             ScanParam::K => self.k = v,
+            ScanParam::H => self.h = v,
+            ScanParam::NExp => self.n_exp = v,
         }
     }
     /// The structure with `e` added and the shape parameters to scan for it.
     pub fn with(&self, e: Effect) -> (Structure, Vec<ScanParam>) {
         let mut s = self.clone();
         s.effects.insert(e);
+        if s.contact {
+            // contact: the surface height is re-calibrated with every candidate (per fold),
+            // and the exponent too once the spring is non-linear
+            let scan = if s.has(Effect::ContactNonlinearity) { vec![ScanParam::NExp, ScanParam::H] } else { vec![ScanParam::H] };
+            return (s, scan);
+        }
         let scan = match e {
             Effect::Stribeck if s.has(Effect::FrictionAsymmetry) => vec![ScanParam::QsPos, ScanParam::QsNeg],
             Effect::Stribeck => vec![ScanParam::Qs],
@@ -175,6 +234,19 @@ pub struct JointSamples {
     /// Samples per independent observation (filter window / analysis step), ≥ 1.
     pub corr_len: f64,
     pub time_series: bool,
+    /// A sensor axis of contact data (targets `fx..mz`) rather than a joint.
+    pub contact: bool,
+    /// Contact: sensor-frame component of the unit contact force (or its moment) on this axis.
+    pub cu: Vec<f64>,
+    /// Contact: tip height along the surface normal [m].
+    pub cz: Vec<f64>,
+    /// Contact: penetration rate δ̇ = −ż_tip [m/s].
+    pub crate_: Vec<f64>,
+    /// Contact: the two tool-gravity regressors of this axis.
+    pub cg0: Vec<f64>,
+    pub cg1: Vec<f64>,
+    /// Contact: grid of surface heights to scan [m].
+    pub h_grid: Vec<f64>,
 }
 
 impl JointSamples {
@@ -218,6 +290,23 @@ impl JointSamples {
             Col::Drift => s * self.tn[i],
             Col::Rotor => self.a[i],
             Col::Visc2 => s * v * v,
+            Col::Spring => {
+                let d = st.h - self.cz[i];
+                if d > 0.0 {
+                    self.cu[i] * if st.n_exp == 1.0 { d } else { d.powf(st.n_exp) }
+                } else {
+                    0.0
+                }
+            }
+            Col::CDamp => {
+                if st.h > self.cz[i] {
+                    self.cu[i] * self.crate_[i]
+                } else {
+                    0.0
+                }
+            }
+            Col::Grav0 => self.cg0[i],
+            Col::Grav1 => self.cg1[i],
         }
     }
 
@@ -238,6 +327,13 @@ impl JointSamples {
             fold: self.fold.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect(),
             corr_len: self.corr_len,
             time_series: self.time_series,
+            contact: self.contact,
+            cu: pick(&self.cu),
+            cz: pick(&self.cz),
+            crate_: pick(&self.crate_),
+            cg0: pick(&self.cg0),
+            cg1: pick(&self.cg1),
+            h_grid: self.h_grid.clone(),
         };
         if !self.time_series {
             out.assign_velocity_folds(folds);
@@ -258,7 +354,9 @@ impl JointSamples {
 
     /// Whether an effect can apply to these samples.
     pub fn applicable(&self, e: Effect) -> bool {
-        if self.time_series {
+        if e.is_contact() != self.contact {
+            false
+        } else if self.time_series {
             true
         } else {
             e.applies_to_points()
@@ -439,14 +537,17 @@ fn fold_grams_update(
     g
 }
 
-fn scan_param_of(c: Col) -> Option<ScanParam> {
-    match c {
-        Col::Strib(Dir::Both) => Some(ScanParam::Qs),
-        Col::Strib(Dir::Pos) => Some(ScanParam::QsPos),
-        Col::Strib(Dir::Neg) => Some(ScanParam::QsNeg),
-        Col::RipSin | Col::RipCos => Some(ScanParam::K),
-        _ => None,
-    }
+/// Whether column `c` changes with the shape parameter `sp`.
+fn depends_on(c: Col, sp: ScanParam) -> bool {
+    matches!(
+        (c, sp),
+        (Col::Strib(Dir::Both), ScanParam::Qs)
+            | (Col::Strib(Dir::Pos), ScanParam::QsPos)
+            | (Col::Strib(Dir::Neg), ScanParam::QsNeg)
+            | (Col::RipSin | Col::RipCos, ScanParam::K)
+            | (Col::Spring | Col::CDamp, ScanParam::H)
+            | (Col::Spring, ScanParam::NExp)
+    )
 }
 
 /// Fits `st` with the shape parameters in `scan` chosen per fold (grid + refinement).
@@ -457,9 +558,14 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
     let grid_of = |sp: ScanParam| -> Vec<f64> {
         match sp {
             ScanParam::K => k_grid(),
+            ScanParam::H => js.h_grid.clone(),
+            ScanParam::NExp => n_exp_grid(),
             _ => q_s_grid(),
         }
     };
+    // additive parameters (h, n) are refined by repeated halving of the grid step;
+    // log-spaced ones (q_s, k) by four multiplicative steps
+    let additive = |sp: ScanParam| matches!(sp, ScanParam::H | ScanParam::NExp);
     // Enumerate configurations: for one parameter, its grid; for two (q_s±, disjoint
     // supports) scan each with the other fixed at its current value, then combine the
     // per-direction bests — the Gram blocks of the two directions do not interact except
@@ -480,7 +586,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         let scan_cols: Vec<usize> = cols
             .iter()
             .enumerate()
-            .filter(|(_, c)| scan_param_of(**c).is_some_and(|sp| scan.contains(&sp)))
+            .filter(|(_, c)| scan.iter().any(|&sp| depends_on(**c, sp)))
             .map(|(i, _)| i)
             .collect();
         // stage 1: coarse grids, one parameter at a time (others at current values)
@@ -502,29 +608,59 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
             tried.push((vals.to_vec(), g));
             ssr
         };
-        for (a, &sp) in scan.iter().enumerate() {
-            let mut best = (f64::INFINITY, best_vals[a]);
-            for v in grid_of(sp) {
-                let mut vals = best_vals.clone();
-                vals[a] = v;
-                let ssr = eval_cfg(&vals, &mut tried);
-                if ssr < best.0 {
-                    best = (ssr, v);
+        // coupled additive parameters (h with n) get a second coordinate pass
+        let passes = if scan.len() > 1 && scan.contains(&ScanParam::H) { 2 } else { 1 };
+        for pass in 0..passes {
+            for (a, &sp) in scan.iter().enumerate() {
+                let grid = grid_of(sp);
+                if grid.len() < 2 {
+                    continue;
                 }
-            }
-            best_vals[a] = best.1;
-            // stage 2: refinement around the best
-            let grid = grid_of(sp);
-            let step = (grid[1] / grid[0]).sqrt();
-            for f in [1.0 / step, 1.0 / step.sqrt(), step.sqrt(), step] {
-                let mut vals = best_vals.clone();
-                vals[a] = best.1 * f;
-                let ssr = eval_cfg(&vals, &mut tried);
-                if ssr < best.0 {
-                    best = (ssr, vals[a]);
+                let mut best = (f64::INFINITY, best_vals[a]);
+                if pass == 0 {
+                    for &v in &grid {
+                        let mut vals = best_vals.clone();
+                        vals[a] = v;
+                        let ssr = eval_cfg(&vals, &mut tried);
+                        if ssr < best.0 {
+                            best = (ssr, v);
+                        }
+                    }
+                } else {
+                    best = (eval_cfg(&best_vals, &mut tried), best_vals[a]);
                 }
+                best_vals[a] = best.1;
+                // stage 2: refinement around the best
+                if additive(sp) {
+                    let mut step = (grid[1] - grid[0]).abs();
+                    if pass > 0 {
+                        step *= 0.25;
+                    }
+                    for _ in 0..6 {
+                        step *= 0.5;
+                        let centre = best.1;
+                        for v in [centre - step, centre + step] {
+                            let mut vals = best_vals.clone();
+                            vals[a] = v;
+                            let ssr = eval_cfg(&vals, &mut tried);
+                            if ssr < best.0 {
+                                best = (ssr, v);
+                            }
+                        }
+                    }
+                } else {
+                    let step = (grid[1] / grid[0]).sqrt();
+                    for f in [1.0 / step, 1.0 / step.sqrt(), step.sqrt(), step] {
+                        let mut vals = best_vals.clone();
+                        vals[a] = best.1 * f;
+                        let ssr = eval_cfg(&vals, &mut tried);
+                        if ssr < best.0 {
+                            best = (ssr, vals[a]);
+                        }
+                    }
+                }
+                best_vals[a] = best.1;
             }
-            best_vals[a] = best.1;
         }
         let _ = eval_cfg(&best_vals, &mut tried);
         for (vals, g) in tried {
@@ -558,7 +694,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         fold_structure.push(configs[best.1].clone());
         fold_theta.push(best.2);
     }
-    let n_scan = scan.len();
+    let n_shape = st.n_shape();
     Eval {
         structure: configs[full.1].clone(),
         columns: cols,
@@ -570,7 +706,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         fold_theta,
         fold_ssr,
         n: js.len(),
-        n_params: p + n_scan,
+        n_params: p + n_shape,
     }
 }
 
@@ -648,7 +784,8 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
 
 /// Forward selection on one joint.
 pub fn analyse_joint(js: &JointSamples, sh: &NominalShape, o: &AnalysisOptions) -> JointResult {
-    let nominal = evaluate(js, &Structure::nominal(), &[], sh, o.folds);
+    let (st0, scan0) = Structure::nominal_for(js);
+    let nominal = evaluate(js, &st0, &scan0, sh, o.folds);
     let mut cur = nominal.clone();
     let mut steps = Vec::new();
     let rejected;
