@@ -96,20 +96,23 @@ pub struct Structure {
     pub k: f64,
     /// Contact structures: the spring is `u·(h − z)₊ⁿ`.
     pub contact: bool,
+    /// Contact: the target sees the contact force (has the spring column).
+    pub coupled: bool,
     pub h: f64,
     pub n_exp: f64,
 }
 
 impl Structure {
     pub fn nominal() -> Self {
-        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, contact: false, h: 0.0, n_exp: 1.0 }
+        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, contact: false, coupled: false, h: 0.0, n_exp: 1.0 }
     }
     /// The nominal structure of a target and the shape parameters its calibration scans
     /// (joints: none; contact axes: the surface height).
     pub fn nominal_for(js: &JointSamples) -> (Self, Vec<ScanParam>) {
         if js.contact {
             let h = js.h_grid.get(js.h_grid.len() / 2).copied().unwrap_or(0.0);
-            (Self { contact: true, h, ..Self::nominal() }, vec![ScanParam::H])
+            let scan = if js.coupled { vec![ScanParam::H] } else { vec![] };
+            (Self { contact: true, coupled: js.coupled, h, ..Self::nominal() }, scan)
         } else {
             (Self::nominal(), vec![])
         }
@@ -117,7 +120,7 @@ impl Structure {
     /// Number of shape (non-linear, scanned) parameters of the structure, for the information criterion.
     pub fn n_shape(&self) -> usize {
         if self.contact {
-            return 1 + self.has(Effect::ContactNonlinearity) as usize;
+            return self.coupled as usize * (1 + self.has(Effect::ContactNonlinearity) as usize);
         }
         let strib = if self.has(Effect::Stribeck) { 1 + self.has(Effect::FrictionAsymmetry) as usize } else { 0 };
         strib + self.has(Effect::PositionRipple) as usize
@@ -127,7 +130,7 @@ impl Structure {
     }
     pub fn columns(&self) -> Vec<Col> {
         if self.contact {
-            let mut c = vec![Col::Spring];
+            let mut c = if self.coupled { vec![Col::Spring] } else { vec![] };
             for e in &self.effects {
                 match e {
                     Effect::ContactDamping => c.push(Col::CDamp),
@@ -198,7 +201,13 @@ impl Structure {
         if s.contact {
             // contact: the surface height is re-calibrated with every candidate (per fold),
             // and the exponent too once the spring is non-linear
-            let scan = if s.has(Effect::ContactNonlinearity) { vec![ScanParam::NExp, ScanParam::H] } else { vec![ScanParam::H] };
+            let scan = if !s.coupled {
+                vec![]
+            } else if s.has(Effect::ContactNonlinearity) {
+                vec![ScanParam::NExp, ScanParam::H]
+            } else {
+                vec![ScanParam::H]
+            };
             return (s, scan);
         }
         let scan = match e {
@@ -245,8 +254,10 @@ pub struct JointSamples {
     /// Contact: the two tool-gravity regressors of this axis.
     pub cg0: Vec<f64>,
     pub cg1: Vec<f64>,
-    /// Contact: grid of surface heights to scan [m].
+    /// Contact: grid of surface heights to scan [m] (empty when the axis is not coupled).
     pub h_grid: Vec<f64>,
+    /// Contact: the axis sees the contact force (else it has no contact columns).
+    pub coupled: bool,
 }
 
 impl JointSamples {
@@ -334,6 +345,7 @@ impl JointSamples {
             cg0: pick(&self.cg0),
             cg1: pick(&self.cg1),
             h_grid: self.h_grid.clone(),
+            coupled: self.coupled,
         };
         if !self.time_series {
             out.assign_velocity_folds(folds);
@@ -355,6 +367,8 @@ impl JointSamples {
     /// Whether an effect can apply to these samples.
     pub fn applicable(&self, e: Effect) -> bool {
         if e.is_contact() != self.contact {
+            false
+        } else if matches!(e, Effect::ContactNonlinearity | Effect::ContactDamping) && !self.coupled {
             false
         } else if self.time_series {
             true
@@ -550,6 +564,10 @@ fn depends_on(c: Col, sp: ScanParam) -> bool {
     )
 }
 
+/// Halvings of the grid step when refining the surface height: the contact force is
+/// k·δ with k up to 10⁴–10⁵ N/m, so h must be resolved to well below 1 µm·(noise/k).
+const H_HALVINGS: usize = 14;
+
 /// Fits `st` with the shape parameters in `scan` chosen per fold (grid + refinement).
 pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &NominalShape, k_folds: usize) -> Eval {
     let cols = st.columns();
@@ -608,8 +626,57 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
             tried.push((vals.to_vec(), g));
             ssr
         };
-        // coupled additive parameters (h with n) get a second coordinate pass
-        let passes = if scan.len() > 1 && scan.contains(&ScanParam::H) { 2 } else { 1 };
+        // Exponent and surface height are strongly coupled (a power law seen from a
+        // shifted surface looks like another exponent): nested search, for each n on its
+        // grid (then refined by halving) a local line search of h around the current one.
+        let nested = scan == [ScanParam::NExp, ScanParam::H] && js.h_grid.len() > 1;
+        if nested {
+            let h0 = best_vals[1];
+            let line_h = |n: f64, half_width: f64, tried: &mut Vec<(Vec<f64>, Vec<DMatrix<f64>>)>| -> (f64, f64) {
+                let mut best = (f64::INFINITY, h0);
+                let pts = 17;
+                for k in 0..pts {
+                    let h = h0 - half_width + 2.0 * half_width * k as f64 / (pts - 1) as f64;
+                    let ssr = eval_cfg(&[n, h], tried);
+                    if ssr < best.0 {
+                        best = (ssr, h);
+                    }
+                }
+                let mut step = 2.0 * half_width / (pts - 1) as f64;
+                for _ in 0..H_HALVINGS {
+                    step *= 0.5;
+                    let c = best.1;
+                    for h in [c - step, c + step] {
+                        let ssr = eval_cfg(&[n, h], tried);
+                        if ssr < best.0 {
+                            best = (ssr, h);
+                        }
+                    }
+                }
+                best
+            };
+            let ng = n_exp_grid();
+            let mut best = (f64::INFINITY, best_vals[0], h0);
+            for &n in &ng {
+                let (ssr, h) = line_h(n, 0.008, &mut tried);
+                if ssr < best.0 {
+                    best = (ssr, n, h);
+                }
+            }
+            let mut step = ng[1] - ng[0];
+            for _ in 0..6 {
+                step *= 0.5;
+                let c = best.1;
+                for n in [c - step, c + step] {
+                    let (ssr, h) = line_h(n, 0.002, &mut tried);
+                    if ssr < best.0 {
+                        best = (ssr, n, h);
+                    }
+                }
+            }
+            best_vals = vec![best.1, best.2];
+        }
+        let passes = if nested { 0 } else { 1 };
         for pass in 0..passes {
             for (a, &sp) in scan.iter().enumerate() {
                 let grid = grid_of(sp);
@@ -636,7 +703,8 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
                     if pass > 0 {
                         step *= 0.25;
                     }
-                    for _ in 0..6 {
+                    let halvings = if sp == ScanParam::H { H_HALVINGS } else { 6 };
+                    for _ in 0..halvings {
                         step *= 0.5;
                         let centre = best.1;
                         for v in [centre - step, centre + step] {

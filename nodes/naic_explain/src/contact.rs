@@ -136,14 +136,33 @@ pub fn axis_samples(
     let zmax = ck.z_tip.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let h_grid = if zmax > zmin { lin_grid(zmin - 1e-3, zmax, 81) } else { vec![zmin] };
     let n = Vector3::z();
+    // Coupling of each axis to the contact force: mean square of u (moments divided by
+    // the tip lever so both are dimensionless). Axes with < 1/1000 of the largest (the
+    // contact force's share on them below ~3 %: e.g. the sensor's own z moment, or fx, fy
+    // with the tool pointing down) get no contact columns: there the spring's two free
+    // parameters would only fit noise.
+    let mut coupling = [0.0f64; 6];
+    for i in 0..m {
+        let r = &ck.r_ws[i];
+        let lever = ck.r_tip[i].norm().max(1e-6);
+        let uf = r.inverse_transform_vector(&n);
+        let um = r.inverse_transform_vector(&ck.r_tip[i].cross(&n)) / lever;
+        for a in 0..3 {
+            coupling[a] += uf[a] * uf[a] / m as f64;
+            coupling[a + 3] += um[a] * um[a] / m as f64;
+        }
+    }
+    let cmax = coupling.iter().copied().fold(0.0, f64::max);
     (0..6)
         .map(|a| {
+            let coupled = coupling[a] >= 1e-3 * cmax && cmax > 0.0;
             let mut js = JointSamples {
                 joint: AXIS_BASE + a + 1,
                 corr_len: 1.0,
                 time_series: true,
                 contact: true,
-                h_grid: h_grid.clone(),
+                h_grid: if coupled { h_grid.clone() } else { vec![] },
+                coupled,
                 ..Default::default()
             };
             for i in 0..m {
@@ -157,7 +176,7 @@ pub fn axis_samples(
                     _ => (g_s.y, -g_s.x),
                 };
                 js.y.push(wrench[p.raw_index[i]][a] - tool_wrench(tool, r)[a]);
-                js.cu.push(u[a % 3]);
+                js.cu.push(if coupled { u[a % 3] } else { 0.0 });
                 js.cz.push(ck.z_tip[i]);
                 js.crate_.push(-ck.zdot_tip[i]);
                 js.cg0.push(g0);
@@ -178,32 +197,22 @@ pub fn axis_samples(
         .collect()
 }
 
-/// The sensor-error part (`ft_bias`, `tool_gravity` columns of the final model) of axis
-/// sample `i`.
-fn sensor_error(js: &JointSamples, r: &JointResult, i: usize) -> f64 {
-    let ev = &r.final_eval;
-    ev.columns
-        .iter()
-        .zip(&ev.full_theta)
-        .map(|(c, th)| match c {
-            Col::Offset => *th,
-            Col::Grav0 => th * js.cg0[i],
-            Col::Grav1 => th * js.cg1[i],
-            _ => 0.0,
-        })
-        .sum()
+/// The sensor error (`ft_bias`) of an axis in its final model. A `tool_gravity` finding
+/// is not an error of the sensor: the tool really weighs that, the joints carry it too,
+/// so the measured wrench is kept for the joints.
+fn sensor_error(r: &JointResult) -> f64 {
+    r.final_eval.coef(Col::Offset).unwrap_or(0.0)
 }
 
-/// Joint torques `J_ftᵀ W_c` of the contact wrench the sensor measured (smoothed wrench
-/// minus nominal tool weight minus the sensor errors the axis analysis found), per
-/// analysis instant. `axes`/`results` are the axis samples and their analysis.
+/// Joint torques `J_ftᵀ W` of the wrench the sensor measured beyond the URDF's tool
+/// (smoothed wrench minus the nominal tool weight, which the rigid-body model already
+/// carries, minus the sensor bias the axis analysis found), per analysis instant. `axes`/`results` are the axis samples and their analysis.
 pub fn external_torques(
     p: &Prepared,
     model: &Model,
     sensor: FrameId,
     ck: &ContactKinematics,
     tool: &Tool,
-    axes: &[JointSamples],
     results: &[JointResult],
 ) -> Result<Vec<[f64; 6]>, ExplainError> {
     let mut data = Data6::try_new(model).map_err(|e| ExplainError::model(format!("{e}")))?;
@@ -214,8 +223,8 @@ pub fn external_torques(
         let mut w = [0.0; 6];
         for a in 0..6 {
             w[a] = p.wrench[i][a] - tw[a];
-            if let (Some(js), Some(res)) = (axes.get(a), results.get(a)) {
-                w[a] -= sensor_error(js, res, i);
+            if let Some(res) = results.get(a) {
+                w[a] -= sensor_error(res);
             }
         }
         let f = r * Vector3::new(w[0], w[1], w[2]);

@@ -388,11 +388,24 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
 pub const JK5_TOOL_MASS: f64 = 0.424;
 pub const JK5_TOOL_COM_Z: f64 = 0.015;
 
-/// Cosine blend 0 → 1 over [0, 1] and its first two derivatives.
-fn blend(u: f64) -> (f64, f64, f64) {
-    let pi = std::f64::consts::PI;
-    let u = u.clamp(0.0, 1.0);
-    ((1.0 - (pi * u).cos()) / 2.0, pi * (pi * u).sin() / 2.0, pi * pi * (pi * u).cos() / 2.0)
+/// Unit move (0 → 1) over `dur` seconds with cosine velocity ramps of `ramp` seconds and
+/// a constant-speed cruise between: (x, ẋ, ẍ) at `tau`. Short ramps keep the time spent
+/// creeping below the rest threshold (1 mrad/s) inside the filter window that the
+/// analysis leaves out around starts and stops.
+fn trapezoid(tau: f64, dur: f64, ramp: f64) -> (f64, f64, f64) {
+    let r = ramp.min(dur / 3.0);
+    let v = 1.0 / (dur - r);
+    let w = std::f64::consts::PI / r;
+    let tau = tau.clamp(0.0, dur);
+    if tau < r {
+        (v * (tau / 2.0 - (w * tau).sin() / (2.0 * w)), v * (1.0 - (w * tau).cos()) / 2.0, v * w * (w * tau).sin() / 2.0)
+    } else if tau < dur - r {
+        (v * (r / 2.0 + (tau - r)), v, 0.0)
+    } else {
+        let u = tau - (dur - r);
+        let x = v * (r / 2.0 + (dur - 2.0 * r)) + v * (u / 2.0 + (w * u).sin() / (2.0 * w));
+        (x, v * (1.0 + (w * u).cos()) / 2.0, -v * w * (w * u).sin() / 2.0)
+    }
 }
 
 /// A joint-space segment: from `a` to `b` over `dur` seconds (cosine blend), or a hold.
@@ -410,8 +423,8 @@ struct Seg {
 /// surface (joints 1, 4, 5, 6 sum of sines: the sensor turns, so tool weight and sensor
 /// bias can be told apart), then at three sites a pressing motion: from 10 mm above the
 /// surface to a depth of 3–6 mm (drawn) and back, with down/up times 3, 1 and 0.4 s and
-/// 0.5 s holds (joint targets by the simulator's inverse kinematics, cosine blends in
-/// joint space). Truth: a horizontal surface at a drawn height with a drawn stiffness
+/// 0.5 s holds (joint targets by the simulator's inverse kinematics, straight lines in
+/// joint space at constant speed with 0.15 s cosine ramps). Truth: a horizontal surface at a drawn height with a drawn stiffness
 /// (`naic_sim::environment`, linear spring, 2000–6000 N/m) on the `tip` origin, the
 /// ATI mini45 model (`naic_sim::sensor::Mini45`: the tool of the URDF's `ft_sensor` link,
 /// white noise of 1–2 resolution steps, quantisation) plus the hidden effects:
@@ -546,12 +559,12 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
         let mut tt = t - sweep_s;
         for sg in &segs {
             if tt < sg.dur {
-                let (b, db, ddb) = blend(tt / sg.dur);
+                let (b, db, ddb) = trapezoid(tt, sg.dur, RAMP);
                 for j in 0..NJ {
                     let d = sg.b[j] - sg.a[j];
                     q[j] = sg.a[j] + b * d;
-                    dq[j] = db * d / sg.dur;
-                    ddq[j] = ddb * d / (sg.dur * sg.dur);
+                    dq[j] = db * d;
+                    ddq[j] = ddb * d;
                 }
                 return (q, dq, ddq);
             }

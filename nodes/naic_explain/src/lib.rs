@@ -308,7 +308,7 @@ pub fn explain_series(
         let ck = contact::kinematics(&prep, &model, sensor, tip)?;
         axes = contact::axis_samples(&prep, w, &ck, &tool, &time_fold(&prep, opts.block_s, opts.analysis.folds));
         axis_results = analyse_all(&axes, &[], &opts.analysis, opts.threads, &|f, w| progress(0.3 + 0.2 * f, w));
-        let tau_ext = contact::external_torques(&prep, &model, sensor, &ck, &tool, &axes, &axis_results)?;
+        let tau_ext = contact::external_torques(&prep, &model, sensor, &ck, &tool, &axis_results)?;
         for (rb, te) in prep.tau_rb.iter_mut().zip(&tau_ext) {
             for j in 0..NJ {
                 rb[j] -= te[j];
@@ -319,7 +319,7 @@ pub fn explain_series(
              horizontal surface (normal +z) acting as a linear spring k·δ on `{}`, δ = h − z_tip, seen by the F/T sensor \
              with the URDF's tool ({mass:.3} kg, centre of mass {:.4}, {:.4}, {:.4} m in the sensor frame); k and h are \
              calibrated per axis on the training folds. The joint residual has the measured contact wrench \
-             (J_ftᵀ W, nominal tool weight and the sensor errors found removed) taken out.",
+             (J_ftᵀ W; the URDF tool's weight and any ft_bias found removed) taken out.",
             opts.tip_frame, com.x, com.y, com.z
         ));
     }

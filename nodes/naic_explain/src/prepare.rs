@@ -45,7 +45,7 @@ pub struct PrepareOptions {
 
 impl Default for PrepareOptions {
     fn default() -> Self {
-        Self { window_s: 0.051, order: 3, rate_hz: 100.0, max_samples: 60_000, v_rest: 1e-3 }
+        Self { window_s: 0.051, order: 5, rate_hz: 100.0, max_samples: 60_000, v_rest: 1e-3 }
     }
 }
 

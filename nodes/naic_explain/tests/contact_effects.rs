@@ -41,7 +41,7 @@ fn run(seed: u64, effects: &[Effect]) -> (Generated, Vec<Finding>, Explained) {
 fn tol(name: &str) -> (f64, f64) {
     match name {
         "n" => (0.08, 0.0),
-        "k_n" => (0.5, 0.0),
+        "k_n" => (0.25, 0.0),
         "c_ns_per_m" => (0.15, 5.0),
         "bias" => (0.05, 0.02),
         "delta_mass_kg" => (0.1, 0.01),
@@ -158,6 +158,17 @@ fn contact_diag() {
                     r.final_eval.full_structure.n_exp,
                     r.final_eval.full_theta
                 );
+            }
+            if std::env::var("DIAG_RES").is_ok() {
+                for k in [1usize, 2] {
+                    let js = &ex.joints[k];
+                    let (oof, _) = naic_explain::analysis::residuals(js, &ex.results[k].nominal, &Default::default());
+                    let mut idx: Vec<usize> = (0..js.len()).collect();
+                    idx.sort_by(|&a, &b| oof[b].abs().total_cmp(&oof[a].abs()));
+                    for &i in idx.iter().take(8) {
+                        eprintln!("   J{} t {:.3} v {:.4} a {:.3} res {:.4}", k + 1, js.t[i], js.v[i], js.a[i], oof[i]);
+                    }
+                }
             }
             for f in fs.iter().filter(|f| f.significant) {
                 eprintln!("  FOUND {} {:?} {:?}", f.effect.name(), f.targets.iter().map(|&t| target_key(t)).collect::<Vec<_>>(), f.params);
