@@ -44,8 +44,6 @@ pub enum Col {
     Coul(Dir),
     Visc(Dir),
     Strib(Dir),
-    /// Second Stribeck term `s·e^{−(q̇/q_s2)²}` (`second_stribeck`).
-    Strib2(Dir),
     Offset,
     RipSin,
     RipCos,
@@ -69,9 +67,6 @@ pub enum ScanParam {
     Qs,
     QsPos,
     QsNeg,
-    Q2,
-    Q2Pos,
-    Q2Neg,
     K,
     /// Surface height h [m] (contact).
     H,
@@ -98,9 +93,6 @@ pub struct Structure {
     pub effects: BTreeSet<Effect>,
     pub q_s_pos: f64,
     pub q_s_neg: f64,
-    /// Second Stribeck velocity per direction (`second_stribeck`).
-    pub q_s2_pos: f64,
-    pub q_s2_neg: f64,
     pub k: f64,
     /// Contact structures: the spring is `u·(h − z)₊ⁿ`.
     pub contact: bool,
@@ -112,7 +104,7 @@ pub struct Structure {
 
 impl Structure {
     pub fn nominal() -> Self {
-        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, q_s2_pos: 0.1, q_s2_neg: 0.1, k: 10.0, contact: false, coupled: false, h: 0.0, n_exp: 1.0 }
+        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, contact: false, coupled: false, h: 0.0, n_exp: 1.0 }
     }
     /// The nominal structure of a target and the shape parameters its calibration scans
     /// (joints: none; contact axes: the surface height).
@@ -130,10 +122,8 @@ impl Structure {
         if self.contact {
             return self.coupled as usize * (1 + self.has(Effect::ContactNonlinearity) as usize);
         }
-        let per_dir = 1 + self.has(Effect::FrictionAsymmetry) as usize;
-        let strib = if self.has(Effect::Stribeck) { per_dir } else { 0 };
-        let strib2 = if self.has(Effect::SecondStribeck) { per_dir } else { 0 };
-        strib + strib2 + self.has(Effect::PositionRipple) as usize
+        let strib = if self.has(Effect::Stribeck) { 1 + self.has(Effect::FrictionAsymmetry) as usize } else { 0 };
+        strib + self.has(Effect::PositionRipple) as usize
     }
     pub fn has(&self, e: Effect) -> bool {
         self.effects.contains(&e)
@@ -163,9 +153,6 @@ impl Structure {
             if self.has(Effect::Stribeck) {
                 c.push(Col::Strib(d));
             }
-            if self.has(Effect::SecondStribeck) {
-                c.push(Col::Strib2(d));
-            }
         }
         for e in &self.effects {
             match e {
@@ -179,7 +166,7 @@ impl Structure {
                 Effect::Drift => c.push(Col::Drift),
                 Effect::RotorInertia => c.push(Col::Rotor),
                 Effect::ViscousNonlinearity => c.push(Col::Visc2),
-                Effect::FrictionAsymmetry | Effect::Stribeck | Effect::SecondStribeck => {}
+                Effect::FrictionAsymmetry | Effect::Stribeck => {}
                 Effect::ContactNonlinearity | Effect::ContactDamping | Effect::FtBias | Effect::ToolGravity => {}
             }
         }
@@ -189,8 +176,6 @@ impl Structure {
         match p {
             ScanParam::Qs | ScanParam::QsPos => self.q_s_pos,
             ScanParam::QsNeg => self.q_s_neg,
-            ScanParam::Q2 | ScanParam::Q2Pos => self.q_s2_pos,
-            ScanParam::Q2Neg => self.q_s2_neg,
             ScanParam::K => self.k,
             ScanParam::H => self.h,
             ScanParam::NExp => self.n_exp,
@@ -204,12 +189,6 @@ impl Structure {
             }
             ScanParam::QsPos => self.q_s_pos = v,
             ScanParam::QsNeg => self.q_s_neg = v,
-            ScanParam::Q2 => {
-                self.q_s2_pos = v;
-                self.q_s2_neg = v
-            }
-            ScanParam::Q2Pos => self.q_s2_pos = v,
-            ScanParam::Q2Neg => self.q_s2_neg = v,
             ScanParam::K => self.k = v,
             ScanParam::H => self.h = v,
             ScanParam::NExp => self.n_exp = v,
@@ -234,18 +213,7 @@ impl Structure {
         let scan = match e {
             Effect::Stribeck if s.has(Effect::FrictionAsymmetry) => vec![ScanParam::QsPos, ScanParam::QsNeg],
             Effect::Stribeck => vec![ScanParam::Qs],
-            Effect::SecondStribeck if s.has(Effect::FrictionAsymmetry) => vec![ScanParam::Q2Pos, ScanParam::Q2Neg],
-            Effect::SecondStribeck => vec![ScanParam::Q2],
-            Effect::FrictionAsymmetry if s.has(Effect::Stribeck) || s.has(Effect::SecondStribeck) => {
-                let mut v = Vec::new();
-                if s.has(Effect::Stribeck) {
-                    v.extend([ScanParam::QsPos, ScanParam::QsNeg]);
-                }
-                if s.has(Effect::SecondStribeck) {
-                    v.extend([ScanParam::Q2Pos, ScanParam::Q2Neg]);
-                }
-                v
-            }
+            Effect::FrictionAsymmetry if s.has(Effect::Stribeck) => vec![ScanParam::QsPos, ScanParam::QsNeg],
             Effect::PositionRipple => vec![ScanParam::K],
             _ => vec![],
         };
@@ -322,11 +290,6 @@ impl JointSamples {
             Col::Visc(d) => ind(d) * v,
             Col::Strib(d) => {
                 let qs = if d == Dir::Neg { st.q_s_neg } else { st.q_s_pos };
-                let x = v / qs;
-                ind(d) * s * (-x * x).exp()
-            }
-            Col::Strib2(d) => {
-                let qs = if d == Dir::Neg { st.q_s2_neg } else { st.q_s2_pos };
                 let x = v / qs;
                 ind(d) * s * (-x * x).exp()
             }
@@ -434,7 +397,7 @@ pub fn friction_part(ev: &Eval, sh: &NominalShape, v: f64) -> f64 {
     ev.columns
         .iter()
         .zip(&ev.full_theta)
-        .filter(|(c, _)| matches!(c, Col::Coul(_) | Col::Visc(_) | Col::Strib(_) | Col::Strib2(_) | Col::Visc2))
+        .filter(|(c, _)| matches!(c, Col::Coul(_) | Col::Visc(_) | Col::Strib(_) | Col::Visc2))
         .map(|(c, th)| th * js.col(*c, &ev.full_structure, sh, 0))
         .sum()
 }
@@ -595,9 +558,6 @@ fn depends_on(c: Col, sp: ScanParam) -> bool {
         (Col::Strib(Dir::Both), ScanParam::Qs)
             | (Col::Strib(Dir::Pos), ScanParam::QsPos)
             | (Col::Strib(Dir::Neg), ScanParam::QsNeg)
-            | (Col::Strib2(Dir::Both), ScanParam::Q2)
-            | (Col::Strib2(Dir::Pos), ScanParam::Q2Pos)
-            | (Col::Strib2(Dir::Neg), ScanParam::Q2Neg)
             | (Col::RipSin | Col::RipCos, ScanParam::K)
             | (Col::Spring | Col::CDamp, ScanParam::H)
             | (Col::Spring, ScanParam::NExp)

@@ -19,7 +19,6 @@
 //! | `drift` | `s·(t − t_mid)/T` | change of the Coulomb level over the session [N·m] |
 //! | `rotor_inertia` | `q̈_j` (engineer's check: unmodelled motor/gear inertia) | I_a [kg·m²] |
 //! | `viscous_nonlinearity` | `s·q̇²` (engineer's check: non-Newtonian lubricant) | f_v2 [N·m·s²/rad²] |
-//! | `second_stribeck` | `s·e^{−(q̇/q_s2)²}` (per direction if asymmetric; engineer's check: a second transition of the friction curve, either sign) | f_s2, q_s2 |
 //!
 //!
 //! Contact data (wrench columns `fx..mz` in the `ft_sensor` frame, or `/wrench` in a bag)
@@ -50,14 +49,13 @@ pub enum Effect {
     Drift,
     RotorInertia,
     ViscousNonlinearity,
-    SecondStribeck,
     ContactNonlinearity,
     ContactDamping,
     FtBias,
     ToolGravity,
 }
 
-pub const ALL_EFFECTS: [Effect; 14] = [
+pub const ALL_EFFECTS: [Effect; 13] = [
     Effect::FrictionAsymmetry,
     Effect::Stribeck,
     Effect::PositionRipple,
@@ -67,7 +65,6 @@ pub const ALL_EFFECTS: [Effect; 14] = [
     Effect::Drift,
     Effect::RotorInertia,
     Effect::ViscousNonlinearity,
-    Effect::SecondStribeck,
     Effect::ContactNonlinearity,
     Effect::ContactDamping,
     Effect::FtBias,
@@ -86,7 +83,6 @@ impl Effect {
             Effect::Drift => "drift",
             Effect::RotorInertia => "rotor_inertia",
             Effect::ViscousNonlinearity => "viscous_nonlinearity",
-            Effect::SecondStribeck => "second_stribeck",
             Effect::ContactNonlinearity => "contact_nonlinearity",
             Effect::ContactDamping => "contact_damping",
             Effect::FtBias => "ft_bias",
@@ -100,7 +96,7 @@ impl Effect {
 
     /// Whether the effect can be seen in steady-state friction points (no time, position, acceleration).
     pub fn applies_to_points(self) -> bool {
-        matches!(self, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::ViscousNonlinearity | Effect::SecondStribeck)
+        matches!(self, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::ViscousNonlinearity)
     }
 
     /// Whether the effect belongs to the contact (wrench) catalogue rather than the joint one.
@@ -137,7 +133,6 @@ impl Effect {
             Effect::Drift => "friction that changes over the session (warm-up, wear)",
             Effect::RotorInertia => "unmodelled motor/gear inertia (torque proportional to joint acceleration)",
             Effect::ViscousNonlinearity => "viscous friction that grows faster than linearly with speed",
-            Effect::SecondStribeck => "a second low-speed transition of the friction curve at another speed (two exponential terms, either sign: e.g. friction dipping at the slowest speeds, or a second lubrication regime)",
             Effect::ContactNonlinearity => "a contact force that is not linear in the penetration (power law k·δⁿ, the elastic part of Hunt–Crossley)",
             Effect::ContactDamping => "a contact damping force c·δ̇ that the nominal linear spring lacks",
             Effect::FtBias => "a constant bias of the F/T sensor axis (not tared, or drifted since the tare)",

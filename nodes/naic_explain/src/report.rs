@@ -62,17 +62,6 @@ pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(Strin
                 push("q_s", st.q_s_pos);
             }
         }
-        Effect::SecondStribeck => {
-            if st.has(Effect::FrictionAsymmetry) {
-                push("f_s2_pos", c(Col::Strib2(Dir::Pos)));
-                push("q_s2_pos", st.q_s2_pos);
-                push("f_s2_neg", c(Col::Strib2(Dir::Neg)));
-                push("q_s2_neg", st.q_s2_neg);
-            } else {
-                push("f_s2", c(Col::Strib2(Dir::Both)));
-                push("q_s2", st.q_s2_pos);
-            }
-        }
         Effect::PositionRipple => {
             let (a, b) = (c(Col::RipSin), c(Col::RipCos));
             push("amplitude_nm", a.hypot(b));
@@ -317,7 +306,7 @@ pub fn extended_friction(r: &JointResult, js: &JointSamples, sh: &NominalShape, 
     let mut direct_notes = Vec::new();
     let direct = extended_friction_direct(r, sh, &mut direct_notes);
     let st = &r.final_eval.full_structure;
-    if !st.has(Effect::ViscousNonlinearity) && !st.has(Effect::SecondStribeck) && direct_notes.is_empty() {
+    if !st.has(Effect::ViscousNonlinearity) && direct_notes.is_empty() {
         return direct;
     }
     // speeds: quantiles of |v| per direction
@@ -400,7 +389,7 @@ pub fn extended_params(ex: &Explained, fs: &[Finding]) -> FrictionParams {
     }
     let mut extra = Vec::new();
     for f in fs.iter().filter(|f| f.significant) {
-        if matches!(f.effect, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::ViscousNonlinearity | Effect::SecondStribeck) {
+        if matches!(f.effect, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::ViscousNonlinearity) {
             continue;
         }
         for (j, ps) in &f.params {

@@ -47,8 +47,6 @@ fn tol(name: &str) -> (f64, f64) {
         "delay_s" => (0.25, 0.001),
         "delta_f_c_nm" => (0.2, 0.05),
         "inertia_kgm2" => (0.2, 0.02),
-        "f_s2" => (0.25, 0.1),
-        "q_s2" => (0.35, 0.0),
         _ => (0.2, 0.0),
     }
 }
@@ -165,13 +163,6 @@ fn finds_drift() {
 #[test]
 fn finds_rotor_inertia() {
     property(&[Effect::RotorInertia], 800..820, 19);
-}
-
-/// The engineer's check `second_stribeck` is hidden together with a `stribeck` on the
-/// same joint (alone it would be a Stribeck effect): both must be found with their values.
-#[test]
-fn finds_second_stribeck_with_stribeck() {
-    property(&[Effect::Stribeck, Effect::SecondStribeck], 1000..1020, 19);
 }
 
 #[test]
