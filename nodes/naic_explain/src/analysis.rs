@@ -449,17 +449,23 @@ impl Default for AnalysisOptions {
 
 fn solve(g: &DMatrix<f64>, p: usize) -> (Vec<f64>, f64) {
     // g is (p+1)x(p+1) Gram of [X y]
-    let mut a = g.view((0, 0), (p, p)).clone_owned();
-    let b = g.view((0, p), (p, 1)).column(0).clone_owned();
+    // Columns are scaled to unit norm first, so the tiny ridge that keeps the solve
+    // defined for collinear or empty columns is the same relative size for every column
+    // (the contact spring column u·δ is ~10⁻⁵ of a constant column: an absolute ridge
+    // would shrink its coefficient by several per cent).
+    let scale: Vec<f64> = (0..p).map(|k| if g[(k, k)] > 0.0 { 1.0 / g[(k, k)].sqrt() } else { 1.0 }).collect();
+    let mut a = DMatrix::from_fn(p, p, |r, c| g[(r, c)] * scale[r] * scale[c]);
+    let b = DVector::from_fn(p, |r, _| g[(r, p)] * scale[r]);
     let yy = g[(p, p)];
-    let dmax = (0..p).map(|k| a[(k, k)]).fold(0.0, f64::max);
     for k in 0..p {
-        a[(k, k)] += 1e-9 * a[(k, k)] + 1e-12 * dmax + 1e-300;
+        a[(k, k)] += 1e-9 * a[(k, k)] + 1e-12;
     }
-    let theta = match a.clone().cholesky() {
+    let z = match a.clone().cholesky() {
         Some(ch) => ch.solve(&b),
         None => a.pseudo_inverse(1e-12).map(|pi| pi * &b).unwrap_or_else(|_| DVector::zeros(p)),
     };
+    let theta = DVector::from_fn(p, |r, _| z[r] * scale[r]);
+    let b = g.view((0, p), (p, 1)).column(0).clone_owned();
     let ssr = (yy - 2.0 * theta.dot(&b) + (g.view((0, 0), (p, p)) * &theta).dot(&theta)).max(0.0);
     (theta.iter().copied().collect(), ssr)
 }

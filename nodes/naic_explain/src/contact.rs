@@ -77,6 +77,11 @@ pub struct Tool {
     pub com: Vector3<f64>,
 }
 
+/// Points of the surface-height grid over the tip's height range (then refined by
+/// halving; a coarse grid can leave the refinement in the wrong basin on axes that see
+/// the contact force only through a small lever or tilt).
+pub const H_GRID_POINTS: usize = 201;
+
 /// Gravity in the base frame [m/s²] (as `naic_sim::sensor`).
 pub const GRAVITY: Vector3<f64> = Vector3::new(0.0, 0.0, -9.81);
 
@@ -134,7 +139,7 @@ pub fn axis_samples(
     let dur = (p.t.last().copied().unwrap_or(1.0) - t0).max(1e-9);
     let zmin = ck.z_tip.iter().copied().fold(f64::INFINITY, f64::min);
     let zmax = ck.z_tip.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let h_grid = if zmax > zmin { lin_grid(zmin - 1e-3, zmax, 81) } else { vec![zmin] };
+    let h_grid = if zmax > zmin { lin_grid(zmin - 1e-3, zmax, H_GRID_POINTS) } else { vec![zmin] };
     let n = Vector3::z();
     // Coupling of each axis to the contact force: mean square of u (moments divided by
     // the tip lever so both are dimensionless). Axes with < 1/1000 of the largest (the
