@@ -9,8 +9,11 @@
 //! ([`analysis`]). The result is a [`report::Report`] (`report.json`, `report.md` with
 //! SVG plots) and an extended friction parameter file that the friction loader reads.
 //!
+//! Contact data (wrench columns / `/wrench`) is also analysed per sensor axis against the
+//! simulator's contact and F/T-sensor model ([`contact`]).
+//!
 //! Modules: [`input`] (reading and validating the three kinds), [`prepare`]
-//! (Savitzky–Golay velocity/acceleration, rigid-body torques), [`catalogue`],
+//! (Savitzky–Golay velocity/acceleration, rigid-body torques), [`contact`], [`catalogue`],
 //! [`analysis`] (folds, fits, selection), [`report`], [`generate`] (seeded synthetic
 //! "measured" data with hidden effects, for tests and benchmarks).
 
