@@ -142,19 +142,23 @@ pub fn axis_samples(
     let h_grid = if zmax > zmin { lin_grid(zmin - 1e-3, zmax, H_GRID_POINTS) } else { vec![zmin] };
     let n = Vector3::z();
     // Coupling of each axis to the contact force: mean square of u (moments divided by
-    // the tip lever so both are dimensionless). Axes with < 1/1000 of the largest (the
-    // contact force's share on them below ~3 %: e.g. the sensor's own z moment, or fx, fy
-    // with the tool pointing down) get no contact columns: there the spring's two free
-    // parameters would only fit noise.
+    // the tip lever so both are dimensionless) over the lowest 10 % of the tip heights
+    // (where a surface the tip touches must be; the free-space motion elsewhere does not
+    // count). Axes with < 1/1000 of the largest (the contact force's share on them below
+    // ~3 %: e.g. the sensor's own z moment, or fx, fy, mx, my with the tool pointing down)
+    // get no contact columns: there the spring's two free parameters would only fit noise.
+    let mut zs = ck.z_tip.clone();
+    zs.sort_by(f64::total_cmp);
+    let z_low = zs.get(m / 10).copied().unwrap_or(f64::INFINITY);
     let mut coupling = [0.0f64; 6];
-    for i in 0..m {
+    for i in (0..m).filter(|&i| ck.z_tip[i] <= z_low) {
         let r = &ck.r_ws[i];
         let lever = ck.r_tip[i].norm().max(1e-6);
         let uf = r.inverse_transform_vector(&n);
         let um = r.inverse_transform_vector(&ck.r_tip[i].cross(&n)) / lever;
         for a in 0..3 {
-            coupling[a] += uf[a] * uf[a] / m as f64;
-            coupling[a + 3] += um[a] * um[a] / m as f64;
+            coupling[a] += uf[a] * uf[a];
+            coupling[a + 3] += um[a] * um[a];
         }
     }
     let cmax = coupling.iter().copied().fold(0.0, f64::max);
