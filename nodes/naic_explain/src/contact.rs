@@ -144,9 +144,10 @@ pub fn axis_samples(
     // Coupling of each axis to the contact force: mean square of u (moments divided by
     // the tip lever so both are dimensionless) over the lowest 10 % of the tip heights
     // (where a surface the tip touches must be; the free-space motion elsewhere does not
-    // count). Axes with < 1/1000 of the largest (the contact force's share on them below
-    // ~3 %: e.g. the sensor's own z moment, or fx, fy, mx, my with the tool pointing down)
-    // get no contact columns: there the spring's two free parameters would only fit noise.
+    // count). Axes that do not see it at all (below 10⁻¹² of the largest: the sensor's own
+    // z moment always, fx, fy, mx, my with the tool pointing exactly down) get no contact
+    // columns. Every other axis keeps them, however weak: the surface height comes from
+    // the dominant axis (see `crate::explain_series`), so a weak axis only adds its scale.
     let mut zs = ck.z_tip.clone();
     zs.sort_by(f64::total_cmp);
     let z_low = zs.get(m / 10).copied().unwrap_or(f64::INFINITY);
@@ -164,7 +165,7 @@ pub fn axis_samples(
     let cmax = coupling.iter().copied().fold(0.0, f64::max);
     (0..6)
         .map(|a| {
-            let coupled = coupling[a] >= 1e-3 * cmax && cmax > 0.0;
+            let coupled = coupling[a] >= 1e-12 * cmax && cmax > 0.0;
             let mut js = JointSamples {
                 joint: AXIS_BASE + a + 1,
                 corr_len: 1.0,
@@ -204,6 +205,17 @@ pub fn axis_samples(
             js
         })
         .collect()
+}
+
+/// The axis that sees the contact force most (largest Σ u², the spring column's scale);
+/// `None` when no axis is coupled.
+pub fn dominant_axis(axes: &[JointSamples]) -> Option<usize> {
+    axes.iter()
+        .enumerate()
+        .filter(|(_, js)| js.coupled)
+        .map(|(a, js)| (a, js.cu.iter().map(|u| u * u).sum::<f64>()))
+        .max_by(|x, y| x.1.total_cmp(&y.1))
+        .map(|(a, _)| a)
 }
 
 /// The sensor error (`ft_bias`) of an axis in its final model. A `tool_gravity` finding

@@ -310,6 +310,18 @@ pub fn explain_series(
         progress(0.3, "contact: sensor and tip kinematics");
         let ck = contact::kinematics(&prep, &model, sensor, tip)?;
         axes = contact::axis_samples(&prep, w, &ck, &tool, &time_fold(&prep, opts.block_s, opts.analysis.folds));
+        // One surface: its height is calibrated on the axis that sees the contact force
+        // most; the other axes get that height and their own scale of the spring column
+        // (a weak axis alone would place the surface where its noise fits best).
+        if let Some(dom) = contact::dominant_axis(&axes) {
+            let r = analysis::analyse_joint(&axes[dom], &NominalShape::default(), &opts.analysis);
+            let h = r.final_eval.full_structure.h;
+            for (a, js) in axes.iter_mut().enumerate() {
+                if a != dom && js.coupled {
+                    js.h_grid = vec![h];
+                }
+            }
+        }
         axis_results = analyse_all(&axes, &[], &opts.analysis, opts.threads, &|f, w| progress(0.3 + 0.2 * f, w));
         let tau_ext = contact::external_torques(&prep, &model, sensor, &ck, &tool, &axis_results)?;
         for (rb, te) in prep.tau_rb.iter_mut().zip(&tau_ext) {
@@ -320,8 +332,8 @@ pub fn explain_series(
         contact_note = Some(format!(
             "Contact data: the wrench (`ft_sensor` frame) is analysed per axis against the simulator's contact model — a \
              horizontal surface (normal +z) acting as a linear spring k·δ on `{}`, δ = h − z_tip, seen by the F/T sensor \
-             with the URDF's tool ({mass:.3} kg, centre of mass {:.4}, {:.4}, {:.4} m in the sensor frame); k and h are \
-             calibrated per axis on the training folds. The joint residual has the measured contact wrench \
+             with the URDF's tool ({mass:.3} kg, centre of mass {:.4}, {:.4}, {:.4} m in the sensor frame); h is \
+             calibrated on the axis that sees the contact force most, the spring's scale per axis, on the training folds. The joint residual has the measured contact wrench \
              (J_ftᵀ W; the URDF tool's weight and any ft_bias found removed) taken out.",
             opts.tip_frame, com.x, com.y, com.z
         ));
