@@ -366,9 +366,8 @@ impl JointSamples {
 
     /// Whether an effect can apply to these samples.
     pub fn applicable(&self, e: Effect) -> bool {
-        if e.is_contact() != self.contact {
-            false
-        } else if matches!(e, Effect::ContactNonlinearity | Effect::ContactDamping) && !self.coupled {
+        let needs_spring = matches!(e, Effect::ContactNonlinearity | Effect::ContactDamping);
+        if e.is_contact() != self.contact || (needs_spring && !self.coupled) {
             false
         } else if self.time_series {
             true

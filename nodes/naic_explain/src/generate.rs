@@ -530,7 +530,7 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
         for (k, x) in sines[j].iter_mut().enumerate() {
             let f = [0.07, 0.19][k] * rng.range(0.85, 1.15);
             let amp = if j == 0 { 0.15 } else { 0.35 };
-            *x = (amp, f, rng.range(0.0, 6.283));
+            *x = (amp, f, rng.range(0.0, std::f64::consts::TAU));
         }
     }
     let press_s: f64 = segs.iter().map(|s| s.dur).sum();
