@@ -462,8 +462,8 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
     if sig.is_empty() {
         let _ = writeln!(s, "**Nothing significant**: no candidate extension improved the held-out fit by the rule above; the nominal model explains the data to its noise level.\n");
     } else {
-        let _ = writeln!(s, "`gain` = share of the nominal held-out mean-square residual the effect removed (averaged over joints); `step gain` = relative held-out reduction on its joints when it was added.\n");
-        let _ = writeln!(s, "| rank | effect | joints | gain | step gain | parameters |\n| --- | --- | --- | --- | --- | --- |");
+        let _ = writeln!(s, "`gain` = share of the nominal held-out mean-square residual the effect removed (averaged over the joints, or over the sensor axes for contact effects); `step gain` = relative held-out reduction on its targets when it was added.\n");
+        let _ = writeln!(s, "| rank | effect | targets | gain | step gain | parameters |\n| --- | --- | --- | --- | --- | --- |");
         for (i, f) in sig.iter().enumerate() {
             let ps: Vec<String> = f
                 .params
