@@ -26,7 +26,7 @@
 //! Forward selection: the most gaining significant candidate is added to the joint's
 //! model, the rest are re-scored against the extended model, until none is significant.
 
-use crate::catalogue::{k_grid, q_s_grid, Effect, ALL_EFFECTS};
+use crate::catalogue::{k_grid, n_exp_grid, q_s_grid, Effect, ALL_EFFECTS};
 use nalgebra::{DMatrix, DVector};
 use std::collections::BTreeSet;
 
@@ -52,6 +52,13 @@ pub enum Col {
     Drift,
     Rotor,
     Visc2,
+    /// Contact spring `u·δ₊ⁿ` (n = 1 nominal).
+    Spring,
+    /// Contact damping `u·δ̇·[δ > 0]`.
+    CDamp,
+    /// Tool-gravity columns (see [`crate::catalogue`]).
+    Grav0,
+    Grav1,
 }
 
 /// A scanned shape parameter.
@@ -61,6 +68,10 @@ pub enum ScanParam {
     QsPos,
     QsNeg,
     K,
+    /// Surface height h [m] (contact).
+    H,
+    /// Contact exponent n.
+    NExp,
 }
 
 /// The nominal Stribeck shape σ₀(q̇) = 1 + r₀·e^{−(q̇/q_s0)²} (from `--nominal`; r₀ = 0 = flat).
@@ -83,16 +94,56 @@ pub struct Structure {
     pub q_s_pos: f64,
     pub q_s_neg: f64,
     pub k: f64,
+    /// Contact structures: the spring is `u·(h − z)₊ⁿ`.
+    pub contact: bool,
+    /// Contact: the target sees the contact force (has the spring column).
+    pub coupled: bool,
+    pub h: f64,
+    pub n_exp: f64,
 }
 
 impl Structure {
     pub fn nominal() -> Self {
-        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0 }
+        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, contact: false, coupled: false, h: 0.0, n_exp: 1.0 }
+    }
+    /// The nominal structure of a target and the shape parameters its calibration scans
+    /// (joints: none; contact axes: the surface height).
+    pub fn nominal_for(js: &JointSamples) -> (Self, Vec<ScanParam>) {
+        if js.contact {
+            let h = js.h_grid.get(js.h_grid.len() / 2).copied().unwrap_or(0.0);
+            let scan = if js.coupled { vec![ScanParam::H] } else { vec![] };
+            (Self { contact: true, coupled: js.coupled, h, ..Self::nominal() }, scan)
+        } else {
+            (Self::nominal(), vec![])
+        }
+    }
+    /// Number of shape (non-linear, scanned) parameters of the structure, for the information criterion.
+    pub fn n_shape(&self) -> usize {
+        if self.contact {
+            return self.coupled as usize * (1 + self.has(Effect::ContactNonlinearity) as usize);
+        }
+        let strib = if self.has(Effect::Stribeck) { 1 + self.has(Effect::FrictionAsymmetry) as usize } else { 0 };
+        strib + self.has(Effect::PositionRipple) as usize
     }
     pub fn has(&self, e: Effect) -> bool {
         self.effects.contains(&e)
     }
     pub fn columns(&self) -> Vec<Col> {
+        if self.contact {
+            let mut c = if self.coupled { vec![Col::Spring] } else { vec![] };
+            for e in &self.effects {
+                match e {
+                    Effect::ContactDamping => c.push(Col::CDamp),
+                    Effect::FtBias => c.push(Col::Offset),
+                    Effect::ToolGravity => {
+                        c.push(Col::Grav0);
+                        c.push(Col::Grav1)
+                    }
+                    _ => {}
+                }
+            }
+            return c;
+        }
         let asym = self.has(Effect::FrictionAsymmetry);
         let dirs: &[Dir] = if asym { &[Dir::Pos, Dir::Neg] } else { &[Dir::Both] };
         let mut c = Vec::new();
@@ -116,6 +167,7 @@ impl Structure {
                 Effect::RotorInertia => c.push(Col::Rotor),
                 Effect::ViscousNonlinearity => c.push(Col::Visc2),
                 Effect::FrictionAsymmetry | Effect::Stribeck => {}
+                Effect::ContactNonlinearity | Effect::ContactDamping | Effect::FtBias | Effect::ToolGravity => {}
             }
         }
         c
@@ -125,6 +177,8 @@ impl Structure {
             ScanParam::Qs | ScanParam::QsPos => self.q_s_pos,
             ScanParam::QsNeg => self.q_s_neg,
             ScanParam::K => self.k,
+            ScanParam::H => self.h,
+            ScanParam::NExp => self.n_exp,
         }
     }
     fn set(&mut self, p: ScanParam, v: f64) {
@@ -136,12 +190,26 @@ impl Structure {
             ScanParam::QsPos => self.q_s_pos = v,
             ScanParam::QsNeg => self.q_s_neg = v,
             ScanParam::K => self.k = v,
+            ScanParam::H => self.h = v,
+            ScanParam::NExp => self.n_exp = v,
         }
     }
     /// The structure with `e` added and the shape parameters to scan for it.
     pub fn with(&self, e: Effect) -> (Structure, Vec<ScanParam>) {
         let mut s = self.clone();
         s.effects.insert(e);
+        if s.contact {
+            // contact: the surface height is re-calibrated with every candidate (per fold),
+            // and the exponent too once the spring is non-linear
+            let scan = if !s.coupled {
+                vec![]
+            } else if s.has(Effect::ContactNonlinearity) {
+                vec![ScanParam::NExp, ScanParam::H]
+            } else {
+                vec![ScanParam::H]
+            };
+            return (s, scan);
+        }
         let scan = match e {
             Effect::Stribeck if s.has(Effect::FrictionAsymmetry) => vec![ScanParam::QsPos, ScanParam::QsNeg],
             Effect::Stribeck => vec![ScanParam::Qs],
@@ -175,6 +243,21 @@ pub struct JointSamples {
     /// Samples per independent observation (filter window / analysis step), ≥ 1.
     pub corr_len: f64,
     pub time_series: bool,
+    /// A sensor axis of contact data (targets `fx..mz`) rather than a joint.
+    pub contact: bool,
+    /// Contact: sensor-frame component of the unit contact force (or its moment) on this axis.
+    pub cu: Vec<f64>,
+    /// Contact: tip height along the surface normal [m].
+    pub cz: Vec<f64>,
+    /// Contact: penetration rate δ̇ = −ż_tip [m/s].
+    pub crate_: Vec<f64>,
+    /// Contact: the two tool-gravity regressors of this axis.
+    pub cg0: Vec<f64>,
+    pub cg1: Vec<f64>,
+    /// Contact: grid of surface heights to scan [m] (empty when the axis is not coupled).
+    pub h_grid: Vec<f64>,
+    /// Contact: the axis sees the contact force (else it has no contact columns).
+    pub coupled: bool,
 }
 
 impl JointSamples {
@@ -218,6 +301,23 @@ impl JointSamples {
             Col::Drift => s * self.tn[i],
             Col::Rotor => self.a[i],
             Col::Visc2 => s * v * v,
+            Col::Spring => {
+                let d = st.h - self.cz[i];
+                if d > 0.0 {
+                    self.cu[i] * if st.n_exp == 1.0 { d } else { d.powf(st.n_exp) }
+                } else {
+                    0.0
+                }
+            }
+            Col::CDamp => {
+                if st.h > self.cz[i] {
+                    self.cu[i] * self.crate_[i]
+                } else {
+                    0.0
+                }
+            }
+            Col::Grav0 => self.cg0[i],
+            Col::Grav1 => self.cg1[i],
         }
     }
 
@@ -238,6 +338,14 @@ impl JointSamples {
             fold: self.fold.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect(),
             corr_len: self.corr_len,
             time_series: self.time_series,
+            contact: self.contact,
+            cu: pick(&self.cu),
+            cz: pick(&self.cz),
+            crate_: pick(&self.crate_),
+            cg0: pick(&self.cg0),
+            cg1: pick(&self.cg1),
+            h_grid: self.h_grid.clone(),
+            coupled: self.coupled,
         };
         if !self.time_series {
             out.assign_velocity_folds(folds);
@@ -258,7 +366,10 @@ impl JointSamples {
 
     /// Whether an effect can apply to these samples.
     pub fn applicable(&self, e: Effect) -> bool {
-        if self.time_series {
+        let needs_spring = matches!(e, Effect::ContactNonlinearity | Effect::ContactDamping);
+        if e.is_contact() != self.contact || (needs_spring && !self.coupled) {
+            false
+        } else if self.time_series {
             true
         } else {
             e.applies_to_points()
@@ -337,17 +448,23 @@ impl Default for AnalysisOptions {
 
 fn solve(g: &DMatrix<f64>, p: usize) -> (Vec<f64>, f64) {
     // g is (p+1)x(p+1) Gram of [X y]
-    let mut a = g.view((0, 0), (p, p)).clone_owned();
-    let b = g.view((0, p), (p, 1)).column(0).clone_owned();
+    // Columns are scaled to unit norm first, so the tiny ridge that keeps the solve
+    // defined for collinear or empty columns is the same relative size for every column
+    // (the contact spring column u·δ is ~10⁻⁵ of a constant column: an absolute ridge
+    // would shrink its coefficient by several per cent).
+    let scale: Vec<f64> = (0..p).map(|k| if g[(k, k)] > 0.0 { 1.0 / g[(k, k)].sqrt() } else { 1.0 }).collect();
+    let mut a = DMatrix::from_fn(p, p, |r, c| g[(r, c)] * scale[r] * scale[c]);
+    let b = DVector::from_fn(p, |r, _| g[(r, p)] * scale[r]);
     let yy = g[(p, p)];
-    let dmax = (0..p).map(|k| a[(k, k)]).fold(0.0, f64::max);
     for k in 0..p {
-        a[(k, k)] += 1e-9 * a[(k, k)] + 1e-12 * dmax + 1e-300;
+        a[(k, k)] += 1e-9 * a[(k, k)] + 1e-12;
     }
-    let theta = match a.clone().cholesky() {
+    let z = match a.clone().cholesky() {
         Some(ch) => ch.solve(&b),
         None => a.pseudo_inverse(1e-12).map(|pi| pi * &b).unwrap_or_else(|_| DVector::zeros(p)),
     };
+    let theta = DVector::from_fn(p, |r, _| z[r] * scale[r]);
+    let b = g.view((0, p), (p, 1)).column(0).clone_owned();
     let ssr = (yy - 2.0 * theta.dot(&b) + (g.view((0, 0), (p, p)) * &theta).dot(&theta)).max(0.0);
     (theta.iter().copied().collect(), ssr)
 }
@@ -439,15 +556,22 @@ fn fold_grams_update(
     g
 }
 
-fn scan_param_of(c: Col) -> Option<ScanParam> {
-    match c {
-        Col::Strib(Dir::Both) => Some(ScanParam::Qs),
-        Col::Strib(Dir::Pos) => Some(ScanParam::QsPos),
-        Col::Strib(Dir::Neg) => Some(ScanParam::QsNeg),
-        Col::RipSin | Col::RipCos => Some(ScanParam::K),
-        _ => None,
-    }
+/// Whether column `c` changes with the shape parameter `sp`.
+fn depends_on(c: Col, sp: ScanParam) -> bool {
+    matches!(
+        (c, sp),
+        (Col::Strib(Dir::Both), ScanParam::Qs)
+            | (Col::Strib(Dir::Pos), ScanParam::QsPos)
+            | (Col::Strib(Dir::Neg), ScanParam::QsNeg)
+            | (Col::RipSin | Col::RipCos, ScanParam::K)
+            | (Col::Spring | Col::CDamp, ScanParam::H)
+            | (Col::Spring, ScanParam::NExp)
+    )
 }
+
+/// Halvings of the grid step when refining the surface height: the contact force is
+/// k·δ with k up to 10⁴–10⁵ N/m, so h must be resolved to well below 1 µm·(noise/k).
+const H_HALVINGS: usize = 14;
 
 /// Fits `st` with the shape parameters in `scan` chosen per fold (grid + refinement).
 pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &NominalShape, k_folds: usize) -> Eval {
@@ -457,9 +581,14 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
     let grid_of = |sp: ScanParam| -> Vec<f64> {
         match sp {
             ScanParam::K => k_grid(),
+            ScanParam::H => js.h_grid.clone(),
+            ScanParam::NExp => n_exp_grid(),
             _ => q_s_grid(),
         }
     };
+    // additive parameters (h, n) are refined by repeated halving of the grid step;
+    // log-spaced ones (q_s, k) by four multiplicative steps
+    let additive = |sp: ScanParam| matches!(sp, ScanParam::H | ScanParam::NExp);
     // Enumerate configurations: for one parameter, its grid; for two (q_s±, disjoint
     // supports) scan each with the other fixed at its current value, then combine the
     // per-direction bests — the Gram blocks of the two directions do not interact except
@@ -480,7 +609,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         let scan_cols: Vec<usize> = cols
             .iter()
             .enumerate()
-            .filter(|(_, c)| scan_param_of(**c).is_some_and(|sp| scan.contains(&sp)))
+            .filter(|(_, c)| scan.iter().any(|&sp| depends_on(**c, sp)))
             .map(|(i, _)| i)
             .collect();
         // stage 1: coarse grids, one parameter at a time (others at current values)
@@ -502,29 +631,109 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
             tried.push((vals.to_vec(), g));
             ssr
         };
-        for (a, &sp) in scan.iter().enumerate() {
-            let mut best = (f64::INFINITY, best_vals[a]);
-            for v in grid_of(sp) {
-                let mut vals = best_vals.clone();
-                vals[a] = v;
-                let ssr = eval_cfg(&vals, &mut tried);
+        // Exponent and surface height are strongly coupled (a power law seen from a
+        // shifted surface looks like another exponent): nested search, for each n on its
+        // grid (then refined by halving) a local line search of h around the current one.
+        let nested = scan == [ScanParam::NExp, ScanParam::H] && js.h_grid.len() > 1;
+        if nested {
+            let h0 = best_vals[1];
+            let line_h = |n: f64, half_width: f64, tried: &mut Vec<(Vec<f64>, Vec<DMatrix<f64>>)>| -> (f64, f64) {
+                let mut best = (f64::INFINITY, h0);
+                let pts = 17;
+                for k in 0..pts {
+                    let h = h0 - half_width + 2.0 * half_width * k as f64 / (pts - 1) as f64;
+                    let ssr = eval_cfg(&[n, h], tried);
+                    if ssr < best.0 {
+                        best = (ssr, h);
+                    }
+                }
+                let mut step = 2.0 * half_width / (pts - 1) as f64;
+                for _ in 0..H_HALVINGS {
+                    step *= 0.5;
+                    let c = best.1;
+                    for h in [c - step, c + step] {
+                        let ssr = eval_cfg(&[n, h], tried);
+                        if ssr < best.0 {
+                            best = (ssr, h);
+                        }
+                    }
+                }
+                best
+            };
+            let ng = n_exp_grid();
+            let mut best = (f64::INFINITY, best_vals[0], h0);
+            for &n in &ng {
+                let (ssr, h) = line_h(n, 0.008, &mut tried);
                 if ssr < best.0 {
-                    best = (ssr, v);
+                    best = (ssr, n, h);
                 }
             }
-            best_vals[a] = best.1;
-            // stage 2: refinement around the best
-            let grid = grid_of(sp);
-            let step = (grid[1] / grid[0]).sqrt();
-            for f in [1.0 / step, 1.0 / step.sqrt(), step.sqrt(), step] {
-                let mut vals = best_vals.clone();
-                vals[a] = best.1 * f;
-                let ssr = eval_cfg(&vals, &mut tried);
-                if ssr < best.0 {
-                    best = (ssr, vals[a]);
+            let mut step = ng[1] - ng[0];
+            for _ in 0..6 {
+                step *= 0.5;
+                let c = best.1;
+                for n in [c - step, c + step] {
+                    let (ssr, h) = line_h(n, 0.002, &mut tried);
+                    if ssr < best.0 {
+                        best = (ssr, n, h);
+                    }
                 }
             }
-            best_vals[a] = best.1;
+            best_vals = vec![best.1, best.2];
+        }
+        let passes = if nested { 0 } else { 1 };
+        for pass in 0..passes {
+            for (a, &sp) in scan.iter().enumerate() {
+                let grid = grid_of(sp);
+                if grid.len() < 2 {
+                    continue;
+                }
+                let mut best = (f64::INFINITY, best_vals[a]);
+                if pass == 0 {
+                    for &v in &grid {
+                        let mut vals = best_vals.clone();
+                        vals[a] = v;
+                        let ssr = eval_cfg(&vals, &mut tried);
+                        if ssr < best.0 {
+                            best = (ssr, v);
+                        }
+                    }
+                } else {
+                    best = (eval_cfg(&best_vals, &mut tried), best_vals[a]);
+                }
+                best_vals[a] = best.1;
+                // stage 2: refinement around the best
+                if additive(sp) {
+                    let mut step = (grid[1] - grid[0]).abs();
+                    if pass > 0 {
+                        step *= 0.25;
+                    }
+                    let halvings = if sp == ScanParam::H { H_HALVINGS } else { 6 };
+                    for _ in 0..halvings {
+                        step *= 0.5;
+                        let centre = best.1;
+                        for v in [centre - step, centre + step] {
+                            let mut vals = best_vals.clone();
+                            vals[a] = v;
+                            let ssr = eval_cfg(&vals, &mut tried);
+                            if ssr < best.0 {
+                                best = (ssr, v);
+                            }
+                        }
+                    }
+                } else {
+                    let step = (grid[1] / grid[0]).sqrt();
+                    for f in [1.0 / step, 1.0 / step.sqrt(), step.sqrt(), step] {
+                        let mut vals = best_vals.clone();
+                        vals[a] = best.1 * f;
+                        let ssr = eval_cfg(&vals, &mut tried);
+                        if ssr < best.0 {
+                            best = (ssr, vals[a]);
+                        }
+                    }
+                }
+                best_vals[a] = best.1;
+            }
         }
         let _ = eval_cfg(&best_vals, &mut tried);
         for (vals, g) in tried {
@@ -558,7 +767,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         fold_structure.push(configs[best.1].clone());
         fold_theta.push(best.2);
     }
-    let n_scan = scan.len();
+    let n_shape = st.n_shape();
     Eval {
         structure: configs[full.1].clone(),
         columns: cols,
@@ -570,7 +779,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         fold_theta,
         fold_ssr,
         n: js.len(),
-        n_params: p + n_scan,
+        n_params: p + n_shape,
     }
 }
 
@@ -648,7 +857,8 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
 
 /// Forward selection on one joint.
 pub fn analyse_joint(js: &JointSamples, sh: &NominalShape, o: &AnalysisOptions) -> JointResult {
-    let nominal = evaluate(js, &Structure::nominal(), &[], sh, o.folds);
+    let (st0, scan0) = Structure::nominal_for(js);
+    let nominal = evaluate(js, &st0, &scan0, sh, o.folds);
     let mut cur = nominal.clone();
     let mut steps = Vec::new();
     let rejected;

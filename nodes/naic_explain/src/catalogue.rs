@@ -20,9 +20,22 @@
 //! | `rotor_inertia` | `q̈_j` (engineer's check: unmodelled motor/gear inertia) | I_a [kg·m²] |
 //! | `viscous_nonlinearity` | `s·q̇²` (engineer's check: non-Newtonian lubricant) | f_v2 [N·m·s²/rad²] |
 //!
-//! Contact effects (`contact_nonlinearity`, `contact_damping`, `ft_bias`, `tool_gravity`)
-//! are not implemented yet: data with wrench columns is accepted and the wrench ignored
-//! (the report says so).
+//!
+//! Contact data (wrench columns `fx..mz` in the `ft_sensor` frame, or `/wrench` in a bag)
+//! is analysed per sensor axis `a` (targets `fx, fy, fz, mx, my, mz`, see [`crate::contact`]).
+//! The residual is `y_a = w_measured,a − w_tool,a` (the nominal tool weight of the URDF's
+//! `ft_sensor` link removed); `u_a` is the sensor-frame component of the unit contact
+//! force (forces: `R_wsᵀ n`, moments: `R_wsᵀ (r_tip × n)`), `δ = h − z_tip` the
+//! penetration of the tip into the horizontal surface at height `h`, `δ̇ = −ż_tip`,
+//! `g_s = R_wsᵀ g` gravity in the sensor frame.
+//!
+//! | effect | columns added (per axis) | parameters |
+//! | --- | --- | --- |
+//! | nominal (linear spring, the simulator's environment) | `u_a·δ₊` | k [N/m], h [m] (scanned) |
+//! | `contact_nonlinearity` | spring column becomes `u_a·δ₊ⁿ` (power law, Hunt–Crossley's elastic part) | k_n [N/mⁿ], n |
+//! | `contact_damping` | `u_a·δ̇·[δ > 0]` (Kelvin–Voigt damping the nominal spring lacks) | c [N·s/m] |
+//! | `ft_bias` | `1` | bias of the axis [N or N·m] |
+//! | `tool_gravity` | forces: `g_s,a`; moments: the two components of `(Δ(m c)) × g_s` on that axis | Δm [kg]; Δ(m·c) [kg·m] |
 
 /// One candidate extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -36,9 +49,13 @@ pub enum Effect {
     Drift,
     RotorInertia,
     ViscousNonlinearity,
+    ContactNonlinearity,
+    ContactDamping,
+    FtBias,
+    ToolGravity,
 }
 
-pub const ALL_EFFECTS: [Effect; 9] = [
+pub const ALL_EFFECTS: [Effect; 13] = [
     Effect::FrictionAsymmetry,
     Effect::Stribeck,
     Effect::PositionRipple,
@@ -48,6 +65,10 @@ pub const ALL_EFFECTS: [Effect; 9] = [
     Effect::Drift,
     Effect::RotorInertia,
     Effect::ViscousNonlinearity,
+    Effect::ContactNonlinearity,
+    Effect::ContactDamping,
+    Effect::FtBias,
+    Effect::ToolGravity,
 ];
 
 impl Effect {
@@ -62,6 +83,10 @@ impl Effect {
             Effect::Drift => "drift",
             Effect::RotorInertia => "rotor_inertia",
             Effect::ViscousNonlinearity => "viscous_nonlinearity",
+            Effect::ContactNonlinearity => "contact_nonlinearity",
+            Effect::ContactDamping => "contact_damping",
+            Effect::FtBias => "ft_bias",
+            Effect::ToolGravity => "tool_gravity",
         }
     }
 
@@ -72,6 +97,11 @@ impl Effect {
     /// Whether the effect can be seen in steady-state friction points (no time, position, acceleration).
     pub fn applies_to_points(self) -> bool {
         matches!(self, Effect::FrictionAsymmetry | Effect::Stribeck | Effect::ViscousNonlinearity)
+    }
+
+    /// Whether the effect belongs to the contact (wrench) catalogue rather than the joint one.
+    pub fn is_contact(self) -> bool {
+        matches!(self, Effect::ContactNonlinearity | Effect::ContactDamping | Effect::FtBias | Effect::ToolGravity)
     }
 
     /// Extra parameters it adds (amplitudes + scanned shape parameters), for the information criterion.
@@ -103,6 +133,10 @@ impl Effect {
             Effect::Drift => "friction that changes over the session (warm-up, wear)",
             Effect::RotorInertia => "unmodelled motor/gear inertia (torque proportional to joint acceleration)",
             Effect::ViscousNonlinearity => "viscous friction that grows faster than linearly with speed",
+            Effect::ContactNonlinearity => "a contact force that is not linear in the penetration (power law k·δⁿ, the elastic part of Hunt–Crossley)",
+            Effect::ContactDamping => "a contact damping force c·δ̇ that the nominal linear spring lacks",
+            Effect::FtBias => "a constant bias of the F/T sensor axis (not tared, or drifted since the tare)",
+            Effect::ToolGravity => "the tool's weight differs from the nominal tool (mass or centre of mass wrong), seen rotating with the sensor",
         }
     }
 }
@@ -115,6 +149,16 @@ pub fn log_grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 /// Grid of Stribeck velocities q_s [rad/s].
 pub fn q_s_grid() -> Vec<f64> {
     log_grid(1.5e-3, 0.5, 18)
+}
+
+/// Linear grid from `lo` to `hi` with `n` points.
+pub fn lin_grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|i| lo + (hi - lo) * i as f64 / (n - 1).max(1) as f64).collect()
+}
+
+/// Grid of contact exponents n (`contact_nonlinearity`).
+pub fn n_exp_grid() -> Vec<f64> {
+    lin_grid(0.5, 3.0, 26)
 }
 
 /// Grid of ripple wave numbers k [rad⁻¹] (cycles per radian × 2π).

@@ -9,14 +9,18 @@
 //! ([`analysis`]). The result is a [`report::Report`] (`report.json`, `report.md` with
 //! SVG plots) and an extended friction parameter file that the friction loader reads.
 //!
+//! Contact data (wrench columns / `/wrench`) is also analysed per sensor axis against the
+//! simulator's contact and F/T-sensor model ([`contact`]).
+//!
 //! Modules: [`input`] (reading and validating the three kinds), [`prepare`]
-//! (Savitzky–Golay velocity/acceleration, rigid-body torques), [`catalogue`],
+//! (Savitzky–Golay velocity/acceleration, rigid-body torques), [`contact`], [`catalogue`],
 //! [`analysis`] (folds, fits, selection), [`report`], [`generate`] (seeded synthetic
 //! "measured" data with hidden effects, for tests and benchmarks).
 
 pub mod analysis;
 pub mod catalogue;
 pub mod closed_loop;
+pub mod contact;
 pub mod generate;
 pub mod input;
 pub mod plots;
@@ -58,8 +62,10 @@ impl ExplainError {
 pub struct ExplainOptions {
     /// The robot model (URDF) used for the rigid-body part.
     pub urdf: PathBuf,
-    /// Frame where a payload would sit.
+    /// Frame where a payload would sit (and the contact point of contact data).
     pub tip_frame: String,
+    /// Frame of the F/T sensor (contact data).
+    pub sensor_frame: String,
     /// Nominal friction parameter file; its Stribeck shape (symmetrised) is kept, its levels recalibrated.
     pub nominal: Option<PathBuf>,
     pub prepare: PrepareOptions,
@@ -75,6 +81,7 @@ impl Default for ExplainOptions {
         Self {
             urdf: PathBuf::from("urdf/jk5.urdf"),
             tip_frame: "tip".into(),
+            sensor_frame: "ft_sensor".into(),
             nominal: None,
             prepare: PrepareOptions::default(),
             analysis: AnalysisOptions::default(),
@@ -129,12 +136,22 @@ pub fn nominal_shapes(params: Option<&FrictionParams>, n: usize) -> Vec<NominalS
     out
 }
 
+/// The held-out fold of time `t` in prepared time-series data: blocks of `block_s`
+/// seconds (longer for long files, ≤ 400 blocks), block b in fold b mod `folds`.
+pub fn time_fold(p: &Prepared, block_s: f64, folds: usize) -> impl Fn(f64) -> u8 {
+    let t0 = p.t.first().copied().unwrap_or(0.0);
+    let t1 = p.t.last().copied().unwrap_or(1.0);
+    let dur = (t1 - t0).max(1e-9);
+    let block = block_s.max(dur / 400.0);
+    move |t: f64| (((t - t0) / block).floor() as usize % folds) as u8
+}
+
 /// Per-joint samples from prepared time-series data.
 pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Vec<JointSamples> {
     let t0 = p.t.first().copied().unwrap_or(0.0);
     let t1 = p.t.last().copied().unwrap_or(1.0);
     let dur = (t1 - t0).max(1e-9);
-    let block = block_s.max(dur / 400.0);
+    let fold_of = time_fold(p, block_s, folds);
     let corr = (p.window_samples as f64 / p.stride as f64).max(1.0);
     (0..NJ)
         .map(|j| {
@@ -153,7 +170,7 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
                 js.a.push(p.a[i][j]);
                 js.dtau.push(p.dtau[i][j]);
                 js.payload.push(p.payload[i][j]);
-                js.fold.push((((p.t[i] - t0) / block).floor() as usize % folds) as u8);
+                js.fold.push(fold_of(p.t[i]));
             }
             js
         })
@@ -214,7 +231,7 @@ pub fn analyse_all(
                     g[k] = Some(r);
                 }
                 let d = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
-                progress(d as f64 / n as f64, &format!("joint {} analysed", js.joint));
+                progress(d as f64 / n as f64, &format!("{} analysed", contact::target_key(js.joint)));
             });
         }
     });
@@ -273,7 +290,54 @@ pub fn explain_series(
     })?;
     let (params, nominal_source) = load_nominal(opts)?;
     let shapes = nominal_shapes(params.as_ref(), NJ);
-    let prep = prepare::prepare(ts, &model, tip, &opts.prepare, &mut |f| progress(0.3 * f, "estimating velocity, acceleration, rigid-body torque"))?;
+    let mut prep = prepare::prepare(ts, &model, tip, &opts.prepare, &mut |f| progress(0.3 * f, "estimating velocity, acceleration, rigid-body torque"))?;
+    // contact data: analyse the sensor axes first, then take the measured contact wrench
+    // (sensor errors found removed) out of the joint residual
+    let mut axes: Vec<JointSamples> = Vec::new();
+    let mut axis_results: Vec<JointResult> = Vec::new();
+    let mut contact_note = None;
+    if let Some(w) = &ts.wrench {
+        let sensor = model.frame_id(&opts.sensor_frame).ok_or_else(|| {
+            ExplainError::model(format!(
+                "{} has no frame `{}`; wrench data needs the F/T sensor frame (and `{}`) in the URDF",
+                opts.urdf.display(),
+                opts.sensor_frame,
+                opts.tip_frame
+            ))
+        })?;
+        let (mass, com) = naic_sim::sensor::tool_from_urdf(&opts.urdf).map_err(ExplainError::model)?;
+        let tool = contact::Tool { mass, com };
+        progress(0.3, "contact: sensor and tip kinematics");
+        let ck = contact::kinematics(&prep, &model, sensor, tip)?;
+        axes = contact::axis_samples(&prep, w, &ck, &tool, &time_fold(&prep, opts.block_s, opts.analysis.folds));
+        // One surface: its height is calibrated on the axis that sees the contact force
+        // most; the other axes get that height and their own scale of the spring column
+        // (a weak axis alone would place the surface where its noise fits best).
+        if let Some(dom) = contact::dominant_axis(&axes) {
+            let r = analysis::analyse_joint(&axes[dom], &NominalShape::default(), &opts.analysis);
+            let h = r.final_eval.full_structure.h;
+            for (a, js) in axes.iter_mut().enumerate() {
+                if a != dom && js.coupled {
+                    js.h_grid = vec![h];
+                }
+            }
+        }
+        axis_results = analyse_all(&axes, &[], &opts.analysis, opts.threads, &|f, w| progress(0.3 + 0.2 * f, w));
+        let tau_ext = contact::external_torques(&prep, &model, sensor, &ck, &tool, &axis_results)?;
+        for (rb, te) in prep.tau_rb.iter_mut().zip(&tau_ext) {
+            for j in 0..NJ {
+                rb[j] -= te[j];
+            }
+        }
+        contact_note = Some(format!(
+            "Contact data: the wrench (`ft_sensor` frame) is analysed per axis against the simulator's contact model — a \
+             horizontal surface (normal +z) acting as a linear spring k·δ on `{}`, δ = h − z_tip, seen by the F/T sensor \
+             with the URDF's tool ({mass:.3} kg, centre of mass {:.4}, {:.4}, {:.4} m in the sensor frame); h is \
+             calibrated on the axis that sees the contact force most, the spring's scale per axis, on the training folds. The joint residual has the measured contact wrench \
+             (J_ftᵀ W; the URDF tool's weight and any ft_bias found removed) taken out.",
+            opts.tip_frame, com.x, com.y, com.z
+        ));
+    }
     let joints = joint_samples_from_series(&prep, opts.block_s, opts.analysis.folds);
     for js in &joints {
         if js.len() < 50 {
@@ -284,15 +348,13 @@ pub fn explain_series(
             )));
         }
     }
-    let results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(0.3 + 0.7 * f, w));
+    let p0 = if axes.is_empty() { 0.3 } else { 0.5 };
+    let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
+    let mut joints = joints;
+    joints.extend(axes);
+    results.extend(axis_results);
     let mut notes = Vec::new();
-    if ts.wrench.is_some() {
-        notes.push(
-            "The data has wrench columns; the contact effects (contact_nonlinearity, contact_damping, ft_bias, tool_gravity) \
-             are not implemented yet, so the wrench was not analysed."
-                .to_string(),
-        );
-    }
+    notes.extend(contact_note);
     if !ts.ignored_columns.is_empty() {
         notes.push(format!("Columns ignored: {}.", ts.ignored_columns.join(", ")));
     }

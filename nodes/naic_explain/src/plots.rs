@@ -76,8 +76,29 @@ pub fn plots(ex: &Explained, fs: &[Finding]) -> Vec<(String, String)> {
         ..Default::default()
     };
     let mut figt = Figure { title: "Held-out residual vs time".into(), x_label: "time [s]".into(), ..Default::default() };
+    let mut figc = Figure {
+        title: "Held-out residual of the sensor axes vs penetration (before / after)".into(),
+        x_label: "penetration h − z_tip of the extended model [mm]".into(),
+        ..Default::default()
+    };
     for (k, js) in ex.joints.iter().enumerate() {
         let (a, b) = oof(ex, k);
+        if js.contact {
+            let key = crate::contact::target_key(js.joint);
+            let unit = crate::contact::target_unit(js.joint);
+            let h = ex.results[k].final_eval.full_structure.h;
+            if js.coupled {
+                let x: Vec<f64> = js.cz.iter().map(|z| 1e3 * (h - z)).collect();
+                // the contact region and 5 mm above it
+                let idx: Vec<usize> = (0..js.len()).filter(|&i| x[i] > -5.0).collect();
+                let xs: Vec<f64> = idx.iter().map(|&i| x[i]).collect();
+                let pa: Vec<f64> = idx.iter().map(|&i| a[i]).collect();
+                let pb: Vec<f64> = idx.iter().map(|&i| b[i]).collect();
+                figc.panels.push(panel_vs(js, &xs, &pa, &pb, Some(60), key.clone(), &format!("residual [{unit}]")));
+            }
+            figt.panels.push(panel_vs(js, &js.t, &a, &b, Some(120), key, &format!("residual [{unit}]")));
+            continue;
+        }
         let model = ex.results[k].final_eval.full_structure.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + ");
         let title = format!("joint {}: extended = nominal{}{}", js.joint, if model.is_empty() { "" } else { " + " }, model);
         fig.panels.push(panel_vs(js, &js.v, &a, &b, bins, title.clone(), "residual [N·m]"));
@@ -88,6 +109,9 @@ pub fn plots(ex: &Explained, fs: &[Finding]) -> Vec<(String, String)> {
     out.push(("residual_vs_velocity.svg".to_string(), fig.to_svg()));
     if ts {
         out.push(("residual_vs_time.svg".to_string(), figt.to_svg()));
+    }
+    if !figc.panels.is_empty() {
+        out.push(("residual_vs_penetration.svg".to_string(), figc.to_svg()));
     }
     if let Some(f) = fs.iter().find(|f| f.significant && f.effect == Effect::PositionRipple) {
         let mut figq = Figure {

@@ -45,7 +45,7 @@ pub struct PrepareOptions {
 
 impl Default for PrepareOptions {
     fn default() -> Self {
-        Self { window_s: 0.051, order: 3, rate_hz: 100.0, max_samples: 60_000, v_rest: 1e-3 }
+        Self { window_s: 0.051, order: 5, rate_hz: 100.0, max_samples: 60_000, v_rest: 1e-3 }
     }
 }
 
@@ -95,6 +95,10 @@ pub struct Prepared {
     pub payload: Vec<[f64; NJ]>,
     pub regime: Vec<[i8; NJ]>,
     pub keep: Vec<[bool; NJ]>,
+    /// Raw sample index of each analysis instant.
+    pub raw_index: Vec<usize>,
+    /// Measured wrench smoothed by the same filter (empty without wrench data).
+    pub wrench: Vec<[f64; 6]>,
     /// Raw sample period and analysis stride.
     pub dt_raw: f64,
     pub stride: usize,
@@ -161,6 +165,15 @@ pub fn prepare(
         let mut a = [0.0; NJ];
         let mut tau = [0.0; NJ];
         let mut dtau = [0.0; NJ];
+        if let Some(wr) = &ts.wrench {
+            let mut ws = [0.0; 6];
+            for (w, r) in (i - h..=i + h).enumerate() {
+                for (x, v) in ws.iter_mut().zip(&wr[r]) {
+                    *x += c0[w] * v;
+                }
+            }
+            p.wrench.push(ws);
+        }
         for (w, r) in (i - h..=i + h).enumerate() {
             let (w0, w1, w2) = (c0[w], c1[w], c2[w]);
             let qr = &ts.q[r];
@@ -194,6 +207,7 @@ pub fn prepare(
             };
         }
         p.t.push(ts.t[i]);
+        p.raw_index.push(i);
         p.q.push(q);
         p.v.push(v);
         p.a.push(a);

@@ -33,7 +33,7 @@ pub struct Finding {
 }
 
 fn jkey(j: usize) -> String {
-    format!("joint{j}")
+    crate::contact::target_key(j)
 }
 
 /// Physical parameters of `effect` read from a fitted model.
@@ -80,6 +80,20 @@ pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(Strin
         }
         Effect::RotorInertia => push("inertia_kgm2", c(Col::Rotor)),
         Effect::ViscousNonlinearity => push("f_v2", c(Col::Visc2)),
+        Effect::ContactNonlinearity => {
+            push("n", st.n_exp);
+            push("k_n", c(Col::Spring));
+            push("surface_height_m", st.h);
+        }
+        Effect::ContactDamping => push("c_ns_per_m", c(Col::CDamp)),
+        Effect::FtBias => push("bias", c(Col::Offset)),
+        Effect::ToolGravity => {
+            let names = crate::contact::gravity_param_names(js.joint.saturating_sub(crate::contact::AXIS_BASE + 1));
+            push(names[0], c(Col::Grav0));
+            if !names[1].is_empty() {
+                push(names[1], c(Col::Grav1));
+            }
+        }
     }
     out
 }
@@ -91,8 +105,10 @@ fn rmse(ssr: f64, n: usize) -> f64 {
 fn evidence_line(j: usize, c: &Candidate, n: usize) -> String {
     let b = rmse(c.before_ssr, n);
     let a = c.eval.heldout_rmse();
+    let name = if crate::contact::is_axis(j) { jkey(j) } else { format!("joint {j}") };
     format!(
-        "joint {j}: held-out RMSE {b:.4} → {a:.4} N·m ({:+.1} % mean square), better in {}/{} folds, ΔBIC {:.1}",
+        "{name}: held-out RMSE {b:.4} → {a:.4} {} ({:+.1} % mean square), better in {}/{} folds, ΔBIC {:.1}",
+        crate::contact::target_unit(j),
         -100.0 * c.gain,
         c.fold_wins,
         c.eval.fold_ssr.len(),
@@ -102,9 +118,12 @@ fn evidence_line(j: usize, c: &Candidate, n: usize) -> String {
 
 /// Builds the ranked list of findings.
 pub fn findings(ex: &Explained) -> Vec<Finding> {
-    let nj = ex.results.len().max(1) as f64;
+    // gains are averaged over the targets of the effect's kind (joints, or sensor axes)
+    let n_axes = ex.results.iter().filter(|r| crate::contact::is_axis(r.joint)).count();
+    let n_joints = ex.results.len() - n_axes;
     let mut out = Vec::new();
     for e in ALL_EFFECTS {
+        let nj = (if e.is_contact() { n_axes } else { n_joints }).max(1) as f64;
         let mut f = Finding {
             effect: e,
             targets: vec![],
@@ -226,7 +245,26 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
         })
         .collect();
     let mut per_dir = Map::new();
+    let mut contact = Map::new();
     for ((r, js), sh) in ex.results.iter().zip(&ex.joints).zip(ex.joints.iter().map(|js| ex.shapes.get(js.joint - 1).copied().unwrap_or_default())) {
+        if js.contact {
+            let st = &r.final_eval.full_structure;
+            let mut m = Map::new();
+            m.insert("nominal".into(), json!({"k_n_per_m": r.nominal.coef(Col::Spring), "surface_height_m": r.nominal.full_structure.h}));
+            let mut ext = Map::new();
+            ext.insert("model".into(), json!(st.effects.iter().map(|e| e.name()).collect::<Vec<_>>()));
+            ext.insert("k".into(), json!(r.final_eval.coef(Col::Spring)));
+            ext.insert("n".into(), json!(st.n_exp));
+            ext.insert("surface_height_m".into(), json!(st.h));
+            for e in &st.effects {
+                for (k, v) in effect_params(*e, &r.final_eval, js) {
+                    ext.insert(k, json!(v));
+                }
+            }
+            m.insert("extended".into(), Value::Object(ext));
+            contact.insert(jkey(r.joint), Value::Object(m));
+            continue;
+        }
         let (np, nn) = direction_rmse(js, &r.nominal, &sh);
         let (ep, en) = direction_rmse(js, &r.final_eval, &sh);
         let (ip, inn) = direction_rmse_insample(js, &r.final_eval, &sh);
@@ -242,6 +280,7 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
         "nominal": {"heldout_rmse": map_of(&nominal), "model": ex.nominal_source},
         "findings": findings,
         "extended": {"heldout_rmse": map_of(&extended), "params_file": params_file, "heldout_rmse_by_direction": Value::Object(per_dir)},
+        "contact_model": Value::Object(contact),
         "outliers": ex.outliers.iter().map(|o| json!({"joint": jkey(o.joint), "line": o.line, "velocity_rad_s": o.velocity,
             "torque_nm": o.torque, "residual_nm": o.residual, "robust_sigma_nm": o.sigma})).collect::<Vec<_>>(),
         "extended_before_outlier_removal": ex.first_pass.iter().map(|&(j, a, p, n)| (jkey(j), json!({"heldout_rmse": a, "positive": p, "negative": n}))).collect::<Map<_, _>>(),
@@ -344,7 +383,7 @@ fn extended_friction_direct(r: &JointResult, sh: &NominalShape, notes: &mut Vec<
 pub fn extended_params(ex: &Explained, fs: &[Finding]) -> FrictionParams {
     let mut notes = Vec::new();
     let mut joints = Vec::new();
-    for (r, js) in ex.results.iter().zip(&ex.joints) {
+    for (r, js) in ex.results.iter().zip(&ex.joints).filter(|(_, js)| !js.contact) {
         let sh = ex.shapes.get(r.joint - 1).copied().unwrap_or_default();
         joints.push(JointParams { joint: r.joint, friction: extended_friction(r, js, &sh, &mut notes), stats: JointStats::default() });
     }
@@ -355,7 +394,8 @@ pub fn extended_params(ex: &Explained, fs: &[Finding]) -> FrictionParams {
         }
         for (j, ps) in &f.params {
             let s: Vec<String> = ps.iter().map(|(k, v)| format!("{k} = {v:.5}")).collect();
-            extra.push(format!("joint {j}: {} ({})", f.effect.name(), s.join(", ")));
+            let name = if crate::contact::is_axis(*j) { format!("sensor axis {}", jkey(*j)) } else { format!("joint {j}") };
+            extra.push(format!("{name}: {} ({})", f.effect.name(), s.join(", ")));
         }
     }
     let mut text = String::new();
@@ -422,20 +462,20 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
     if sig.is_empty() {
         let _ = writeln!(s, "**Nothing significant**: no candidate extension improved the held-out fit by the rule above; the nominal model explains the data to its noise level.\n");
     } else {
-        let _ = writeln!(s, "`gain` = share of the nominal held-out mean-square residual the effect removed (averaged over joints); `step gain` = relative held-out reduction on its joints when it was added.\n");
-        let _ = writeln!(s, "| rank | effect | joints | gain | step gain | parameters |\n| --- | --- | --- | --- | --- | --- |");
+        let _ = writeln!(s, "`gain` = share of the nominal held-out mean-square residual the effect removed (averaged over the joints, or over the sensor axes for contact effects); `step gain` = relative held-out reduction on its targets when it was added.\n");
+        let _ = writeln!(s, "| rank | effect | targets | gain | step gain | parameters |\n| --- | --- | --- | --- | --- | --- |");
         for (i, f) in sig.iter().enumerate() {
             let ps: Vec<String> = f
                 .params
                 .iter()
-                .map(|(j, p)| format!("J{j}: {}", p.iter().map(|(k, v)| format!("{k} {v:.4}")).collect::<Vec<_>>().join(", ")))
+                .map(|(j, p)| format!("{}: {}", if crate::contact::is_axis(*j) { jkey(*j) } else { format!("J{j}") }, p.iter().map(|(k, v)| format!("{k} {v:.4}")).collect::<Vec<_>>().join(", ")))
                 .collect();
             let _ = writeln!(
                 s,
                 "| {} | `{}` | {} | {:.4} | {:.3} | {} |",
                 i + 1,
                 f.effect.name(),
-                f.targets.iter().map(|j| j.to_string()).collect::<Vec<_>>().join(", "),
+                f.targets.iter().map(|&j| if crate::contact::is_axis(j) { jkey(j) } else { j.to_string() }).collect::<Vec<_>>().join(", "),
                 f.gain,
                 f.step_gain,
                 ps.join("; ")
@@ -453,7 +493,7 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
     }
     let _ = writeln!(s, "\n## Held-out RMSE per joint [N·m]\n");
     let _ = writeln!(s, "| joint | nominal | extended | extended + | extended − | model |\n| --- | --- | --- | --- | --- | --- |");
-    for r in &ex.results {
+    for r in ex.results.iter().filter(|r| !crate::contact::is_axis(r.joint)) {
         let k = jkey(r.joint);
         let d = &v["extended"]["heldout_rmse_by_direction"][&k];
         let _ = writeln!(
@@ -466,6 +506,22 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
             d["extended"]["negative"].as_f64().unwrap_or(f64::NAN),
             r.final_eval.full_structure.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + ")
         );
+    }
+    if ex.results.iter().any(|r| crate::contact::is_axis(r.joint)) {
+        let _ = writeln!(s, "\n## Held-out RMSE per sensor axis [N, N·m]\n");
+        let _ = writeln!(s, "| axis | nominal | extended | nominal k [N/m], h [m] | model |\n| --- | --- | --- | --- | --- |");
+        for r in ex.results.iter().filter(|r| crate::contact::is_axis(r.joint)) {
+            let _ = writeln!(
+                s,
+                "| {} | {:.4} | {:.4} | {:.1}, {:.5} | {} |",
+                jkey(r.joint),
+                r.nominal.heldout_rmse(),
+                r.final_eval.heldout_rmse(),
+                r.nominal.coef(Col::Spring).unwrap_or(f64::NAN),
+                r.nominal.full_structure.h,
+                r.final_eval.full_structure.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + ")
+            );
+        }
     }
     let _ = writeln!(s, "\nExtended parameters: `extended_params.yaml` (loads with the project's friction loader).\n");
     let _ = writeln!(s, "## Plots\n");

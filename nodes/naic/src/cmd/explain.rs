@@ -3,8 +3,9 @@
 //! * `naic explain --measured FILE --out DIR [--nominal params/…]` — analyse a bag, a CSV
 //!   time series or a friction-points CSV; writes `DIR/report.json`, `DIR/report.md`
 //!   (+ SVG plots) and `DIR/extended_params.yaml`.
-//! * `naic explain --generate FILE.csv --seed N [--hide effect,…]` — write seeded synthetic
-//!   data with hidden effects (the tests' generator), to try the tool.
+//! * `naic explain --generate FILE.csv --seed N [--hide effect,…] [--contact]` — write seeded
+//!   synthetic data with hidden effects (the tests' generators; contact data with wrench
+//!   columns when a contact effect is hidden or `--contact` is given), to try the tool.
 //! * `naic explain --closed-loop [--out DIR]` — force tracking (`flat`, `stiffness-step`)
 //!   with symmetric vs extended friction compensation against the simulator's true
 //!   per-direction friction (see `naic_explain::closed_loop`).
@@ -46,6 +47,10 @@ pub struct ExplainArgs {
     /// Comma-separated effects to hide in --generate data (empty: noise only).
     #[arg(long, default_value = "")]
     hide: String,
+    /// --generate contact data (pressing into a surface, with wrench columns fx..mz) even
+    /// when no contact effect is hidden.
+    #[arg(long)]
+    contact: bool,
     /// Benchmark: analyse --minutes of generated 1 kHz data and print the timing.
     #[arg(long)]
     bench: bool,
@@ -159,12 +164,13 @@ fn load_model(a: &ExplainArgs) -> Result<Model, CliError> {
 fn run_generate(a: &ExplainArgs, out: &PathBuf) -> CliResult {
     let model = load_model(a)?;
     let effects = parse_effects(&a.hide)?;
-    let g = generate(&model, &GenSpec::new(a.seed, &effects));
+    let g = generate(&model, &GenSpec { contact: a.contact, ..GenSpec::new(a.seed, &effects) });
     std::fs::write(out, input::write_timeseries_csv(&g.ts)).map_err(|e| CliError::failure(format!("{}: {e}", out.display())))?;
     println!("wrote {} ({} samples, torque noise σ = {:.3} N·m)", out.display(), g.ts.len(), g.noise_tau);
     for inj in &g.injected {
-        let ps: Vec<String> = inj.params.iter().map(|(j, k, v)| format!("J{j} {k} = {v:.4}")).collect();
-        println!("hidden: {} on joints {:?}: {}", inj.effect.name(), inj.joints, ps.join(", "));
+        let ps: Vec<String> = inj.params.iter().map(|(j, k, v)| format!("{} {k} = {v:.4}", naic_explain::contact::target_key(*j))).collect();
+        let ts: Vec<String> = inj.joints.iter().map(|&j| naic_explain::contact::target_key(j)).collect();
+        println!("hidden: {} on {}: {}", inj.effect.name(), ts.join(", "), ps.join(", "));
     }
     Ok(())
 }
