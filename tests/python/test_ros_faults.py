@@ -86,7 +86,7 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
     bins = ru.build_nodes()
     domain = ru.fresh_domain(110)
     env = ru.ros_env(domain)
-    rate_limit = {"friction_compensation": ["-p", "torque_rate_limit:=1.0"]}
+    rate_limit = {"friction_compensation": ["-p", "torque_rate_limit:=[1.0, 1.0, 1.0, 1.0, 1.0, 1.0]"]}
     start = lambda n: ru.Proc([str(bins / n), "--ros-args", "--params-file", f"params/{n}.yaml",  # noqa: E731
                                *rate_limit.get(n, [])], env)
     procs = {n: start(n) for n in ("naic_controller", "friction_compensation", "jk5_sim_driver")}
