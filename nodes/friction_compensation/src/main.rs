@@ -61,11 +61,12 @@ fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
 /// Load the friction model the parameters name.
 fn load_model(p: &ParamView) -> Result<FrictionModel, String> {
     let path = p.str("friction_file");
+    const FIX: &str = "set -p friction_file:=PATH, e.g. params/friction_jk5.yaml";
     let params = FrictionParams::from_yaml_file(path)
-        .map_err(|e| format!("friction_file '{path}': {e}"))?;
-    let model = params.to_model().map_err(|e| format!("friction_file '{path}': {e}"))?;
+        .map_err(|e| format!("friction_file '{path}': {e} ({FIX})"))?;
+    let model = params.to_model().map_err(|e| format!("friction_file '{path}': {e} ({FIX})"))?;
     if model.n_joints() != 6 {
-        return Err(format!("friction_file '{path}' has {} joints; the JK5 needs 6", model.n_joints()));
+        return Err(format!("friction_file '{path}' has {} joints; the JK5 needs 6 ({FIX})", model.n_joints()));
     }
     let v_s = p.f64("smoothing_velocity");
     match (model.smoothing(), v_s > 0.0) {

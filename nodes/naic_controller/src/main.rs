@@ -32,7 +32,7 @@ use naic_ros::{
     node::{QOS_PUB, QOS_SUB},
     time::{time_from_ns, wall_ns},
     wait::Waiter,
-    ParameterValue, RosArgs, RosError, RosNode,
+    ParamTable, ParameterValue, RosArgs, RosError, RosNode,
 };
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
@@ -95,11 +95,19 @@ fn run() -> Result<(), RosError> {
     })?;
     // Defaults: the core's paper settings on this model (learning rate: not in the paper).
     let base = ControllerParams::paper_defaults(&model, Mode::Naic, DEFAULT_LEARNING_RATE);
-    let mut node = RosNode::new(args, "naic_controller", config::specs(&base), Some(config::check(base)))?;
-    let mut ctl = {
-        let cp = node.params.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
-        Controller::new(model.clone(), cp).map_err(RosError::Param)?
+    // Everything that reads a file or can reject the model is checked before the DDS
+    // participant exists: the start-up parameters (params files, -p), the model against the
+    // controller's needs (6 joints, 'tip' and 'ft_sensor' frames) and the scenario.
+    let (mut ctl, scenario_ref) = {
+        let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides("naic_controller")?)
+            .map_err(RosError::Param)?;
+        let cp = table.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
+        let ctl = Controller::new(model.clone(), cp)
+            .map_err(|e| RosError::Param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
+        let name = table.with(|p| p.str("scenario").to_string());
+        (ctl, reference::ScenarioReference::new(&name, &model).map_err(RosError::Param)?)
     };
+    let mut node = RosNode::new(args, "naic_controller", config::specs(&base), Some(config::check(base)))?;
     let mut state: ControllerState = ctl.initial_state();
     let mut ws: Workspace = ctl.workspace();
     let mut fk = Data6::try_new(&model).map_err(|e| RosError::Param(format!("{urdf}: {e}")))?;
@@ -112,10 +120,6 @@ fn run() -> Result<(), RosError> {
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut js_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 
-    let scenario_ref = {
-        let name = node.params.with(|p| p.str("scenario").to_string());
-        reference::ScenarioReference::new(&name, &model).map_err(RosError::Param)?
-    };
     let mut gen = node.params.generation();
     let (mut f_d, mut force_limit, mut approach, mut use_sim_time, mut mode) =
         (0.0, 0.0, 0.0, false, String::new());
