@@ -235,7 +235,7 @@ fn run() -> Result<(), RosError> {
     let mut gen = 0;
     let (mut rate, mut lockstep, mut timeout_ns, mut damping, mut use_sim_time) = (1000.0, false, 20_000_000i64, 5.0, false);
     let mut effort_limit = urdf_effort;
-    let (mut saturated_cycles, mut last_sat_warn) = (0u64, i64::MIN);
+    let (mut saturated_cycles, mut last_sat_warn) = (0u64, 0i64);
     let mut js = JointState {
         header: Header { stamp: Default::default(), frame_id: String::new() },
         name: msgs::JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
