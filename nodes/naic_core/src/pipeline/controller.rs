@@ -402,7 +402,7 @@ impl ControllerParams {
                     sigma_margin: 0.5,
                 },
                 contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
-                force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500 },
+                force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
             },
             hold_damping: [5.0; 6],
             damping: Damping::default(),
