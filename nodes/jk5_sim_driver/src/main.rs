@@ -24,6 +24,7 @@
 //! latency (`/joint_states` stamp → command arrival) is measured exactly; it is written as
 //! JSON to `latency_report` at exit (see `naic bench chain`).
 
+mod latency;
 mod plant;
 mod sim_plant;
 
@@ -127,8 +128,9 @@ struct CmdSlot {
     seq: u64,
     /// `/joint_states` stamp the newest command was computed from (if traced).
     source_stamp_ns: Option<i64>,
-    /// Latencies (arrival − source stamp) [ns] of traced commands (wall-clock stamps only).
-    latencies_ns: Vec<i64>,
+    /// Latencies (arrival − source stamp) [ns] of traced commands (wall-clock stamps only),
+    /// as a fixed-size histogram: constant memory however long the driver runs.
+    latency: latency::Histogram,
     /// Latencies are recorded from this wall time on (after the warm-up).
     record_after_ns: i64,
     /// Stamps are simulated time (lockstep / use_sim_time): no latency statistics.
@@ -174,7 +176,7 @@ fn run() -> Result<(), RosError> {
             arrival_ns: 0,
             seq: 0,
             source_stamp_ns: None,
-            latencies_ns: Vec::with_capacity(4 * 3600 * 1000),
+            latency: latency::Histogram::default(),
             record_after_ns: wall_ns() + node.params.with(|p| (p.f64("latency_warmup") * 1e9) as i64),
             sim_stamps: node.params.with(|p| p.bool("lockstep") || p.bool("use_sim_time")),
             rejected: 0,
@@ -206,8 +208,8 @@ fn run() -> Result<(), RosError> {
                                 s.source_stamp_ns = msgs::effort_source_stamp(&m);
                                 // Latency only when stamps are wall-clock time.
                                 if let (Some(st), false) = (s.source_stamp_ns, s.sim_stamps) {
-                                    if now >= s.record_after_ns && s.latencies_ns.len() < s.latencies_ns.capacity() {
-                                        s.latencies_ns.push(now - st);
+                                    if now >= s.record_after_ns {
+                                        s.latency.record(now - st);
                                     }
                                 }
                             }
@@ -346,7 +348,7 @@ fn run() -> Result<(), RosError> {
     // Report the chain latency.
     let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
     let recorded_ns = (wall_ns() - s.record_after_ns).max(0);
-    let mut report = latency_report(&s.latencies_ns, missed, cycles, recorded_ns, s.rejected);
+    let mut report = latency_report(&s.latency, missed, cycles, recorded_ns, s.rejected);
     report["saturated_cycles"] = saturated_cycles.into();
     let path = node.params.with(|p| p.str("latency_report").to_string());
     if !path.is_empty() {
@@ -391,23 +393,15 @@ fn publish_state(
     Ok(stamp_ns)
 }
 
-fn latency_report(lat: &[i64], missed: u64, cycles: u64, wall_ns: i64, rejected: u64) -> serde_json::Value {
-    let mut v: Vec<i64> = lat.to_vec();
-    v.sort_unstable();
-    let q = |f: f64| -> f64 {
-        if v.is_empty() {
-            f64::NAN
-        } else {
-            v[((v.len() - 1) as f64 * f).round() as usize] as f64 / 1e3
-        }
-    };
+fn latency_report(lat: &latency::Histogram, missed: u64, cycles: u64, wall_ns: i64, rejected: u64) -> serde_json::Value {
+    let q = |f: f64| -> f64 { lat.quantile_ns(f).map_or(f64::NAN, |ns| ns / 1e3) };
     let minutes = wall_ns as f64 / 60e9;
     serde_json::json!({
-        "samples": v.len(),
+        "samples": lat.len(),
         "cycles": cycles,
         "median_us": q(0.5),
         "p99_us": q(0.99),
-        "max_us": if v.is_empty() { f64::NAN } else { *v.last().unwrap() as f64 / 1e3 },
+        "max_us": lat.max_ns().map_or(f64::NAN, |ns| ns as f64 / 1e3),
         "missed_cycles": missed,
         "missed_per_min": if minutes > 0.0 { missed as f64 / minutes } else { 0.0 },
         "rejected_commands": rejected,
