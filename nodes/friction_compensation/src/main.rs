@@ -12,6 +12,11 @@
 //! joint torque (`/joint_states` effort), so a restarted node takes over without a torque jump. Without fresh joint data the
 //! feedforward is left out (it needs q̇); without commands nothing is published and the
 //! driver holds the arm after its own timeout.
+//!
+//! With `use_sim_time` (the lockstep loop) everything is judged by stamps, not by the wall
+//! clock: the feedforward uses the `/joint_states` sample the command was computed from
+//! (waiting up to `joint_state_timeout` for it), a gap is a gap in simulated time, and a
+//! command for a stamp already answered gets the same output again.
 
 use std::time::Duration;
 
@@ -79,6 +84,42 @@ fn main() {
     naic_ros::run_main("friction_compensation", run)
 }
 
+/// What the node knows from `/joint_states`: the sensed joint velocity the feedforward uses
+/// and the torque the driver applies now.
+struct JointFeed {
+    sense_s: SenseState,
+    dq: [f64; 6],
+    /// Wall-clock arrival and stamp of `dq` [ns] (`i64::MIN`/`None`: none usable).
+    dq_rx_ns: i64,
+    dq_stamp_ns: Option<i64>,
+    /// Torque the driver applies now (/joint_states effort).
+    effort_meas: Option<[f64; 6]>,
+}
+
+impl JointFeed {
+    fn absorb(&mut self, sense_p: &SenseParams, js: &JointState) {
+        let six = |v: &[f64]| -> Option<[f64; 6]> {
+            (v.len() >= 6 && v[..6].iter().all(|x| x.is_finite())).then(|| std::array::from_fn(|i| v[i]))
+        };
+        if let (Some(q), Some(v)) = (six(&js.position), six(&js.velocity)) {
+            let raw = RawMeasurements { t: 0.0, q, dq: v, joints_stamp: 0.0, wrench: [0.0; 6], wrench_stamp: 0.0 };
+            let (s, r) = sense::step(sense_p, &self.sense_s, &raw);
+            self.sense_s = s;
+            match r {
+                Ok(sensed) => {
+                    self.dq = sensed.dq;
+                    self.dq_rx_ns = wall_ns();
+                    self.dq_stamp_ns = Some(js.header.stamp.to_nanos());
+                }
+                Err(_) => (self.dq_rx_ns, self.dq_stamp_ns) = (i64::MIN, None), // implausible joint data: no feedforward
+            }
+        }
+        if let Some(e) = six(&js.effort) {
+            self.effort_meas = Some(e);
+        }
+    }
+}
+
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
     let args = RosArgs::parse(std::env::args().skip(1))?;
@@ -109,7 +150,7 @@ fn run() -> Result<(), RosError> {
         joint_timeout: 1.0,
         wrench_timeout: 1.0,
     };
-    let mut sense_s = SenseState::default();
+    let mut feed = JointFeed { sense_s: SenseState::default(), dq: [0.0; 6], dq_rx_ns: i64::MIN, dq_stamp_ns: None, effort_meas: None };
     // A friction file that does not load, or a saturation above the URDF's, is rejected like any bad value.
     let check: naic_ros::params::SetCheck = Box::new(move |p: &ParamView| {
         let e = p.f64s("effort_limit");
@@ -131,21 +172,22 @@ fn run() -> Result<(), RosError> {
     let mut js_timeout_ns = 20_000_000i64;
     let mut act_p = node.params.with(actuate_params);
     let mut act_s = actuate::ActuateState::default();
-    let mut dq = [0.0; 6];
-    let mut dq_rx_ns = i64::MIN;
     let mut tau_in = [0.0; 6];
     let mut last_warn = 0i64;
     let mut count = 0u64;
-    // Torque the driver applies now (/joint_states effort) and when the last command went out.
-    let mut effort_meas: Option<[f64; 6]> = None;
+    // When the last command went out (wall clock, or its source stamp with sim time).
     let mut last_pub_ns = i64::MIN;
     let mut gap_ns = 20_000_000i64;
+    let mut use_sim_time = false;
+    // The last output and the source stamp it answers (a repeated stamp gets the same output).
+    let mut last_out: Option<(i64, [f64; 6])> = None;
 
     while !naic_ros::shutdown_requested() {
         if node.params.generation() != gen {
             gen = node.params.generation();
             node.params.with(|p| {
                 enabled = p.bool("enabled");
+                use_sim_time = p.bool("use_sim_time");
                 js_timeout_ns = (p.f64("joint_state_timeout") * 1e9) as i64;
                 act_p = actuate_params(p);
                 sense_p.median_window = p.i64("median_window") as usize;
@@ -158,24 +200,7 @@ fn run() -> Result<(), RosError> {
         }
         waiter.wait(Some(Duration::from_millis(100)));
         while let Ok(Some((js, _))) = js_sub.take() {
-            let six = |v: &[f64]| -> Option<[f64; 6]> {
-                (v.len() >= 6 && v[..6].iter().all(|x| x.is_finite())).then(|| std::array::from_fn(|i| v[i]))
-            };
-            if let (Some(q), Some(v)) = (six(&js.position), six(&js.velocity)) {
-                let raw = RawMeasurements { t: 0.0, q, dq: v, joints_stamp: 0.0, wrench: [0.0; 6], wrench_stamp: 0.0 };
-                let (s, r) = sense::step(&sense_p, &sense_s, &raw);
-                sense_s = s;
-                match r {
-                    Ok(sensed) => {
-                        dq = sensed.dq;
-                        dq_rx_ns = wall_ns();
-                    }
-                    Err(_) => dq_rx_ns = i64::MIN, // implausible joint data: no feedforward
-                }
-            }
-            if js.effort.len() >= 6 && js.effort[..6].iter().all(|t| t.is_finite()) {
-                effort_meas = Some(std::array::from_fn(|i| js.effort[i]));
-            }
+            feed.absorb(&sense_p, &js);
         }
         let mut newest = None;
         while let Ok(Some((m, _))) = cmd_sub.take() {
@@ -190,12 +215,31 @@ fn run() -> Result<(), RosError> {
             }
             continue;
         }
-        let fresh = wall_ns().saturating_sub(dq_rx_ns) <= js_timeout_ns;
-        let tau = if enabled && fresh { feedforward::step(&model, &dq, &tau_in) } else { tau_in };
+        let src = msgs::effort_source_stamp(&m);
+        let sim = use_sim_time && src.is_some();
+        if let Some((st, tau)) = last_out.filter(|(st, _)| Some(*st) == src) {
+            let _ = cmd_pub.publish(msgs::effort_msg(&tau, Some(st)));
+            continue;
+        }
+        let fresh = if sim {
+            // The joint state this command was computed from (it was published first).
+            let deadline = wall_ns() + js_timeout_ns;
+            while feed.dq_stamp_ns.is_none_or(|s| Some(s) < src) && wall_ns() < deadline {
+                match js_sub.take() {
+                    Ok(Some((js, _))) => feed.absorb(&sense_p, &js),
+                    _ => std::thread::sleep(Duration::from_micros(50)),
+                }
+            }
+            feed.dq_stamp_ns == src
+        } else {
+            wall_ns().saturating_sub(feed.dq_rx_ns) <= js_timeout_ns
+        };
+        let tau = if enabled && fresh { feedforward::step(&model, &feed.dq, &tau_in) } else { tau_in };
         // Smooth take-over (first command, or after a gap in which the driver held the arm
         // itself): the rate limit starts from the torque the arm has now.
-        if !act_s.started || wall_ns().saturating_sub(last_pub_ns) > gap_ns {
-            match effort_meas {
+        let now_ns = if sim { src.unwrap_or_default() } else { wall_ns() };
+        if !act_s.started || now_ns.saturating_sub(last_pub_ns) > gap_ns {
+            match feed.effort_meas {
                 Some(e) => act_s = actuate::ActuateState { tau_prev: e, started: true },
                 // Not yet known what the arm gets: publish nothing (the driver holds).
                 None => continue,
@@ -204,8 +248,9 @@ fn run() -> Result<(), RosError> {
         let (s, r) = actuate::step(&act_p, &act_s, &tau);
         act_s = s;
         if r.tau.iter().all(|t| t.is_finite()) {
-            let _ = cmd_pub.publish(msgs::effort_msg(&r.tau, msgs::effort_source_stamp(&m)));
-            last_pub_ns = wall_ns();
+            let _ = cmd_pub.publish(msgs::effort_msg(&r.tau, src));
+            last_pub_ns = now_ns;
+            last_out = src.map(|st| (st, r.tau));
             count += 1;
         }
     }

@@ -6,11 +6,19 @@
 //! subscribes `/joint_effort_cmd` (std_msgs/Float64MultiArray, six torques in N m).
 //!
 //! Real-time mode: one simulator step per period (`rate`, default 1 kHz, absolute-deadline
-//! sleeps). Lockstep mode (`lockstep: true`): one step per command received, so a closed
-//! loop over DDS is deterministic and runs as fast as the chain allows; stamps are then
-//! simulated time. In both modes, if no valid command arrived for `command_timeout`
-//! (20 ms), the driver holds the arm itself (gravity compensation + joint damping) and
-//! never keeps applying an old torque.
+//! sleeps). In real time, if no valid command arrived for `command_timeout` (20 ms), the
+//! driver holds the arm itself (gravity compensation + joint damping) and never keeps
+//! applying an old torque.
+//!
+//! Lockstep mode (`lockstep: true`): one step per command *computed from the state just
+//! published*, so a closed loop over DDS is deterministic and runs as fast as the chain
+//! allows; stamps are then simulated time. A command carries the `/joint_states` stamp it
+//! was computed from (`naic_ros::msgs::effort_msg`); commands for any other stamp (a late
+//! duplicate, a restarted node's first command) are dropped and counted. When no matching
+//! command arrives within `command_timeout`, simulated time stands still and the same state
+//! is published again (same stamp), so a late or restarted controller gets it; the nodes
+//! answer a repeated stamp with the command they already computed for it. Commands without
+//! a stamp (for example from rclpy) are taken as they come.
 //!
 //! Last guard before the plant, whoever sends the command (friction_compensation, or
 //! anyone publishing `/joint_effort_cmd` directly): a command that is not six finite
@@ -67,6 +75,11 @@ fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
             "lockstep",
             false,
             "Advance one simulator step per /joint_effort_cmd received (deterministic, faster than real time); stamps become simulated time",
+        ),
+        ParamSpec::boolean(
+            "paused",
+            false,
+            "Simulation paused: no steps, the current state is published again every command_timeout (set false to run)",
         ),
         ParamSpec::double(
             "command_timeout",
@@ -136,6 +149,13 @@ struct CmdSlot {
     /// Stamps are simulated time (lockstep / use_sim_time): no latency statistics.
     sim_stamps: bool,
     rejected: u64,
+    /// Lockstep: the stamp of the state just published; only commands computed from it
+    /// (or carrying no stamp) may advance the simulation. `None` in real time.
+    expect_stamp_ns: Option<i64>,
+    /// Lockstep: a command for `expect_stamp_ns` is waiting to be applied.
+    ready: bool,
+    /// Lockstep: commands dropped because they were computed from another state.
+    stale_dropped: u64,
 }
 
 struct Shared {
@@ -180,6 +200,9 @@ fn run() -> Result<(), RosError> {
             record_after_ns: wall_ns() + node.params.with(|p| (p.f64("latency_warmup") * 1e9) as i64),
             sim_stamps: node.params.with(|p| p.bool("lockstep") || p.bool("use_sim_time")),
             rejected: 0,
+            expect_stamp_ns: None,
+            ready: false,
+            stale_dropped: 0,
         }),
         cv: Condvar::new(),
     });
@@ -201,11 +224,20 @@ fn run() -> Result<(), RosError> {
                         let mut s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
                         match msgs::effort_values(&m, &mut tau) {
                             Ok(()) => {
+                                let src = msgs::effort_source_stamp(&m);
+                                if let (Some(want), Some(got)) = (s.expect_stamp_ns, src) {
+                                    if got != want {
+                                        // Lockstep: computed from another state; never applied.
+                                        s.stale_dropped += 1;
+                                        continue;
+                                    }
+                                }
+                                s.ready = s.expect_stamp_ns.is_some();
                                 s.tau = tau;
                                 s.valid = true;
                                 s.arrival_ns = now;
                                 s.seq += 1;
-                                s.source_stamp_ns = msgs::effort_source_stamp(&m);
+                                s.source_stamp_ns = src;
                                 // Latency only when stamps are wall-clock time.
                                 if let (Some(st), false) = (s.source_stamp_ns, s.sim_stamps) {
                                     if now >= s.record_after_ns {
@@ -215,7 +247,8 @@ fn run() -> Result<(), RosError> {
                             }
                             Err(e) => {
                                 // Not applied, and the previous command is not kept either:
-                                // the driver holds (in lockstep it steps once with its hold).
+                                // in real time the driver holds from the next cycle on (in
+                                // lockstep a rejected command never advances the simulation).
                                 s.valid = false;
                                 s.arrival_ns = now;
                                 s.seq += 1;
@@ -236,6 +269,7 @@ fn run() -> Result<(), RosError> {
 
     let mut gen = 0;
     let (mut rate, mut lockstep, mut timeout_ns, mut damping, mut use_sim_time) = (1000.0, false, 20_000_000i64, 5.0, false);
+    let mut paused = false;
     let mut effort_limit = urdf_effort;
     let (mut saturated_cycles, mut last_sat_warn) = (0u64, 0i64);
     let mut js = JointState {
@@ -248,7 +282,6 @@ fn run() -> Result<(), RosError> {
     let mut cycles: u64 = 0;
     let mut missed: u64 = 0;
     let mut holding = false;
-    let mut last_seq_seen = 0u64;
     let mut last_published_stamp: Option<i64> = None;
     let mut chain_started = false;
     let start_wall = wall_ns();
@@ -260,6 +293,7 @@ fn run() -> Result<(), RosError> {
             node.params.with(|p| {
                 rate = p.f64("rate");
                 lockstep = p.bool("lockstep");
+                paused = p.bool("paused");
                 timeout_ns = (p.f64("command_timeout") * 1e9) as i64;
                 damping = p.f64("hold_damping");
                 use_sim_time = p.bool("use_sim_time");
@@ -270,20 +304,42 @@ fn run() -> Result<(), RosError> {
         let dt = 1.0 / rate;
         let period_ns = (1e9 / rate) as i64;
 
-        // Wait for the next step: a deadline (real time) or a new command (lockstep).
+        if paused {
+            // Time stands still; the same state goes out again so late subscribers get it.
+            std::thread::sleep(Duration::from_nanos(timeout_ns as u64));
+            expect(&shared, lockstep.then(|| sim_stamp_ns(&plant)));
+            let st = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time, start_wall)?;
+            last_published_stamp = Some(st);
+            next = monotonic_ns();
+            continue;
+        }
+        // Wait for the next step: a deadline (real time) or the command for the state just
+        // published (lockstep).
         if lockstep {
+            let stamp = match last_published_stamp {
+                Some(st) if shared.slot.lock().unwrap_or_else(|p| p.into_inner()).expect_stamp_ns == Some(st) => st,
+                // First cycle, or just switched to lockstep: publish the state to answer.
+                _ => {
+                    expect(&shared, Some(sim_stamp_ns(&plant)));
+                    let st = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, true, start_wall)?;
+                    last_published_stamp = Some(st);
+                    st
+                }
+            };
             let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
-            let (s, _) = shared
+            let (mut s, _) = shared
                 .cv
-                .wait_timeout_while(s, Duration::from_nanos(timeout_ns as u64), |s| s.seq == last_seq_seen)
+                .wait_timeout_while(s, Duration::from_nanos(timeout_ns as u64), |s| !s.ready)
                 .unwrap_or_else(|p| p.into_inner());
-            if s.seq == last_seq_seen && cycles > 0 {
-                // No command: simulated time stands still; republish so a late or
-                // restarted controller gets the state.
+            if !s.ready {
+                // No command for this state: simulated time stands still; publish the same
+                // state again so a late or restarted controller gets it.
                 drop(s);
-                publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, true, start_wall)?;
+                let again = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, true, start_wall)?;
+                debug_assert_eq!(again, stamp);
                 continue;
             }
+            s.ready = false;
         } else {
             next += period_ns;
             let now = monotonic_ns();
@@ -297,7 +353,9 @@ fn run() -> Result<(), RosError> {
         let (tau, fresh, valid, seq, src, recording) = {
             let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
             let now = wall_ns();
-            let fresh = s.valid && s.seq > 0 && (lockstep && s.seq != last_seq_seen || now - s.arrival_ns <= timeout_ns);
+            // Lockstep: the wait above returned with the command for this state (unless a
+            // rejected one came after it: then hold).
+            let fresh = s.valid && s.seq > 0 && (lockstep || now - s.arrival_ns <= timeout_ns);
             (s.tau, fresh, s.valid, s.seq, s.source_stamp_ns, now >= s.record_after_ns)
         };
         if !lockstep && chain_started && recording {
@@ -311,7 +369,6 @@ fn run() -> Result<(), RosError> {
         if src.is_some() {
             chain_started = true;
         }
-        last_seq_seen = seq;
         let tau = if fresh {
             if holding {
                 log::info!("commands resumed; releasing the hold");
@@ -341,6 +398,8 @@ fn run() -> Result<(), RosError> {
         }
         Plant::step(&mut plant, &tau, dt);
         cycles += 1;
+        // Lockstep: announce the state before publishing it, so its command is never early.
+        expect(&shared, lockstep.then(|| sim_stamp_ns(&plant)));
         let stamp = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time, start_wall)?;
         last_published_stamp = Some(stamp);
     }
@@ -348,6 +407,9 @@ fn run() -> Result<(), RosError> {
     // Report the chain latency.
     let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
     let recorded_ns = (wall_ns() - s.record_after_ns).max(0);
+    if s.stale_dropped > 0 {
+        log::info!("lockstep: {} commands computed from an earlier state were dropped", s.stale_dropped);
+    }
     let mut report = latency_report(&s.latency, missed, cycles, recorded_ns, s.rejected);
     report["saturated_cycles"] = saturated_cycles.into();
     let path = node.params.with(|p| p.str("latency_report").to_string());
@@ -360,6 +422,21 @@ fn run() -> Result<(), RosError> {
     Ok(())
 }
 
+/// Lockstep: from now on only commands computed from `stamp` advance the simulation
+/// (`None`: real time, every valid command is taken).
+fn expect(shared: &Shared, stamp: Option<i64>) {
+    let mut s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
+    if s.expect_stamp_ns != stamp {
+        s.expect_stamp_ns = stamp;
+        s.ready = false;
+    }
+}
+
+/// The simulated-time stamp of the plant's current state [ns].
+fn sim_stamp_ns(plant: &impl Plant) -> i64 {
+    (plant.time() * 1e9).round() as i64
+}
+
 /// Publish joint states, wrench and clock; returns the stamp used [ns].
 fn publish_state(
     plant: &impl Plant,
@@ -370,7 +447,7 @@ fn publish_state(
     sim_stamps: bool,
     _start_wall: i64,
 ) -> Result<i64, RosError> {
-    let sim_ns = (plant.time() * 1e9).round() as i64;
+    let sim_ns = sim_stamp_ns(plant);
     let stamp_ns = if sim_stamps { sim_ns } else { wall_ns() };
     let stamp = time_from_ns(stamp_ns);
     let (q, v, t) = plant.joints();

@@ -143,7 +143,7 @@ mod tests {
     fn base() -> ControllerParams {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../urdf/jk5.urdf");
         let model = Model::from_urdf_file(root).unwrap();
-        ControllerParams::paper_defaults(&model, Mode::Naic, 0.01)
+        ControllerParams::paper_defaults(&model, Mode::Naic, naic_core::pipeline::control::force_law::DEFAULT_GAMMA)
     }
 
     fn table() -> (ParamTable, ControllerParams) {

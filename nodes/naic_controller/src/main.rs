@@ -25,7 +25,7 @@ use naic_core::{
     model::{Data6, Model},
     pipeline::{
         control::Phase,
-        control::force_law::Mode,
+        control::force_law::{self, Mode},
         controller::{self, Controller, ControllerParams, ControllerState, Reference, Workspace},
         sense::RawMeasurements,
     },
@@ -39,8 +39,6 @@ use naic_ros::{
 };
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
-/// Requested γ when none is given (the paper gives no value; eq 15 clips it every cycle).
-const DEFAULT_LEARNING_RATE: f64 = 0.01;
 
 fn main() {
     naic_ros::run_main("naic_controller", run)
@@ -85,6 +83,12 @@ impl JointMap {
     }
 }
 
+/// A `/wrench` sample as (F, τ) in the sensor frame, its stamp, and its arrival time [ns].
+fn wrench_sample(w: &WrenchStamped) -> ([f64; 6], Option<i64>, i64) {
+    let (f, t) = (&w.wrench.force, &w.wrench.torque);
+    ([f.x, f.y, f.z, t.x, t.y, t.z], Some(w.header.stamp.to_nanos()), wall_ns())
+}
+
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
     let args = RosArgs::parse(std::env::args().skip(1))?;
@@ -97,7 +101,7 @@ fn run() -> Result<(), RosError> {
         RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))
     })?;
     // Defaults: the core's paper settings on this model (learning rate: not in the paper).
-    let base = ControllerParams::paper_defaults(&model, Mode::Naic, DEFAULT_LEARNING_RATE);
+    let base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
     // Everything that reads a file or can reject the model is checked before the DDS
     // participant exists: the start-up parameters (params files, -p), the model against the
     // controller's needs (6 joints, 'tip' and 'ft_sensor' frames) and the scenario.
@@ -138,6 +142,10 @@ fn run() -> Result<(), RosError> {
     let mut prev_fault_count = 0u32;
     let mut cycles = 0u64;
     let (mut q, mut dq) = ([0.0; 6], [0.0; 6]);
+    // The last command and the `/joint_states` stamp it answers: a repeated stamp (the
+    // lockstep driver publishing the same state again) gets the same command, and the
+    // controller state advances once per state.
+    let mut last_cmd: Option<(i64, [f64; 6])> = None;
 
     while !naic_ros::shutdown_requested() {
         if node.params.generation() != gen || reload {
@@ -169,11 +177,7 @@ fn run() -> Result<(), RosError> {
 
         waiter.wait(Some(Duration::from_millis(100)));
         while let Ok(Some((w, _))) = w_sub.take() {
-            let f = &w.wrench.force;
-            let t = &w.wrench.torque;
-            wrench = [f.x, f.y, f.z, t.x, t.y, t.z];
-            wrench_stamp_ns = Some(w.header.stamp.to_nanos());
-            wrench_rx_ns = wall_ns();
+            (wrench, wrench_stamp_ns, wrench_rx_ns) = wrench_sample(&w);
         }
         // Newest joint state only; older samples in the queue are skipped.
         let mut newest: Option<JointState> = None;
@@ -182,6 +186,21 @@ fn run() -> Result<(), RosError> {
         }
         let Some(js) = newest else { continue };
         let js_stamp_ns = js.header.stamp.to_nanos();
+        if let Some((st, tau)) = last_cmd.filter(|(st, _)| *st == js_stamp_ns) {
+            let _ = effort_pub.publish(msgs::effort_msg(&tau, Some(st)));
+            continue;
+        }
+        if use_sim_time && wrench_stamp_ns != Some(js_stamp_ns) {
+            // Simulated time: the driver publishes the wrench of a state just before its
+            // joint states; take that one (not the previous one) so the loop is deterministic.
+            let deadline = wall_ns() + 5_000_000;
+            while wrench_stamp_ns.is_none_or(|w| w < js_stamp_ns) && wall_ns() < deadline {
+                match w_sub.take() {
+                    Ok(Some((w, _))) => (wrench, wrench_stamp_ns, wrench_rx_ns) = wrench_sample(&w),
+                    _ => std::thread::sleep(Duration::from_micros(50)),
+                }
+            }
+        }
         jmap.update(&js.name);
         let valid = jmap.get(&js.position, &mut q) & jmap.get(&js.velocity, &mut dq);
         if !valid {
@@ -248,6 +267,7 @@ fn run() -> Result<(), RosError> {
         // Never publish a non-finite torque: skip the cycle (the driver holds after 20 ms).
         if out.tau.iter().all(|t| t.is_finite()) {
             let _ = effort_pub.publish(msgs::effort_msg(&out.tau, Some(js_stamp_ns)));
+            last_cmd = Some((js_stamp_ns, out.tau.into()));
         } else {
             log::error!("controller produced a non-finite torque; not published");
         }

@@ -86,6 +86,10 @@ impl RosNode {
         if prio > 0 {
             set_realtime(prio as i32);
         }
+        let cpu = params.with(|p| p.i64("cpu_affinity"));
+        if cpu >= 0 {
+            pin_to_cpu(cpu as usize);
+        }
         let settings = DdsSettings::from_env()?;
         let context = create_context(&settings)?;
         let node_name = NodeName::new(&ns, &name)
@@ -408,6 +412,27 @@ impl ParamServices {
 
 /// Publisher alias used by the nodes.
 pub type Pub<M> = Publisher<M>;
+
+/// Pin the calling thread (and the threads it creates afterwards) to one CPU.
+fn pin_to_cpu(cpu: usize) {
+    let n = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    // SAFETY: a zeroed cpu_set_t is a valid empty set; CPU_SET stays within its bounds
+    // (cpu < 1024 = CPU_SETSIZE by the parameter's range).
+    let r = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpu, &mut set);
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+    };
+    if r != 0 {
+        log::warn!(
+            "cpu_affinity {cpu}: cannot pin to that CPU ({}; this machine has {n} CPUs, 0..{}); running unpinned",
+            std::io::Error::last_os_error(),
+            n.saturating_sub(1)
+        );
+    } else {
+        log::info!("pinned to CPU {cpu}");
+    }
+}
 
 /// SCHED_FIFO for the calling thread (and the threads it creates afterwards).
 fn set_realtime(priority: i32) {

@@ -318,6 +318,18 @@ impl ParamTable {
                 .read_only(),
             );
         }
+        if !specs.iter().any(|s| s.name == "cpu_affinity") {
+            specs.push(
+                ParamSpec::int(
+                    "cpu_affinity",
+                    -1,
+                    -1,
+                    1023,
+                    "Pin all the node's threads to this CPU (-1: no pinning). The chain nodes on one CPU avoid cross-CPU wake-ups (BENCHMARKS.md)",
+                )
+                .read_only(),
+            );
+        }
         for (i, s) in specs.iter().enumerate() {
             if specs[..i].iter().any(|o| o.name == s.name) {
                 return Err(format!("parameter '{}' declared twice", s.name));
@@ -502,6 +514,6 @@ mod tests {
         let d = t.specs()[1].descriptor();
         assert!(d.additional_constraints.contains("naic, aic, fixed"));
         let (names, _) = t.list(&[], 0);
-        assert_eq!(names.len(), 8);
+        assert_eq!(names.len(), 9); // 6 declared + use_sim_time, realtime_priority, cpu_affinity
     }
 }

@@ -38,7 +38,7 @@ pub struct LoopSettings {
 impl Default for LoopSettings {
     fn default() -> Self {
         Self {
-            gamma: 1e-4,
+            gamma: naic_core::pipeline::control::force_law::DEFAULT_GAMMA,
             sigma_margin: 0.5,
             median_window: 5,
             tare_samples: 100,

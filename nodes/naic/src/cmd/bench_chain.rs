@@ -33,6 +33,11 @@ pub struct ChainArgs {
     /// overrides params/).
     #[arg(long, default_value_t = 0)]
     pub realtime_priority: u8,
+    /// Pin the Rust nodes to this CPU (-1: no pinning; default: params/, CPU 1). On the 2-core
+    /// test VM one CPU avoids cross-CPU wake-ups (BENCHMARKS.md). The rclpy chain is never
+    /// pinned: on one CPU it cannot keep up with 1 kHz (median 9.5 ms), so unpinned is its best.
+    #[arg(long, allow_negative_numbers = true)]
+    pub cpu: Option<i64>,
     /// ROS_DOMAIN_ID of the Rust chain (the rclpy chain uses the next one).
     #[arg(long, default_value_t = 211)]
     pub domain: u16,
@@ -60,6 +65,9 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
     for node in launch::NODES {
         let mut args = vec!["--ros-args".to_string(), "--params-file".into(), format!("params/{node}.yaml")];
         args.extend(["-p".into(), format!("realtime_priority:={}", a.realtime_priority)]);
+        if let Some(cpu) = a.cpu {
+            args.extend(["-p".into(), format!("cpu_affinity:={cpu}")]);
+        }
         if node == "jk5_sim_driver" {
             args.extend([
                 "-p".into(),
@@ -161,6 +169,10 @@ pub fn run(a: ChainArgs) -> CliResult {
     if !(a.duration > 0.0 && a.duration.is_finite()) {
         return Err(CliError::usage(format!("--duration {}: give a positive number of seconds", a.duration)));
     }
+    let ncpu = std::thread::available_parallelism().map(|n| n.get() as i64).unwrap_or(1);
+    if let Some(cpu) = a.cpu.filter(|&c| c < -1 || c >= ncpu) {
+        return Err(CliError::usage(format!("--cpu {cpu}: this machine has CPUs 0..={} (-1: no pinning)", ncpu - 1)));
+    }
     if a.domain > 231 {
         return Err(CliError::usage(format!("--domain {}: use 0..=231 (the rclpy chain takes the next id)", a.domain)));
     }
@@ -187,6 +199,7 @@ pub fn run(a: ChainArgs) -> CliResult {
         "what": "latency /joint_states stamp -> matching /joint_effort_cmd at the driver, 3 processes, 1 kHz",
         "rust": rust,
         "rust_realtime_priority": a.realtime_priority,
+        "rust_cpu_affinity": a.cpu.map_or("params/".to_string(), |c| c.to_string()),
         "rclpy": rclpy,
         "median_ratio_rust_over_rclpy": ratio,
         "machine": machine(),

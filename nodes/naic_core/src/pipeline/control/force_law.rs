@@ -117,6 +117,13 @@ impl Default for WeightBounds {
     }
 }
 
+/// The requested NAIC learning rate `γ` used by default everywhere (simulator, CLI, the
+/// `naic_controller` node). The paper gives no value; eq 15 only bounds it. 1e-4 is the
+/// setting of the simulation studies in the README (γ sweep): 1e-3 drives m_d to its floor
+/// and 1e-2 never settles after a stiffness step, and on the ROS chain γ = 1e-2 spun the
+/// wrist beyond 2π rad/s at first contact.
+pub const DEFAULT_GAMMA: f64 = 1e-4;
+
 /// Parameters of the force law on the force axis in contact.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ForceLawParams {
