@@ -98,6 +98,13 @@ struct JointFeed {
 
 impl JointFeed {
     fn absorb(&mut self, sense_p: &SenseParams, js: &JointState) {
+        let stamp = js.header.stamp.to_nanos();
+        if self.dq_stamp_ns == Some(stamp) {
+            // The same state published again (lockstep, paused): the median filter takes
+            // each state once, as the controller's does.
+            self.dq_rx_ns = wall_ns();
+            return;
+        }
         let six = |v: &[f64]| -> Option<[f64; 6]> {
             (v.len() >= 6 && v[..6].iter().all(|x| x.is_finite())).then(|| std::array::from_fn(|i| v[i]))
         };
@@ -109,7 +116,7 @@ impl JointFeed {
                 Ok(sensed) => {
                     self.dq = sensed.dq;
                     self.dq_rx_ns = wall_ns();
-                    self.dq_stamp_ns = Some(js.header.stamp.to_nanos());
+                    self.dq_stamp_ns = Some(stamp);
                 }
                 Err(_) => (self.dq_rx_ns, self.dq_stamp_ns) = (i64::MIN, None), // implausible joint data: no feedforward
             }
