@@ -67,7 +67,8 @@ CASES = [
     ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE_ARRAY, [10.0, float("inf")] + [10.0] * 4), "finite"),
     ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE_ARRAY, [10.0, float("nan")] + [10.0] * 4), "finite"),
     ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE_ARRAY, [10.0] * 5), "exactly 6 elements"),
-    ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE, 10.0), "type double array"),
+    ("friction_compensation", Parameter("torque_rate_limit", P.STRING, "fast"), "type double array"),
+    ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE, -1.0), "outside its range"),
     ("friction_compensation", Parameter("friction_file", P.STRING, "/nonexistent.yaml"), "/nonexistent.yaml"),
     ("friction_compensation", Parameter("urdf", P.STRING, "x.urdf"), "read-only"),
     ("friction_compensation", Parameter("effort_limit", P.DOUBLE_ARRAY, [1000.0] * 6), "above the URDF effort limit"),
@@ -139,6 +140,17 @@ def test_params_torque_rate_limit_is_described_per_joint(nodes):
     assert "per joint" in d.description and "N m per cycle" in d.description, d.description
     assert "exactly 6 elements" in d.additional_constraints, d.additional_constraints
     assert "[0.001, 1000" in d.additional_constraints, d.additional_constraints
+    assert "one number for all" in d.additional_constraints, d.additional_constraints
+
+
+def test_params_torque_rate_limit_one_number_sets_all_six_joints(nodes):
+    """The form before the limit was per joint still works: one number for all joints."""
+    r, clients = nodes
+    c = clients["friction_compensation"]
+    before = _get(r, c, ["torque_rate_limit"])
+    assert _set(r, c, [Parameter("torque_rate_limit", P.DOUBLE, 7.5)])[0].successful
+    assert _get(r, c, ["torque_rate_limit"]) == [[7.5] * 6]
+    assert _set(r, c, [Parameter("torque_rate_limit", P.DOUBLE_ARRAY, before[0])])[0].successful
 
 
 def test_params_effort_limit_saturates_the_published_command(nodes):

@@ -56,7 +56,7 @@ fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
         ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Friction model YAML (naic_core::friction format; Table 1 of the paper by default)"),
         ParamSpec::boolean("enabled", true, "Add the friction feedforward (false: pass the controller torque through the actuation guard only)"),
         ParamSpec::double("smoothing_velocity", DEFAULT_V_S, 0.0, 1.0, "v_s [rad/s] of sgn(q̇) → tanh(q̇/v_s) near rest (0: the printed discontinuous law; the file's own value when it sets one)"),
-        ParamSpec::doubles("torque_rate_limit", &DEFAULT_RATE_LIMIT, 0.001, 1000.0, "Largest torque change per command, per joint joint1..joint6 [N m per cycle] (1 N m on every joint destabilises the paper's impedance gains on the simulated JK5; 10 does not)"),
+        ParamSpec::doubles("torque_rate_limit", &DEFAULT_RATE_LIMIT, 0.001, 1000.0, "Largest torque change per command, per joint joint1..joint6 [N m per cycle]; one number sets all six (1 N m on every joint destabilises the paper's impedance gains on the simulated JK5; 10 does not)").scalar_fills(),
         ParamSpec::double("joint_state_timeout", 0.02, 0.001, 1.0, "Joint velocity older than this [s] is not used: no feedforward"),
         ParamSpec::int("median_window", 5, 1, 9, "Median filter window of the joint velocity (the controller's sense stage, same filter)"),
         ParamSpec::double("takeover_gap", 0.02, 0.001, 1.0, "After a gap in /naic/effort longer than this [s] (the driver's command_timeout: it holds the arm itself by then), the rate limit restarts from the measured joint torque"),
@@ -290,6 +290,9 @@ mod tests {
         assert_eq!(r.tau, lim);
         let (_, r) = actuate::step(&p, &s, &[-50.0; 6]);
         assert_eq!(r.tau, [0.0; 6]);
+        // One number sets every joint (the form before the limit was per joint).
+        let t1 = table(&[("torque_rate_limit", V::Double(2.5))]).unwrap();
+        assert_eq!(t1.with(actuate_params).max_delta, [2.5; 6]);
         // Integers (a YAML list without decimal points) are accepted as doubles.
         let t = table(&[("torque_rate_limit", V::IntegerArray(vec![5, 5, 5, 2, 2, 1]))]).unwrap();
         assert_eq!(t.with(actuate_params).max_delta, [5.0, 5.0, 5.0, 2.0, 2.0, 1.0]);
@@ -306,7 +309,6 @@ mod tests {
             v
         };
         let cases = [
-            (V::Double(10.0), "type double array, got double"),
             (V::DoubleArray(vec![10.0; 5]), "exactly 6 elements, got 5"),
             (V::DoubleArray(vec![10.0; 7]), "exactly 6 elements, got 7"),
             (V::DoubleArray(nan), "must be finite"),
