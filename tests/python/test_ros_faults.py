@@ -77,6 +77,25 @@ def test_ros_fault_controller_resumes_and_counts_events(phases):
     assert 4 <= len(holding) <= 40, len(holding)
 
 
+def test_ros_fault_force_limit_retracts_latches_and_resumes_on_a_parameter_change(phases):
+    """Above force_limit (50 N) the controller (the core's ForceLimit, the only retraction)
+    stops pushing and reports it in /naic/params; with the force gone it stays retracted
+    (latched, no sensor fault, no HOLD) until any parameter is set, then resumes."""
+    over = phases["over_force"]
+    assert over["measured_force_tail_max"] > 50.0, over
+    assert over["faults_tail"] and all("force_limit" in f and "retract" in f for f in over["faults_tail"]), over
+    assert HOLD not in over["phases_tail"] and over["effort_all_finite"], over
+    latched = phases["over_force_latched"]
+    assert latched["measured_force_tail_max"] < 5.0, latched
+    assert latched["faults_tail"] and all("force_limit" in f for f in latched["faults_tail"]), latched
+    assert HOLD not in latched["phases_tail"], latched
+    assert phases["param_set_ok"]
+    resumed = phases["force_resumed"]
+    assert resumed["faults_tail"] == [""] and HOLD not in resumed["phases_tail"], resumed
+    log = phases["log"]
+    assert "above force_limit" in log and "resuming force control" in log, log[-3000:]
+
+
 def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
     """Issue 7 item 4 over DDS: SIGKILL friction_compensation mid-run → the driver holds
     the arm itself (no old torque kept); a restarted node starts from the measured torque,
@@ -86,7 +105,7 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
     bins = ru.build_nodes()
     domain = ru.fresh_domain(110)
     env = ru.ros_env(domain)
-    rate_limit = {"friction_compensation": ["-p", "torque_rate_limit:=1.0"]}
+    rate_limit = {"friction_compensation": ["-p", "torque_rate_limit:=[1.0, 1.0, 1.0, 1.0, 1.0, 1.0]"]}
     start = lambda n: ru.Proc([str(bins / n), "--ros-args", "--params-file", f"params/{n}.yaml",  # noqa: E731
                                *rate_limit.get(n, [])], env)
     procs = {n: start(n) for n in ("naic_controller", "friction_compensation", "jk5_sim_driver")}

@@ -61,7 +61,7 @@ def _assert_usage_error(p, needles, what):
         assert n in last, f"{what}: {n!r} not in the error line: {last}\n{p.stderr}"
 
 
-@pytest.mark.parametrize("node", ["naic_controller", "friction_compensation"])
+@pytest.mark.parametrize("node", ["naic_controller", "friction_compensation", "jk5_sim_driver"])
 @pytest.mark.parametrize("fname", sorted(URDF_BROKEN))
 def test_bad_urdf_given_to_a_node_exits_2_naming_the_file(bins, tmp_path, node, fname):
     text, needles = URDF_BROKEN[fname]
@@ -71,19 +71,20 @@ def test_bad_urdf_given_to_a_node_exits_2_naming_the_file(bins, tmp_path, node, 
     _assert_usage_error(p, needles, f"{node} {fname}")
 
 
-@pytest.mark.parametrize("node", ["naic_controller", "friction_compensation"])
+@pytest.mark.parametrize("node", ["naic_controller", "friction_compensation", "jk5_sim_driver"])
 def test_missing_urdf_exits_2(bins, tmp_path, node):
     p = _run([bins / node, "--ros-args", "-p", f"urdf:={tmp_path / 'nope.urdf'}"])
     _assert_usage_error(p, ["nope.urdf"], node)
 
 
+@pytest.mark.parametrize("node", ["friction_compensation", "jk5_sim_driver"])
 @pytest.mark.parametrize("fname", sorted(FRICTION_BROKEN))
-def test_bad_friction_yaml_given_to_the_node_exits_2_naming_it(bins, tmp_path, fname):
+def test_bad_friction_yaml_given_to_the_node_exits_2_naming_it(bins, tmp_path, fname, node):
     text, needles = FRICTION_BROKEN[fname]
     f = tmp_path / fname
     f.write_text(text)
-    p = _run([bins / "friction_compensation", "--ros-args", "-p", f"friction_file:={f}"])
-    _assert_usage_error(p, needles, fname)
+    p = _run([bins / node, "--ros-args", "-p", f"friction_file:={f}"])
+    _assert_usage_error(p, needles, f"{node} {fname}")
 
 
 @pytest.mark.parametrize("fname", sorted(FRICTION_BROKEN))
@@ -160,3 +161,76 @@ def test_bad_naic_cli_flags_exit_2(bins, args, needle):
     p = _run([bins / "naic", *args])
     assert p.returncode == 2, (args, p.returncode, p.stderr[-2000:])
     assert needle in p.stderr and "panicked" not in p.stderr, (args, p.stderr)
+
+
+def _jk5_without(tmp_path, frame):
+    """urdf/jk5.urdf with the link `frame` renamed: a valid 6-joint URDF the nodes must refuse."""
+    text = (ru.ROOT / "urdf/jk5.urdf").read_text()
+    assert f'"{frame}"' in text
+    f = tmp_path / f"jk5_without_{frame}.urdf"
+    f.write_text(text.replace(f'"{frame}"', f'"{frame}_renamed"'))
+    return f
+
+
+# (node, parameter, how to make the bad file, words the error line must hold besides the file name)
+BEFORE_DDS = [
+    ("naic_controller", "urdf", lambda d: _write(d, "not_xml.urdf", "this is { not xml"), ["urdf:="]),
+    ("naic_controller", "urdf", lambda d: _jk5_without(d, "tip"), ["'tip'", "urdf:="]),
+    ("naic_controller", "urdf", lambda d: _jk5_without(d, "ft_sensor"), ["'ft_sensor'", "urdf:="]),
+    ("naic_controller", "urdf", lambda d: _write(d, "one_joint.urdf", URDF_BROKEN["one_joint.urdf"][0]), ["6"]),
+    ("naic_controller", "urdf", lambda d: d / "missing.urdf", ["urdf:="]),
+    ("jk5_sim_driver", "urdf", lambda d: _write(d, "not_xml.urdf", "this is { not xml"), ["urdf:="]),
+    ("jk5_sim_driver", "urdf", lambda d: _jk5_without(d, "tip"), ["'tip'"]),
+    ("jk5_sim_driver", "urdf", lambda d: _jk5_without(d, "ft_sensor"), ["'ft_sensor'", "urdf:="]),
+    ("jk5_sim_driver", "urdf", lambda d: d / "missing.urdf", ["urdf:="]),
+    ("jk5_sim_driver", "friction_file", lambda d: _write(d, "bad.yaml", "joints: [unclosed"), ["friction_file:="]),
+    ("friction_compensation", "urdf", lambda d: _write(d, "not_xml.urdf", "this is { not xml"), ["urdf:="]),
+    ("friction_compensation", "friction_file", lambda d: _write(d, "bad.yaml", "joints: [unclosed"), ["friction_file:="]),
+    ("friction_compensation", "friction_file", lambda d: d / "missing.yaml", ["friction_file:="]),
+]
+
+
+def _write(d, name, text):
+    f = d / name
+    f.write_text(text)
+    return f
+
+
+@pytest.mark.parametrize("node,param,make,needles", BEFORE_DDS,
+                         ids=[f"{n}-{p}-{i}" for i, (n, p, _, _) in enumerate(BEFORE_DDS)])
+def test_bad_file_is_refused_before_any_dds_participant_exists(bins, tmp_path, node, param, make, needles):
+    """Issue 7: a node checks its files before it creates the DDS participant, so a bad file
+    never shows up on the network (no half-started node, no parameter services, no
+    /naic/params publisher). Exit 2 within a second, one error line naming the file and the
+    fix; no 'started' line (the node logs it once its participant exists); and, where strace
+    is installed, not one IP socket was opened (the participant opens several)."""
+    import shutil
+    import time
+    f = make(tmp_path)
+    args = [bins / node, "--ros-args", "-p", f"{param}:={f}"]
+    t0 = time.monotonic()
+    p = _run(args)
+    elapsed = time.monotonic() - t0
+    _assert_usage_error(p, [f.name, *needles], f"{node} {param}={f.name}")
+    assert elapsed < 1.0, f"{node}: took {elapsed:.2f} s to refuse {f.name}"
+    assert "started" not in p.stderr, p.stderr
+    if shutil.which("strace"):
+        trace = tmp_path / "strace.txt"
+        q = _run(["strace", "-f", "-e", "trace=socket", "-o", trace, *args])
+        assert q.returncode == 2, q.stderr[-2000:]
+        inet = [l for l in trace.read_text().splitlines() if "AF_INET" in l]
+        assert not inet, f"{node} opened IP sockets before refusing {f.name}: {inet[:3]}"
+
+
+def test_strace_sees_the_participant_of_a_node_that_starts(bins, tmp_path):
+    """The socket check above is not vacuous: the same trace of a node that does start shows
+    its DDS participant's IP sockets."""
+    import shutil
+    if not shutil.which("strace"):
+        pytest.skip("strace not installed")
+    trace = tmp_path / "strace.txt"
+    # `timeout` (traced too) runs the node for 3 s and stops it with SIGINT.
+    p = _run(["strace", "-f", "-e", "trace=socket", "-o", trace, "timeout", "-s", "INT", "3",
+              bins / "friction_compensation", "--ros-args", "--params-file", "params/friction_compensation.yaml"])
+    assert p.returncode in (0, 124), p.stderr[-2000:]
+    assert "AF_INET" in trace.read_text()

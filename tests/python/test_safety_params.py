@@ -63,8 +63,13 @@ CASES = [
     ("jk5_sim_driver", Parameter("hold_damping", P.STRING, "fast"), "type"),
     ("jk5_sim_driver", Parameter("plant", P.STRING, "other"), "read-only"),
     ("friction_compensation", Parameter("no_such_param", P.BOOL, True), "not declared"),
+    # torque_rate_limit: six values, N m per cycle, one per joint.
+    ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE_ARRAY, [10.0] * 5 + [-1.0]), "outside its range"),
+    ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE_ARRAY, [10.0, float("inf")] + [10.0] * 4), "finite"),
+    ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE_ARRAY, [10.0, float("nan")] + [10.0] * 4), "finite"),
+    ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE_ARRAY, [10.0] * 5), "exactly 6 elements"),
+    ("friction_compensation", Parameter("torque_rate_limit", P.STRING, "fast"), "type double array"),
     ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE, -1.0), "outside its range"),
-    ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE, float("inf")), "finite"),
     ("friction_compensation", Parameter("friction_file", P.STRING, "/nonexistent.yaml"), "/nonexistent.yaml"),
     ("friction_compensation", Parameter("urdf", P.STRING, "x.urdf"), "read-only"),
     ("friction_compensation", Parameter("effort_limit", P.DOUBLE_ARRAY, [1000.0] * 6), "above the URDF effort limit"),
@@ -119,11 +124,34 @@ def test_params_in_range_values_are_accepted(nodes):
     """The rejections above are not a node that refuses everything."""
     r, clients = nodes
     for node, param in [("naic_controller", Parameter("desired_force", P.DOUBLE, 12.5)),
-                        ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE, 0.5)),
+                        ("friction_compensation", Parameter("torque_rate_limit", P.DOUBLE_ARRAY,
+                                                            [0.5, 0.5, 0.5, 0.25, 0.25, 0.125])),
                         ("jk5_sim_driver", Parameter("hold_damping", P.DOUBLE, 6.0))]:
         res = _set(r, clients[node], [param])
         assert res[0].successful, (node, res[0].reason)
         assert _get(r, clients[node], [param.name]) == [param.value]
+
+
+def test_params_torque_rate_limit_is_described_per_joint(nodes):
+    """describe_parameters (as `ros2 param describe` shows it): a double array of six values
+    with its unit and range."""
+    r, clients = nodes
+    d = r.wait(clients["friction_compensation"].describe_parameters(["torque_rate_limit"])).descriptors[0]
+    assert d.type == P.DOUBLE_ARRAY.value, d
+    assert "per joint" in d.description and "N m per cycle" in d.description, d.description
+    assert "exactly 6 elements" in d.additional_constraints, d.additional_constraints
+    assert "[0.001, 1000" in d.additional_constraints, d.additional_constraints
+    assert "one number for all" in d.additional_constraints, d.additional_constraints
+
+
+def test_params_torque_rate_limit_one_number_sets_all_six_joints(nodes):
+    """The form before the limit was per joint still works: one number for all joints."""
+    r, clients = nodes
+    c = clients["friction_compensation"]
+    before = _get(r, c, ["torque_rate_limit"])
+    assert _set(r, c, [Parameter("torque_rate_limit", P.DOUBLE, 7.5)])[0].successful
+    assert _get(r, c, ["torque_rate_limit"]) == [[7.5] * 6]
+    assert _set(r, c, [Parameter("torque_rate_limit", P.DOUBLE_ARRAY, before[0])])[0].successful
 
 
 def test_params_effort_limit_saturates_the_published_command(nodes):

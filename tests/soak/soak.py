@@ -132,10 +132,6 @@ def soak(seconds, subscribers, sample_every=5.0, warmup=5.0, log=sys.stderr):
             "slope_second_half_kib_per_min": slope_per_min(after[len(after) // 2:]),
             "series_s_kib": [[round(t, 1), r] for t, r in samples],
         }
-    if latency and "jk5_sim_driver" in mem:
-        # The driver keeps every chain-latency sample (8 bytes each) for its report: growth
-        # that is by design, not a leak. Stated so the slope can be read net of it.
-        mem["jk5_sim_driver"]["latency_buffer_kib"] = round(latency["samples"] * 8 / 1024, 1)
     logs = {name: p.output() for name, p in nodes.items()}
     return {
         "duration_s": round(time.time() - t0, 1),

@@ -20,10 +20,19 @@
 //! answer a repeated stamp with the command they already computed for it. Commands without
 //! a stamp (for example from rclpy) are taken as they come.
 //!
+//! Last guard before the plant, whoever sends the command (friction_compensation, or
+//! anyone publishing `/joint_effort_cmd` directly): a command that is not six finite
+//! numbers is rejected (rate-limited log) and the driver holds instead of keeping the
+//! previous one; whatever is applied, command or the driver's own hold, is saturated per
+//! joint at `effort_limit` (default: the URDF `<limit effort>`, values above it refused).
+//! The robot model and the friction file are loaded and checked before the DDS
+//! participant exists: a bad file exits with code 2 and a message naming it.
+//!
 //! A separate receive thread wakes on each command and stamps its arrival, so the chain
 //! latency (`/joint_states` stamp → command arrival) is measured exactly; it is written as
 //! JSON to `latency_report` at exit (see `naic bench chain`).
 
+mod latency;
 mod plant;
 mod sim_plant;
 
@@ -32,18 +41,32 @@ use std::{
     time::Duration,
 };
 
+use naic_core::{model::Model, pipeline::actuate};
 use naic_ros::{
     msgs::{self, Clock, Header, JointState, Vector3, Wrench, WrenchStamped},
     node::{QOS_PUB, QOS_SUB_RELIABLE},
+    params::SetCheck,
     time::{time_from_ns, wall_ns},
     wait::Waiter,
-    ParamSpec, RosError, RosNode,
+    ParamSpec, ParamTable, ParamView, ParameterValue, RosArgs, RosError, RosNode,
 };
 use plant::Plant;
 use sim_plant::{make_plant, PLANT_NAME};
 
-fn specs() -> Vec<ParamSpec> {
+const NODE: &str = "jk5_sim_driver";
+
+/// Largest effort limit a parameter may set [N m] (the parameter's declared range).
+const EFFORT_CAP: f64 = 10_000.0;
+
+fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
     vec![
+        ParamSpec::doubles(
+            "effort_limit",
+            urdf_effort,
+            0.0,
+            EFFORT_CAP,
+            "Per-joint saturation of every torque the driver applies (commands and its own hold) [N m]; at most the URDF effort limit (default: the URDF's)",
+        ),
         ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz]; the simulator's control period is 1/rate").read_only(),
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model of the simulator").read_only(),
         ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Joint friction acting in the simulator (naic_core::friction YAML)").read_only(),
@@ -79,17 +102,48 @@ fn specs() -> Vec<ParamSpec> {
     ]
 }
 
+/// Effort limits `<limit effort>` of the six joints of `urdf` [N m].
+fn urdf_effort_limits(urdf: &str) -> Result<[f64; 6], String> {
+    let model = Model::from_urdf_file(urdf).map_err(|e| format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))?;
+    let l = model.effort_limits();
+    if l.len() != 6 {
+        return Err(format!("robot model '{urdf}' has {} joints; the JK5 driver needs 6 (set -p urdf:=PATH)", l.len()));
+    }
+    if let Some(i) = (0..6).find(|&i| !(l[i].is_finite() && l[i] > 0.0)) {
+        return Err(format!(
+            "robot model '{urdf}': joint {} has effort limit {}; set <limit effort=\"...\"> > 0 in the URDF",
+            i + 1,
+            l[i]
+        ));
+    }
+    Ok(std::array::from_fn(|i| l[i].min(EFFORT_CAP)))
+}
+
+/// Live `effort_limit` changes may tighten the URDF limits, never loosen them.
+fn check(urdf_effort: [f64; 6]) -> SetCheck {
+    Box::new(move |p: &ParamView| {
+        let e = p.f64s("effort_limit");
+        match (0..6).find(|&i| e[i] > urdf_effort[i]) {
+            Some(i) => Err(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], urdf_effort[i], i + 1)),
+            None => Ok(()),
+        }
+    })
+}
+
 /// The newest command and the latency samples, shared with the receive thread.
 struct CmdSlot {
     tau: [f64; 6],
+    /// The newest command was valid (else the driver holds until a valid one arrives).
+    valid: bool,
     /// Wall-clock arrival of the newest valid command [ns]; 0: none yet.
     arrival_ns: i64,
     /// Counts valid commands received.
     seq: u64,
     /// `/joint_states` stamp the newest command was computed from (if traced).
     source_stamp_ns: Option<i64>,
-    /// Latencies (arrival − source stamp) [ns] of traced commands (wall-clock stamps only).
-    latencies_ns: Vec<i64>,
+    /// Latencies (arrival − source stamp) [ns] of traced commands (wall-clock stamps only),
+    /// as a fixed-size histogram: constant memory however long the driver runs.
+    latency: latency::Histogram,
     /// Latencies are recorded from this wall time on (after the warm-up).
     record_after_ns: i64,
     /// Stamps are simulated time (lockstep / use_sim_time): no latency statistics.
@@ -115,7 +169,20 @@ fn main() {
 
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
-    let mut node = RosNode::from_env("jk5_sim_driver", specs(), None)?;
+    let args = RosArgs::parse(std::env::args().skip(1))?;
+    // Files first, before any DDS participant exists: the robot model (effort limits), then
+    // the whole plant (model, scenario, friction file) from the start-up parameters.
+    let urdf = match args.peek(NODE, "urdf")? {
+        None => "urdf/jk5.urdf".to_string(),
+        Some(ParameterValue::String(s)) => s,
+        Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
+    };
+    let urdf_effort = urdf_effort_limits(&urdf).map_err(RosError::Param)?;
+    let mut plant = ParamTable::new(specs(&urdf_effort), Some(check(urdf_effort)), &args.overrides(NODE)?)
+        .map_err(RosError::Param)?
+        .with(make_plant)
+        .map_err(RosError::Param)?;
+    let mut node = RosNode::new(args, NODE, specs(&urdf_effort), Some(check(urdf_effort)))?;
     let js_pub = node.publisher::<JointState>("joint_states", msgs::JOINT_STATE, QOS_PUB)?;
     let w_pub = node.publisher::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_PUB)?;
     let clock_pub = node.publisher::<Clock>("/clock", msgs::CLOCK, QOS_PUB)?;
@@ -125,10 +192,11 @@ fn run() -> Result<(), RosError> {
     let shared = Arc::new(Shared {
         slot: Mutex::new(CmdSlot {
             tau: [0.0; 6],
+            valid: false,
             arrival_ns: 0,
             seq: 0,
             source_stamp_ns: None,
-            latencies_ns: Vec::with_capacity(4 * 3600 * 1000),
+            latency: latency::Histogram::default(),
             record_after_ns: wall_ns() + node.params.with(|p| (p.f64("latency_warmup") * 1e9) as i64),
             sim_stamps: node.params.with(|p| p.bool("lockstep") || p.bool("use_sim_time")),
             rejected: 0,
@@ -166,17 +234,24 @@ fn run() -> Result<(), RosError> {
                                 }
                                 s.ready = s.expect_stamp_ns.is_some();
                                 s.tau = tau;
+                                s.valid = true;
                                 s.arrival_ns = now;
                                 s.seq += 1;
                                 s.source_stamp_ns = src;
                                 // Latency only when stamps are wall-clock time.
                                 if let (Some(st), false) = (s.source_stamp_ns, s.sim_stamps) {
-                                    if now >= s.record_after_ns && s.latencies_ns.len() < s.latencies_ns.capacity() {
-                                        s.latencies_ns.push(now - st);
+                                    if now >= s.record_after_ns {
+                                        s.latency.record(now - st);
                                     }
                                 }
                             }
                             Err(e) => {
+                                // Not applied, and the previous command is not kept either:
+                                // in real time the driver holds from the next cycle on (in
+                                // lockstep a rejected command never advances the simulation).
+                                s.valid = false;
+                                s.arrival_ns = now;
+                                s.seq += 1;
                                 s.rejected += 1;
                                 if now - last_warn > 1_000_000_000 {
                                     last_warn = now;
@@ -192,11 +267,11 @@ fn run() -> Result<(), RosError> {
             .map_err(|e| RosError::Node(format!("cannot start receive thread: {e}")))?;
     }
 
-    let mut plant = node.params.with(make_plant).map_err(RosError::Node)?;
-
     let mut gen = 0;
     let (mut rate, mut lockstep, mut timeout_ns, mut damping, mut use_sim_time) = (1000.0, false, 20_000_000i64, 5.0, false);
     let mut paused = false;
+    let mut effort_limit = urdf_effort;
+    let (mut saturated_cycles, mut last_sat_warn) = (0u64, 0i64);
     let mut js = JointState {
         header: Header { stamp: Default::default(), frame_id: String::new() },
         name: msgs::JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
@@ -222,6 +297,7 @@ fn run() -> Result<(), RosError> {
                 timeout_ns = (p.f64("command_timeout") * 1e9) as i64;
                 damping = p.f64("hold_damping");
                 use_sim_time = p.bool("use_sim_time");
+                effort_limit = std::array::from_fn(|i| p.f64s("effort_limit")[i]);
             });
             shared.slot.lock().unwrap_or_else(|p| p.into_inner()).sim_stamps = lockstep || use_sim_time;
         }
@@ -274,12 +350,13 @@ fn run() -> Result<(), RosError> {
         }
 
         // Take the newest command, or hold if it is stale.
-        let (tau, fresh, seq, src, recording) = {
+        let (tau, fresh, valid, seq, src, recording) = {
             let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());
             let now = wall_ns();
-            // Lockstep: the wait above returned with the command for this state.
-            let fresh = s.seq > 0 && (lockstep || now - s.arrival_ns <= timeout_ns);
-            (s.tau, fresh, s.seq, s.source_stamp_ns, now >= s.record_after_ns)
+            // Lockstep: the wait above returned with the command for this state (unless a
+            // rejected one came after it: then hold).
+            let fresh = s.valid && s.seq > 0 && (lockstep || now - s.arrival_ns <= timeout_ns);
+            (s.tau, fresh, s.valid, s.seq, s.source_stamp_ns, now >= s.record_after_ns)
         };
         if !lockstep && chain_started && recording {
             // A cycle is missed when the command for the previous state did not arrive in time.
@@ -300,11 +377,25 @@ fn run() -> Result<(), RosError> {
             tau
         } else {
             if !holding && seq > 0 {
-                log::warn!("no /joint_effort_cmd for {} ms: holding the arm", timeout_ns / 1_000_000);
+                if valid {
+                    log::warn!("no /joint_effort_cmd for {} ms: holding the arm", timeout_ns / 1_000_000);
+                } else {
+                    log::warn!("last /joint_effort_cmd rejected: holding the arm");
+                }
             }
             holding = seq > 0 || holding;
             Plant::hold_torque(&mut plant, damping)
         };
+        // Whatever is applied, command or hold, stays within the effort limits.
+        let (tau, clipped) = actuate::saturate(&effort_limit, &tau);
+        if clipped.iter().any(|&c| c) {
+            saturated_cycles += 1;
+            let now = wall_ns();
+            if now - last_sat_warn > 1_000_000_000 {
+                last_sat_warn = now;
+                log::warn!("torque saturated at effort_limit {effort_limit:?} N m (joints {clipped:?}; {saturated_cycles} cycles so far)");
+            }
+        }
         Plant::step(&mut plant, &tau, dt);
         cycles += 1;
         // Lockstep: announce the state before publishing it, so its command is never early.
@@ -319,7 +410,8 @@ fn run() -> Result<(), RosError> {
     if s.stale_dropped > 0 {
         log::info!("lockstep: {} commands computed from an earlier state were dropped", s.stale_dropped);
     }
-    let report = latency_report(&s.latencies_ns, missed, cycles, recorded_ns, s.rejected);
+    let mut report = latency_report(&s.latency, missed, cycles, recorded_ns, s.rejected);
+    report["saturated_cycles"] = saturated_cycles.into();
     let path = node.params.with(|p| p.str("latency_report").to_string());
     if !path.is_empty() {
         if let Err(e) = std::fs::write(&path, report.to_string()) {
@@ -378,23 +470,15 @@ fn publish_state(
     Ok(stamp_ns)
 }
 
-fn latency_report(lat: &[i64], missed: u64, cycles: u64, wall_ns: i64, rejected: u64) -> serde_json::Value {
-    let mut v: Vec<i64> = lat.to_vec();
-    v.sort_unstable();
-    let q = |f: f64| -> f64 {
-        if v.is_empty() {
-            f64::NAN
-        } else {
-            v[((v.len() - 1) as f64 * f).round() as usize] as f64 / 1e3
-        }
-    };
+fn latency_report(lat: &latency::Histogram, missed: u64, cycles: u64, wall_ns: i64, rejected: u64) -> serde_json::Value {
+    let q = |f: f64| -> f64 { lat.quantile_ns(f).map_or(f64::NAN, |ns| ns / 1e3) };
     let minutes = wall_ns as f64 / 60e9;
     serde_json::json!({
-        "samples": v.len(),
+        "samples": lat.len(),
         "cycles": cycles,
         "median_us": q(0.5),
         "p99_us": q(0.99),
-        "max_us": if v.is_empty() { f64::NAN } else { *v.last().unwrap() as f64 / 1e3 },
+        "max_us": lat.max_ns().map_or(f64::NAN, |ns| ns as f64 / 1e3),
         "missed_cycles": missed,
         "missed_per_min": if minutes > 0.0 { missed as f64 / minutes } else { 0.0 },
         "rejected_commands": rejected,

@@ -5,7 +5,9 @@ pub trait Plant {
     /// Advance by `dt` seconds under joint torques `tau` [N m].
     fn step(&mut self, tau: &[f64; 6], dt: f64);
     /// Torques that hold the arm where it is: gravity compensation + joint damping
-    /// (`damping` N m s/rad). Used when no command arrives in time.
+    /// (`damping` N m s/rad, capped per joint for stability at the control period as in
+    /// `naic_core::pipeline::hold`). Used when no command arrives in time; the driver
+    /// saturates it like any command.
     fn hold_torque(&mut self, damping: f64) -> [f64; 6];
     /// Joint positions [rad], velocities [rad/s] and measured joint torques [N m].
     fn joints(&self) -> ([f64; 6], [f64; 6], [f64; 6]);

@@ -38,7 +38,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::double("contact_threshold", c.contact.enter_n, 0.01, 100.0, "Enter contact when the measured force along n exceeds this [N]"),
         ParamSpec::double("contact_exit_force", c.contact.exit_n, 0.0, 100.0, "Leave contact below this force [N] (after contact_exit_cycles)"),
         ParamSpec::int("contact_exit_cycles", c.contact.exit_cycles as i64, 0, 100_000, "Leave contact after this many cycles below contact_exit_force (0: contact latches, as in the paper)"),
-        ParamSpec::double("force_limit", 50.0, 0.1, 500.0, "Above this measured force [N] the controller stops pushing and retracts to the start pose"),
+        ParamSpec::double("force_limit", 50.0, 0.1, 500.0, "Above this measured force [N] the controller stops pushing, backs off along -n and stays off the surface until any parameter is set"),
         ParamSpec::double("wrench_timeout", base.sense.wrench_timeout, 0.0005, 1.0, "Wrench older than this [s] is stale: safe hold"),
         ParamSpec::double("joint_timeout", base.sense.joint_timeout, 0.0005, 1.0, "Joint state older than this [s] is stale: safe hold"),
         ParamSpec::choice("scenario", crate::reference::DEFAULT_SCENARIO, &crate::reference::SCENARIOS,
@@ -102,9 +102,11 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
         exit_n: p.f64("contact_exit_force"),
         exit_cycles: p.i64("contact_exit_cycles") as u32,
     };
-    // The core stops pushing and backs off above the limit; the node then also moves the
-    // reference back to the start pose until a parameter changes (main.rs).
+    // The core's force limit is the node's only retraction: it stops pushing, backs off
+    // along -n, and (latched) stays off the surface until a parameter changes (main.rs
+    // calls ControlState::resume then).
     c.control.force_limit.limit_n = p.f64("force_limit");
+    c.control.force_limit.latch = true;
     c.sense.median_window = p.i64("median_window") as usize;
     c.sense.joint_timeout = p.f64("joint_timeout");
     c.sense.wrench_timeout = p.f64("wrench_timeout");
@@ -153,7 +155,12 @@ mod tests {
     fn defaults_reproduce_the_core_paper_defaults() {
         let (t, b) = table();
         let cp = t.with(|p| controller_params(p, &b)).unwrap();
-        assert_eq!(cp, b);
+        // The one difference: the node latches the force-limit retraction (resume on a
+        // parameter change); the core's default resumes by itself.
+        assert!(cp.control.force_limit.latch && !b.control.force_limit.latch);
+        let mut expect = b;
+        expect.control.force_limit.latch = true;
+        assert_eq!(cp, expect);
     }
 
     #[test]

@@ -11,6 +11,9 @@
 //! Parameters (see `config.rs`) take effect at the next cycle after they are accepted.
 //! Faults (NaN/Inf/implausible/stale data) make the core hold the arm (gravity compensation
 //! + joint damping); the fault is logged (rate-limited) and published in `/naic/params`.
+//! Above `force_limit` the core's force limit (`pipeline::control::ForceLimit`, latched)
+//! stops pushing and backs off; the node only reports it, and resumes it on any accepted
+//! parameter change (`ControlState::resume`).
 
 mod config;
 mod reference;
@@ -32,7 +35,7 @@ use naic_ros::{
     node::{QOS_PUB, QOS_SUB},
     time::{time_from_ns, wall_ns},
     wait::Waiter,
-    ParameterValue, RosArgs, RosError, RosNode,
+    ParamTable, ParameterValue, RosArgs, RosError, RosNode,
 };
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
@@ -99,11 +102,19 @@ fn run() -> Result<(), RosError> {
     })?;
     // Defaults: the core's paper settings on this model (learning rate: not in the paper).
     let base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
-    let mut node = RosNode::new(args, "naic_controller", config::specs(&base), Some(config::check(base)))?;
-    let mut ctl = {
-        let cp = node.params.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
-        Controller::new(model.clone(), cp).map_err(RosError::Param)?
+    // Everything that reads a file or can reject the model is checked before the DDS
+    // participant exists: the start-up parameters (params files, -p), the model against the
+    // controller's needs (6 joints, 'tip' and 'ft_sensor' frames) and the scenario.
+    let (mut ctl, scenario_ref) = {
+        let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides("naic_controller")?)
+            .map_err(RosError::Param)?;
+        let cp = table.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
+        let ctl = Controller::new(model.clone(), cp)
+            .map_err(|e| RosError::Param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
+        let name = table.with(|p| p.str("scenario").to_string());
+        (ctl, reference::ScenarioReference::new(&name, &model).map_err(RosError::Param)?)
     };
+    let mut node = RosNode::new(args, "naic_controller", config::specs(&base), Some(config::check(base)))?;
     let mut state: ControllerState = ctl.initial_state();
     let mut ws: Workspace = ctl.workspace();
     let mut fk = Data6::try_new(&model).map_err(|e| RosError::Param(format!("{urdf}: {e}")))?;
@@ -116,13 +127,10 @@ fn run() -> Result<(), RosError> {
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut js_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 
-    let scenario_ref = {
-        let name = node.params.with(|p| p.str("scenario").to_string());
-        reference::ScenarioReference::new(&name, &model).map_err(RosError::Param)?
-    };
     let mut gen = node.params.generation();
     let (mut f_d, mut force_limit, mut approach, mut use_sim_time, mut mode) =
         (0.0, 0.0, 0.0, false, String::new());
+    let mut was_force_limited = false;
     let mut reload = true;
     let mut jmap = JointMap { names: vec![], idx: [0; 6], ok: false };
     let mut wrench = [f64::NAN; 6];
@@ -130,7 +138,6 @@ fn run() -> Result<(), RosError> {
     let mut wrench_rx_ns: i64 = 0;
     let mut t0_ns: Option<i64> = None;
     let mut p_start: Option<(Vector3<f64>, UnitQuaternion<f64>)> = None;
-    let mut retracting = false;
     let mut last_fault_log = 0i64;
     let mut prev_fault_count = 0u32;
     let mut cycles = 0u64;
@@ -163,9 +170,9 @@ fn run() -> Result<(), RosError> {
                 }
                 Err(e) => log::error!("parameters not applied: {e}"),
             }
-            if retracting {
+            if state.control.retracting() {
                 log::info!("parameters changed: resuming force control");
-                retracting = false;
+                state.control = state.control.resume();
             }
         }
 
@@ -228,7 +235,8 @@ fn run() -> Result<(), RosError> {
         };
 
         // Reference: hold the start orientation; the free-space target is the start
-        // position moved `approach_depth` along n; retract to the start above force_limit.
+        // position moved `approach_depth` along n (above force_limit the core backs off
+        // from it and stays off until resumed).
         if p_start.is_none() && valid && q.iter().all(|x| x.is_finite()) {
             dynamics::forward_kinematics(&model, &mut fk, &Vector6::from(q));
             let pose = fk.frame_se3(tip);
@@ -240,23 +248,19 @@ fn run() -> Result<(), RosError> {
         let axis = ctl.params().control.force_axis;
         let mut n = Vector3::zeros();
         n[axis.axis] = axis.sign;
-        let reference = if retracting {
-            Reference { p_d: p0, r_d: r0, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d: 0.0 }
-        } else {
-            match &scenario_ref {
-                // The scenario's trajectory; the force set point is the parameter.
-                Some(sr) => Reference { f_d, ..sr.at(m.t) },
-                None => Reference { p_d: p0 + n * approach, r_d: r0, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d },
-            }
+        let reference = match &scenario_ref {
+            // The scenario's trajectory; the force set point is the parameter.
+            Some(sr) => Reference { f_d, ..sr.at(m.t) },
+            None => Reference { p_d: p0 + n * approach, r_d: r0, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d },
         };
         let (next, out) = controller::step(&ctl, &state, &m, &reference, &mut ws);
         state = next;
         cycles += 1;
         let st = &out.status;
-        if st.f_ext > force_limit && !retracting {
-            retracting = true;
+        if st.force_limited && !was_force_limited {
             log::warn!("measured force {:.1} N above force_limit {force_limit} N: retracting (set any parameter to resume)", st.f_ext);
         }
+        was_force_limited = st.force_limited;
         if let Some(f) = st.fault {
             let now = wall_ns();
             if st.fault_count != prev_fault_count || now - last_fault_log > 1_000_000_000 {
@@ -273,9 +277,9 @@ fn run() -> Result<(), RosError> {
         } else {
             log::error!("controller produced a non-finite torque; not published");
         }
-        let fault = match (st.fault, retracting) {
+        let fault = match (st.fault, st.force_limited) {
             (Some(f), _) => f.to_string(),
-            (None, true) => format!("force above force_limit ({force_limit} N): retracting"),
+            (None, true) => format!("force above force_limit ({force_limit} N): retracting, then holding off the surface until a parameter is set"),
             (None, false) => String::new(),
         };
         let report = NaicParams {

@@ -119,8 +119,15 @@ fn bad_sensor_data_holds_the_arm_and_recovers() {
     assert_eq!(out.status.fault, Some(Fault::NonFinite { signal: Signal::Wrench, index: 2 }));
     assert_eq!(out.status.fault_count, 1);
     let g = *dynamics::gravity_torques(&model, &mut plant, &Vector6::from(q));
+    // Hold = gravity − damping, the damping capped per joint for stability at the 1 ms
+    // period (pipeline::hold): the big joints get the full 5 N m s/rad, the wrist roll less.
+    let expect = naic_core::pipeline::hold::torque(&model, &mut plant, &q, &[0.1; 6], &[5.0; 6], 1e-3);
     for i in 0..6 {
-        assert!((out.tau[i] - (g[i] - 5.0 * 0.1)).abs() < 1e-9, "hold = gravity − damping on joint {i}");
+        assert!((out.tau[i] - expect[i]).abs() < 1e-9, "hold = gravity − damping on joint {i}");
+        assert!(out.tau[i] <= g[i] + 1e-12 && out.tau[i] >= g[i] - 5.0 * 0.1 - 1e-12, "joint {i}");
+    }
+    for i in 0..3 {
+        assert!((out.tau[i] - (g[i] - 5.0 * 0.1)).abs() < 1e-9, "full damping on joint {i}");
     }
     // NaN joint positions: hold at the last valid q, never a NaN torque.
     let mut qn = q;

@@ -44,6 +44,8 @@ pub struct ParamSpec {
     pub choices: Vec<String>,
     /// Required length of an array parameter.
     pub len: Option<usize>,
+    /// A double array that also accepts one number, meaning that value for every element.
+    pub scalar_fills: bool,
     pub read_only: bool,
 }
 
@@ -56,6 +58,7 @@ impl ParamSpec {
             range: Range::None,
             choices: vec![],
             len: None,
+            scalar_fills: false,
             read_only: false,
         }
     }
@@ -90,6 +93,12 @@ impl ParamSpec {
         self.read_only = true;
         self
     }
+    /// A double array that also accepts a single number for all its elements
+    /// (`x` → `[x, x, …]`, from files, `-p` and the parameter services alike).
+    pub fn scalar_fills(mut self) -> Self {
+        self.scalar_fills = true;
+        self
+    }
 
     /// Human-readable constraints, also sent as the descriptor's `additional_constraints`.
     pub fn constraints(&self) -> String {
@@ -99,6 +108,9 @@ impl ParamSpec {
         }
         if let Some(n) = self.len {
             parts.push(format!("exactly {n} elements"));
+        }
+        if self.scalar_fills {
+            parts.push("or one number for all elements".into());
         }
         if matches!(self.default, ParameterValue::DoubleArray(_)) {
             if let Range::Float { from, to } = self.range {
@@ -143,9 +155,12 @@ impl ParamSpec {
     pub fn validate(&self, value: ParameterValue) -> Result<ParameterValue, String> {
         use ParameterValue as V;
         let name = &self.name;
+        let fill = |x: f64| V::DoubleArray(vec![x; self.len.unwrap_or(1)]);
         let value = match (&self.default, value) {
             (V::Double(_), V::Integer(i)) => V::Double(i as f64),
             (V::DoubleArray(_), V::IntegerArray(a)) => V::DoubleArray(a.iter().map(|&i| i as f64).collect()),
+            (V::DoubleArray(_), V::Double(x)) if self.scalar_fills => fill(x),
+            (V::DoubleArray(_), V::Integer(i)) if self.scalar_fills => fill(i as f64),
             (_, v) => v,
         };
         if value.to_parameter_type() != self.default.to_parameter_type() {
@@ -481,6 +496,27 @@ mod tests {
         assert!(e(("contact_threshold", V::Double(60.0))).contains("below force_limit"));
         assert_eq!(t.generation(), g);
         assert_eq!(t.get("learning_rate"), Some(V::Double(0.5)));
+    }
+
+    #[test]
+    fn a_scalar_fills_an_array_only_where_declared() {
+        let t = ParamTable::new(
+            vec![
+                ParamSpec::doubles("per_joint", &[1.0; 3], 0.0, 10.0, "fills").scalar_fills(),
+                ParamSpec::doubles("strict", &[1.0; 3], 0.0, 10.0, "does not"),
+            ],
+            None,
+            &[("per_joint".into(), V::Double(2.5))],
+        )
+        .unwrap();
+        assert_eq!(t.get("per_joint"), Some(V::DoubleArray(vec![2.5; 3])));
+        t.set_atomically(&[("per_joint".into(), V::Integer(4))]).unwrap();
+        assert_eq!(t.get("per_joint"), Some(V::DoubleArray(vec![4.0; 3])));
+        // Still range-checked and finite.
+        assert!(t.set_atomically(&[("per_joint".into(), V::Double(11.0))]).unwrap_err().contains("outside"));
+        assert!(t.set_atomically(&[("per_joint".into(), V::Double(f64::NAN))]).unwrap_err().contains("finite"));
+        assert!(t.set_atomically(&[("strict".into(), V::Double(2.0))]).unwrap_err().contains("type double array, got double"));
+        assert!(t.specs()[0].constraints().contains("one number for all"));
     }
 
     #[test]

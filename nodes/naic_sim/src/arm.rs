@@ -3,9 +3,7 @@
 //! kept inside, one call per control period.
 
 use crate::plant::{self, Observation, PlantParams, PlantState, PlantWorkspace};
-use naic_core::dynamics;
 use naic_core::model::Data6;
-use nalgebra::Vector6;
 
 /// The simulated JK5 + mini45 in one scenario's world.
 pub struct SimArm {
@@ -30,10 +28,10 @@ impl SimArm {
         (self.state, self.obs) = plant::step(&self.params, &self.state, tau, &mut self.ws);
     }
 
-    /// Gravity compensation + joint damping at the true state (for a driver's hold).
+    /// Gravity compensation + joint damping at the true state (for a driver's hold): the
+    /// core's hold law (`naic_core::pipeline::hold`, damping capped for stability at `dt`).
     pub fn hold_torque(&mut self, damping: f64) -> [f64; 6] {
-        let g = *dynamics::gravity_torques(&self.params.model, &mut self.data, &Vector6::from(self.state.q));
-        std::array::from_fn(|i| g[i] - damping * self.state.dq[i])
+        naic_core::pipeline::hold::torque(&self.params.model, &mut self.data, &self.state.q, &self.state.dq, &[damping; 6], self.params.dt)
     }
 
     /// Measured joint positions [rad], velocities [rad/s], and the applied joint torques [N·m].

@@ -33,6 +33,21 @@ pub struct ActuateReport {
     pub rejected_non_finite: bool,
 }
 
+/// Per-joint saturation: `|τ_i| ≤ limit_i`. Returns the torque and which joints were
+/// clipped. A non-finite entry becomes 0 and counts as clipped (callers that can hold
+/// the previous command instead, like [`step`], reject non-finite input before this).
+/// Also the last guard of a driver, on whatever it is about to apply.
+pub fn saturate(limit: &[f64; 6], tau: &[f64; 6]) -> ([f64; 6], [bool; 6]) {
+    let mut out = [0.0; 6];
+    let mut clipped = [false; 6];
+    for i in 0..6 {
+        let t = if tau[i].is_finite() { tau[i] } else { 0.0 };
+        out[i] = t.clamp(-limit[i], limit[i]);
+        clipped[i] = out[i] != tau[i];
+    }
+    (out, clipped)
+}
+
 /// One cycle. Pure: `(params, state, input) -> (state, outputs)`.
 pub fn step(p: &ActuateParams, s: &ActuateState, tau_in: &[f64; 6]) -> (ActuateState, ActuateReport) {
     let mut r = ActuateReport::default();
@@ -51,13 +66,9 @@ pub fn step(p: &ActuateParams, s: &ActuateState, tau_in: &[f64; 6]) -> (ActuateS
                 r.rate_limited[i] = true;
             }
         }
-        let lim = p.effort_limit[i];
-        if t.abs() > lim {
-            t = t.clamp(-lim, lim);
-            r.saturated[i] = true;
-        }
         r.tau[i] = t;
     }
+    (r.tau, r.saturated) = saturate(&p.effort_limit, &r.tau);
     (ActuateState { tau_prev: r.tau, started: true }, r)
 }
 
@@ -79,5 +90,13 @@ mod tests {
         assert_eq!(r.tau, s.tau_prev);
         assert_eq!(s2, s);
         assert!(r.tau.iter().all(|t| t.is_finite()));
+    }
+
+    #[test]
+    fn saturate_clips_each_joint_at_its_own_limit_and_zeroes_non_finite() {
+        let lim = [100.0, 100.0, 50.0, 20.0, 20.0, 10.0];
+        let (t, c) = saturate(&lim, &[1000.0, -1000.0, 49.0, -20.0, f64::NAN, f64::NEG_INFINITY]);
+        assert_eq!(t, [100.0, -100.0, 49.0, -20.0, 0.0, 0.0]);
+        assert_eq!(c, [true, true, false, false, true, true]);
     }
 }

@@ -23,7 +23,8 @@
 //!
 //! When the sense stage rejects the measurements (non-finite, implausible,
 //! stale), the output is `τ = G(q) − D_hold q̇` at the last valid state
-//! (gravity compensation plus joint damping, no force command), the phase is
+//! (gravity compensation plus joint damping, capped per joint for stability at
+//! the control period: [`super::hold`]; no force command), the phase is
 //! `Hold`, and the fault is reported; the next valid cycle resumes in free
 //! space and re-detects contact.
 
@@ -303,12 +304,9 @@ fn hold(
     let dq_ok = (0..6).all(|i| m.dq[i].abs() <= sp.dq_max[i]);
     let mut tau = [0.0; 6];
     if let Some(q) = q {
-        let qv = Vector6::from(q);
-        let g = *dynamics::gravity_torques(&c.model, &mut ws.data, &qv);
-        for i in 0..6 {
-            let damping = if dq_ok { p.hold_damping[i] * m.dq[i] } else { 0.0 };
-            tau[i] = g[i] - damping;
-        }
+        // Damping only at a plausible q̇, capped per joint for stability at the period λ.
+        let dq = if dq_ok { m.dq } else { [0.0; 6] };
+        tau = super::hold::torque(&c.model, &mut ws.data, &q, &dq, &p.hold_damping, p.control.force_law.lambda);
     }
     let next = ControllerState {
         fault: Some(fault),
@@ -404,7 +402,7 @@ impl ControllerParams {
                     sigma_margin: 0.5,
                 },
                 contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
-                force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500 },
+                force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
             },
             hold_damping: [5.0; 6],
             damping: Damping::default(),

@@ -16,6 +16,7 @@ pub mod control;
 pub mod controller;
 pub mod estimate;
 pub mod feedforward;
+pub mod hold;
 pub mod sense;
 
 use crate::friction::FrictionModel;

@@ -31,6 +31,14 @@
 //! Contact detection is a parameter ([`ContactDetect`]): enter contact when
 //! `f_ext` exceeds `enter_n`; leave it after `exit_cycles` consecutive cycles
 //! below `exit_n` (`exit_cycles = 0` latches contact, as in the paper).
+//!
+//! The contact-force limit ([`ForceLimit`]) is the one retraction mechanism of
+//! naic (the simulator and the ROS node use this, nothing else): above
+//! `limit_n` the tool stops pushing and backs off along −n for
+//! `retract_cycles`; then either free space resumes and contact is
+//! re-detected, or (`latch`) the tool stays where the retraction ended, at a
+//! fixed offset from the reference and with no force target, until the owner
+//! calls [`ControlState::resume`] (the ROS node does on any parameter change).
 
 pub mod force_law;
 
@@ -77,8 +85,10 @@ pub struct ForceLimit {
     pub limit_n: f64,
     /// Speed of the retraction along −n [m/s].
     pub retract_speed: f64,
-    /// How long the retraction lasts [cycles]; then free space resumes and contact is re-detected.
+    /// How long the retraction lasts [cycles]; then free space resumes and contact is re-detected ...
     pub retract_cycles: u32,
+    /// ... unless `latch`: then the tool stays off the surface until [`ControlState::resume`].
+    pub latch: bool,
 }
 
 /// All parameters of the control stage.
@@ -174,6 +184,9 @@ pub struct ControlState {
     pub law: ForceLawState,
     /// Cycles of retraction left after the force limit was exceeded (0: not retracting).
     pub retract_left: u32,
+    /// Latched after a retraction ([`ForceLimit::latch`]): the error `e` along the force
+    /// axis (base frame) to keep, i.e. the tool stays at `X_d − e_hold` on that axis.
+    pub retract_hold: Option<f64>,
 }
 
 impl ControlState {
@@ -184,7 +197,22 @@ impl ControlState {
             below_exit: 0,
             law: ForceLawState::new(&p.force_law, p.impedance.m_d[n], p.impedance.b_d[n]),
             retract_left: 0,
+            retract_hold: None,
         }
+    }
+
+    /// Leave a force-limit retraction (in progress or latched): free space, contact is
+    /// re-detected. A no-op otherwise.
+    pub fn resume(&self) -> Self {
+        if !self.retracting() {
+            return *self;
+        }
+        Self { retract_left: 0, retract_hold: None, phase: Phase::Free, below_exit: 0, ..*self }
+    }
+
+    /// A force-limit retraction is in progress or latched.
+    pub fn retracting(&self) -> bool {
+        self.retract_left > 0 || self.retract_hold.is_some()
     }
 }
 
@@ -216,7 +244,7 @@ pub struct TaskOutputs {
     pub k_d: f64,
     /// The force law's report (zeros in free space).
     pub law: ForceLawOutputs,
-    /// The force limit was exceeded and the tool is retracting.
+    /// The force limit was exceeded: the tool is retracting, or latched off the surface.
     pub retracting: bool,
 }
 
@@ -237,16 +265,29 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     // Force limit: stop pushing, leave contact, back off along −n for a while.
     if f_ext > p.force_limit.limit_n {
         next.retract_left = p.force_limit.retract_cycles.max(1);
+        next.retract_hold = None;
         next.phase = Phase::Free;
     }
+    let imp = &p.impedance;
     if next.retract_left > 0 {
         next.retract_left -= 1;
         next.phase = Phase::Free;
-        let imp = &p.impedance;
         let mut v = eq6(imp, &imp.k_free, u);
         // Velocity servo along n to −retract_speed, with the free-space damping.
         let xdot_n = sign * u.x_dot[ax];
         v[ax] = sign * imp.b_d[ax] * (-p.force_limit.retract_speed - xdot_n) / imp.m_d[ax];
+        if next.retract_left == 0 && p.force_limit.latch {
+            next.retract_hold = Some(u.e[ax]);
+        }
+        let law = ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() };
+        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true });
+    }
+    if let Some(e_hold) = next.retract_hold {
+        // Latched: free-space impedance on every axis, the force axis about the held offset.
+        next.phase = Phase::Free;
+        let mut held = *u;
+        held.e[ax] -= e_hold;
+        let v = eq6(imp, &imp.k_free, &held);
         let law = ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() };
         return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true });
     }
@@ -269,7 +310,6 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
         }
     }
 
-    let imp = &p.impedance;
     let contact = next.phase == Phase::Contact;
     let k = if contact { &imp.k_contact } else { &imp.k_free };
     let v = eq6(imp, k, u);
@@ -307,7 +347,7 @@ mod tests {
             force_axis: ForceAxis { axis: 2, sign: -1.0 },
             force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5 },
             contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
-            force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500 },
+            force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
         }
     }
 
@@ -423,6 +463,71 @@ mod tests {
         assert_eq!(s2.retract_left, 0);
         assert!(!step(&p, &s2, &u).1.retracting, "free space resumes after the retraction");
     }
+
+    /// The latched variant (what the ROS node uses), on the point-mass rig of `run`:
+    /// pressed above the limit, the tool backs off the surface, then stays there (no
+    /// contact, no force, still after 3 s), until `resume`; then it approaches, re-detects
+    /// contact and tracks f_d again.
+    #[test]
+    fn a_latched_force_limit_keeps_the_tool_off_until_resumed() {
+        let mut p = params(Mode::Naic);
+        p.force_limit = ForceLimit { limit_n: 15.0, retract_speed: 0.02, retract_cycles: 500, latch: true };
+        p.validate().unwrap();
+        let (k_e, dt) = (2000.0, 1e-3);
+        let mut s = ControlState::new(&p);
+        let (mut x, mut v) = (Vector6::<f64>::zeros(), Vector6::<f64>::zeros());
+        x[2] = 0.02;
+        let mut x_d = Vector6::zeros();
+        x_d[2] = -0.03;
+        let mut step_rig = |s: &ControlState, f_d: f64| {
+            let mut f_e = Vector6::zeros();
+            f_e[2] = -k_e * (-x[2]).max(0.0);
+            let u = TaskInputs { e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d };
+            let (n, o) = step(&p, s, &u);
+            v += o.v * dt;
+            x += v * dt;
+            (n, o, x[2])
+        };
+        // f_d = 20 N > the 15 N limit: contact, the force passes the limit, retract.
+        let mut triggered = false;
+        for _ in 0..3000 {
+            let (n, o, _) = step_rig(&s, 20.0);
+            s = n;
+            if o.retracting && !triggered {
+                triggered = true;
+                assert!(o.f_ext > 15.0, "{o:?}");
+            }
+        }
+        assert!(triggered, "the limit never triggered");
+        assert!(s.retract_hold.is_some() && s.retracting(), "{s:?}");
+        // Latched: 3 s later still off the surface, no force, not in contact.
+        let mut z = vec![];
+        for _ in 0..3000 {
+            let (n, o, zk) = step_rig(&s, 20.0);
+            s = n;
+            assert!(o.retracting && o.f_ext == 0.0 && s.phase == Phase::Free, "{o:?}");
+            z.push(zk);
+        }
+        let min_z = z.iter().cloned().fold(1.0, f64::min);
+        assert!(min_z > 0.002, "the tool came back down: min z {min_z}");
+        let drift = (z[z.len() - 1] - z[z.len() - 1000]).abs();
+        assert!(drift < 1e-4, "the latched tool drifts {drift} m in 1 s");
+        // Resume with f_d = 10 N (below the limit): contact again, tracking f_d.
+        s = s.resume();
+        assert!(!s.retracting() && s.phase == Phase::Free);
+        let mut f = 0.0;
+        for _ in 0..4000 {
+            let (n, o, _) = step_rig(&s, 10.0);
+            s = n;
+            f = o.f_ext;
+            assert!(!o.retracting, "retracted again at {} N", o.f_ext);
+        }
+        assert_eq!(s.phase, Phase::Contact);
+        assert!((f - 10.0).abs() < 0.05, "force after resume {f}");
+        // resume() outside a retraction changes nothing.
+        assert_eq!(s.resume(), s);
+    }
+
 
     #[test]
     fn invalid_parameters_name_themselves() {
