@@ -239,7 +239,7 @@ def test_cartesian_terms_match_eq3_from_pinocchio(root, dump_bin, tmp_path):
     assert checked >= 30
 
 
-def test_bench_dynamics_cli(root, naic_bin, tmp_path):
+def test_bench_dynamics_cli(root, naic_bin, dump_bin, tmp_path):
     """`naic bench dynamics --json` prints one JSON line with every figure (no timing is asserted)."""
     r = subprocess.run([str(naic_bin), "bench", "dynamics", "--json", "--batches", "50"],
                        cwd=root, capture_output=True, text=True, timeout=300)
@@ -251,7 +251,7 @@ def test_bench_dynamics_cli(root, naic_bin, tmp_path):
         assert isinstance(out[k], float) and out[k] > 0, k
     assert out["nv"] == 6 and out["path"] == "static6"
     # a non-6-joint chain runs the dynamic-size path and has no controller figure
-    xml = subprocess.run([str(root / "target" / "release" / "examples" / "dump_dynamics"), "--test-urdf", "planar3"],
+    xml = subprocess.run([str(dump_bin), "--test-urdf", "planar3"],
                          capture_output=True, text=True)
     if xml.returncode == 0:
         planar = tmp_path / "planar3.urdf"

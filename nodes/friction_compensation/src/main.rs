@@ -190,6 +190,9 @@ fn run() -> Result<(), RosError> {
     let mut last_out: Option<(i64, [f64; 6])> = None;
 
     while !naic_ros::shutdown_requested() {
+        // Wait first, then take the parameters: a value accepted while waiting applies to
+        // the data that woke us ("takes effect at the next cycle").
+        waiter.wait(Some(Duration::from_millis(100)));
         if node.params.generation() != gen {
             gen = node.params.generation();
             node.params.with(|p| {
@@ -205,7 +208,6 @@ fn run() -> Result<(), RosError> {
                 }
             });
         }
-        waiter.wait(Some(Duration::from_millis(100)));
         while let Ok(Some((js, _))) = js_sub.take() {
             feed.absorb(&sense_p, &js);
         }

@@ -287,20 +287,28 @@ fn run() -> Result<(), RosError> {
     let start_wall = wall_ns();
     let mut next = monotonic_ns();
 
+    // Take accepted parameter values (at the top of a cycle, and again just before the
+    // step, so a limit accepted while waiting applies to that step).
+    macro_rules! reload_params {
+        () => {
+            if node.params.generation() != gen {
+                gen = node.params.generation();
+                node.params.with(|p| {
+                    rate = p.f64("rate");
+                    lockstep = p.bool("lockstep");
+                    paused = p.bool("paused");
+                    timeout_ns = (p.f64("command_timeout") * 1e9) as i64;
+                    damping = p.f64("hold_damping");
+                    use_sim_time = p.bool("use_sim_time");
+                    effort_limit = std::array::from_fn(|i| p.f64s("effort_limit")[i]);
+                });
+                shared.slot.lock().unwrap_or_else(|p| p.into_inner()).sim_stamps = lockstep || use_sim_time;
+            }
+        };
+    }
+
     while !naic_ros::shutdown_requested() {
-        if node.params.generation() != gen {
-            gen = node.params.generation();
-            node.params.with(|p| {
-                rate = p.f64("rate");
-                lockstep = p.bool("lockstep");
-                paused = p.bool("paused");
-                timeout_ns = (p.f64("command_timeout") * 1e9) as i64;
-                damping = p.f64("hold_damping");
-                use_sim_time = p.bool("use_sim_time");
-                effort_limit = std::array::from_fn(|i| p.f64s("effort_limit")[i]);
-            });
-            shared.slot.lock().unwrap_or_else(|p| p.into_inner()).sim_stamps = lockstep || use_sim_time;
-        }
+        reload_params!();
         let dt = 1.0 / rate;
         let period_ns = (1e9 / rate) as i64;
 
@@ -349,6 +357,7 @@ fn run() -> Result<(), RosError> {
             sleep_until(next);
         }
 
+        reload_params!();
         // Take the newest command, or hold if it is stale.
         let (tau, fresh, valid, seq, src, recording) = {
             let s = shared.slot.lock().unwrap_or_else(|p| p.into_inner());

@@ -149,6 +149,9 @@ fn run() -> Result<(), RosError> {
     let mut last_params: Option<NaicParams> = None;
 
     while !naic_ros::shutdown_requested() {
+        // Wait first, then take the parameters: a value accepted while waiting applies to
+        // the data that woke us ("takes effect at the next cycle").
+        waiter.wait(Some(Duration::from_millis(100)));
         if node.params.generation() != gen || reload {
             gen = node.params.generation();
             reload = false;
@@ -176,7 +179,6 @@ fn run() -> Result<(), RosError> {
             }
         }
 
-        waiter.wait(Some(Duration::from_millis(100)));
         while let Ok(Some((w, _))) = w_sub.take() {
             (wrench, wrench_stamp_ns, wrench_rx_ns) = wrench_sample(&w);
         }
