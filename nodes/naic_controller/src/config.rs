@@ -106,6 +106,8 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
     // along -n, and (latched) stays off the surface until a parameter changes (main.rs
     // calls ControlState::resume then).
     c.control.force_limit.limit_n = p.f64("force_limit");
+    // Eq 9's integral never asks for more than the force the robot may apply.
+    c.control.force_law.integral_limit_n = p.f64("force_limit");
     c.control.force_limit.latch = true;
     c.sense.median_window = p.i64("median_window") as usize;
     c.sense.joint_timeout = p.f64("joint_timeout");

@@ -91,6 +91,7 @@ impl PipelineController {
         c.contact.enter_n = settings.contact_enter_n;
         c.contact.exit_n = settings.contact_exit_n;
         c.force_limit.limit_n = settings.force_limit_n;
+        c.force_law.integral_limit_n = settings.force_limit_n;
         let mut effort = [0.0; 6];
         for (e, j) in effort.iter_mut().zip(model.joints()) {
             *e = j.limits.effort;

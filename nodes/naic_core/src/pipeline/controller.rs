@@ -400,6 +400,8 @@ impl ControllerParams {
                     bounds: WeightBounds::default(),
                     lambda,
                     sigma_margin: 0.5,
+                    // = force_limit.limit_n below (anti-windup of eq 9, see ForceLawParams).
+                    integral_limit_n: 50.0,
                 },
                 contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
                 force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },

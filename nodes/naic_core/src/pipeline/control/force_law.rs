@@ -141,6 +141,12 @@ pub struct ForceLawParams {
     /// `f64::INFINITY` disables it and leaves the paper's law as written
     /// (plus the [`WeightBounds`] box).
     pub sigma_margin: f64,
+    /// Anti-windup of eq 9's integral: `|b_d Φ| ≤ integral_limit_n` [N]. `b_d Φ` is σ times
+    /// the running sum of `f_d − f_ext`; with the arm blocked (held, or pushing on something
+    /// that does not give) it would grow without bound and so would the torque. The
+    /// controller sets it to its contact-force limit: a correction larger than the force
+    /// the robot may apply is never needed. `f64::INFINITY` leaves eq 9 as written.
+    pub integral_limit_n: f64,
 }
 
 /// The largest `σ` for which the AIC/NAIC force loop is stable.
@@ -266,8 +272,9 @@ pub fn step(p: &ForceLawParams, s: &ForceLawState, u: &ForceLawInputs) -> (Force
             }
             // Eq 10 solved for ë with the current weights.
             out.e_ddot = (e_f - next.b_d * f[1] - next.sigma * f[2]) / next.m_d;
-            // Eq 9: Φ(t) = Φ(t−λ) + σ (f_d − f_ext)(t−λ) / b_d.
-            next.phi = s.phi + next.sigma * f[2] / next.b_d;
+            // Eq 9: Φ(t) = Φ(t−λ) + σ (f_d − f_ext)(t−λ) / b_d, with |b_d Φ| ≤ the anti-windup limit.
+            let phi_max = p.integral_limit_n / next.b_d;
+            next.phi = (s.phi + next.sigma * f[2] / next.b_d).clamp(-phi_max, phi_max);
         }
     }
     next.e_f_prev = e_f;
@@ -280,7 +287,7 @@ mod tests {
     use super::*;
 
     fn params(mode: Mode, gamma: f64) -> ForceLawParams {
-        ForceLawParams { mode, sigma: 0.01, gamma, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5 }
+        ForceLawParams { mode, sigma: 0.01, gamma, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY }
     }
 
     /// A 1-D plant: the impedance law's commanded acceleration is realised
@@ -427,5 +434,30 @@ mod tests {
         }
         let e = Mode::parse("pid").unwrap_err();
         assert!(e.contains("pid") && e.contains("naic"), "{e}");
+    }
+
+    /// Anti-windup: with the arm blocked (no motion, the force stuck 10 N short of f_d),
+    /// eq 9's integral b_d Φ stops at the limit and the commanded acceleration stays
+    /// bounded; without the limit both grow without bound.
+    #[test]
+    fn a_blocked_arm_does_not_wind_up_the_integral() {
+        for mode in [Mode::Aic, Mode::Naic] {
+            let run = |limit: f64| {
+                let p = ForceLawParams { integral_limit_n: limit, ..params(mode, 1e-4) };
+                let mut s = ForceLawState::new(&p, 1.0, 40.0);
+                let u = ForceLawInputs { f_ext: 0.0, f_d: 10.0, e_dot: 0.0 };
+                let mut worst = (0.0f64, 0.0f64);
+                for _ in 0..200_000 {
+                    let (n, o) = step(&p, &s, &u);
+                    s = n;
+                    worst = (worst.0.max((s.b_d * s.phi).abs()), worst.1.max(o.e_ddot.abs()));
+                }
+                worst
+            };
+            let (integral, edd) = run(50.0);
+            assert!(integral <= 50.0 * (1.0 + 1e-12), "{mode:?}: |b_d Φ| = {integral}");
+            let (integral_free, edd_free) = run(f64::INFINITY);
+            assert!(integral_free > 1000.0 && edd_free > 10.0 * edd, "{mode:?}: {integral_free} {edd_free} vs {edd}");
+        }
     }
 }

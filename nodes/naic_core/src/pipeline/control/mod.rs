@@ -131,6 +131,9 @@ impl ControlParams {
         if !(fl.sigma_margin > 0.0) {
             return Err(format!("sigma_margin = {} must be > 0 (inf disables the σ stability bound)", fl.sigma_margin));
         }
+        if !(fl.integral_limit_n > 0.0) {
+            return Err(format!("integral_limit_n = {} must be > 0 N (inf: eq 9 without anti-windup)", fl.integral_limit_n));
+        }
         if !(fl.sigma >= 0.0 && fl.sigma.is_finite()) {
             return Err(format!("sigma = {} must be a finite value >= 0", fl.sigma));
         }
@@ -345,7 +348,7 @@ mod tests {
                 k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
             },
             force_axis: ForceAxis { axis: 2, sign: -1.0 },
-            force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5 },
+            force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY },
             contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
             force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
         }
