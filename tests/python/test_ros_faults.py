@@ -141,16 +141,19 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
         steps = [max(abs(a - b) for a, b in zip(c1, c0)) for (_, c0), (_, c1) in zip(new, new[1:])]
         assert len(steps) > 400
         assert max(steps) <= 1.0 + 1e-9, f"command step {max(steps):.3f} N m at take-over"
-        # The arm's torque, cycle by cycle (stamp order): the cycle that first applies the
-        # new node's first command, and the hold torque of the cycle before it.
+        # The arm's torque, cycle by cycle (stamp order): the first cycle that applies one
+        # of the new node's commands (command j: under load the driver may take a later
+        # one of several that arrived in one cycle), and the hold torque of the cycle
+        # before it. Command j is at most j + 1 rate-limit steps from where the node started.
         applied = sorted((st, e) for t, e, st in js if t > t_kill + 0.1)
-        k = next((i for i, (_, e) in enumerate(applied)
-                  if max(abs(a - b) for a, b in zip(e, new[0][1])) < 1e-9), None)
-        assert k, "the driver never applied the restarted node's first command"
-        first = max(abs(a - b) for a, b in zip(new[0][1], applied[k - 1][1]))
+        hit = next(((i, j) for i, (_, e) in enumerate(applied) for j, (_, c) in enumerate(new[:5])
+                    if max(abs(a - b) for a, b in zip(e, c)) < 1e-9), None)
+        assert hit and hit[0] > 0, "the driver applied none of the restarted node's first five commands"
+        k, j = hit
+        first = max(abs(a - b) for a, b in zip(new[j][1], applied[k - 1][1]))
         # + 0.5: the hold torque moves a little between the state the node started from
-        # and the cycle before its first command landed.
-        assert first <= 1.0 + 0.5, f"first command {first:.3f} N m away from the held torque"
+        # and the cycle before its command landed.
+        assert first <= (j + 1) * 1.0 + 0.5, f"command {j} lands {first:.3f} N m away from the held torque"
         assert all(p.alive() for p in procs.values())
     finally:
         r.close()
