@@ -355,15 +355,7 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
             tau[j] += fric + offset[j] + rotor[j] * ddq[j];
         }
         tau_true.push(tau);
-        let mut qm = [0.0; NJ];
-        let mut dqm = [0.0; NJ];
-        for j in 0..NJ {
-            qm[j] = (q[j] / quant).round() * quant;
-            dqm[j] = dq[j] + 1e-3 * rng.normal();
-        }
-        ts.t.push(t);
-        ts.q.push(qm);
-        ts.dq.push(dqm);
+        push_encoder_sample(&mut ts, t, &q, &dq, quant, &mut rng);
     }
     // torque channel: delayed by `delay` (linear interpolation), plus noise
     for i in 0..n {
@@ -612,17 +604,23 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
             let (fc, fv) = base[j];
             tau[j] += fc * (v / 1e-3).tanh() + fv * v - ext[j] + extra[j] + noise_tau * rng.normal();
         }
-        let mut qm = [0.0; NJ];
-        let mut dqm = [0.0; NJ];
-        for j in 0..NJ {
-            qm[j] = (q[j] / quant).round() * quant;
-            dqm[j] = dq[j] + 1e-3 * rng.normal();
-        }
-        ts.t.push(t);
-        ts.q.push(qm);
-        ts.dq.push(dqm);
+        push_encoder_sample(&mut ts, t, &q, &dq, quant, &mut rng);
         ts.tau.push(tau);
     }
     ts.wrench = Some(wrench);
     Generated { ts, injected, base, noise_tau }
+}
+
+/// One row of the motion channels as an encoder reports them: positions quantised to
+/// `quant`, velocities with 1 mrad/s white noise.
+fn push_encoder_sample(ts: &mut TimeSeries, t: f64, q: &[f64; NJ], dq: &[f64; NJ], quant: f64, rng: &mut Rng) {
+    let mut qm = [0.0; NJ];
+    let mut dqm = [0.0; NJ];
+    for j in 0..NJ {
+        qm[j] = (q[j] / quant).round() * quant;
+        dqm[j] = dq[j] + 1e-3 * rng.normal();
+    }
+    ts.t.push(t);
+    ts.q.push(qm);
+    ts.dq.push(dqm);
 }
