@@ -31,13 +31,11 @@ use naic_core::{
 use naic_ros::{
     msgs::{self, Float64MultiArray, JointState},
     node::{QOS_PUB, QOS_SUB},
+    params::{effort_limit_within, EFFORT_CAP},
     time::wall_ns,
-    wait::Waiter,
-    ParamSpec, ParamView, ParameterValue, RosArgs, RosError, RosNode,
+    wait::{take_until, Waiter},
+    ParamSpec, ParamView, RosArgs, RosError, RosNode,
 };
-
-/// Largest effort limit a parameter may set when the URDF gives none [N m].
-const EFFORT_CAP: f64 = 10_000.0;
 
 /// Default `torque_rate_limit` per joint [N m per cycle] (as in params/friction_compensation.yaml).
 const DEFAULT_RATE_LIMIT: [f64; 6] = [10.0; 6];
@@ -130,11 +128,7 @@ impl JointFeed {
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
     let args = RosArgs::parse(std::env::args().skip(1))?;
-    let urdf = match args.peek("friction_compensation", "urdf")? {
-        None => "urdf/jk5.urdf".to_string(),
-        Some(ParameterValue::String(s)) => s,
-        Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
-    };
+    let urdf = args.peek_string("friction_compensation", "urdf", "urdf/jk5.urdf")?;
     let robot = Model::from_urdf_file(&urdf)
         .map_err(|e| RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
     let effort_limit: [f64; 6] = {
@@ -146,24 +140,18 @@ fn run() -> Result<(), RosError> {
     };
     // The velocity the feedforward uses: the core's sense stage (validity + median filter),
     // as in the in-process pipeline.
-    let lim = |v: Vec<f64>, d: f64| -> [f64; 6] { std::array::from_fn(|i| v.get(i).copied().filter(|x| x.is_finite()).unwrap_or(d)) };
+    // Joint limits as the controller's (the wrench is not used here; staleness is judged
+    // by joint_state_timeout below).
     let mut sense_p = SenseParams {
-        q_min: lim(robot.lower_limits(), -std::f64::consts::PI),
-        q_max: lim(robot.upper_limits(), std::f64::consts::PI),
-        q_margin: 0.1,
-        dq_max: lim(robot.velocity_limits().iter().map(|v| 2.0 * v).collect(), 2.0 * std::f64::consts::PI),
         wrench_max: [f64::INFINITY; 6],
-        median_window: 5,
         joint_timeout: 1.0,
         wrench_timeout: 1.0,
+        ..SenseParams::for_model(&robot)
     };
     let mut feed = JointFeed { sense_s: SenseState::default(), dq: [0.0; 6], dq_rx_ns: i64::MIN, dq_stamp_ns: None, effort_meas: None };
     // A friction file that does not load, or a saturation above the URDF's, is rejected like any bad value.
     let check: naic_ros::params::SetCheck = Box::new(move |p: &ParamView| {
-        let e = p.f64s("effort_limit");
-        if let Some(i) = (0..6).find(|&i| e[i] > effort_limit[i]) {
-            return Err(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], effort_limit[i], i + 1));
-        }
+        effort_limit_within(p, &effort_limit)?;
         load_model(p).map(|_| ())
     });
     let mut node = RosNode::new(args, "friction_compensation", specs(&effort_limit), Some(check))?;
@@ -232,12 +220,11 @@ fn run() -> Result<(), RosError> {
         }
         let fresh = if sim {
             // The joint state this command was computed from (it was published first).
-            let deadline = wall_ns() + js_timeout_ns;
-            while feed.dq_stamp_ns.is_none_or(|s| Some(s) < src) && wall_ns() < deadline {
-                match js_sub.take() {
-                    Ok(Some((js, _))) => feed.absorb(&sense_p, &js),
-                    _ => std::thread::sleep(Duration::from_micros(50)),
-                }
+            if feed.dq_stamp_ns.is_none_or(|s| Some(s) < src) {
+                take_until(&js_sub, wall_ns() + js_timeout_ns, |js| {
+                    feed.absorb(&sense_p, &js);
+                    feed.dq_stamp_ns.is_some_and(|s| Some(s) >= src)
+                });
             }
             feed.dq_stamp_ns == src
         } else {

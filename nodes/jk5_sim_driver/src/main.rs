@@ -45,18 +45,15 @@ use naic_core::{model::Model, pipeline::actuate};
 use naic_ros::{
     msgs::{self, Clock, Header, JointState, Vector3, Wrench, WrenchStamped},
     node::{QOS_PUB, QOS_SUB_RELIABLE},
-    params::SetCheck,
+    params::{effort_limit_within, SetCheck, EFFORT_CAP},
     time::{time_from_ns, wall_ns},
     wait::Waiter,
-    ParamSpec, ParamTable, ParamView, ParameterValue, RosArgs, RosError, RosNode,
+    ParamSpec, ParamTable, ParamView, RosArgs, RosError, RosNode,
 };
 use plant::Plant;
 use sim_plant::{make_plant, PLANT_NAME};
 
 const NODE: &str = "jk5_sim_driver";
-
-/// Largest effort limit a parameter may set [N m] (the parameter's declared range).
-const EFFORT_CAP: f64 = 10_000.0;
 
 fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
     vec![
@@ -121,13 +118,7 @@ fn urdf_effort_limits(urdf: &str) -> Result<[f64; 6], String> {
 
 /// Live `effort_limit` changes may tighten the URDF limits, never loosen them.
 fn check(urdf_effort: [f64; 6]) -> SetCheck {
-    Box::new(move |p: &ParamView| {
-        let e = p.f64s("effort_limit");
-        match (0..6).find(|&i| e[i] > urdf_effort[i]) {
-            Some(i) => Err(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], urdf_effort[i], i + 1)),
-            None => Ok(()),
-        }
-    })
+    Box::new(move |p: &ParamView| effort_limit_within(p, &urdf_effort))
 }
 
 /// The newest command and the latency samples, shared with the receive thread.
@@ -172,11 +163,7 @@ fn run() -> Result<(), RosError> {
     let args = RosArgs::parse(std::env::args().skip(1))?;
     // Files first, before any DDS participant exists: the robot model (effort limits), then
     // the whole plant (model, scenario, friction file) from the start-up parameters.
-    let urdf = match args.peek(NODE, "urdf")? {
-        None => "urdf/jk5.urdf".to_string(),
-        Some(ParameterValue::String(s)) => s,
-        Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
-    };
+    let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
     let urdf_effort = urdf_effort_limits(&urdf).map_err(RosError::Param)?;
     let mut plant = ParamTable::new(specs(&urdf_effort), Some(check(urdf_effort)), &args.overrides(NODE)?)
         .map_err(RosError::Param)?

@@ -34,8 +34,8 @@ use naic_ros::{
     msgs::{self, Header, JointState, NaicParams, WrenchStamped},
     node::{QOS_PUB, QOS_SUB},
     time::{time_from_ns, wall_ns},
-    wait::Waiter,
-    ParamTable, ParameterValue, RosArgs, RosError, RosNode,
+    wait::{take_until, Waiter},
+    ParamTable, RosArgs, RosError, RosNode,
 };
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
@@ -92,11 +92,7 @@ fn wrench_sample(w: &WrenchStamped) -> ([f64; 6], Option<i64>, i64) {
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
     let args = RosArgs::parse(std::env::args().skip(1))?;
-    let urdf = match args.peek("naic_controller", "urdf")? {
-        None => "urdf/jk5.urdf".to_string(),
-        Some(ParameterValue::String(s)) => s,
-        Some(v) => return Err(RosError::Param(format!("parameter 'urdf' must be a file path, got {v:?}"))),
-    };
+    let urdf = args.peek_string("naic_controller", "urdf", "urdf/jk5.urdf")?;
     let model = Model::from_urdf_file(&urdf).map_err(|e| {
         RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))
     })?;
@@ -198,16 +194,13 @@ fn run() -> Result<(), RosError> {
             }
             continue;
         }
-        if use_sim_time && wrench_stamp_ns != Some(js_stamp_ns) {
+        if use_sim_time && wrench_stamp_ns.is_none_or(|w| w < js_stamp_ns) {
             // Simulated time: the driver publishes the wrench of a state just before its
             // joint states; take that one (not the previous one) so the loop is deterministic.
-            let deadline = wall_ns() + 5_000_000;
-            while wrench_stamp_ns.is_none_or(|w| w < js_stamp_ns) && wall_ns() < deadline {
-                match w_sub.take() {
-                    Ok(Some((w, _))) => (wrench, wrench_stamp_ns, wrench_rx_ns) = wrench_sample(&w),
-                    _ => std::thread::sleep(Duration::from_micros(50)),
-                }
-            }
+            take_until(&w_sub, wall_ns() + 5_000_000, |w| {
+                (wrench, wrench_stamp_ns, wrench_rx_ns) = wrench_sample(&w);
+                wrench_stamp_ns.is_some_and(|w| w >= js_stamp_ns)
+            });
         }
         jmap.update(&js.name);
         let valid = jmap.get(&js.position, &mut q) & jmap.get(&js.velocity, &mut dq);
@@ -275,7 +268,7 @@ fn run() -> Result<(), RosError> {
         // Never publish a non-finite torque: skip the cycle (the driver holds after 20 ms).
         if out.tau.iter().all(|t| t.is_finite()) {
             let _ = effort_pub.publish(msgs::effort_msg(&out.tau, Some(js_stamp_ns)));
-            last_cmd = Some((js_stamp_ns, out.tau.into()));
+            last_cmd = Some((js_stamp_ns, out.tau));
         } else {
             log::error!("controller produced a non-finite torque; not published");
         }

@@ -159,6 +159,16 @@ impl RosArgs {
         Ok(self.overrides(default_name)?.into_iter().rev().find(|(n, _)| n == name).map(|(_, v)| v))
     }
 
+    /// [`peek`](Self::peek) for a string parameter such as a file path: its start-up value,
+    /// `default` when none is given, an error naming the parameter when it is not a string.
+    pub fn peek_string(&self, default_name: &str, name: &str, default: &str) -> Result<String, RosError> {
+        match self.peek(default_name, name)? {
+            None => Ok(default.to_string()),
+            Some(ParameterValue::String(s)) => Ok(s),
+            Some(v) => Err(RosError::Param(format!("parameter '{name}' must be a file path, got {v:?}"))),
+        }
+    }
+
     /// Apply topic remappings to a topic name as the node spells it.
     pub fn remap_topic<'a>(&'a self, topic: &'a str) -> &'a str {
         let bare = topic.trim_start_matches('/');

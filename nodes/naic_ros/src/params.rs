@@ -294,6 +294,20 @@ impl<'a> ParamView<'a> {
 /// A whole-set check run on every proposed change (cross-parameter rules).
 pub type SetCheck = Box<dyn Fn(&ParamView) -> Result<(), String> + Send + Sync>;
 
+/// Largest per-joint effort limit an `effort_limit` parameter may declare [N m] (the range
+/// of the parameter; also the value for a joint whose URDF gives none).
+pub const EFFORT_CAP: f64 = 10_000.0;
+
+/// The nodes' per-joint `effort_limit` may tighten the URDF's `<limit effort>`, never
+/// loosen it: the message names the joint and both values.
+pub fn effort_limit_within(p: &ParamView, urdf_effort: &[f64; 6]) -> Result<(), String> {
+    let e = p.f64s("effort_limit");
+    match (0..6).find(|&i| e[i] > urdf_effort[i]) {
+        Some(i) => Err(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], urdf_effort[i], i + 1)),
+        None => Ok(()),
+    }
+}
+
 /// The node's declared parameters and their current values.
 pub struct ParamTable {
     specs: Vec<ParamSpec>,

@@ -38,3 +38,25 @@ impl Waiter {
         mask
     }
 }
+
+/// Take the samples of `sub` as they arrive, handing each to `on`, until `on` returns true
+/// (got the one it waited for) or the wall clock passes `deadline_ns`; returns whether `on`
+/// said so. Polls every 50 µs: for short waits on a sample known to be on its way (the
+/// lockstep loop pairing messages of the same stamp).
+pub fn take_until<M: serde::de::DeserializeOwned + 'static>(
+    sub: &ros2_client::Subscription<M>,
+    deadline_ns: i64,
+    mut on: impl FnMut(M) -> bool,
+) -> bool {
+    while crate::time::wall_ns() < deadline_ns {
+        match sub.take() {
+            Ok(Some((m, _))) => {
+                if on(m) {
+                    return true;
+                }
+            }
+            _ => std::thread::sleep(Duration::from_micros(50)),
+        }
+    }
+    false
+}

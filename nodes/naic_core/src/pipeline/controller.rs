@@ -355,29 +355,9 @@ impl ControllerParams {
     pub fn paper_defaults(model: &Model, mode: Mode, gamma: f64) -> Self {
         use super::control::force_law::{ForceLawParams, WeightBounds};
         use super::control::{ContactDetect, ForceAxis, ForceLimit, ImpedanceParams};
-        let mut q_min = [-std::f64::consts::PI; 6];
-        let mut q_max = [std::f64::consts::PI; 6];
-        let mut dq_max = [2.0 * std::f64::consts::PI; 6];
-        for (i, j) in model.joints().iter().take(6).enumerate() {
-            q_min[i] = j.limits.lower;
-            q_max[i] = j.limits.upper;
-            if j.limits.velocity.is_finite() {
-                dq_max[i] = 2.0 * j.limits.velocity;
-            }
-        }
         let lambda = 1e-3;
         ControllerParams {
-            sense: SenseParams {
-                q_min,
-                q_max,
-                q_margin: 0.1,
-                dq_max,
-                // ATI mini45 SI-145-5: ±145 N (Fx, Fy), ±290 N (Fz), ±5 N·m; ×1.5.
-                wrench_max: [217.5, 217.5, 435.0, 7.5, 7.5, 7.5],
-                median_window: 5,
-                joint_timeout: 0.01,
-                wrench_timeout: 0.01,
-            },
+            sense: SenseParams::for_model(model),
             tool: ToolParams {
                 mass: 0.424,
                 com: Vector3::new(0.0, 0.0, 0.015),

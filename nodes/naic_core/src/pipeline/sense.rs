@@ -82,6 +82,34 @@ pub struct SenseParams {
 }
 
 impl SenseParams {
+    /// The settings for a robot model: joint position limits as the URDF gives them,
+    /// widened by `q_margin` = 0.1 rad; |q̇| up to 2× the URDF velocity limit
+    /// (2π rad/s where it gives none), the ATI mini45 SI-145-5 range ×1.5 as the wrench
+    /// limit, a 5-sample velocity median and 10 ms staleness (the paper's §4.1 setup).
+    pub fn for_model(model: &crate::model::Model) -> SenseParams {
+        let mut q_min = [-std::f64::consts::PI; 6];
+        let mut q_max = [std::f64::consts::PI; 6];
+        let mut dq_max = [2.0 * std::f64::consts::PI; 6];
+        for (i, j) in model.joints().iter().take(6).enumerate() {
+            q_min[i] = j.limits.lower;
+            q_max[i] = j.limits.upper;
+            if j.limits.velocity.is_finite() {
+                dq_max[i] = 2.0 * j.limits.velocity;
+            }
+        }
+        SenseParams {
+            q_min,
+            q_max,
+            q_margin: 0.1,
+            dq_max,
+            // ATI mini45 SI-145-5: ±145 N (Fx, Fy), ±290 N (Fz), ±5 N·m; ×1.5.
+            wrench_max: [217.5, 217.5, 435.0, 7.5, 7.5, 7.5],
+            median_window: 5,
+            joint_timeout: 0.01,
+            wrench_timeout: 0.01,
+        }
+    }
+
     /// Checks the settings themselves; the message names the field and the fix.
     pub fn validate(&self) -> Result<(), String> {
         if self.median_window == 0 || self.median_window > MAX_MEDIAN_WINDOW {
