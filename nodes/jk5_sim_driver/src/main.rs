@@ -271,7 +271,6 @@ fn run() -> Result<(), RosError> {
     let mut holding = false;
     let mut last_published_stamp: Option<i64> = None;
     let mut chain_started = false;
-    let start_wall = wall_ns();
     let mut next = monotonic_ns();
 
     // Take accepted parameter values (at the top of a cycle, and again just before the
@@ -303,7 +302,7 @@ fn run() -> Result<(), RosError> {
             // Time stands still; the same state goes out again so late subscribers get it.
             std::thread::sleep(Duration::from_nanos(timeout_ns as u64));
             expect(&shared, lockstep.then(|| sim_stamp_ns(&plant)));
-            let st = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time, start_wall)?;
+            let st = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time)?;
             last_published_stamp = Some(st);
             next = monotonic_ns();
             continue;
@@ -316,7 +315,7 @@ fn run() -> Result<(), RosError> {
                 // First cycle, or just switched to lockstep: publish the state to answer.
                 _ => {
                     expect(&shared, Some(sim_stamp_ns(&plant)));
-                    let st = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, true, start_wall)?;
+                    let st = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, true)?;
                     last_published_stamp = Some(st);
                     st
                 }
@@ -330,7 +329,7 @@ fn run() -> Result<(), RosError> {
                 // No command for this state: simulated time stands still; publish the same
                 // state again so a late or restarted controller gets it.
                 drop(s);
-                let again = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, true, start_wall)?;
+                let again = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, true)?;
                 debug_assert_eq!(again, stamp);
                 continue;
             }
@@ -396,7 +395,7 @@ fn run() -> Result<(), RosError> {
         cycles += 1;
         // Lockstep: announce the state before publishing it, so its command is never early.
         expect(&shared, lockstep.then(|| sim_stamp_ns(&plant)));
-        let stamp = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time, start_wall)?;
+        let stamp = publish_state(&plant, &mut js, &js_pub, &w_pub, &clock_pub, lockstep || use_sim_time)?;
         last_published_stamp = Some(stamp);
     }
 
@@ -441,7 +440,6 @@ fn publish_state(
     w_pub: &naic_ros::node::Pub<WrenchStamped>,
     clock_pub: &naic_ros::node::Pub<Clock>,
     sim_stamps: bool,
-    _start_wall: i64,
 ) -> Result<i64, RosError> {
     let sim_ns = sim_stamp_ns(plant);
     let stamp_ns = if sim_stamps { sim_ns } else { wall_ns() };
