@@ -14,7 +14,8 @@
 //!
 //! Modules: [`input`] (reading and validating the three kinds), [`prepare`]
 //! (Savitzky–Golay velocity/acceleration, rigid-body torques), [`contact`], [`catalogue`],
-//! [`analysis`] (folds, fits, selection), [`report`], [`generate`] (seeded synthetic
+//! [`analysis`] (folds, fits, selection), [`lack_of_fit`] (what is left against the data's
+//! noise floor), [`report`], [`generate`] (seeded synthetic
 //! "measured" data with hidden effects, for tests and benchmarks).
 
 pub mod analysis;
@@ -23,6 +24,7 @@ pub mod closed_loop;
 pub mod contact;
 pub mod generate;
 pub mod input;
+pub mod lack_of_fit;
 pub mod plots;
 pub mod prepare;
 pub mod report;

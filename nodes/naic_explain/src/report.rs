@@ -286,7 +286,36 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
         "extended_before_outlier_removal": ex.first_pass.iter().map(|&(j, a, p, n)| (jkey(j), json!({"heldout_rmse": a, "positive": p, "negative": n}))).collect::<Map<_, _>>(),
         "method": ex.method.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<Map<_, _>>(),
         "notes": ex.notes,
+        "lack_of_fit": lack_of_fit_json(ex),
     })
+}
+
+/// `report.json`'s `lack_of_fit`: per joint and direction, the data's noise floor against
+/// the extended model's held-out residual (friction points only; `null` otherwise).
+fn lack_of_fit_json(ex: &Explained) -> Value {
+    use crate::lack_of_fit::{lack_of_fit, DirectionFit, LACK_OF_FIT_MIN_POINTS, LACK_OF_FIT_MS_RATIO};
+    let rows = lack_of_fit(ex);
+    if rows.is_empty() {
+        return Value::Null;
+    }
+    let dir = |d: &Option<DirectionFit>| match d {
+        Some(d) => json!({"points": d.points, "floor_rmse": d.floor_rmse, "heldout_rmse": d.heldout_rmse,
+                          "ms_ratio": d.ms_ratio, "lack_of_fit": d.lack_of_fit}),
+        None => Value::Null,
+    };
+    let mut m = Map::new();
+    m.insert(
+        "method".into(),
+        json!(format!(
+            "floor_rmse = noise σ of the points from neighbour differences along speed (Gasser, Sroka & Jennen-Steinmetz 1986; \
+             no model needed, curvature only raises it); lack_of_fit when the extended model's held-out mean square ≥ \
+             {LACK_OF_FIT_MS_RATIO} × floor² on ≥ {LACK_OF_FIT_MIN_POINTS} points: structure is left that no catalogue effect names"
+        )),
+    );
+    for r in &rows {
+        m.insert(jkey(r.joint), json!({"positive": dir(&r.positive), "negative": dir(&r.negative)}));
+    }
+    Value::Object(m)
 }
 
 fn nonneg(x: f64) -> f64 {
@@ -523,10 +552,36 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
             );
         }
     }
+    lack_of_fit_md(ex, &mut s);
     let _ = writeln!(s, "\nExtended parameters: `extended_params.yaml` (loads with the project's friction loader).\n");
     let _ = writeln!(s, "## Plots\n");
     for (name, _) in plots {
         let _ = writeln!(s, "![{name}]({name})\n");
     }
     s
+}
+
+/// `report.md`'s section on what is left (friction points).
+fn lack_of_fit_md(ex: &Explained, s: &mut String) {
+    use crate::lack_of_fit::{lack_of_fit, LACK_OF_FIT_MS_RATIO};
+    let rows = lack_of_fit(ex);
+    if rows.is_empty() {
+        return;
+    }
+    let _ = writeln!(s, "\n## What is left: held-out residual against the data's noise floor [N·m]\n");
+    let _ = writeln!(
+        s,
+        "The floor is the points' own scatter, from neighbour differences along speed (no model needed; no law of speed \
+         alone can do better held-out). **Structure left** = held-out mean square ≥ {LACK_OF_FIT_MS_RATIO}× the floor's: \
+         the residual there is not noise, and no catalogue effect explains it.\n"
+    );
+    let _ = writeln!(s, "| joint | dir | points | floor | extended held-out | mean-square ratio | |\n| --- | --- | --- | --- | --- | --- | --- |");
+    for r in &rows {
+        for (name, d) in [("+", &r.positive), ("−", &r.negative)] {
+            if let Some(d) = d {
+                let flag = if d.lack_of_fit { "**structure left**" } else { "noise level" };
+                let _ = writeln!(s, "| {} | {name} | {} | {:.4} | {:.4} | {:.2} | {flag} |", r.joint, d.points, d.floor_rmse, d.heldout_rmse, d.ms_ratio);
+            }
+        }
+    }
 }

@@ -154,7 +154,27 @@ pub fn run(a: ExplainArgs) -> CliResult {
         }
         println!("report in {}", out.display());
     }
+    print_lack_of_fit(&v);
     Ok(())
+}
+
+/// One line on what the extended model leaves (friction points): the directions whose
+/// held-out residual is well above the data's own scatter.
+fn print_lack_of_fit(v: &serde_json::Value) {
+    let Some(m) = v["lack_of_fit"].as_object() else { return };
+    let mut left = Vec::new();
+    for (joint, d) in m.iter().filter(|(k, _)| k.as_str() != "method") {
+        for (dir, sign) in [("positive", "+"), ("negative", "−")] {
+            if d[dir]["lack_of_fit"].as_bool() == Some(true) {
+                left.push(format!("{joint}{sign} ({:.1}× the noise floor's mean square)", d[dir]["ms_ratio"].as_f64().unwrap_or(f64::NAN)));
+            }
+        }
+    }
+    if left.is_empty() {
+        println!("what is left is at the data's noise level on every joint and direction");
+    } else {
+        println!("structure left that no catalogue effect names: {}", left.join(", "));
+    }
 }
 
 fn load_model(a: &ExplainArgs) -> Result<Model, CliError> {
