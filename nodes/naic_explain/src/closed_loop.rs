@@ -30,18 +30,26 @@ pub struct Row {
     pub rms_force_error: Option<f64>,
 }
 
+/// The speeds [rad/s] of the real JK5 friction experiment, approximately, for joint index
+/// `j` (0-based): 1…10 mrad/s, then steps of 10.4 (joints 1–3) or 17.3 mrad/s (joints
+/// 4–6) up to 0.31 or 0.52 rad/s.
+pub fn experiment_speeds(j: usize) -> Vec<f64> {
+    let vmax = if j < 3 { 0.31 } else { 0.52 };
+    let mut speeds: Vec<f64> = (1..=10).map(|k| k as f64 * 1e-3).collect();
+    let mut v = 0.0152;
+    while v <= vmax {
+        speeds.push(v);
+        v += if j < 3 { 0.0104 } else { 0.0173 };
+    }
+    speeds
+}
+
 /// Friction points sampled from `truth` at the real experiment's speeds.
 pub fn points_from_truth(truth: &FrictionModel, seed: u64) -> Result<FrictionData, ExplainError> {
     let mut rng = Rng::new(seed);
     let mut pts = Vec::new();
     for j in 0..truth.n_joints() {
-        let vmax = if j < 3 { 0.31 } else { 0.52 };
-        let mut speeds: Vec<f64> = (1..=10).map(|k| k as f64 * 1e-3).collect();
-        let mut v = 0.0152;
-        while v <= vmax {
-            speeds.push(v);
-            v += if j < 3 { 0.0104 } else { 0.0173 };
-        }
+        let speeds = experiment_speeds(j);
         let jf = truth.joint(j).copied().ok_or_else(|| ExplainError::model("truth friction has too few joints"))?;
         for &s in &speeds {
             for dir in [1.0, -1.0] {
