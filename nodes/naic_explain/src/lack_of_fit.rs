@@ -34,6 +34,7 @@
 use crate::analysis::{residuals, JointSamples};
 use crate::input::Kind;
 use crate::Explained;
+use naic_core::friction::JointFriction;
 
 /// Held-out mean square ≥ this × the noise floor's variance = structure left.
 pub const LACK_OF_FIT_MS_RATIO: f64 = 2.0;
@@ -77,6 +78,9 @@ pub struct DirectionFit {
 
     /// `ms_ratio ≥ LACK_OF_FIT_MS_RATIO` with enough points.
     pub lack_of_fit: bool,
+    /// `--reference` law as given on the same points: √(SSE/(n − p)), p its parameters per
+    /// direction (the RMSE column of the paper's Table 1).
+    pub reference_rmse_dfe: Option<f64>,
 }
 
 /// Both directions of one joint.
@@ -87,7 +91,7 @@ pub struct JointLackOfFit {
     pub negative: Option<DirectionFit>,
 }
 
-fn direction(js: &JointSamples, oof: &[f64], insample: &[f64], sign: f64) -> Option<DirectionFit> {
+fn direction(js: &JointSamples, oof: &[f64], insample: &[f64], sign: f64, reference: Option<&JointFriction>) -> Option<DirectionFit> {
     let keep: Vec<usize> = (0..js.len()).filter(|&i| js.s[i] * sign > 0.0).collect();
     let v: Vec<f64> = keep.iter().map(|&i| js.v[i].abs()).collect();
     let y: Vec<f64> = keep.iter().map(|&i| insample[i]).collect();
@@ -101,6 +105,14 @@ fn direction(js: &JointSamples, oof: &[f64], insample: &[f64], sign: f64) -> Opt
         heldout_rmse: ms.sqrt(),
         ms_ratio,
         lack_of_fit: keep.len() >= LACK_OF_FIT_MIN_POINTS && ms_ratio >= LACK_OF_FIT_MS_RATIO,
+        reference_rmse_dfe: reference.and_then(|law| {
+            let p = match law {
+                JointFriction::CoulombViscous { .. } => 2,
+                JointFriction::Stribeck(_) | JointFriction::StribeckPerDirection { .. } => 4,
+            };
+            let sse: f64 = keep.iter().map(|&i| (js.y[i] - law.tau_f(js.v[i])).powi(2)).sum();
+            (keep.len() > p).then(|| (sse / (keep.len() - p) as f64).sqrt())
+        }),
     })
 }
 
@@ -116,7 +128,12 @@ pub fn lack_of_fit(ex: &Explained) -> Vec<JointLackOfFit> {
         .map(|(r, js)| {
             let sh = ex.shapes.get(js.joint - 1).copied().unwrap_or_default();
             let (oof, ins) = residuals(js, &r.final_eval, &sh);
-            JointLackOfFit { joint: r.joint, positive: direction(js, &oof, &ins, 1.0), negative: direction(js, &oof, &ins, -1.0) }
+            let law = ex.reference.as_ref().and_then(|(_, m)| m.joint(js.joint - 1));
+            JointLackOfFit {
+                joint: r.joint,
+                positive: direction(js, &oof, &ins, 1.0, law),
+                negative: direction(js, &oof, &ins, -1.0, law),
+            }
         })
         .collect()
 }

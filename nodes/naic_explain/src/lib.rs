@@ -70,6 +70,9 @@ pub struct ExplainOptions {
     pub sensor_frame: String,
     /// Nominal friction parameter file; its Stribeck shape (symmetrised) is kept, its levels recalibrated.
     pub nominal: Option<PathBuf>,
+    /// A friction parameter file evaluated as given (no recalibration) on the analysed
+    /// friction points, for comparison (e.g. the paper's Table 1, `params/friction_jk5.yaml`).
+    pub reference: Option<PathBuf>,
     pub prepare: PrepareOptions,
     pub analysis: AnalysisOptions,
     /// Held-out block length for time series [s] (raised for long files to keep ≤ 400 blocks).
@@ -85,6 +88,7 @@ impl Default for ExplainOptions {
             tip_frame: "tip".into(),
             sensor_frame: "ft_sensor".into(),
             nominal: None,
+            reference: None,
             prepare: PrepareOptions::default(),
             analysis: AnalysisOptions::default(),
             block_s: 2.0,
@@ -110,7 +114,8 @@ pub struct Explained {
     /// Friction points left out as outlier segments (friction-points kind only).
     pub outliers: Vec<Outlier>,
     /// Friction points: (joint, held-out RMSE, + , −) of the extended model before outliers were left out.
-    pub first_pass: Vec<(usize, f64, f64, f64)>,
+    pub first_pass: Vec<(usize, f64, f64, f64)>,    /// `--reference`: its path and law (friction points only).
+    pub reference: Option<(String, naic_core::friction::FrictionModel)>,
 }
 
 /// Nominal Stribeck shape per joint from a params file (symmetrised by averaging the directions).
@@ -362,7 +367,8 @@ pub fn explain_series(
     }
     let method = vec![
         ("velocity/acceleration".into(), format!(
-            "Savitzky–Golay, cubic, window {} samples ({:.0} ms), derivatives of q; torque smoothed by the same filter",
+            "Savitzky–Golay, polynomial order {}, window {} samples ({:.0} ms), derivatives of q; torque smoothed by the same filter",
+            opts.prepare.order,
             prep.window_samples,
             prep.window_samples as f64 * prep.dt_raw * 1e3
         )),
@@ -382,6 +388,7 @@ pub fn explain_series(
         nominal_source,
         outliers: vec![],
         first_pass: vec![],
+        reference: None,
     })
 }
 
@@ -398,6 +405,15 @@ fn load_nominal(opts: &ExplainOptions) -> Result<(Option<FrictionParams>, String
 /// Analyses steady-state friction points.
 pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progress: &(dyn Fn(f64, &str) + Sync)) -> Result<Explained, ExplainError> {
     let (params, nominal_source) = load_nominal(opts)?;
+    let reference = match &opts.reference {
+        Some(p) => {
+            let model = FrictionParams::from_yaml_file(p)
+                .and_then(|f| f.to_model())
+                .map_err(|e| ExplainError::input(format!("--reference: {e}")))?;
+            Some((p.display().to_string(), model))
+        }
+        None => None,
+    };
     let nmax = d.joints().into_iter().max().unwrap_or(1);
     let shapes = nominal_shapes(params.as_ref(), nmax);
     let v_min = POINTS_V_MIN;
@@ -498,6 +514,7 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
         nominal_source,
         outliers,
         first_pass,
+        reference,
     })
 }
 
@@ -527,6 +544,10 @@ pub fn explain(path: &Path, opts: &ExplainOptions, progress: &(dyn Fn(f64, &str)
     let (kind, m) = input::load(path)?;
     let name = path.display().to_string();
     match m {
+        Measured::Series(_) if opts.reference.is_some() => Err(ExplainError::input(format!(
+            "{name}: --reference evaluates a friction law on steady-state friction points (joint,velocity_rad_s,torque_nm); \
+             this file is a time series: leave --reference out"
+        ))),
         Measured::Series(ts) => explain_series(&name, kind, &ts, opts, progress),
         Measured::Points(d) => explain_points(&name, &d, opts, progress),
     }

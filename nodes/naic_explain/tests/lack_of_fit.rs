@@ -17,7 +17,7 @@
 //! gave mean-square ratios 1.25–2.0, not or barely flagged. The dip's width is therefore
 //! drawn in point spacings.
 
-use naic_core::friction::{FrictionData, JointFriction, StribeckParams};
+use naic_core::friction::{FrictionData, FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
 use naic_explain::closed_loop::experiment_speeds;
 use naic_explain::generate::Rng;
 use naic_explain::lack_of_fit::{lack_of_fit, DirectionFit};
@@ -42,6 +42,7 @@ struct Points {
     data: FrictionData,
     sigma: f64,
     dip: Option<Dip>,
+    truth: Vec<JointFriction>,
 }
 
 fn draw_direction(rng: &mut Rng) -> StribeckParams {
@@ -62,8 +63,10 @@ fn generate(seed: u64, with_dip: bool) -> Points {
         Dip { joint, positive, depth, q_d }
     });
     let mut pts = Vec::new();
+    let mut truth = Vec::new();
     for j in 0..6 {
         let jf = JointFriction::StribeckPerDirection { positive: draw_direction(&mut rng), negative: draw_direction(&mut rng) };
+        truth.push(jf);
         for &v in &experiment_speeds(j) {
             for dir in [1.0, -1.0] {
                 let mut tau = jf.tau_f(dir * v);
@@ -77,7 +80,7 @@ fn generate(seed: u64, with_dip: bool) -> Points {
         }
     }
     let data = FrictionData::from_points(&format!("generated seed {seed}"), &pts).expect("valid points");
-    Points { data, sigma, dip }
+    Points { data, sigma, dip, truth }
 }
 
 fn directions(seed: u64, with_dip: bool) -> (Points, Vec<(usize, bool, DirectionFit)>) {
@@ -143,3 +146,36 @@ fn a_shape_eq5_cannot_make_is_left_as_structure() {
     assert!(false_alarms * 20 <= others_total, "{false_alarms} of {others_total} directions without a dip flagged (allowed ≤ 5 %)");
 }
 
+
+/// `--reference`: the truth law itself, evaluated as given on the analysed points, scores at
+/// the noise level (√(SSE/(n − 4)) within 30 % of σ in every direction); a time series with
+/// `--reference` is refused with a message naming the flag.
+#[test]
+fn reference_law_is_scored_on_the_same_points() {
+    let p = generate(9200, false);
+    let dir = std::env::temp_dir().join(format!("naic_lof_ref_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let yaml = dir.join("truth.yaml");
+    let params = FrictionParams {
+        source: "generated truth".into(),
+        notes: None,
+        smoothing_v_s: None,
+        joints: p.truth.iter().enumerate().map(|(j, f)| JointParams { joint: j + 1, friction: *f, stats: JointStats::default() }).collect(),
+    };
+    params.save(&yaml).expect("save");
+    let o = ExplainOptions { reference: Some(yaml.clone()), ..opts() };
+    let ex = explain_points("generated", &p.data, &o, &|_, _| {}).expect("analysis");
+    for r in lack_of_fit(&ex) {
+        for d in [r.positive, r.negative].into_iter().flatten() {
+            let x = d.reference_rmse_dfe.expect("reference scored") / p.sigma;
+            assert!((0.7..1.3).contains(&x), "joint {}: reference RMSE_dfe / σ = {x}", r.joint);
+        }
+    }
+    let csv = dir.join("series.csv");
+    let model = naic_core::model::Model::from_urdf_file(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../urdf/jk5.urdf")).expect("urdf");
+    let g = naic_explain::generate::generate(&model, &naic_explain::generate::GenSpec::new(1, &[]));
+    std::fs::write(&csv, naic_explain::input::write_timeseries_csv(&g.ts)).expect("csv");
+    let err = naic_explain::explain(&csv, &o, &|_, _| {}).err().expect("refused").to_string();
+    assert!(err.contains("--reference") && err.contains("time series"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

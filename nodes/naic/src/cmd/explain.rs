@@ -32,6 +32,10 @@ pub struct ExplainArgs {
     /// Nominal friction params YAML; its Stribeck shape is kept (directions averaged), its levels recalibrated.
     #[arg(long)]
     nominal: Option<PathBuf>,
+    /// Friction params YAML evaluated as given on the analysed friction points, next to the
+    /// extended model (e.g. params/friction_jk5.yaml, the paper's Table 1).
+    #[arg(long)]
+    reference: Option<PathBuf>,
     /// Robot model for the rigid-body part.
     #[arg(long, default_value = "urdf/jk5.urdf")]
     urdf: PathBuf,
@@ -118,7 +122,7 @@ pub fn run(a: ExplainArgs) -> CliResult {
         CliError::usage("give --measured FILE (bag, time-series CSV or friction-points CSV) and --out DIR; or --generate / --bench")
     })?;
     let out = a.out.as_ref().ok_or_else(|| CliError::usage("give --out DIR for report.json, report.md and extended_params.yaml"))?;
-    let mut opts = ExplainOptions { urdf: a.urdf.clone(), nominal: a.nominal.clone(), ..Default::default() };
+    let mut opts = ExplainOptions { urdf: a.urdf.clone(), nominal: a.nominal.clone(), reference: a.reference.clone(), ..Default::default() };
     if let Some(e) = &a.effects {
         opts.analysis.effects = parse_effects(e)?;
     }
