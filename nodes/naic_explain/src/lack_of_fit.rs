@@ -75,7 +75,6 @@ pub struct DirectionFit {
     pub heldout_rmse: f64,
     /// Held-out mean square / σ̂².
     pub ms_ratio: f64,
-
     /// `ms_ratio ≥ LACK_OF_FIT_MS_RATIO` with enough points.
     pub lack_of_fit: bool,
     /// `--reference` law as given on the same points: √(SSE/(n − p)), p its parameters per
@@ -98,22 +97,24 @@ fn direction(js: &JointSamples, oof: &[f64], insample: &[f64], sign: f64, refere
     let floor = difference_noise_sd(&v, &y)?;
     let ms = keep.iter().map(|&i| oof[i] * oof[i]).sum::<f64>() / keep.len() as f64;
     let ms_ratio = if floor > 0.0 { ms / (floor * floor) } else { f64::INFINITY };
-
     Some(DirectionFit {
         points: keep.len(),
         floor_rmse: floor,
         heldout_rmse: ms.sqrt(),
         ms_ratio,
         lack_of_fit: keep.len() >= LACK_OF_FIT_MIN_POINTS && ms_ratio >= LACK_OF_FIT_MS_RATIO,
-        reference_rmse_dfe: reference.and_then(|law| {
-            let p = match law {
-                JointFriction::CoulombViscous { .. } => 2,
-                JointFriction::Stribeck(_) | JointFriction::StribeckPerDirection { .. } => 4,
-            };
-            let sse: f64 = keep.iter().map(|&i| (js.y[i] - law.tau_f(js.v[i])).powi(2)).sum();
-            (keep.len() > p).then(|| (sse / (keep.len() - p) as f64).sqrt())
-        }),
+        reference_rmse_dfe: reference.and_then(|law| rmse_dfe(law, js, &keep)),
     })
+}
+
+/// √(SSE/(n − p)) of `law` as given on the points `keep`, p = its parameters per direction.
+fn rmse_dfe(law: &JointFriction, js: &JointSamples, keep: &[usize]) -> Option<f64> {
+    let p = match law {
+        JointFriction::CoulombViscous { .. } => 2,
+        JointFriction::Stribeck(_) | JointFriction::StribeckPerDirection { .. } => 4,
+    };
+    let sse: f64 = keep.iter().map(|&i| (js.y[i] - law.tau_f(js.v[i])).powi(2)).sum();
+    (keep.len() > p).then(|| (sse / (keep.len() - p) as f64).sqrt())
 }
 
 /// Per joint and direction: the data's noise floor against the extended model's held-out
