@@ -114,7 +114,8 @@ pub struct Explained {
     /// Friction points left out as outlier segments (friction-points kind only).
     pub outliers: Vec<Outlier>,
     /// Friction points: (joint, held-out RMSE, + , −) of the extended model before outliers were left out.
-    pub first_pass: Vec<(usize, f64, f64, f64)>,    /// `--reference`: its path and law (friction points only).
+    pub first_pass: Vec<(usize, f64, f64, f64)>,
+    /// `--reference`: its path and law (friction points only).
     pub reference: Option<(String, naic_core::friction::FrictionModel)>,
 }
 

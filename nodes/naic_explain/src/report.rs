@@ -307,8 +307,8 @@ fn lack_of_fit_json(ex: &Explained) -> Value {
     m.insert(
         "method".into(),
         json!(format!(
-            "floor_rmse = noise σ of the points from neighbour differences along speed (Gasser, Sroka & Jennen-Steinmetz 1986; \
-             no model needed, curvature only raises it); lack_of_fit when the extended model's held-out mean square ≥ \
+            "floor_rmse = noise σ of the points from neighbour differences of the extended model's whole-data residual along \
+             speed (Gasser, Sroka & Jennen-Steinmetz 1986; the differences remove any smooth function of speed); lack_of_fit when the extended model's held-out mean square ≥ \
              {LACK_OF_FIT_MS_RATIO} × floor² on ≥ {LACK_OF_FIT_MIN_POINTS} points: structure is left that no catalogue effect names"
         )),
     );
@@ -555,7 +555,7 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
             );
         }
     }
-    lack_of_fit_md(ex, &mut s);
+    lack_of_fit_md(ex, v, &mut s);
     let _ = writeln!(s, "\nExtended parameters: `extended_params.yaml` (loads with the project's friction loader).\n");
     let _ = writeln!(s, "## Plots\n");
     for (name, _) in plots {
@@ -564,39 +564,37 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
     s
 }
 
-/// `report.md`'s section on what is left (friction points).
-fn lack_of_fit_md(ex: &Explained, s: &mut String) {
-    use crate::lack_of_fit::{lack_of_fit, LACK_OF_FIT_MS_RATIO};
-    let rows = lack_of_fit(ex);
-    if rows.is_empty() {
-        return;
-    }
+/// `report.md`'s section on what is left (friction points), from `report.json`'s `lack_of_fit`.
+fn lack_of_fit_md(ex: &Explained, v: &Value, s: &mut String) {
+    use crate::lack_of_fit::LACK_OF_FIT_MS_RATIO;
+    let Some(lof) = v["lack_of_fit"].as_object() else { return };
     let _ = writeln!(s, "\n## What is left: held-out residual against the data's noise floor [N·m]\n");
     let _ = writeln!(
         s,
-        "The floor is the points' own scatter, from neighbour differences along speed (no model needed; no law of speed \
-         alone can do better held-out). **Structure left** = held-out mean square ≥ {LACK_OF_FIT_MS_RATIO}× the floor's: \
-         the residual there is not noise, and no catalogue effect explains it. Noise alone crosses 2 in about 1–4 % of directions \
-         (measured on generated data) and did not reach 3.\n"
+        "The floor is the points' own scatter: neighbour differences along speed of the extended model's residual, which \
+         remove any smooth function of speed, so no law of speed alone can do better held-out. **Structure left** = held-out \
+         mean square ≥ {LACK_OF_FIT_MS_RATIO}× the floor's: the residual there is not noise, and no catalogue effect explains \
+         it. Noise alone crosses 2 in about 1–4 % of directions (measured on generated data) and did not reach 3.\n"
     );
-    let reference = ex.reference.as_ref().map(|(p, _)| p.as_str());
+    let reference = lof.get("reference").and_then(Value::as_str);
     if let Some(p) = reference {
         let _ = writeln!(s, "Reference: `{p}` as given, on the same points, √(SSE/(n − p)) with p its parameters per direction (the RMSE of the paper's Table 1).\n");
     }
-    let ref_head = if reference.is_some() { " reference |" } else { "" };
-    let ref_rule = if reference.is_some() { " --- |" } else { "" };
+    let (ref_head, ref_rule) = if reference.is_some() { (" reference |", " --- |") } else { ("", "") };
     let _ = writeln!(s, "| joint | dir | points | floor | extended held-out | mean-square ratio | |{ref_head}\n| --- | --- | --- | --- | --- | --- | --- |{ref_rule}");
-    for r in &rows {
-        for (name, d) in [("+", &r.positive), ("−", &r.negative)] {
-            if let Some(d) = d {
-                let flag = if d.lack_of_fit { "**structure left**" } else { "noise level" };
-                let rf = match (reference, d.reference_rmse_dfe) {
-                    (Some(_), Some(x)) => format!(" {x:.4} |"),
-                    (Some(_), None) => " – |".into(),
-                    _ => String::new(),
-                };
-                let _ = writeln!(s, "| {} | {name} | {} | {:.4} | {:.4} | {:.2} | {flag} |{rf}", r.joint, d.points, d.floor_rmse, d.heldout_rmse, d.ms_ratio);
-            }
+    for r in &ex.results {
+        for (name, key) in [("+", "positive"), ("−", "negative")] {
+            let d = &lof.get(&jkey(r.joint)).unwrap_or(&Value::Null)[key];
+            let (Some(floor), Some(heldout), Some(ratio)) = (d["floor_rmse"].as_f64(), d["heldout_rmse"].as_f64(), d["ms_ratio"].as_f64()) else {
+                continue;
+            };
+            let flag = if d["lack_of_fit"].as_bool() == Some(true) { "**structure left**" } else { "noise level" };
+            let rf = match (reference, d["reference_rmse_dfe"].as_f64()) {
+                (Some(_), Some(x)) => format!(" {x:.4} |"),
+                (Some(_), None) => " – |".into(),
+                _ => String::new(),
+            };
+            let _ = writeln!(s, "| {} | {name} | {} | {floor:.4} | {heldout:.4} | {ratio:.2} | {flag} |{rf}", r.joint, d["points"]);
         }
     }
 }
