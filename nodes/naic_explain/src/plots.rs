@@ -3,15 +3,18 @@
 //! dots are the measured friction and lines the identified law: here the residual of
 //! the nominal and of the extended model, out-of-fold, averaged in velocity bins), and
 //! for time series the residual vs time, plus residual·sgn(q̇) vs position when a
-//! `position_ripple` was found.
+//! `position_ripple` was found. Friction points also get ± the data's noise floor per
+//! direction ([`crate::lack_of_fit`]).
 use crate::analysis::{residuals, JointSamples};
 use crate::catalogue::Effect;
 use crate::report::Finding;
 use crate::Explained;
 use naic_sim::svg::{Figure, Panel, Series};
+use serde_json::Value;
 
 const NOMINAL: &str = "#1f77b4";
 const EXTENDED: &str = "#d62728";
+const FLOOR: &str = "#7f7f7f";
 
 /// Mean of `y` in `bins` equal bins of `x` (empty bins skipped).
 fn binned(x: &[f64], y: &[f64], bins: usize) -> Vec<(f64, f64)> {
@@ -65,8 +68,23 @@ fn panel_vs(js: &JointSamples, x: &[f64], a: &[f64], b: &[f64], bins: Option<usi
     }
 }
 
-/// (file name, SVG text) of every plot.
-pub fn plots(ex: &Explained, fs: &[Finding]) -> Vec<(String, String)> {
+/// ± the noise floor of each direction of a joint (`report.json`'s `lack_of_fit`, friction
+/// points), as dashed segments over the speeds of that direction.
+fn floor_band(js: &JointSamples, lof: &Value) -> Option<Series> {
+    let mut pts = Vec::new();
+    for (key, sign) in [("positive", 1.0), ("negative", -1.0)] {
+        let Some(f) = lof[key]["floor_rmse"].as_f64() else { continue };
+        let v = js.v.iter().copied().filter(|v| v * sign > 0.0);
+        let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        for y in [f, -f] {
+            pts.extend([(lo, y), (hi, y), (f64::NAN, f64::NAN)]);
+        }
+    }
+    (!pts.is_empty()).then(|| series("± noise floor", FLOOR, true, pts))
+}
+
+/// (file name, SVG text) of every plot; `report` is the `report.json` value.
+pub fn plots(ex: &Explained, fs: &[Finding], report: &Value) -> Vec<(String, String)> {
     let mut out = Vec::new();
     let ts = ex.joints.first().is_some_and(|j| j.time_series);
     let bins = if ts { Some(80) } else { None };
@@ -101,7 +119,9 @@ pub fn plots(ex: &Explained, fs: &[Finding]) -> Vec<(String, String)> {
         }
         let model = ex.results[k].final_eval.full_structure.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + ");
         let title = format!("joint {}: extended = nominal{}{}", js.joint, if model.is_empty() { "" } else { " + " }, model);
-        fig.panels.push(panel_vs(js, &js.v, &a, &b, bins, title.clone(), "residual [N·m]"));
+        let mut panel = panel_vs(js, &js.v, &a, &b, bins, title.clone(), "residual [N·m]");
+        panel.series.extend(floor_band(js, &report["lack_of_fit"][crate::contact::target_key(js.joint)]));
+        fig.panels.push(panel);
         if ts {
             figt.panels.push(panel_vs(js, &js.t, &a, &b, Some(120), format!("joint {}", js.joint), "residual [N·m]"));
         }

@@ -465,7 +465,7 @@ pub fn write_all(ex: &Explained, dir: &Path) -> Result<Value, ExplainError> {
     let v = report_json(ex, &fs, "extended_params.yaml");
     let text = serde_json::to_string_pretty(&v).unwrap_or_default();
     std::fs::write(dir.join("report.json"), text).map_err(|e| ExplainError::Io(format!("report.json: {e}")))?;
-    let plots = crate::plots::plots(ex, &fs);
+    let plots = crate::plots::plots(ex, &fs, &v);
     for (name, svg) in &plots {
         std::fs::write(dir.join(name), svg).map_err(|e| ExplainError::Io(format!("{name}: {e}")))?;
     }
