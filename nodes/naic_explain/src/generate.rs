@@ -170,22 +170,29 @@ impl Excitation {
         } else {
             let tm = t - self.single_len;
             // fade in/out over 1 s so motion starts and ends at rest
-            let (fade, dfade, ddfade) = fade(tm, self.multi);
+            let env = fade(tm, self.multi);
             for j in 0..NJ {
-                let (mut s, mut ds, mut dds) = (0.0, 0.0, 0.0);
-                for &(a, f, ph) in &self.sines[j] {
-                    let w = 2.0 * std::f64::consts::PI * f;
-                    s += a * ((w * tm + ph).sin() - ph.sin());
-                    ds += a * w * (w * tm + ph).cos();
-                    dds -= a * w * w * (w * tm + ph).sin();
-                }
-                q[j] += fade * s;
-                dq[j] = dfade * s + fade * ds;
-                ddq[j] = ddfade * s + 2.0 * dfade * ds + fade * dds;
+                let (x, v, a) = faded_sines(&self.sines[j], tm, env);
+                q[j] += x;
+                dq[j] = v;
+                ddq[j] = a;
             }
         }
         (q, dq, ddq)
     }
+}
+
+/// One joint's sum of sines `Σ a·(sin(2πf·t + φ) − sin φ)` (0 at t = 0) under a fade
+/// envelope `(e, ė, ë)` from [`fade`]: displacement, velocity and acceleration.
+fn faded_sines(sines: &[(f64, f64, f64)], t: f64, (e, de, dde): (f64, f64, f64)) -> (f64, f64, f64) {
+    let (mut s, mut ds, mut dds) = (0.0, 0.0, 0.0);
+    for &(a, f, ph) in sines {
+        let w = 2.0 * std::f64::consts::PI * f;
+        s += a * ((w * t + ph).sin() - ph.sin());
+        ds += a * w * (w * t + ph).cos();
+        dds -= a * w * w * (w * t + ph).sin();
+    }
+    (e * s, de * s + e * ds, dde * s + 2.0 * de * ds + e * dds)
 }
 
 fn fade(t: f64, len: f64) -> (f64, f64, f64) {
@@ -533,18 +540,12 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
         let mut dq = [0.0; NJ];
         let mut ddq = [0.0; NJ];
         if t < sweep_s {
-            let (fa, dfa, ddfa) = fade(t, sweep_s);
+            let env = fade(t, sweep_s);
             for j in 0..NJ {
-                let (mut s, mut ds, mut dds) = (0.0, 0.0, 0.0);
-                for &(a, f, ph) in &sines[j] {
-                    let w = 2.0 * std::f64::consts::PI * f;
-                    s += a * ((w * t + ph).sin() - ph.sin());
-                    ds += a * w * (w * t + ph).cos();
-                    dds -= a * w * w * (w * t + ph).sin();
-                }
-                q[j] += fa * s;
-                dq[j] = dfa * s + fa * ds;
-                ddq[j] = ddfa * s + 2.0 * dfa * ds + fa * dds;
+                let (x, v, a) = faded_sines(&sines[j], t, env);
+                q[j] += x;
+                dq[j] = v;
+                ddq[j] = a;
             }
             return (q, dq, ddq);
         }
