@@ -13,7 +13,7 @@ use naic_core::pipeline::control::force_law::Mode;
 use naic_core::pipeline::control::{ForceAxis, ImpedanceParams};
 use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Workspace};
 use naic_core::pipeline::estimate::ToolParams;
-use naic_core::pipeline::{self, Pipeline, PipelineState};
+use naic_core::pipeline::{self, param_change, Pipeline, PipelineState};
 use naic_core::pipeline::sense::RawMeasurements;
 use nalgebra::Vector3;
 
@@ -105,6 +105,23 @@ impl PipelineController {
         };
         let state = pipeline.initial_state();
         Ok(Self { name: mode.as_str().to_string(), pipeline, state, ws })
+    }
+}
+
+impl PipelineController {
+    /// The controller's parameters now.
+    pub fn params(&self) -> &ControllerParams {
+        self.pipeline.controller.params()
+    }
+
+    /// Change the parameters mid-run by the node's policy
+    /// (`naic_core::pipeline::param_change`: the NAIC weights restart when the force law or
+    /// impedance changed; any change ends a force-limit retraction). Not in the 1 kHz path.
+    pub fn set_params(&mut self, new: ControllerParams) -> Result<param_change::Outcome, String> {
+        let (c, s, outcome) = param_change::apply(&self.pipeline.controller, &self.state.controller, new)?;
+        self.pipeline.controller = c;
+        self.state.controller = s;
+        Ok(outcome)
     }
 }
 
