@@ -47,8 +47,8 @@ fn run() -> Result<(), RosError> {
     let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides(NODE)?).map_err(RosError::Param)?;
     let bad_model = |e: String| RosError::Param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
     let cp = table.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
+    let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
     let reference = ScenarioReference::new(&table.with(|p| p.str("scenario").to_string()), &model).map_err(RosError::Param)?;
-    let ctl = Controller::new(model, cp).map_err(bad_model)?;
     let mut p = core::Params::new(ctl, table.with(config::settings), reference).map_err(bad_model)?;
     let mut node = RosNode::new(args, NODE, config::specs(&base), Some(config::check(base)))?;
     let mut js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
