@@ -92,3 +92,51 @@ def test_ros_multihost_realtime_chain_latency_and_missed_cycles(hosts):
     print("chain latency median / p99 [us], missed per min: "
           f"1 host {s['median_us']:.0f} / {s['p99_us']:.0f}, {s['missed_per_min']:.1f}; "
           f"3 hosts {m['median_us']:.0f} / {m['p99_us']:.0f}, {m['missed_per_min']:.1f}")
+
+
+_STATIC_PEER_PROBE = """
+import json, sys, time, rclpy
+from rclpy.parameter_client import AsyncParameterClient
+rclpy.init()
+n = rclpy.create_node("naic_static_peer_probe")
+names = lambda: [x for x, _ in n.get_node_names_and_namespaces()]
+t0 = time.time()
+while time.time() - t0 < float(sys.argv[1]) and "naic_controller" not in names():
+    rclpy.spin_once(n, timeout_sec=0.05)
+seen, listed = "naic_controller" in names(), False
+if seen:
+    c = AsyncParameterClient(n, "naic_controller")
+    if c.wait_for_services(10.0):
+        f = c.list_parameters()
+        rclpy.spin_until_future_complete(n, f, timeout_sec=10)
+        listed = bool(f.done() and "desired_force" in f.result().result.names)
+print(json.dumps({"seen": seen, "listed": listed}))
+"""
+
+
+def test_ros_multihost_rclpy_static_peers_reach_a_naic_node(hosts):
+    """The naic nodes cannot be given static peers (RustDDS 0.15), but an rclpy host can
+    name a naic host in ROS_STATIC_PEERS: with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (no
+    multicast on the rclpy side) it then discovers naic_controller on another host and uses
+    its parameter services, because RustDDS answers unicast discovery. Without the static
+    peer the same rclpy process finds nothing (the control)."""
+    import json
+    import subprocess
+    h, bins = hosts
+    env = mh.subnet_env(ru.fresh_domain(50))
+    ctl = ru.Proc(h.exec_prefix("ctl") + [str(bins / "naic_controller"), "--ros-args", "-p", "realtime_priority:=0"], env)
+    got = {}
+    try:
+        for label, peers, wait in (("without", None, 8.0), ("with", h.addr["ctl"], 30.0)):
+            e = {**env, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+            if peers:
+                e["ROS_STATIC_PEERS"] = peers
+            r = subprocess.run(h.exec_prefix("py") + [sys.executable, "-c", _STATIC_PEER_PROBE, str(wait)],
+                               env=e, capture_output=True, text=True, timeout=120)
+            assert r.returncode == 0, r.stderr[-2000:]
+            got[label] = json.loads(r.stdout.strip().splitlines()[-1])
+        assert ctl.alive(), ctl.output()[-2000:]
+    finally:
+        assert ctl.stop(timeout=15) == 0, ctl.output()[-2000:]
+    assert got["without"] == {"seen": False, "listed": False}, got
+    assert got["with"] == {"seen": True, "listed": True}, got
