@@ -42,10 +42,7 @@ def test_example_slides_with_the_force_profile(tmp_path):
         if missing:
             pytest.skip(f"naic_controller does not subscribe {', '.join(missing)} yet (issue #16: the "
                         "reference topics are wired into the controller node after the node-cores rewrite)")
-        overlay = ru.naic_msgs_env()
-        env = {**ru.ros_env(domain), **overlay}
-        env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
-        env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+        env = ru.with_naic_msgs(ru.ros_env(domain))
         out = subprocess.run([sys.executable, str(EXAMPLE), "--out", str(tmp_path), "--use-sim-time",
                               "--naic", str(bins / "naic"), "--timeout", "400"],
                              env=env, cwd=ru.ROOT, capture_output=True, text=True, timeout=600)

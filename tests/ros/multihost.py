@@ -68,10 +68,7 @@ def run(hosts, layout, bins, domain, lockstep, until_sim=4.0, seconds=10.0, warm
     contact), then the chain runs `seconds` more; the probe records /naic/params meanwhile."""
     where = LAYOUTS[layout]
     env = subnet_env(domain)
-    overlay = ru.naic_msgs_env()
-    penv = {**env, **overlay}
-    penv["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
-    penv["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    penv = ru.with_naic_msgs(env)
     tmp = tempfile.mkdtemp(prefix="naic-multihost-")
     report = os.path.join(tmp, "latency.json")
     procs = {}
