@@ -45,7 +45,7 @@ def test_type_hashes_equal_jazzy(naic_hashes):
         want = json.loads(f.read_text())["type_hashes"][0]["hash_string"]
         assert h == want, type_name
         checked += 1
-    assert checked == 10
+    assert checked == 14
 
 
 def test_naic_params_hash_equals_rosidl(naic_hashes, root):

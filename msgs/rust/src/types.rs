@@ -128,6 +128,31 @@ ros_message! {
 }
 
 ros_message! {
+    /// `geometry_msgs/msg/Point` [m].
+    Point = "geometry_msgs/msg/Point", msg: "float64 x\nfloat64 y\nfloat64 z\n",
+    { x: f64, y: f64, z: f64 }
+}
+
+ros_message! {
+    /// `geometry_msgs/msg/Quaternion` (x, y, z, w). ROS's default is the identity (w = 1);
+    /// the derived `Default` here is all zeros: set `w` yourself.
+    Quaternion = "geometry_msgs/msg/Quaternion", msg: "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n",
+    { x: f64, y: f64, z: f64, w: f64 }
+}
+
+ros_message! {
+    /// `geometry_msgs/msg/Pose`.
+    Pose = "geometry_msgs/msg/Pose", msg: "Point position\nQuaternion orientation\n",
+    { position: Point, orientation: Quaternion }
+}
+
+ros_message! {
+    /// `geometry_msgs/msg/PoseStamped` (`/naic/target_pose`).
+    PoseStamped = "geometry_msgs/msg/PoseStamped", msg: "std_msgs/Header header\nPose pose\n",
+    { header: Header, pose: Pose }
+}
+
+ros_message! {
     /// `std_msgs/msg/MultiArrayDimension`.
     MultiArrayDimension = "std_msgs/msg/MultiArrayDimension",
     msg: "string label\nuint32 size\nuint32 stride\n",
@@ -177,6 +202,10 @@ ros_message! {
         gamma_clipped: bool,
         fault: String,
         fault_count: u32,
+        reference_source: String,
+        reference_position: Vec<f64>,
+        reference_stale: bool,
+        reference_rejected: u32,
     }
 }
 

@@ -17,6 +17,10 @@ const JAZZY_HASHES: &[(&str, &str)] = &[
     ("std_msgs/msg/MultiArrayLayout", "RIHS01_4c66e6f78e740ac103a94cf63259f968e48c617e7699e829b63c21a5cb50dac6"),
     ("std_msgs/msg/MultiArrayDimension", "RIHS01_5e773a60a4c7fc8a54985f307c7837aa2994252a126c301957a24e31282c9cbe"),
     ("rosgraph_msgs/msg/Clock", "RIHS01_692f7a66e93a3c83e71765d033b60349ba68023a8c689a79e48078bcb5c58564"),
+    ("geometry_msgs/msg/Point", "RIHS01_6963084842a9b04494d6b2941d11444708d892da2f4b09843b9c43f42a7f6881"),
+    ("geometry_msgs/msg/Quaternion", "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684"),
+    ("geometry_msgs/msg/Pose", "RIHS01_d501954e9476cea2996984e812054b68026ae0bfae789d9a10b23daf35cc90fa"),
+    ("geometry_msgs/msg/PoseStamped", "RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8"),
 ];
 
 fn infos() -> Vec<&'static TypeInfo> {
@@ -24,6 +28,7 @@ fn infos() -> Vec<&'static TypeInfo> {
         Time::type_info(), Header::type_info(), JointState::type_info(), Vector3::type_info(),
         Wrench::type_info(), WrenchStamped::type_info(), Float64MultiArray::type_info(),
         MultiArrayLayout::type_info(), MultiArrayDimension::type_info(), Clock::type_info(),
+        Point::type_info(), Quaternion::type_info(), Pose::type_info(), PoseStamped::type_info(),
     ]
 }
 
@@ -104,6 +109,10 @@ fn sample_params() -> NaicParams {
         gamma_clipped: true,
         fault: String::new(),
         fault_count: 7,
+        reference_source: "target_pose".into(),
+        reference_position: vec![0.4, 0.0, 0.3],
+        reference_stale: true,
+        reference_rejected: 2,
     }
 }
 

@@ -72,6 +72,7 @@ pub fn cycle(i: u64, rate_hz: f64) -> Cycle {
         gamma_clipped: i % 7 == 0,
         fault: if i % 1000 == 999 { "wrench stale".into() } else { String::new() },
         fault_count: (i / 1000) as u32,
+        ..Default::default()
     };
     Cycle { stamp_ns, joint_states, wrench, effort, params }
 }

@@ -9,6 +9,7 @@ use naic_core::{
         },
         controller::ControllerParams,
         estimate::ToolParams,
+        reference::ReferenceParams,
     },
 };
 use nalgebra::Vector3;
@@ -25,6 +26,8 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
     let imp = &c.impedance;
     let fl = &c.force_law;
     let axis = FORCE_AXES[c.force_axis.axis + if c.force_axis.sign < 0.0 { 3 } else { 0 }];
+    // The reference stage's defaults (naic_core), so the numbers live in one place.
+    let rd = ReferenceParams::new("base_link", c.force_axis, 10.0);
     vec![
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model (URDF with 'tip' and 'ft_sensor' frames)").read_only(),
         ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed"], "Force law on the force axis: NAIC (eq 10-15), AIC (eq 9) or fixed impedance (eq 8)"),
@@ -46,6 +49,13 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::choice("scenario", crate::reference::DEFAULT_SCENARIO, &crate::reference::SCENARIOS,
             "Position reference: a naic_sim paper scenario's trajectory, or 'none' (start pose moved approach_depth along n)").read_only(),
         ParamSpec::double("approach_depth", 0.05, -0.5, 0.5, "With scenario 'none': free-space target = start tip position moved this far along n [m]"),
+        ParamSpec::string("base_frame", "base_link", "With scenario 'none': the only header.frame_id accepted on /naic/target_pose and /naic/desired_wrench (the URDF's root link)"),
+        ParamSpec::double("max_speed", rd.linear.max_speed, 1.0e-4, 2.0, "With scenario 'none': speed limit of the position reference [m/s]"),
+        ParamSpec::double("max_accel", rd.linear.max_accel, 1.0e-3, 20.0, "With scenario 'none': acceleration limit of the position reference [m/s^2]"),
+        ParamSpec::double("max_angular_speed", rd.angular.max_speed, 1.0e-3, 6.0, "With scenario 'none': angular speed limit of the orientation reference [rad/s]"),
+        ParamSpec::double("max_angular_accel", rd.angular.max_accel, 1.0e-3, 60.0, "With scenario 'none': angular acceleration limit of the orientation reference [rad/s^2]"),
+        ParamSpec::double("max_force_rate", rd.max_force_rate, 0.1, 1.0e4, "With scenario 'none': fastest change of the force reference from /naic/desired_wrench [N/s]"),
+        ParamSpec::double("reference_timeout", rd.timeout, 0.001, 60.0, "With scenario 'none': a reference topic silent this long [s] is stale; its last target is held"),
         ParamSpec::double("control_period", fl.lambda, 1.0e-5, 0.1, "Expected control period lambda [s] (the driver's 1/rate)"),
         ParamSpec::double("tool_mass", base.tool.mass, 0.0, 10.0, "Mass of sensor half + rod beyond the measuring plane [kg] (authors' MJCF)"),
         ParamSpec::doubles("tool_com", base.tool.com.as_slice(), -1.0, 1.0, "Tool centre of mass in the ft_sensor frame [m]"),
@@ -132,6 +142,21 @@ pub fn settings(p: &ParamView) -> Settings {
     }
 }
 
+/// The reference stage's settings (scenario 'none'): limits and timeout from the
+/// parameters, the force default from `desired_force`, accepted forces up to `force_limit`,
+/// the force axis the controller's.
+pub fn reference_params(p: &ParamView) -> ReferenceParams {
+    let mut r = ReferenceParams::new(p.str("base_frame"), force_axis(p.str("force_axis")), p.f64("desired_force"));
+    r.linear.max_speed = p.f64("max_speed");
+    r.linear.max_accel = p.f64("max_accel");
+    r.angular.max_speed = p.f64("max_angular_speed");
+    r.angular.max_accel = p.f64("max_angular_accel");
+    r.max_force_rate = p.f64("max_force_rate");
+    r.timeout = p.f64("reference_timeout");
+    r.force_max = p.f64("force_limit");
+    r
+}
+
 /// Whole-set check for the parameter services: the core's own validation plus the
 /// node's cross-parameter rules. Rejections carry the core's reason.
 pub fn check(base: ControllerParams) -> SetCheck {
@@ -144,6 +169,7 @@ pub fn check(base: ControllerParams) -> SetCheck {
         if fd >= fl {
             return Err(format!("desired_force ({fd} N) must be below force_limit ({fl} N)"));
         }
+        reference_params(p).validate()?;
         Ok(())
     })
 }

@@ -14,12 +14,13 @@ use naic_core::{
     pipeline::{
         controller::{self, Controller, ControllerParams, ControllerState, Reference, Status, Workspace},
         param_change,
+        reference::{self as refstage, DesiredWrench, ReferenceParams, ReferenceState, Rejection, Source, TargetPose, Verdict},
         sense::{Fault, RawMeasurements},
     },
 };
 use naic_ros::{
     joints::{finite, JointMap, JointSample, Layout},
-    msgs::{JointState, WrenchStamped, JOINT_NAMES},
+    msgs::{JointState, PoseStamped, WrenchStamped, JOINT_NAMES},
     replay::Replay,
     throttle::Throttle,
     timebase::TimeBase,
@@ -50,13 +51,22 @@ pub struct Params {
     pub settings: Settings,
     /// The scenario's position reference (`None`: the start pose moved along n).
     pub reference: Option<ScenarioReference>,
+    /// With no scenario: the reference stage's settings (`/naic/target_pose`,
+    /// `/naic/desired_wrench`; built once from the ROS parameters, see `config::reference_params`).
+    pub reference_params: ReferenceParams,
     tip: FrameId,
 }
 
 impl Params {
-    pub fn new(controller: Controller, settings: Settings, reference: Option<ScenarioReference>) -> Result<Params, String> {
+    pub fn new(
+        controller: Controller,
+        settings: Settings,
+        reference: Option<ScenarioReference>,
+        reference_params: ReferenceParams,
+    ) -> Result<Params, String> {
         let tip = controller.model().frame_id(controller::TIP_FRAME).ok_or("the URDF has no 'tip' frame")?;
-        Ok(Params { controller, settings, reference, tip })
+        reference_params.validate()?;
+        Ok(Params { controller, settings, reference, reference_params, tip })
     }
 }
 
@@ -88,6 +98,20 @@ pub struct Report {
     pub stamp_ns: i64,
     pub status: Status,
     pub fault: Option<FaultReport>,
+    pub reference: ActiveReference,
+}
+
+/// The reference this cycle followed (`/naic/params` `reference_*`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ActiveReference {
+    /// "scenario", "start" (no target accepted yet) or "target_pose".
+    pub source: &'static str,
+    /// p_d [m], base frame.
+    pub position: [f64; 3],
+    /// A reference stream went quiet for longer than `reference_timeout`: its last target is held.
+    pub stale: bool,
+    /// Samples refused on the two reference topics since start.
+    pub rejected: u32,
 }
 
 /// The answer to one joint state: the torque (when finite) and the report.
@@ -127,6 +151,11 @@ pub struct State {
     prev_fault_count: u32,
     fault_log: Throttle,
     replay: Replay<Answer>,
+    /// The reference stage (scenario none), from the first valid joint state on.
+    pub reference: Option<ReferenceState>,
+    /// Controller time of the last cycle [s]: reference samples are taken at it.
+    last_t: f64,
+    reference_log: Throttle,
     /// Controller cycles run (replays not counted).
     pub cycles: u64,
 }
@@ -144,6 +173,9 @@ impl State {
             prev_fault_count: 0,
             fault_log: Throttle::default(),
             replay: Replay::default(),
+            reference: None,
+            last_t: 0.0,
+            reference_log: Throttle::default(),
             cycles: 0,
         }
     }
@@ -154,6 +186,10 @@ impl State {
 pub struct Inbox<'a> {
     pub joint_states: Option<&'a JointState>,
     pub wrench: Option<&'a WrenchStamped>,
+    /// `/naic/target_pose` (scenario none).
+    pub target_pose: Option<&'a PoseStamped>,
+    /// `/naic/desired_wrench` (scenario none).
+    pub desired_wrench: Option<&'a WrenchStamped>,
 }
 
 /// Things for the shell to log (each at most once per step).
@@ -169,6 +205,12 @@ pub struct Events {
     pub fault: Option<(Fault, u32)>,
     /// The controller produced a non-finite torque: not published.
     pub non_finite_torque: bool,
+    /// A `/naic/target_pose` sample was refused (rate-limited): why, refusals so far.
+    pub target_rejected: Option<(Rejection, u32)>,
+    /// A `/naic/desired_wrench` sample was refused (rate-limited): why, refusals so far.
+    pub wrench_rejected: Option<(Rejection, u32)>,
+    /// A reference sample came before the first joint state (no start pose yet): ignored.
+    pub reference_too_early: bool,
 }
 
 /// What one step produces.
@@ -191,6 +233,9 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
     if let Some(w) = inbox.wrench {
         let (f, t) = (&w.wrench.force, &w.wrench.torque);
         s.wrench = Some(WrenchIn { w: [f.x, f.y, f.z, t.x, t.y, t.z], stamp_ns: w.header.stamp.to_nanos(), rx_ns: now_ns });
+    }
+    if inbox.target_pose.is_some() || inbox.desired_wrench.is_some() {
+        take_reference_samples(p, &mut s, inbox, now_ns, &mut out);
     }
     if let Some(js) = inbox.joint_states {
         let stamp = js.header.stamp.to_nanos();
@@ -251,11 +296,43 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
     let mut n = Vector3::zeros();
     n[axis.axis] = axis.sign;
     let f_d = p.settings.desired_force;
-    let reference = match &p.reference {
+    let (reference, active) = match &p.reference {
         // The scenario's trajectory; the force set point is the parameter.
-        Some(sr) => Reference { f_d, ..sr.at(m.t) },
-        None => Reference { p_d: p0 + n * p.settings.approach_depth, r_d: r0, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d },
+        Some(sr) => {
+            let r = Reference { f_d, ..sr.at(m.t) };
+            (r, ActiveReference { source: "scenario", position: r.p_d.into(), stale: false, rejected: 0 })
+        }
+        // The real-robot setting: the reference stage, from the start pose towards the
+        // free-space target (start moved `approach_depth` along n) until a target arrives.
+        None => {
+            let rs = match s.reference {
+                Some(rs) => Some(rs),
+                None if s.start.is_some() => Some(ReferenceState::new(p0, r0, (p0 + n * p.settings.approach_depth, r0))),
+                None => None,
+            };
+            match rs {
+                Some(rs) => {
+                    let (next, o) = refstage::step(&p.reference_params, &rs, &refstage::Inbox::default(), m.t);
+                    s.reference = Some(next);
+                    let rep = &o.report;
+                    let source = if rep.pose_source == Source::Topic { "target_pose" } else { "start" };
+                    let active = ActiveReference {
+                        source,
+                        position: o.reference.p_d.into(),
+                        stale: rep.target_stale || rep.wrench_stale,
+                        rejected: rep.rejected_targets.saturating_add(rep.rejected_wrenches),
+                    };
+                    (o.reference, active)
+                }
+                // No valid joint state yet: the sense stage holds anyway.
+                None => (
+                    Reference { p_d: p0, r_d: r0, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d },
+                    ActiveReference { source: "start", position: p0.into(), stale: false, rejected: 0 },
+                ),
+            }
+        }
     };
+    s.last_t = m.t;
     let (next, o) = controller::step(&p.controller, &s.ctl, &m, &reference, ws);
     s.ctl = next;
     s.cycles += 1;
@@ -282,17 +359,63 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
         (None, true) => Some(FaultReport::ForceLimit(p.settings.force_limit)),
         (None, false) => None,
     };
-    let report = Report { stamp_ns: j.stamp_ns, status: st, fault };
+    let report = Report { stamp_ns: j.stamp_ns, status: st, fault, reference: active };
     s.replay.store(j.stamp_ns, Answer { tau, report });
     out.report = Some(report);
+}
+
+/// The reference topics' samples into the reference stage, at the last cycle's controller
+/// time (the next cycle moves the reference). Refusals are counted by the stage and
+/// reported here rate-limited.
+fn take_reference_samples(p: &Params, s: &mut State, inbox: &Inbox, now_ns: i64, out: &mut Outbox) {
+    if p.reference.is_some() {
+        return; // a scenario's trajectory: the shell does not subscribe the topics
+    }
+    let Some(rs) = s.reference else {
+        if s.reference_log.ready(now_ns) {
+            out.events.reference_too_early = true;
+        }
+        return;
+    };
+    let secs = |h: &naic_ros::msgs::Header| h.stamp.to_nanos() as f64 * 1e-9;
+    let target = inbox.target_pose.map(|m| {
+        let (x, o) = (&m.pose.position, &m.pose.orientation);
+        TargetPose { frame_id: &m.header.frame_id, stamp: secs(&m.header), position: [x.x, x.y, x.z], orientation: [o.x, o.y, o.z, o.w] }
+    });
+    let wrench = inbox.desired_wrench.map(|m| {
+        let (f, t) = (&m.wrench.force, &m.wrench.torque);
+        DesiredWrench { frame_id: &m.header.frame_id, stamp: secs(&m.header), force: [f.x, f.y, f.z], torque: [t.x, t.y, t.z] }
+    });
+    let (next, o) = refstage::step(&p.reference_params, &rs, &refstage::Inbox { target, wrench }, s.last_t);
+    s.reference = Some(next);
+    let r = &o.report;
+    let (tr, wr) = (r.target, r.wrench);
+    if (matches!(tr, Verdict::Rejected(_)) || matches!(wr, Verdict::Rejected(_))) && s.reference_log.ready(now_ns) {
+        if let Verdict::Rejected(e) = tr {
+            out.events.target_rejected = Some((e, r.rejected_targets));
+        }
+        if let Verdict::Rejected(e) = wr {
+            out.events.wrench_rejected = Some((e, r.rejected_wrenches));
+        }
+    }
 }
 
 /// Accepted parameters → the running node: the settings apply at once, the controller's
 /// parameters by the core's policy (`naic_core::pipeline::param_change`: the NAIC weights
 /// restart when the force law or impedance changed; any change opens a force-limit latch).
 /// `Err`: the core refused `cp`; the settings still apply, the controller is unchanged.
-pub fn set_params(p: &mut Params, s: &mut State, cp: ControllerParams, settings: Settings) -> Result<param_change::Outcome, String> {
+pub fn set_params(
+    p: &mut Params,
+    s: &mut State,
+    cp: ControllerParams,
+    settings: Settings,
+    mut reference_params: ReferenceParams,
+) -> Result<param_change::Outcome, String> {
+    // One force set point: the `desired_force` setting is the stage's default force.
+    reference_params.default_force = settings.desired_force;
+    reference_params.validate()?;
     p.settings = settings;
+    p.reference_params = reference_params;
     let (c, ctl, outcome) = param_change::apply(&p.controller, &s.ctl, cp)?;
     p.controller = c;
     s.ctl = ctl;

@@ -16,10 +16,10 @@ use naic_core::{
 };
 use naic_ros::{
     alloc_check,
-    msgs::{self, Float64MultiArray, JointState, NaicParams, WrenchStamped},
+    msgs::{self, Float64MultiArray, JointState, NaicParams, PoseStamped, WrenchStamped},
     node::{QOS_PUB, QOS_SUB},
     time::{time_from_ns, wall_ns},
-    wait::{take_until, Waiter},
+    wait::{take_newest, take_until, Waiter},
     ParamTable, RosArgs, RosError, RosNode,
 };
 
@@ -49,10 +49,22 @@ fn run() -> Result<(), RosError> {
     let cp = table.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
     let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
     let reference = ScenarioReference::new(&table.with(|p| p.str("scenario").to_string()), &model).map_err(RosError::Param)?;
-    let mut p = core::Params::new(ctl, table.with(config::settings), reference).map_err(bad_model)?;
+    let follow_topics = reference.is_none();
+    let rp = table.with(config::reference_params);
+    let mut p = core::Params::new(ctl, table.with(config::settings), reference, rp).map_err(RosError::Param)?;
     let mut node = RosNode::new(args, NODE, config::specs(&base), Some(config::check(base)))?;
     let mut js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let w_sub = node.subscription::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_SUB)?;
+    // The reference topics: the real-robot setting (scenario 'none') only.
+    let (tp_sub, dw_sub) = if follow_topics {
+        (
+            Some(node.subscription::<PoseStamped>("naic/target_pose", msgs::POSE_STAMPED, QOS_SUB)?),
+            Some(node.subscription::<WrenchStamped>("naic/desired_wrench", msgs::WRENCH_STAMPED, QOS_SUB)?),
+        )
+    } else {
+        log::info!("following the scenario's reference: /naic/target_pose and /naic/desired_wrench are not subscribed (scenario:=none follows them)");
+        (None, None)
+    };
     let effort_pub = node.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB)?;
     let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, QOS_PUB)?;
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
@@ -68,8 +80,9 @@ fn run() -> Result<(), RosError> {
         waiter.wait(Some(Duration::from_millis(100)));
         if node.params.generation() != gen {
             gen = node.params.generation();
-            let (cp, settings) = node.params.with(|v| (config::controller_params(v, &base), config::settings(v)));
-            match cp.and_then(|cp| core::set_params(&mut p, &mut s, cp, settings)) {
+            let (cp, settings, rp) =
+                node.params.with(|v| (config::controller_params(v, &base), config::settings(v), config::reference_params(v)));
+            match cp.and_then(|cp| core::set_params(&mut p, &mut s, cp, settings, rp)) {
                 Ok(o) if o.resumed => log::info!("parameters changed: resuming force control"),
                 Ok(_) => {}
                 Err(e) => log::error!("parameters not applied: {e}"),
@@ -83,12 +96,14 @@ fn run() -> Result<(), RosError> {
         while let Ok(Some((w, _))) = w_sub.take() {
             step(&mut s, core::Inbox { wrench: Some(&w), ..Default::default() });
         }
-        // Newest joint state only; older samples in the queue are skipped.
-        let mut newest = None;
-        while let Ok(Some((js, _))) = js_sub.take() {
-            newest = Some(js);
+        // Reference samples, newest of each topic (the stage keeps only the last target).
+        let (tp, dw) = (tp_sub.as_ref().and_then(take_newest), dw_sub.as_ref().and_then(take_newest));
+        if tp.is_some() || dw.is_some() {
+            let out = step(&mut s, core::Inbox { target_pose: tp.as_ref(), desired_wrench: dw.as_ref(), ..Default::default() });
+            log_reference_events(&out.events, tp.as_ref(), dw.as_ref(), &p.reference_params.base_frame);
         }
-        let Some(js) = newest else { continue };
+        // Newest joint state only; older samples in the queue are skipped.
+        let Some(js) = take_newest(&js_sub) else { continue };
         let mut out = step(&mut s, core::Inbox { joint_states: Some(&js), ..Default::default() });
         while let Some(until) = out.wait_until_ns {
             // Lockstep: the wrench of this state is on its way.
@@ -129,6 +144,18 @@ fn log_events(e: &core::Events, force_limit: f64) {
     }
 }
 
+fn log_reference_events(e: &core::Events, tp: Option<&PoseStamped>, dw: Option<&WrenchStamped>, base: &str) {
+    if e.reference_too_early {
+        log::warn!("reference sample before the first /joint_states (no start pose yet): ignored");
+    }
+    if let (Some((r, n)), Some(m)) = (e.target_rejected, tp) {
+        log::warn!("/naic/target_pose (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far)", m.header.frame_id);
+    }
+    if let (Some((r, n)), Some(m)) = (e.wrench_rejected, dw) {
+        log::warn!("/naic/desired_wrench (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far)", m.header.frame_id);
+    }
+}
+
 /// `/naic/params` from the core's report, in place (the strings keep their capacity).
 fn fill_report(m: &mut NaicParams, r: &core::Report) {
     let st = &r.status;
@@ -145,4 +172,10 @@ fn fill_report(m: &mut NaicParams, r: &core::Report) {
         let _ = write!(m.fault, "{f}");
     }
     m.fault_count = st.fault_count;
+    let a = &r.reference;
+    m.reference_source.clear();
+    m.reference_source.push_str(a.source);
+    m.reference_position.clear();
+    m.reference_position.extend_from_slice(&a.position);
+    (m.reference_stale, m.reference_rejected) = (a.stale, a.rejected);
 }

@@ -60,3 +60,12 @@ pub fn take_until<M: serde::de::DeserializeOwned + 'static>(
     }
     false
 }
+
+/// The newest sample waiting on `sub` (older ones are taken and dropped), or `None`.
+pub fn take_newest<M: serde::de::DeserializeOwned + 'static>(sub: &ros2_client::Subscription<M>) -> Option<M> {
+    let mut newest = None;
+    while let Ok(Some((m, _))) = sub.take() {
+        newest = Some(m);
+    }
+    newest
+}

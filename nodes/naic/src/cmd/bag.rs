@@ -585,6 +585,7 @@ pub fn write_sim_run(
             gamma_clipped: r.gamma_bound.is_finite() && r.gamma >= r.gamma_bound,
             fault: String::new(),
             fault_count: 0,
+            ..Default::default()
         };
         w.write(pa, &params, ns, ns).map_err(bag_err)?;
     }

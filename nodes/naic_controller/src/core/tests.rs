@@ -32,7 +32,8 @@ fn settings(time: TimeBase) -> Settings {
 
 fn params(time: TimeBase) -> Params {
     let m = model();
-    Params::new(Controller::new(m.clone(), base(&m)).unwrap(), settings(time), None).unwrap()
+    let rp = ReferenceParams::new("base_link", base(&m).control.force_axis, 10.0);
+    Params::new(Controller::new(m.clone(), base(&m)).unwrap(), settings(time), None, rp).unwrap()
 }
 
 fn js(stamp: i64, order: [usize; 6]) -> JointState {
@@ -62,14 +63,15 @@ fn run(p: &Params, s: &State, inbox: Inbox, now: i64) -> (State, Outbox) {
     (s, o)
 }
 
-/// What `controller::step` gives on these measurements from state `s` (the reference
-/// with no scenario: the start pose, as the core computes it).
+/// What `controller::step` gives on these measurements from state `s` (the first cycle
+/// with no scenario: the reference stage starts at rest at the start pose, heading for the
+/// start moved `approach_depth` along n).
 fn direct(p: &Params, s: &State, m: &RawMeasurements) -> ControllerState {
     let mut ws = p.controller.workspace();
     dynamics::forward_kinematics(p.controller.model(), &mut ws.data, &Vector6::from(Q0));
     let pose = *ws.data.frame_se3(p.tip);
     let r = Reference {
-        p_d: pose.trans + Vector3::new(0.0, 0.0, -0.05),
+        p_d: pose.trans,
         r_d: UnitQuaternion::from_matrix(&pose.rot),
         v_d: Vector6::zeros(),
         a_d: Vector6::zeros(),
@@ -198,7 +200,8 @@ fn the_parameter_change_policy_of_the_core_applies() {
     let cp = *p.controller.params();
     // Only the desired force: the latch opens, the weights stay.
     let more = Settings { desired_force: 15.0, ..p.settings };
-    let o = set_params(&mut p, &mut s, cp, more).unwrap();
+    let rp = p.reference_params.clone();
+    let o = set_params(&mut p, &mut s, cp, more, rp.clone()).unwrap();
     assert!(o.resumed && !o.restarted);
     assert_eq!(p.settings.desired_force, 15.0);
     assert!(!s.ctl.control.retracting());
@@ -206,7 +209,7 @@ fn the_parameter_change_policy_of_the_core_applies() {
     // Another mode: the weights restart from the parameters.
     let mut aic = cp;
     aic.control.force_law.mode = Mode::Aic;
-    let o = set_params(&mut p, &mut s, aic, more).unwrap();
+    let o = set_params(&mut p, &mut s, aic, more, rp).unwrap();
     assert!(o.restarted && !o.resumed);
     assert_eq!(p.controller.params().control.force_law.mode, Mode::Aic);
     assert_eq!(s.ctl.control.law.m_d, cp.control.impedance.m_d[cp.control.force_axis.axis]);
@@ -221,4 +224,268 @@ fn the_parameter_change_policy_of_the_core_applies() {
 fn the_force_limit_fault_text_names_the_limit_and_the_retraction() {
     let t = FaultReport::ForceLimit(50.0).to_string();
     assert!(t.contains("force_limit (50 N)") && t.contains("retract"), "{t}");
+}
+
+// ---- scenario none: the reference topics ----
+
+fn pose_msg(stamp: i64, frame: &str, p: [f64; 3], q: UnitQuaternion<f64>) -> PoseStamped {
+    use naic_ros::msgs::{Point, Pose, Quaternion};
+    PoseStamped {
+        header: Header {
+            stamp: Time::from_nanos(stamp),
+            frame_id: frame.into(),
+        },
+        pose: Pose {
+            position: Point {
+                x: p[0],
+                y: p[1],
+                z: p[2],
+            },
+            orientation: Quaternion {
+                x: q.i,
+                y: q.j,
+                z: q.k,
+                w: q.w,
+            },
+        },
+    }
+}
+
+fn desired(stamp: i64, fz: f64) -> WrenchStamped {
+    WrenchStamped {
+        header: Header {
+            stamp: Time::from_nanos(stamp),
+            frame_id: "base_link".into(),
+        },
+        ..wrench(stamp, fz)
+    }
+}
+
+/// One 1 kHz cycle at `k` ms in simulated time (the wrench of the stamp first), with the
+/// reference samples of `extra` taken just before it; returns the report and the events.
+fn cycle_at(p: &Params, s: &State, k: i64, extra: Inbox) -> (State, Report, Events) {
+    let (s, o) = run(p, s, extra, k * MS);
+    let ev = o.events;
+    let (s, _) = run(
+        p,
+        &s,
+        Inbox {
+            wrench: Some(&wrench(k * MS, 0.0)),
+            ..Default::default()
+        },
+        k * MS,
+    );
+    let (s, o) = run(
+        p,
+        &s,
+        Inbox {
+            joint_states: Some(&js(k * MS, ORDER)),
+            ..Default::default()
+        },
+        k * MS,
+    );
+    (s, o.report.expect("a cycle ran"), ev)
+}
+
+/// The start tip pose as the core takes it.
+fn start_pose(p: &Params) -> (Vector3<f64>, UnitQuaternion<f64>) {
+    let mut ws = p.controller.workspace();
+    dynamics::forward_kinematics(p.controller.model(), &mut ws.data, &Vector6::from(Q0));
+    let pose = *ws.data.frame_se3(p.tip);
+    (pose.trans, UnitQuaternion::from_matrix(&pose.rot))
+}
+
+#[test]
+fn a_target_pose_moves_the_reference_within_the_speed_limit() {
+    let p = params(TimeBase::Sim);
+    let (p0, r0) = start_pose(&p);
+    let mut s = State::new(&p);
+    let (s1, r, _) = cycle_at(&p, &s, 0, Inbox::default());
+    s = s1;
+    assert_eq!(r.reference.source, "start");
+    assert_eq!(
+        Vector3::from(r.reference.position),
+        p0,
+        "at rest at the start pose"
+    );
+    // One target 10 cm along +x of the start, in the base frame.
+    let goal = p0 + Vector3::new(0.1, 0.0, 0.0);
+    let msg = pose_msg(MS, "base_link", goal.into(), r0);
+    let mut prev = Vector3::from(r.reference.position);
+    let (mut fastest, mut last) = (0.0f64, r);
+    for k in 1..2000 {
+        let extra = if k == 1 {
+            Inbox {
+                target_pose: Some(&msg),
+                ..Default::default()
+            }
+        } else {
+            Inbox::default()
+        };
+        let (n, r, ev) = cycle_at(&p, &s, k, extra);
+        assert_eq!((ev.target_rejected, ev.wrench_rejected), (None, None));
+        s = n;
+        let x = Vector3::from(r.reference.position);
+        fastest = fastest.max((x - prev).norm() / 1e-3);
+        prev = x;
+        last = r;
+    }
+    let vmax = p.reference_params.linear.max_speed;
+    assert!(
+        fastest <= vmax * (1.0 + 1e-9),
+        "reference speed {fastest} m/s above max_speed {vmax}"
+    );
+    assert!(
+        fastest > 0.99 * vmax,
+        "the speed limit was never reached: {fastest} m/s"
+    );
+    assert_eq!(last.reference.source, "target_pose");
+    let err = (Vector3::from(last.reference.position) - goal).norm();
+    assert!(
+        err < 1e-9,
+        "after 2 s the reference is {err} m from the target"
+    );
+    assert_eq!(last.reference.rejected, 0);
+}
+
+#[test]
+fn a_target_in_another_frame_is_refused_counted_and_logged_rate_limited() {
+    let p = params(TimeBase::Sim);
+    let (p0, r0) = start_pose(&p);
+    let (s, first, _) = cycle_at(&p, &State::new(&p), 0, Inbox::default());
+    let away: [f64; 3] = (p0 + Vector3::new(0.05, 0.0, 0.0)).into();
+    let tool = pose_msg(MS, "tool0", away, r0);
+    let (s, r, ev) = cycle_at(
+        &p,
+        &s,
+        1,
+        Inbox {
+            target_pose: Some(&tool),
+            ..Default::default()
+        },
+    );
+    assert_eq!(ev.target_rejected, Some((Rejection::Frame, 1)));
+    assert_eq!((r.reference.rejected, r.reference.source), (1, "start"));
+    // Again 10 ms later: counted, not logged (one message per second).
+    let tool = pose_msg(11 * MS, "tool0", away, r0);
+    let (s, r, ev) = cycle_at(
+        &p,
+        &s,
+        11,
+        Inbox {
+            target_pose: Some(&tool),
+            ..Default::default()
+        },
+    );
+    assert_eq!((ev.target_rejected, r.reference.rejected), (None, 2));
+    // A NaN force on /naic/desired_wrench: refused too, the force stays the parameter.
+    let mut bad = desired(12 * MS, -5.0);
+    bad.wrench.force.z = f64::NAN;
+    let (_, r, _) = cycle_at(
+        &p,
+        &s,
+        12,
+        Inbox {
+            desired_wrench: Some(&bad),
+            ..Default::default()
+        },
+    );
+    assert_eq!(r.reference.rejected, 3);
+    assert_eq!(r.status.f_d, first.status.f_d);
+    // The refused target never moved the goal: still heading down along n from the start.
+    let x = Vector3::from(r.reference.position);
+    assert!(x.x == p0.x && x.z < p0.z, "{x:?} vs start {p0:?}");
+}
+
+#[test]
+fn a_stream_that_stops_is_held_and_reported_stale() {
+    let p = params(TimeBase::Sim);
+    let (p0, r0) = start_pose(&p);
+    let (mut s, _, _) = cycle_at(&p, &State::new(&p), 0, Inbox::default());
+    // A 50 Hz stream for 0.2 s sliding +x at 10 mm/s, then silence.
+    let mut last = None;
+    let mut held = None;
+    for k in 1..1500 {
+        let msg = (k % 20 == 0 && k <= 200).then(|| {
+            pose_msg(
+                k * MS,
+                "base_link",
+                (p0 + Vector3::new(1e-5 * k as f64, 0.0, 0.0)).into(),
+                r0,
+            )
+        });
+        let (n, r, _) = cycle_at(
+            &p,
+            &s,
+            k,
+            Inbox {
+                target_pose: msg.as_ref(),
+                ..Default::default()
+            },
+        );
+        s = n;
+        if k == 300 {
+            assert!(
+                !r.reference.stale,
+                "stale 0.1 s after the last sample (timeout 0.5 s)"
+            );
+        }
+        if k == 1000 {
+            held = Some(r.reference.position);
+        }
+        last = Some(r);
+    }
+    let last = last.unwrap();
+    assert!(
+        last.reference.stale,
+        "not stale 1.3 s after the last sample"
+    );
+    assert_eq!(last.reference.source, "target_pose");
+    assert_eq!(
+        Some(last.reference.position),
+        held,
+        "the held reference moved"
+    );
+    assert!(
+        (last.reference.position[0] - (p0.x + 2e-3)).abs() < 1e-9,
+        "held at {:?}",
+        last.reference.position
+    );
+}
+
+#[test]
+fn desired_force_is_the_default_until_a_desired_wrench_arrives() {
+    let p = params(TimeBase::Sim);
+    let (mut s, _, _) = cycle_at(&p, &State::new(&p), 0, Inbox::default());
+    for k in 1..100 {
+        let (n, r, _) = cycle_at(&p, &s, k, Inbox::default());
+        assert_eq!(
+            r.status.f_d, 10.0,
+            "cycle {k}: not the desired_force parameter"
+        );
+        s = n;
+    }
+    // Push 5 N down onto the table (force axis -z: force -5 N along z in the base frame).
+    let w = desired(100 * MS, -5.0);
+    let mut fd = Vec::new();
+    for k in 100..300 {
+        let extra = if k == 100 {
+            Inbox {
+                desired_wrench: Some(&w),
+                ..Default::default()
+            }
+        } else {
+            Inbox::default()
+        };
+        let (n, r, _) = cycle_at(&p, &s, k, extra);
+        s = n;
+        fd.push(r.status.f_d);
+    }
+    // 100 N/s: 10 → 5 N in 50 ms, never faster.
+    assert!(
+        fd.windows(2).all(|w| (w[1] - w[0]).abs() <= 0.1 + 1e-12),
+        "force reference stepped"
+    );
+    assert!((fd[25] - 7.5).abs() < 0.15, "{}", fd[25]);
+    assert_eq!(*fd.last().unwrap(), 5.0);
 }
