@@ -134,7 +134,8 @@ def main():
     out.mkdir(parents=True, exist_ok=True)
     rclpy.init()
     s = Slide(a)
-    s.spin(lambda: s.n.count_subscribers("/naic/target_pose") > 0 or time.time() - s.t_wall > 10)
+    # Both subscriptions (discovery announces them one by one; a loaded machine takes seconds).
+    s.spin(lambda: not s.missing_topics() or time.time() - s.t_wall > 30)
     missing = s.missing_topics()
     if missing:
         sys.exit(f"naic_controller does not subscribe {', '.join(missing)}: this naic has no reference topics yet")
