@@ -91,11 +91,11 @@ pub struct LearningReport {
 
 /// Projects `(m, b, σ)` into the stable region of the schedule `g`.
 pub fn project(sp: &ScheduleParams, period: f64, max_rel: f64, g: &Gains, w: [f64; 3]) -> [f64; 3] {
-    let tau = sp.delay(period);
+    let (tau, tau_v) = (sp.delay(period), sp.velocity_delay(period));
     let m = w[0].clamp(g.m_d * (1.0 - max_rel), g.m_d * (1.0 + max_rel)).max(sp.m_d_min);
     let mut b = w[1].clamp(g.b_d * (1.0 - max_rel), g.b_d * (1.0 + max_rel));
     b = b.max(sp.floor_margin * delay_floor(g.k_e, m, sp.apparent_mass, tau));
-    let m = m.max(b * tau / sp.alpha);
+    let m = m.max(b * tau_v / sp.alpha);
     let s_max = (sp.sigma_fraction * sigma_bound(m, b, period)).min(g.sigma * (1.0 + max_rel));
     let s = if w[2].is_nan() { g.sigma.min(s_max) } else { w[2].clamp(0.0, s_max) };
     if m.is_finite() && b.is_finite() && s.is_finite() { [m, b, s] } else { [g.m_d, g.b_d, g.sigma] }
@@ -167,7 +167,7 @@ mod tests {
                 let tau = sp.delay(1e-3);
                 prop_assert!(w[0] >= sp.m_d_min);
                 prop_assert!(w[1] >= sp.floor_margin * delay_floor(g.k_e, w[0], sp.apparent_mass, tau) * (1.0 - 1e-12));
-                prop_assert!(w[1] * tau / w[0] <= sp.alpha * (1.0 + 1e-9));
+                prop_assert!(w[1] * sp.velocity_delay(1e-3) / w[0] <= sp.alpha * (1.0 + 1e-9));
                 prop_assert!(w[2] >= 0.0 && w[2] < sigma_bound(w[0], w[1], 1e-3));
                 s = n;
                 s.edd_prev = e_f / w[0];

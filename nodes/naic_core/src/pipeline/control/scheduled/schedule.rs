@@ -24,12 +24,13 @@
 //!    and d = 2 that is 120 N·s/m — three times the paper's b_d = 40, which is
 //!    why every paper law limit-cycles on acrylic. `b_d ≥ floor_margin · floor`.
 //! 2. **Velocity-loop bandwidth.** The damping acts on a velocity that is `τ`
-//!    old: `ẍ = −(b_d/m_d) ẋ(t − τ)` is a delayed first-order loop, stable with
-//!    a good margin only for `(b_d/m_d) τ ≤ α` (α < π/2 is the stability
+//!    old — `τ_v = τ + velocity_lag·T`, the median filter on q̇ adds 2 cycles —
+//!    `ẍ = −(b_d/m_d) ẋ(t − τ_v)` is a delayed first-order loop, stable with
+//!    a good margin only for `(b_d/m_d) τ_v ≤ α` (α < π/2 is the stability
 //!    limit; α = 0.7 keeps the phase margin ≈ 50°). With near-critical damping
-//!    `b_d = 2ζ√(k_e m_d)` this is `2ζ ω_n τ ≤ α`, a lower bound on the mass:
-//!    `m_d ≥ k_e (2ζτ/α)²`. On soft surfaces `m_d_min` (0.25 kg, for speed) wins;
-//!    on acrylic the mass grows to ≈ 2.6 kg (ω_n = 140 rad/s) — a light virtual
+//!    `b_d = 2ζ√(k_e m_d)` this is `2ζ ω_n τ_v ≤ α`, a lower bound on the mass:
+//!    `m_d ≥ k_e (2ζτ_v/α)²`. On soft surfaces `m_d_min` (0.25 kg, for speed) wins;
+//!    on acrylic (d = 2) the mass grows to ≈ 8 kg (ω_n = 78 rad/s) — a light virtual
 //!    mass on a hard surface with a delayed loop is what makes it chatter.
 //!    With `m_d` from this bound, `b_d / m_d = 2ζ ω_n ≤ α/τ` holds, and the
 //!    delay floor is below the critical damping whenever `4ζ²/α > 1`
@@ -59,8 +60,12 @@ pub struct ScheduleParams {
     pub zeta: f64,
     /// Loop delay the schedule is designed for, in control periods (sensor to torque, d).
     pub delay_cycles: f64,
-    /// Velocity-loop gain–delay product limit α: `(b_d/m_d)(d + ½)T ≤ α`.
+    /// Velocity-loop gain–delay product limit α: `(b_d/m_d) τ_v ≤ α`.
     pub alpha: f64,
+    /// Extra lag of the measured velocity [periods] on top of the loop delay: the
+    /// median filter of the sense stage (window w) delays q̇ by (w − 1)/2 = 2 cycles.
+    /// `τ_v = (d + velocity_lag + ½) T`.
+    pub velocity_lag_cycles: f64,
     /// `b_d ≥ floor_margin ·` the delay floor.
     pub floor_margin: f64,
     /// Apparent mass `D` of the arm along the force axis [kg] (enters the delay floor).
@@ -81,6 +86,7 @@ impl Default for ScheduleParams {
             zeta: 1.0,
             delay_cycles: 2.0,
             alpha: 0.7,
+            velocity_lag_cycles: 2.0,
             floor_margin: 1.2,
             apparent_mass: 6.4,
             sigma_fraction: 0.25,
@@ -102,6 +108,9 @@ impl ScheduleParams {
         pos("apparent_mass", self.apparent_mass)?;
         pos("k_min", self.k_min)?;
         pos("k_max", self.k_max)?;
+        if !(self.velocity_lag_cycles >= 0.0 && self.velocity_lag_cycles <= 20.0) {
+            return Err(format!("scheduled.velocity_lag_cycles = {} must be in [0, 20]", self.velocity_lag_cycles));
+        }
         if !(self.delay_cycles >= 0.0 && self.delay_cycles <= 20.0) {
             return Err(format!("scheduled.delay_cycles = {} must be in [0, 20] control periods", self.delay_cycles));
         }
@@ -127,9 +136,14 @@ impl ScheduleParams {
         Ok(())
     }
 
-    /// `τ = (d + ½) T` [s].
+    /// `τ = (d + ½) T` [s]: the delay of the force feedback.
     pub fn delay(&self, period: f64) -> f64 {
         (self.delay_cycles + 0.5) * period
+    }
+
+    /// `τ_v = (d + velocity_lag + ½) T` [s]: the delay of the velocity feedback.
+    pub fn velocity_delay(&self, period: f64) -> f64 {
+        (self.delay_cycles + self.velocity_lag_cycles + 0.5) * period
     }
 }
 
@@ -164,10 +178,10 @@ pub fn sigma_bound(m_d: f64, b_d: f64, period: f64) -> f64 {
 /// (NaN, ±∞, negative) gives finite gains within every bound.
 pub fn schedule(p: &ScheduleParams, k_e: f64, period: f64) -> Gains {
     let k = if k_e.is_nan() { p.k_max } else { k_e.clamp(p.k_min, p.k_max) };
-    let tau = p.delay(period);
-    let m_d = p.m_d_min.max(k * (2.0 * p.zeta * tau / p.alpha).powi(2));
+    let (tau, tau_v) = (p.delay(period), p.velocity_delay(period));
+    let m_d = p.m_d_min.max(k * (2.0 * p.zeta * tau_v / p.alpha).powi(2));
     let b_floor = delay_floor(k, m_d, p.apparent_mass, tau);
-    let b_max = if tau > 0.0 { p.alpha * m_d / tau } else { f64::INFINITY };
+    let b_max = p.alpha * m_d / tau_v;
     let b_d = (2.0 * p.zeta * (k * m_d).sqrt()).max(p.floor_margin * b_floor);
     let bound = sigma_bound(m_d, b_d, period);
     let omega = (k / m_d).sqrt();
@@ -183,17 +197,19 @@ mod tests {
     #[test]
     fn acrylic_and_flat_numbers() {
         let p = ScheduleParams::default();
-        // The floor: 63 N·s/m at d = 1 and 102 at d = 2 with m_d ≈ 0.25... for the paper's m_d = 1:
+        // The delay floor for the paper's m_d = 1: 63 N·s/m at d = 1, 105 at d = 2.
         let f1 = delay_floor(50_000.0, 1.0, 6.4, 1.5e-3);
         let f2 = delay_floor(50_000.0, 1.0, 6.4, 2.5e-3);
         assert!((f1 - 63.3).abs() < 0.1 && (f2 - 105.5).abs() < 0.1, "{f1} {f2}");
         let g = schedule(&p, 2000.0, 1e-3);
+        assert!((g.m_d - 0.25f64.max(2000.0 * (2.0 * 4.5e-3 / 0.7f64).powi(2))).abs() < 1e-12, "{g:?}");
+        let g = schedule(&p, 1000.0, 1e-3);
         assert_eq!(g.m_d, 0.25);
-        assert!((g.b_d - 2.0 * (2000.0f64 * 0.25).sqrt()).abs() < 1e-9);
+        assert!((g.b_d - 2.0 * (1000.0f64 * 0.25).sqrt()).abs() < 1e-9);
         let g = schedule(&p, 50_000.0, 1e-3);
-        assert!(g.m_d > 2.0 && g.b_d > g.b_floor && g.b_d <= g.b_max * (1.0 + 1e-12), "{g:?}");
-        // the paper's b_d = 40 is below the floor on acrylic
-        assert!(40.0 < g.b_floor);
+        assert!(g.m_d > 8.0 && g.b_d > g.b_floor && g.b_d <= g.b_max * (1.0 + 1e-12), "{g:?}");
+        // the paper's b_d = 40 is below the floor of its own m_d = 1 on acrylic
+        assert!(40.0 < f1);
     }
 
     proptest! {
@@ -217,7 +233,7 @@ mod tests {
             prop_assert!(g.m_d >= m_min);
             let floor = delay_floor(g.k_e, g.m_d, p.apparent_mass, p.delay(period));
             prop_assert!(g.b_d >= p.floor_margin * floor * (1.0 - 1e-12), "{:?}", g);
-            prop_assert!(g.b_d * p.delay(period) / g.m_d <= p.alpha * (1.0 + 1e-9), "{:?}", g);
+            prop_assert!(g.b_d * p.velocity_delay(period) / g.m_d <= p.alpha * (1.0 + 1e-9), "{:?}", g);
             prop_assert!(g.sigma >= 0.0 && g.sigma < sigma_bound(g.m_d, g.b_d, period), "{:?}", g);
         }
     }
