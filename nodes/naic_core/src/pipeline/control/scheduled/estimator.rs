@@ -226,6 +226,11 @@ mod tests {
     /// The tip pressing in and settling (the shape of a contact transient):
     /// x(t) = x_e + A(1 − e^{−t/τ}) + small wiggle, f = k (x − x_e) + noise.
     fn contact_run(k_e: f64, x_e: f64, cycles: usize, p: &EstimatorParams) -> Vec<Estimate> {
+        contact_run_state(k_e, x_e, cycles, p).0
+    }
+
+    /// [`contact_run`] with the final state.
+    fn contact_run_state(k_e: f64, x_e: f64, cycles: usize, p: &EstimatorParams) -> (Vec<Estimate>, EstimatorState) {
         let (a, tau, dt) = (10.0 / k_e, 0.03, 1e-3);
         let x_at = |t: f64| x_e + a * (1.0 - (-t / tau).exp()) + 2e-5 * (40.0 * t).sin() * (-t / 0.2).exp();
         let mut s = start(p, 0, x_at(0.0) - 1e-6, 1.0);
@@ -239,7 +244,7 @@ mod tests {
             s = n;
             out.push(e);
         }
-        out
+        (out, s)
     }
 
     /// Converges to a known k_e within 50 cycles (50 ms) to 10 %, from a prior 2.5× off,
@@ -264,20 +269,8 @@ mod tests {
     fn no_windup_over_ten_seconds_of_steady_contact() {
         let p = EstimatorParams::default();
         let k_e = 2000.0;
-        let e = contact_run(k_e, 0.0, 300, &p);
+        let (e, mut s) = contact_run_state(k_e, 0.0, 300, &p);
         let k_before = e.last().unwrap().k_e;
-        let mut s = {
-            // the state at the end of the transient, recomputed
-            let mut s = start(&p, 0, -1e-6, 1.0);
-            let (a, tau, dt) = (10.0 / k_e, 0.03, 1e-3);
-            let x_at = |t: f64| a * (1.0 - (-t / tau).exp()) + 2e-5 * (40.0 * t).sin() * (-t / 0.2).exp();
-            for i in 0..300 {
-                let t = i as f64 * dt;
-                let x = x_at(t);
-                s = step(&p, &s, x, (x_at(t + dt) - x) / dt, k_e * x + noise(i, p.noise_n)).0;
-            }
-            s
-        };
         let p11_0 = s.p[0];
         let x = s.x0 + (10.0 - s.theta[1]) / s.theta[0];
         let (mut worst_k, mut worst_p) = (0.0f64, 0.0f64);
@@ -301,17 +294,10 @@ mod tests {
     fn a_stiffness_jump_is_detected_within_3_cycles_and_re_estimated_to_20_percent() {
         let p = EstimatorParams::default();
         for (k1, k2) in [(2000.0, 5000.0), (5000.0, 2000.0), (50_000.0, 1000.0)] {
-            let e = contact_run(k1, 0.0, 300, &p);
+            let (e, mut s) = contact_run_state(k1, 0.0, 300, &p);
             assert!((e.last().unwrap().k_e - k1).abs() < 0.05 * k1);
-            let mut s = start(&p, 0, -1e-6, 1.0);
-            let (a, tau, dt) = (10.0 / k1, 0.03, 1e-3);
-            let x_at = |t: f64| a * (1.0 - (-t / tau).exp()) + 2e-5 * (40.0 * t).sin() * (-t / 0.2).exp();
-            for i in 0..300 {
-                let t = i as f64 * dt;
-                let x = x_at(t);
-                s = step(&p, &s, x, (x_at(t + dt) - x) / dt, k1 * x + noise(i, p.noise_n)).0;
-            }
-            let x = x_at(0.3);
+            // where the transient ends (x_at(0.3) of contact_run_state)
+            let x = 10.0 / k1 * (1.0 - (-0.3f64 / 0.03).exp()) + 2e-5 * (40.0f64 * 0.3).sin() * (-0.3f64 / 0.2).exp();
             let mut detected = None;
             for i in 0..5 {
                 let (n, e) = step(&p, &s, x, 0.0, k2 * x + noise(400 + i, p.noise_n));
