@@ -557,3 +557,47 @@ def test_ros_lockstep_chain_equals_the_in_process_simulation(bins, tmp_path):
     big = max(max(abs(x) for x in ref[ms]) for ms in common)
     assert big > 10.0  # torques of the size a shell bug would disturb
     assert worst[1] < 1e-3, f"largest torque difference {worst[1]:.3g} N m at {worst[0]} ms"
+
+
+def test_ros_friction_compensation_reads_joint_states_by_name(bins):
+    """A driver may publish /joint_states in another joint order (ros2_control's
+    joint_state_broadcaster may): friction_compensation maps the joints by name. rclpy plays
+    the driver and the controller for a lone friction_compensation; only joint6 turns
+    (0.5 rad/s). In joint order and shuffled, the command must be the same, with the
+    feedforward on joint6 (pushing with its velocity) and not on the joint at joint6's index."""
+    domain = ru.fresh_domain(70)
+    p = ru.Proc([str(bins / "friction_compensation"), "--ros-args", "--params-file", "params/friction_compensation.yaml",
+                 "-p", "torque_rate_limit:=1000.0"], ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "naic_joint_order_test")
+    try:
+        assert r.spin_until(lambda: "friction_compensation" in r.node.get_node_names(), 20), p.output()
+        out = []
+        r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd", out.append, 1000)
+        js_pub = r.node.create_publisher(JointState, "/joint_states", 10)
+        cmd_pub = r.node.create_publisher(Float64MultiArray, "/naic/effort", 10)
+        tau = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+        vel = {n: 0.0 for n in JOINTS}
+        vel["joint6"] = 0.5
+        cmd = Float64MultiArray(data=tau)
+        cmd.layout.dim = [MultiArrayDimension(label="joints", size=6, stride=6)]
+        got = {}
+        for order in (JOINTS, ["joint6", "joint4", "joint2", "joint1", "joint3", "joint5"]):
+            js = JointState(name=order, position=[0.1] * 6, velocity=[vel[n] for n in order],
+                            effort=[tau[JOINTS.index(n)] for n in order])
+            out.clear()
+            t0 = time.time()
+            while time.time() - t0 < 2.0 or len(out) < 50:
+                assert time.time() - t0 < 30, f"only {len(out)} commands in 30 s: " + p.output()[-2000:]
+                js.header.stamp = r.node.get_clock().now().to_msg()
+                js_pub.publish(js)
+                cmd_pub.publish(cmd)
+                r.spin(0.005)
+            tail = [list(m.data) for m in out[len(out) // 2:]]
+            got[order[0]] = [sorted(c[j] for c in tail)[len(tail) // 2] for j in range(6)]
+        a, b = got["joint1"], got["joint6"]
+        assert a == pytest.approx(b, abs=1e-9), (a, b)
+        assert a[5] > tau[5] + 0.01, f"no friction feedforward on joint6: {a}"
+        assert a[:5] == pytest.approx(tau[:5], abs=0.05), f"feedforward on a joint at rest: {a}"
+    finally:
+        r.close()
+        assert p.stop() == 0, p.output()

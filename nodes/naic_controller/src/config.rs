@@ -12,7 +12,9 @@ use naic_core::{
     },
 };
 use nalgebra::Vector3;
-use naic_ros::{params::SetCheck, ParamSpec, ParamView};
+use naic_ros::{params::SetCheck, timebase::TimeBase, ParamSpec, ParamView};
+
+use crate::core::Settings;
 
 pub const FORCE_AXES: [&str; 6] = ["x", "y", "z", "-x", "-y", "-z"];
 
@@ -103,8 +105,8 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
         exit_cycles: p.i64("contact_exit_cycles") as u32,
     };
     // The core's force limit is the node's only retraction: it stops pushing, backs off
-    // along -n, and (latched) stays off the surface until a parameter changes (main.rs
-    // calls ControlState::resume then).
+    // along -n, and (latched) stays off the surface until a parameter changes (core::set_params applies
+    // naic_core's parameter-change policy then).
     c.control.force_limit.limit_n = p.f64("force_limit");
     // Eq 9's integral never asks for more than the force the robot may apply.
     c.control.force_law.integral_limit_n = p.f64("force_limit");
@@ -118,6 +120,16 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
     c.control.validate()?;
     c.sense.validate()?;
     Ok(c)
+}
+
+/// The node's settings besides the controller's parameters.
+pub fn settings(p: &ParamView) -> Settings {
+    Settings {
+        desired_force: p.f64("desired_force"),
+        force_limit: p.f64("force_limit"),
+        approach_depth: p.f64("approach_depth"),
+        time: TimeBase::from_use_sim_time(p.bool("use_sim_time")),
+    }
 }
 
 /// Whole-set check for the parameter services: the core's own validation plus the

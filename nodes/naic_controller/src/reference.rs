@@ -7,6 +7,7 @@ pub const SCENARIOS: [&str; 6] = ["none", "flat", "stiffness-step", "slope", "fo
 pub const DEFAULT_SCENARIO: &str = "flat";
 
 /// A scenario's reference as a function of controller time.
+#[derive(Clone)]
 pub struct ScenarioReference {
     scenario: naic_sim::scenario::Scenario,
 }

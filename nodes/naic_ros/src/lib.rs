@@ -9,19 +9,28 @@
 //! - [`node`]: [`RosNode`], which serves the six `rcl_interfaces` parameter services
 //!   itself (with descriptors, which ros2-client lacks) and publishes `/parameter_events`;
 //! - [`msgs`]: the message types on the wire;
-//! - [`log`]: stderr logging with the node name.
+//! - [`log`]: stderr logging with the node name;
+//! - pieces every node core shares, one implementation each: [`replay`] (a repeated
+//!   stamp gets the same answer), [`timebase`] (wall or simulated time), [`joints`]
+//!   (`/joint_states` by joint name), [`throttle`] (rate-limited reports) and
+//!   [`alloc_check`] (no heap allocation in the 1 kHz step).
 //!
 //! Nodes are thin shells: they copy messages into preallocated step-function inputs,
 //! call the core/simulator step functions and publish the outputs.
 
+pub mod alloc_check;
 pub mod args;
 pub mod context;
 pub mod log;
 pub mod msgs;
 pub mod node;
 pub mod params;
+pub mod joints;
 pub mod params_file;
+pub mod replay;
+pub mod throttle;
 pub mod time;
+pub mod timebase;
 
 pub use args::RosArgs;
 pub use node::RosNode;
@@ -109,3 +118,7 @@ pub fn install_signal_handlers() {
 }
 
 pub mod wait;
+
+#[cfg(test)]
+#[global_allocator]
+static COUNTING: alloc_check::CountingAlloc = alloc_check::CountingAlloc;

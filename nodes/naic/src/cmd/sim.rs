@@ -10,7 +10,7 @@ use super::{CliError, CliResult};
 use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
 use naic_core::model::Model;
 use naic_core::pipeline::control::force_law::Mode;
-use naic_sim::controllers::{LoopSettings, PipelineController};
+use naic_sim::controllers::{LoopSettings, PipelineController, CONTROLLERS, MAX_DELAY_CYCLES};
 use naic_sim::environment::{Environment, Material, MaterialMap};
 use naic_sim::metrics::MetricsFile;
 use naic_sim::plant::{self, Integrator, PlantParams};
@@ -28,7 +28,8 @@ pub struct SimArgs {
     /// Scenario: flat, stiffness-step, slope, foam or two-material [default: flat].
     #[arg(long)]
     pub scenario: Option<String>,
-    /// Controller: naic, aic, fixed or all [default: all].
+    /// Controller: naic, aic, fixed, scheduled, oracle (benchmark: the scheduled law
+    /// with the true k_e) or all (= naic, aic, fixed, scheduled) [default: all].
     #[arg(long)]
     pub controller: Option<String>,
     /// Output folder [default: a new folder runs/<UTC time>-<scenario>/].
@@ -53,6 +54,17 @@ pub struct SimArgs {
     /// Median window on the measured joint velocity (1 = off) [default: 5].
     #[arg(long)]
     pub median_window: Option<usize>,
+    /// Override the surface stiffness k_e [N/m] of a one-material scenario
+    /// (a stiffness schedule is scaled to start at K).
+    #[arg(long, value_name = "K", allow_hyphen_values = true)]
+    pub stiffness: Option<f64>,
+    /// Sensor-to-torque delay of the loop in control periods (0 in process; 1–2 is
+    /// the DDS chain) [default: 0].
+    #[arg(long, value_name = "N")]
+    pub delay_cycles: Option<usize>,
+    /// Scale the controller's dynamic model (every mass and inertia) by F, e.g. 0.8 or 1.25 [default: 1].
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    pub model_mass_error: Option<f64>,
     /// Seed of the simulated noise and sensor bias [default: 1].
     #[arg(long)]
     pub seed: Option<u64>,
@@ -208,14 +220,13 @@ pub fn run_scenario(
     model: &Model,
     friction_ff: Option<&FrictionModel>,
     tool: (f64, Vector3<f64>),
-    modes: &[Mode],
+    controllers: &[&str],
     settings: &LoopSettings,
     show_progress: bool,
 ) -> Result<Vec<RunResult>, CliError> {
     let mut runs = Vec::new();
-    for &mode in modes {
-        let mut c = PipelineController::new(mode, s, model, friction_ff.cloned(), tool.0, tool.1, settings).map_err(CliError::usage)?;
-        let name = mode.as_str();
+    for &name in controllers {
+        let mut c = PipelineController::by_name(name, s, model, friction_ff.cloned(), tool, settings).map_err(CliError::usage)?;
         let mut last = -1i64;
         let mut progress = |f: f64| {
             if !show_progress {
@@ -304,16 +315,22 @@ pub fn run(a: SimArgs) -> CliResult {
         return Err(CliError::usage(format!("--scenario '{name}': use one of {}", SCENARIOS.join(", "))));
     }
     let which = a.controller.clone().unwrap_or_else(|| "all".into());
-    let modes: Vec<Mode> = if which == "all" {
-        vec![Mode::Naic, Mode::Aic, Mode::Fixed]
+    let modes: Vec<&str> = if which == "all" {
+        vec!["naic", "aic", "fixed", "scheduled"]
     } else {
-        vec![Mode::parse(&which).map_err(|e| CliError::usage(format!("--controller: {e} (or all)")))?]
+        match CONTROLLERS.iter().find(|c| **c == which.trim().to_ascii_lowercase()) {
+            Some(c) => vec![*c],
+            None => return Err(CliError::usage(format!("--controller '{which}': use one of {} or all", CONTROLLERS.join(", ")))),
+        }
     };
     let model = load_model(a.urdf.as_deref())?;
     let friction = if a.no_friction { None } else { Some(load_friction(a.friction.as_deref())?) };
     let mut s = scenario::preset(&name, &model).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
     if let Some(seed) = a.seed {
         s.seed = seed;
+    }
+    if let Some(k) = a.stiffness {
+        s = s.with_stiffness(k).map_err(|e| CliError::usage(format!("--stiffness: {e}")))?;
     }
     if let Some(d) = a.duration {
         if !(d > 0.0 && d.is_finite()) {
@@ -342,6 +359,18 @@ pub fn run(a: SimArgs) -> CliResult {
             )));
         }
         settings.median_window = w;
+    }
+    if let Some(d) = a.delay_cycles {
+        if d > MAX_DELAY_CYCLES {
+            return Err(CliError::usage(format!("--delay-cycles {d}: must be in 0..={MAX_DELAY_CYCLES}")));
+        }
+        settings.delay_cycles = d;
+    }
+    if let Some(f) = a.model_mass_error {
+        if !(f > 0.0 && f.is_finite()) {
+            return Err(CliError::usage(format!("--model-mass-error {f}: must be a positive factor (1 = exact model)")));
+        }
+        settings.model_mass_error = f;
     }
     let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;

@@ -9,7 +9,8 @@
 //! [`controller::step`] runs the first three stages (the `naic_controller`
 //! node); [`feedforward::step`] and [`actuate::step`] the last two (the
 //! `friction_compensation` node and the drive guard). [`step`] composes all
-//! five for in-process use. Every stage is a pure function
+//! five for in-process use; [`param_change`] is what a running controller does when its
+//! parameters change (node and simulation alike). Every stage is a pure function
 //! `(params, state, inputs) -> (state, outputs)` with no heap allocation.
 pub mod actuate;
 pub mod control;
@@ -17,6 +18,7 @@ pub mod controller;
 pub mod estimate;
 pub mod feedforward;
 pub mod hold;
+pub mod param_change;
 pub mod sense;
 
 use crate::friction::FrictionModel;

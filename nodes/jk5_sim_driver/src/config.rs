@@ -1,0 +1,104 @@
+//! The driver's ROS parameters, the URDF checks made before the DDS participant exists,
+//! and the chain-latency report.
+
+use naic_core::model::Model;
+use naic_ros::{
+    params::{effort_limit_within, SetCheck, EFFORT_CAP},
+    ParamSpec, ParamView,
+};
+
+use crate::{core, latency, sim_plant::PLANT_NAME};
+
+pub fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
+    vec![
+        ParamSpec::doubles(
+            "effort_limit",
+            urdf_effort,
+            0.0,
+            EFFORT_CAP,
+            "Per-joint saturation of every torque the driver applies (commands and its own hold) [N m]; at most the URDF effort limit (default: the URDF's)",
+        ),
+        ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz]; the simulator's control period is 1/rate").read_only(),
+        ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model of the simulator").read_only(),
+        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Joint friction acting in the simulator (naic_core::friction YAML)").read_only(),
+        ParamSpec::double("friction_smoothing", naic_core::friction::DEFAULT_V_S, 1.0e-5, 1.0, "v_s [rad/s] of the simulator's tanh-smoothed friction").read_only(),
+        ParamSpec::boolean(
+            "lockstep",
+            false,
+            "Advance one simulator step per /joint_effort_cmd received (deterministic, faster than real time); stamps become simulated time",
+        ),
+        ParamSpec::boolean(
+            "paused",
+            false,
+            "Simulation paused: no steps, the current state is published again every command_timeout (set false to run)",
+        ),
+        ParamSpec::double(
+            "command_timeout",
+            0.02,
+            0.001,
+            1.0,
+            "Hold the arm (gravity compensation + damping) when no command arrived for this long [s]",
+        ),
+        ParamSpec::double("hold_damping", 5.0, 0.0, 200.0, "Joint damping of the driver's own hold [N m s/rad]"),
+        ParamSpec::choice(
+            "scenario",
+            "flat",
+            &["flat", "stiffness-step", "slope", "foam", "two-material"],
+            "Paper scenario of naic_sim: environment and start pose",
+        )
+        .read_only(),
+        ParamSpec::string("plant", PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
+        ParamSpec::double("latency_warmup", 2.0, 0.0, 3600.0, "Chain-latency statistics ignore the first seconds after start").read_only(),
+        ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),
+    ]
+}
+
+/// Effort limits `<limit effort>` of the six joints of `urdf` [N m].
+pub fn urdf_effort_limits(urdf: &str) -> Result<[f64; 6], String> {
+    let model = Model::from_urdf_file(urdf).map_err(|e| format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))?;
+    let l = model.effort_limits();
+    if l.len() != 6 {
+        return Err(format!("robot model '{urdf}' has {} joints; the JK5 driver needs 6 (set -p urdf:=PATH)", l.len()));
+    }
+    if let Some(i) = (0..6).find(|&i| !(l[i].is_finite() && l[i] > 0.0)) {
+        return Err(format!(
+            "robot model '{urdf}': joint {} has effort limit {}; set <limit effort=\"...\"> > 0 in the URDF",
+            i + 1,
+            l[i]
+        ));
+    }
+    Ok(std::array::from_fn(|i| l[i].min(EFFORT_CAP)))
+}
+
+/// Live `effort_limit` changes may tighten the URDF limits, never loosen them.
+pub fn check(urdf_effort: [f64; 6]) -> SetCheck {
+    Box::new(move |p: &ParamView| effort_limit_within(p, &urdf_effort))
+}
+
+/// The core's parameters from the ROS parameters.
+pub fn core_params(p: &ParamView) -> core::Params {
+    core::Params {
+        lockstep: p.bool("lockstep"),
+        rate: p.f64("rate"),
+        command_timeout_ns: (p.f64("command_timeout") * 1e9) as i64,
+        hold_damping: p.f64("hold_damping"),
+        effort_limit: std::array::from_fn(|i| p.f64s("effort_limit")[i]),
+    }
+}
+
+pub fn latency_report(lat: &latency::Histogram, missed: u64, cycles: u64, wall_ns: i64, rejected: u64) -> serde_json::Value {
+    let q = |f: f64| -> f64 { lat.quantile_ns(f).map_or(f64::NAN, |ns| ns / 1e3) };
+    let minutes = wall_ns as f64 / 60e9;
+    serde_json::json!({
+        "samples": lat.len(),
+        "cycles": cycles,
+        "median_us": q(0.5),
+        "p99_us": q(0.99),
+        "max_us": lat.max_ns().map_or(f64::NAN, |ns| ns as f64 / 1e3),
+        "missed_cycles": missed,
+        "missed_per_min": if minutes > 0.0 { missed as f64 / minutes } else { 0.0 },
+        "rejected_commands": rejected,
+        "duration_s": wall_ns as f64 / 1e9,
+    })
+}
+

@@ -1,0 +1,14 @@
+//! `jk5_sim_driver` as a library: the driver's core ([`core`]: command reception, hold,
+//! saturation, missed cycles), its parameters ([`config`]), the simulator behind it
+//! ([`plant`], [`sim_plant`]) and the chain-latency histogram ([`latency`]), used by the
+//! DDS shell (`main.rs`) and by anything that runs the driver in process.
+
+pub mod config;
+pub mod core;
+pub mod latency;
+pub mod plant;
+pub mod sim_plant;
+
+#[cfg(test)]
+#[global_allocator]
+static COUNTING: naic_ros::alloc_check::CountingAlloc = naic_ros::alloc_check::CountingAlloc;

@@ -1,0 +1,303 @@
+//! The node's core: one pure step `(params, state, inbox, now) -> (state, outbox)`.
+//!
+//! Around `naic_core::pipeline::controller::step` it adds what the node needs: joints read
+//! by name, the wrench paired with the joint state of the same stamp in simulated time
+//! (lockstep), the replay of a repeated stamp, the time base (wall clock or stamps), the
+//! position reference (a scenario's trajectory, or the start pose moved along n), the
+//! parameter-change policy (`naic_core::pipeline::param_change`, in [`set_params`]) and
+//! the rate-limited reports. No I/O, no clock, no allocation in [`step`]: the shell copies
+//! messages into the [`Inbox`], passes the wall time, and publishes the [`Outbox`].
+
+use naic_core::{
+    dynamics,
+    model::FrameId,
+    pipeline::{
+        controller::{self, Controller, ControllerParams, ControllerState, Reference, Status, Workspace},
+        param_change,
+        sense::{Fault, RawMeasurements},
+    },
+};
+use naic_ros::{
+    joints::{finite, JointMap, JointSample, Layout},
+    msgs::{JointState, WrenchStamped, JOINT_NAMES},
+    replay::Replay,
+    throttle::Throttle,
+    timebase::TimeBase,
+};
+use nalgebra::{UnitQuaternion, Vector3, Vector6};
+
+use crate::reference::ScenarioReference;
+
+/// Lockstep: how long a joint state waits for the wrench of its stamp [ns] (wall clock).
+pub const PAIR_TIMEOUT_NS: i64 = 5_000_000;
+
+/// The node's settings besides the controller's own parameters (from the ROS parameters).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// `f_d` [N]: the force set point (part of the reference).
+    pub desired_force: f64,
+    /// [N], for the report.
+    pub force_limit: f64,
+    /// With no scenario: free-space target = start tip position moved this far along n [m].
+    pub approach_depth: f64,
+    pub time: TimeBase,
+}
+
+/// Everything the step reads and never changes (changed by [`set_params`] only).
+#[derive(Clone)]
+pub struct Params {
+    pub controller: Controller,
+    pub settings: Settings,
+    /// The scenario's position reference (`None`: the start pose moved along n).
+    pub reference: Option<ScenarioReference>,
+    tip: FrameId,
+}
+
+impl Params {
+    pub fn new(controller: Controller, settings: Settings, reference: Option<ScenarioReference>) -> Result<Params, String> {
+        let tip = controller.model().frame_id(controller::TIP_FRAME).ok_or("the URDF has no 'tip' frame")?;
+        Ok(Params { controller, settings, reference, tip })
+    }
+}
+
+/// Why `/naic/params` reports a fault.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FaultReport {
+    /// The sense stage rejected the cycle: safe hold.
+    Sensor(Fault),
+    /// Above `force_limit` [N]: retracting, then latched off the surface.
+    ForceLimit(f64),
+}
+
+impl std::fmt::Display for FaultReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FaultReport::Sensor(x) => x.fmt(f),
+            FaultReport::ForceLimit(l) => write!(
+                f,
+                "force above force_limit ({l} N): retracting, then holding off the surface until a parameter is set"
+            ),
+        }
+    }
+}
+
+/// One cycle's report (`/naic/params`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Report {
+    /// The `/joint_states` stamp it answers [ns].
+    pub stamp_ns: i64,
+    pub status: Status,
+    pub fault: Option<FaultReport>,
+}
+
+/// The answer to one joint state: the torque (when finite) and the report.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Answer {
+    tau: Option<[f64; 6]>,
+    report: Report,
+}
+
+/// The newest `/wrench`: reading (F, τ) in the sensor frame, stamp and arrival [ns].
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct WrenchIn {
+    w: [f64; 6],
+    stamp_ns: i64,
+    rx_ns: i64,
+}
+
+/// A joint state waiting for the wrench of its stamp (lockstep).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Pending {
+    joints: JointSample,
+    until_ns: i64,
+}
+
+/// All the node remembers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct State {
+    pub ctl: ControllerState,
+    joints: JointMap,
+    wrench: Option<WrenchIn>,
+    pending: Option<Pending>,
+    /// Stamp of the first joint state: controller time 0 [ns].
+    t0_ns: Option<i64>,
+    /// Tip pose at start (the reference without a scenario).
+    start: Option<(Vector3<f64>, UnitQuaternion<f64>)>,
+    was_force_limited: bool,
+    prev_fault_count: u32,
+    fault_log: Throttle,
+    replay: Replay<Answer>,
+    /// Controller cycles run (replays not counted).
+    pub cycles: u64,
+}
+
+impl State {
+    pub fn new(p: &Params) -> State {
+        State {
+            ctl: p.controller.initial_state(),
+            joints: JointMap::default(),
+            wrench: None,
+            pending: None,
+            t0_ns: None,
+            start: None,
+            was_force_limited: false,
+            prev_fault_count: 0,
+            fault_log: Throttle::default(),
+            replay: Replay::default(),
+            cycles: 0,
+        }
+    }
+}
+
+/// The messages of one step (any may be absent). A new input topic is a new field.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Inbox<'a> {
+    pub joint_states: Option<&'a JointState>,
+    pub wrench: Option<&'a WrenchStamped>,
+}
+
+/// Things for the shell to log (each at most once per step).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Events {
+    /// `/joint_states` lacks this joint: the controller holds.
+    pub missing_joint: Option<&'static str>,
+    /// The start tip position was taken [m].
+    pub start_tip: Option<[f64; 3]>,
+    /// The force limit was just exceeded: measured force [N].
+    pub force_limited: Option<f64>,
+    /// Holding on a fault (a new fault event, or once per second): fault, events so far.
+    pub fault: Option<(Fault, u32)>,
+    /// The controller produced a non-finite torque: not published.
+    pub non_finite_torque: bool,
+}
+
+/// What one step produces.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Outbox {
+    /// `/naic/effort`: torque and the `/joint_states` stamp it answers.
+    pub effort: Option<([f64; 6], i64)>,
+    /// `/naic/params`.
+    pub report: Option<Report>,
+    /// Lockstep: a joint state waits for the wrench of its stamp; step again with each
+    /// `/wrench` sample until this wall time [ns], then with an empty inbox.
+    pub wait_until_ns: Option<i64>,
+    pub events: Events,
+}
+
+/// One step at wall time `now_ns`; `ws` is scratch memory only.
+pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspace) -> (State, Outbox) {
+    let mut s = *s;
+    let mut out = Outbox::default();
+    if let Some(w) = inbox.wrench {
+        let (f, t) = (&w.wrench.force, &w.wrench.torque);
+        s.wrench = Some(WrenchIn { w: [f.x, f.y, f.z, t.x, t.y, t.z], stamp_ns: w.header.stamp.to_nanos(), rx_ns: now_ns });
+    }
+    if let Some(js) = inbox.joint_states {
+        let stamp = js.header.stamp.to_nanos();
+        if let Some(a) = s.replay.get(stamp) {
+            // A repeated stamp: the same command, and in simulated time the same report
+            // (a paused or waiting driver keeps /naic/params alive for late subscribers).
+            out.effort = a.tau.map(|t| (t, stamp));
+            out.report = p.settings.time.is_sim().then_some(a.report);
+            s.pending = None;
+            return (s, out);
+        }
+        let (joints, layout) = s.joints.sample(js);
+        if let Layout::Missing(i) = layout {
+            out.events.missing_joint = Some(JOINT_NAMES[i]);
+        }
+        s.pending = Some(Pending { joints, until_ns: now_ns.saturating_add(PAIR_TIMEOUT_NS) });
+    }
+    let Some(pd) = s.pending else { return (s, out) };
+    let js_stamp = pd.joints.stamp_ns;
+    if p.settings.time.is_sim() && s.wrench.is_none_or(|w| w.stamp_ns < js_stamp) && now_ns < pd.until_ns {
+        // Simulated time: the driver publishes the wrench of a state just before its
+        // joint states; take that one (not the previous one) so the loop is deterministic.
+        out.wait_until_ns = Some(pd.until_ns);
+        return (s, out);
+    }
+    s.pending = None;
+    cycle(p, &mut s, &pd.joints, now_ns, ws, &mut out);
+    (s, out)
+}
+
+/// One controller cycle on the joint state `j`.
+fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Workspace, out: &mut Outbox) {
+    let time = p.settings.time;
+    let t0 = *s.t0_ns.get_or_insert(j.stamp_ns);
+    let sec = |ns: i64| (ns - t0) as f64 * 1e-9;
+    // Time base: simulated stamps with use_sim_time, else the wall clock (the clocks of
+    // other hosts may differ: staleness by arrival).
+    let t = sec(time.at(j.stamp_ns, now_ns));
+    let m = RawMeasurements {
+        t,
+        q: j.q,
+        dq: j.dq,
+        joints_stamp: t,
+        wrench: s.wrench.map_or([f64::NAN; 6], |w| w.w),
+        wrench_stamp: s.wrench.map_or(f64::NEG_INFINITY, |w| sec(time.at(w.stamp_ns, w.rx_ns))),
+    };
+    // Reference: hold the start orientation; the free-space target is the start position
+    // moved `approach_depth` along n (above force_limit the core backs off from it).
+    let model = p.controller.model();
+    if s.start.is_none() && finite(&j.q).is_some() {
+        dynamics::forward_kinematics(model, &mut ws.data, &Vector6::from(j.q));
+        let pose = ws.data.frame_se3(p.tip);
+        s.start = Some((pose.trans, UnitQuaternion::from_matrix(&pose.rot)));
+        out.events.start_tip = Some([pose.trans.x, pose.trans.y, pose.trans.z]);
+    }
+    let (p0, r0) = s.start.unwrap_or((Vector3::zeros(), UnitQuaternion::identity()));
+    let axis = p.controller.params().control.force_axis;
+    let mut n = Vector3::zeros();
+    n[axis.axis] = axis.sign;
+    let f_d = p.settings.desired_force;
+    let reference = match &p.reference {
+        // The scenario's trajectory; the force set point is the parameter.
+        Some(sr) => Reference { f_d, ..sr.at(m.t) },
+        None => Reference { p_d: p0 + n * p.settings.approach_depth, r_d: r0, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d },
+    };
+    let (next, o) = controller::step(&p.controller, &s.ctl, &m, &reference, ws);
+    s.ctl = next;
+    s.cycles += 1;
+    let st = o.status;
+    if st.force_limited && !s.was_force_limited {
+        out.events.force_limited = Some(st.f_ext);
+    }
+    s.was_force_limited = st.force_limited;
+    if let Some(f) = st.fault {
+        if st.fault_count != s.prev_fault_count {
+            s.fault_log.reset();
+        }
+        if s.fault_log.ready(now_ns) {
+            out.events.fault = Some((f, st.fault_count));
+        }
+    }
+    s.prev_fault_count = st.fault_count;
+    // Never publish a non-finite torque: skip the cycle (the driver holds after 20 ms).
+    let tau = finite(&o.tau);
+    out.effort = tau.map(|t| (t, j.stamp_ns));
+    out.events.non_finite_torque = tau.is_none();
+    let fault = match (st.fault, st.force_limited) {
+        (Some(f), _) => Some(FaultReport::Sensor(f)),
+        (None, true) => Some(FaultReport::ForceLimit(p.settings.force_limit)),
+        (None, false) => None,
+    };
+    let report = Report { stamp_ns: j.stamp_ns, status: st, fault };
+    s.replay.store(j.stamp_ns, Answer { tau, report });
+    out.report = Some(report);
+}
+
+/// Accepted parameters → the running node: the settings apply at once, the controller's
+/// parameters by the core's policy (`naic_core::pipeline::param_change`: the NAIC weights
+/// restart when the force law or impedance changed; any change opens a force-limit latch).
+/// `Err`: the core refused `cp`; the settings still apply, the controller is unchanged.
+pub fn set_params(p: &mut Params, s: &mut State, cp: ControllerParams, settings: Settings) -> Result<param_change::Outcome, String> {
+    p.settings = settings;
+    let (c, ctl, outcome) = param_change::apply(&p.controller, &s.ctl, cp)?;
+    p.controller = c;
+    s.ctl = ctl;
+    Ok(outcome)
+}
+
+#[cfg(test)]
+mod tests;

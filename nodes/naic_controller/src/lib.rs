@@ -1,0 +1,11 @@
+//! `naic_controller` as a library: the node's pure core ([`core`]), its ROS parameters
+//! ([`config`]) and the position reference ([`reference`]), used by the DDS shell
+//! (`main.rs`) and by anything that runs the node in process.
+
+pub mod config;
+pub mod core;
+pub mod reference;
+
+#[cfg(test)]
+#[global_allocator]
+static COUNTING: naic_ros::alloc_check::CountingAlloc = naic_ros::alloc_check::CountingAlloc;
