@@ -27,6 +27,8 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+import rostest_util as ru
+
 
 def children(pid):
     """{node binary name: pid} of the live child processes of `pid`."""
@@ -74,6 +76,7 @@ def main():
         (time.time(), stamp_ns(m.header), m.phase, m.measured_force, m.fault)), qos_profile_sensor_data)
 
     def spin(seconds, until=lambda: False):
+        ru.observer_priority()
         t0 = time.time()
         while time.time() - t0 < seconds:
             rclpy.spin_once(n, timeout_sec=0.01)
