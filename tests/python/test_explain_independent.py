@@ -30,6 +30,7 @@ from explain_gen import Case, check, generate, robots
 FULL = os.environ.get("NAIC_EXPLAIN_FULL") == "1"
 LONG = os.environ.get("NAIC_EXPLAIN_LONG") == "1"
 LOG = os.environ.get("NAIC_EXPLAIN_SWEEP_LOG")
+SHARD = os.environ.get("NAIC_EXPLAIN_SHARD")  # "i/n": run only every n-th case from the i-th (parallel sweeps)
 N_SEEDS = 20
 CURRENT = ("friction_asymmetry", "stribeck", "position_ripple", "payload", "torque_offset", "delay", "drift",
            "rotor_inertia", "viscous_nonlinearity")
@@ -101,8 +102,10 @@ def _seeds(cid):
 
 def _params():
     out = []
-    for cid, kw, dflt in GRID:
+    for k, (cid, kw, dflt) in enumerate(GRID):
         marks = []
+        if SHARD and k % int(SHARD.split("/")[1]) != int(SHARD.split("/")[0]):
+            marks.append(pytest.mark.skip(reason=f"another shard of NAIC_EXPLAIN_SHARD={SHARD}"))
         if "3600" in cid.replace("1h", "3600") and not LONG:
             marks.append(pytest.mark.skip(reason="one-hour recording: set NAIC_EXPLAIN_LONG=1"))
         elif not FULL and not dflt:

@@ -82,9 +82,11 @@ def analysable(t, dq, window_s=0.06, v_min=2e-3):
     regime = np.sign(dq) * moving
     ok = moving.copy()
     for j in range(dq.shape[1]):
-        change = np.flatnonzero(np.diff(regime[:, j]) != 0)
-        for c in t[change]:
-            ok[np.abs(t - c) < window_s / 2 + 1e-9, j] = False
+        c = t[1:][np.diff(regime[:, j]) != 0]
+        mark = np.zeros(len(t) + 1, int)  # +1 from the first sample within a window of a change, −1 after the last
+        np.add.at(mark, np.searchsorted(t, c - window_s / 2), 1)
+        np.add.at(mark, np.searchsorted(t, c + window_s / 2, side="right"), -1)
+        ok[np.cumsum(mark)[:-1] > 0, j] = False
     return ok
 
 
