@@ -90,8 +90,19 @@ for cid, kw, dflt in [
 GRID.append(("noise_only-1h-200Hz", dict(effect=None, excitation="stepped", duration_s=3600.0, rate_hz=200.0), False))
 GRID.append(("stribeck-1h-200Hz", dict(effect="stribeck", excitation="stepped", duration_s=3600.0, rate_hz=200.0), False))
 
-# Cases where the full sweep (20 seeds) missed the goal: id -> (reason with the numbers, a failing seed)
-KNOWN_FAILS = {}
+# Cases where the full sweep (20 seeds, main's naic at 2026-12-01) missed the goal:
+# id -> (reason with the numbers, a failing seed: the one the default run uses)
+KNOWN_FAILS = {
+    'delay-base': ("13/20 seeds pass (goal ≥ 19); named first 19/20, first instead {'rotor_inertia': 1}; delay_s out of tolerance in 6 (true→est: 0.01212→0.006996, 0.01893→0.008354, 0.01537→0.01281, 0.01968→0.009364)", 1),
+    'viscous_nonlinearity-base': ("8/20 seeds pass (goal ≥ 19); named first 8/20, first instead {'stribeck': 12}", 3),
+    'torque_offset-base': ("17/20 seeds pass (goal ≥ 19); named first 19/20, first instead {'friction_asymmetry': 1}; offset_nm out of tolerance in 2 (true→est: -0.6901→-0.6093, -0.4252→-0.5382)", 7),
+    'noise_only-multisine': ("noise only: a finding in 2/20 seeds ({'stribeck': 2}); goal ≤ 1", 1),
+    'noise_only-stepped': ("noise only: a finding in 5/20 seeds ({'stribeck': 5}); goal ≤ 1", 0),
+    'noise_only-tanh': ("noise only: a finding in 2/20 seeds ({'stribeck': 2}); goal ≤ 1", 1),
+    'noise_only-30s': ("noise only: a finding in 2/20 seeds ({'stribeck': 2}); goal ≤ 1", 1),
+    'noise_only-jitter_small': ("noise only, sample instants jittered ±25 % of a period (σ 8 %) and stamped as taken: rotor_inertia "
+                                "(negative, -0.03 to -0.16 kg·m² on joints 1-3) in 12 of the 12 seeds the sweep ran", 0),
+}
 
 
 def _seeds(cid):
