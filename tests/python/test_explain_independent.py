@@ -6,7 +6,7 @@ the stated tolerances (explain_gen/check.py), and noise-only data giving any fin
 20 seeds, across sample rates, excitations, friction shapes, Stribeck q_s, noise, durations and
 6 / 7 joints.
 
-Default run: one seed per case and a subset of the cases (about 2–3 minutes on 2 cores).
+Default run: one seed per case and a subset of the cases (27 s CPU; 3.4 min wall on a loaded 2-core VM).
 `NAIC_EXPLAIN_FULL=1`: every case with 20 seeds (seeds 0–19), `NAIC_EXPLAIN_LONG=1` adds the
 one-hour recordings, `NAIC_EXPLAIN_SWEEP_LOG=FILE` appends each case's per-seed results as
 JSON lines (`python -m explain_gen.table FILE` prints the table).
