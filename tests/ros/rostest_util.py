@@ -178,6 +178,16 @@ def observer_priority():
             continue  # the thread ended meanwhile
 
 
+def with_naic_msgs(env):
+    """`env` plus the naic_msgs overlay (PYTHONPATH, LD_LIBRARY_PATH prepended) for an rclpy
+    subprocess that imports naic_msgs."""
+    overlay = naic_msgs_env()
+    out = {**env, **overlay}
+    for k in ("PYTHONPATH", "LD_LIBRARY_PATH"):
+        out[k] = overlay[k] + os.pathsep + os.environ.get(k, "")
+    return out
+
+
 class RclpyDomain:
     """An rclpy context, node and executor on one domain (tests can use several domains).
     Its threads run at [`observer_priority`]."""

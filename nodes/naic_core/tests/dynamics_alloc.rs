@@ -96,3 +96,33 @@ fn dynamic_path_does_not_allocate_after_data_new() {
     });
     assert_eq!(n, 0, "the dynamic-size path allocated {n} times after Data::new");
 }
+
+#[test]
+fn reference_step_does_not_allocate() {
+    use naic_core::pipeline::control::ForceAxis;
+    use naic_core::pipeline::reference::{self, DesiredWrench, Inbox, ReferenceParams, ReferenceState, TargetPose};
+    use nalgebra::{UnitQuaternion, Vector3};
+    let p = ReferenceParams::new("base_link", ForceAxis { axis: 2, sign: -1.0 }, 10.0);
+    let start = Vector3::new(0.4, 0.0, 0.3);
+    let mut s = ReferenceState::new(start, UnitQuaternion::identity(), (start, UnitQuaternion::identity()));
+    let frames = ["base_link", "world"];
+    let n = allocations(|| {
+        for k in 0..1000 {
+            let t = k as f64 * 1e-3;
+            let inbox = Inbox {
+                target: (k % 20 == 0).then(|| TargetPose {
+                    frame_id: frames[k % 3 / 2],
+                    stamp: t,
+                    position: [0.4 + 0.01 * t, 0.0, 0.3],
+                    orientation: [0.0, 0.0, 0.0, 1.0],
+                }),
+                wrench: (k % 50 == 0).then(|| DesiredWrench { frame_id: "base_link", stamp: t, force: [0.0, 0.0, -5.0], torque: [0.0; 3] }),
+            };
+            let (next, out) = reference::step(&p, &s, &inbox, t);
+            s = std::hint::black_box(next);
+            std::hint::black_box(out);
+        }
+    });
+    assert_eq!(n, 0, "reference::step allocated {n} times in 1000 cycles");
+    assert!(s.p.x > 0.4, "the reference did not move: {:?}", s.p);
+}

@@ -6,6 +6,9 @@
 //!             median)     tool weight) RNEA → τ)    eq 5, §5.1)   saturation)
 //! ```
 //!
+//! [`reference::step`] makes the reference the controller follows from the
+//! user's `/naic/target_pose` and `/naic/desired_wrench` samples (checked,
+//! speed/acceleration limited, held when stale).
 //! [`controller::step`] runs the first three stages (the `naic_controller`
 //! node); [`feedforward::step`] and [`actuate::step`] the last two (the
 //! `friction_compensation` node and the drive guard). [`step`] composes all
@@ -19,6 +22,7 @@ pub mod estimate;
 pub mod feedforward;
 pub mod hold;
 pub mod param_change;
+pub mod reference;
 pub mod sense;
 
 use crate::friction::FrictionModel;

@@ -1,0 +1,68 @@
+"""examples/slide_with_force_profile.py against the node chain (lockstep, loopback only):
+rclpy slides the tool 10 cm at 10 mm/s with 5 → 10 → 5 N through /naic/target_pose and
+/naic/desired_wrench, records with `naic record` and draws with `naic plot`.
+
+Skips, naming the missing topics (rclpy graph API), while naic_controller does not
+subscribe the reference topics.
+"""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "ros"))
+import rostest_util as ru  # noqa: E402
+
+pytest.importorskip("rclpy")
+pytest.importorskip("pinocchio")
+
+EXAMPLE = ru.ROOT / "examples" / "slide_with_force_profile.py"
+TOPICS = ("/naic/target_pose", "/naic/desired_wrench")
+
+
+def test_example_slides_with_the_force_profile(tmp_path):
+    bins = ru.build_nodes()
+    domain = ru.fresh_domain(70)
+    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "naic_controller:scenario:=none"],
+                     ru.ros_env(domain))
+    try:
+        r = ru.RclpyDomain(domain, "naic_example_graph")
+        try:
+            assert r.spin_until(lambda: "naic_controller" in {n for n, _ in r.node.get_node_names_and_namespaces()}, 30), \
+                launch.output()[-3000:]
+            r.spin(2.0)  # the controller's subscriptions are announced after its node
+
+            def subscribed(t):
+                return "naic_controller" in {i.node_name for i in r.node.get_subscriptions_info_by_topic(t)}
+            missing = [t for t in TOPICS if not subscribed(t)]
+        finally:
+            r.close()
+        if missing:
+            pytest.skip(f"naic_controller does not subscribe {', '.join(missing)} yet (issue #16: the "
+                        "reference topics are wired into the controller node after the node-cores rewrite)")
+        env = ru.with_naic_msgs(ru.ros_env(domain))
+        out = subprocess.run([sys.executable, str(EXAMPLE), "--out", str(tmp_path), "--use-sim-time",
+                              "--naic", str(bins / "naic"), "--timeout", "400"],
+                             env=env, cwd=ru.ROOT, capture_output=True, text=True, timeout=600)
+    finally:
+        rc = launch.stop(timeout=15)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-3000:]
+    assert rc == 0, launch.output()[-3000:]
+    s = json.loads(out.stdout.strip().splitlines()[-1])
+    # 10 cm at 10 mm/s: 10 s of sliding, 1 kHz of /naic/params, in contact throughout.
+    assert s["slide_duration_s"] == pytest.approx(10.0, abs=0.1), s
+    assert s["slide_samples"] > 9000, s
+    assert s["phases_in_contact"] == s["slide_samples"], s
+    assert s["desired_forces_seen"] == [5.0, 10.0], s
+    assert not s["faults"], s
+    # The goal of issue #16: within ±0.5 N of the profile while sliding.
+    assert s["max_abs_force_error_n"] <= 0.5, s
+    # The bag is a real MCAP with the topics (read with the reference mcap reader), and the figure exists.
+    from mcap.reader import make_reader
+    with open(s["bag"], "rb") as f:
+        summary = make_reader(f).get_summary()
+    topics = {c.topic for c in summary.channels.values()}
+    assert {"/naic/params", "/joint_states", "/naic/desired_wrench"} <= topics, topics
+    assert os.path.getsize(s["figure"]) > 1000
