@@ -113,15 +113,21 @@ impl PlantState {
     }
 }
 
-/// Preallocated workspace.
+/// Preallocated workspace (scratch memory; results never depend on its contents).
 #[derive(Clone, Debug)]
 pub struct PlantWorkspace {
     data: Data6,
+    /// The friction torques and slopes at the last implicit step's solution,
+    /// reused when the next step starts from that bit-identical velocity.
+    friction: implicit::FrictionAt,
 }
 
 impl PlantWorkspace {
     pub fn new(p: &PlantParams) -> Self {
-        Self { data: Data6::try_new(&p.model).expect("PlantParams::new checked the model has 6 joints") }
+        Self {
+            data: Data6::try_new(&p.model).expect("PlantParams::new checked the model has 6 joints"),
+            friction: implicit::FrictionAt::default(),
+        }
     }
 }
 
@@ -294,7 +300,7 @@ fn integrate(
             let (_, _, jl, c) = tip_contact(p, ws, t, q, v);
             let rhs0 = tau + jl.transpose() * c.force - dynamics::bias_torques(&p.model, &mut ws.data, q, v);
             let m = *dynamics::crba(&p.model, &mut ws.data, q);
-            let sol = implicit::solve(p.friction.as_ref(), &m, v, &rhs0, h);
+            let sol = implicit::solve(p.friction.as_ref(), &m, v, &rhs0, h, &mut ws.friction);
             (q + sol.v1 * h, sol.v1, Some(sol.tau_f))
         }
     }
