@@ -95,6 +95,17 @@ def time_rollouts(m, d, q0, ctrl, steps, repeats, mujoco, rollout):
     return statistics.median(rates), sensordata[0]
 
 
+def pressing_force(m, sensors, mujoco, what):
+    """Tip contact force per step; the scenario is what it says: the tip presses on
+    the table in every step (else exit)."""
+    adr = m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "contact_force")]
+    force = np.linalg.norm(sensors[:, adr:adr + 3], axis=1)
+    if not np.all(force > 0):
+        sys.exit(f"mujoco_step_bench: the tip left the table{what} at step {int(np.argmin(force > 0))}; "
+                 f"use fewer --steps")
+    return force
+
+
 def main():
     ap = argparse.ArgumentParser(description="MuJoCo mj_step/s on the JK5 table model")
     ap.add_argument("--mjcf", default=str(DEFAULT_MJCF))
@@ -119,12 +130,7 @@ def main():
 
     q_press, tau_press = press_pose(m, d, mujoco)
     table_rate, sensors = time_rollouts(m, d, q_press, tau_press, args.steps, args.repeats, mujoco, rollout)
-    # the scenario is what it says: the tip presses on the table in every step
-    adr = m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "contact_force")]
-    force = np.linalg.norm(sensors[:, adr:adr + 3], axis=1)
-    if not np.all(force > 0):
-        sys.exit(f"mujoco_step_bench: the tip left the table at step {int(np.argmin(force > 0))}; "
-                 f"use fewer --steps")
+    force = pressing_force(m, sensors, mujoco, "")
 
     friction = {}
     if not args.no_friction:
@@ -137,11 +143,7 @@ def main():
                      f"damping {mf.dof_damping}")
         df = mujoco.MjData(mf)
         rate_f, sensors_f = time_rollouts(mf, df, q_press, tau_press, args.steps, args.repeats, mujoco, rollout)
-        adr_f = mf.sensor_adr[mujoco.mj_name2id(mf, mujoco.mjtObj.mjOBJ_SENSOR, "contact_force")]
-        force_f = np.linalg.norm(sensors_f[:, adr_f:adr_f + 3], axis=1)
-        if not np.all(force_f > 0):
-            sys.exit(f"mujoco_step_bench: with joint friction the tip left the table at step "
-                     f"{int(np.argmin(force_f > 0))}; use fewer --steps")
+        force_f = pressing_force(mf, sensors_f, mujoco, " with joint friction")
         friction = {
             "mj_step_friction_per_s": round(rate_f),
             "friction_contact_force_n": [round(float(force_f.min()), 2), round(float(force_f.max()), 2)],

@@ -208,6 +208,16 @@ mod tests {
             .collect()
     }
 
+    /// Table 1 friction of the JK5, tanh-smoothed (as the scenarios use it).
+    fn table1() -> FrictionModel {
+        FrictionParams::from_yaml_file(format!("{ROOT}/params/friction_jk5.yaml"))
+            .unwrap()
+            .to_model()
+            .unwrap()
+            .with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S })
+            .unwrap()
+    }
+
     /// |r(v1)| with the friction evaluated by the model itself, not by the solver.
     fn residual(f: &FrictionModel, m: &Matrix6<f64>, v: &Vector6<f64>, rhs0: &Vector6<f64>, h: f64, v1: &Vector6<f64>) -> f64 {
         let tau_f = Vector6::from_fn(|i, _| f.tau_f(i, v1[i]));
@@ -246,12 +256,7 @@ mod tests {
 
     #[test]
     fn the_reused_friction_changes_no_bit() {
-        let f = FrictionParams::from_yaml_file(format!("{ROOT}/params/friction_jk5.yaml"))
-            .unwrap()
-            .to_model()
-            .unwrap()
-            .with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S })
-            .unwrap();
+        let f = table1();
         let cs = cases(60);
         let mut last = FrictionAt::default();
         let mut reused = 0;
@@ -314,12 +319,7 @@ mod tests {
 
     #[test]
     fn table1_friction_converges_as_often_as_before_to_the_same_velocities() {
-        let f = FrictionParams::from_yaml_file(format!("{ROOT}/params/friction_jk5.yaml"))
-            .unwrap()
-            .to_model()
-            .unwrap()
-            .with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S })
-            .unwrap();
+        let f = table1();
         let cs = cases(600);
         let h = 1e-3;
         let (mut converged, mut converged_before, mut both, mut other_root, mut iterations) = (0, 0, 0, 0, 0);
