@@ -464,8 +464,10 @@ fn python() -> String {
 }
 
 /// Closed loop (plant + sensor + NAIC pipeline + friction feedforward, 1 ms,
-/// flat scenario in contact from t = 2.5 s) and MuJoCo's `mj_step` on the
-/// authors' MJCF measured in the same run.
+/// flat scenario in contact from t = 2.5 s) and MuJoCo's `mj_step` measured in
+/// the same run: on the authors' MJCF (the closed loop's reference) and on its
+/// variant with joint `frictionloss`/`damping` from the same friction file
+/// (`bench/reference/jk5_friction_mjcf.py`; the plant-with-friction's reference).
 pub fn bench(a: SimBenchArgs) -> CliResult {
     if a.steps == 0 || a.repeats == 0 {
         return Err(CliError::usage("--steps and --repeats must be at least 1"));
@@ -487,6 +489,7 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     let c_nf = PipelineController::new(Mode::Naic, &s, &model, None, tool.0, tool.1, &LoopSettings::default())
         .map_err(CliError::failure)?;
     let (rate_nf, _) = runner::bench_closed_loop(&s, &plant_nf, &c_nf, t_start, steps, a.repeats);
+    let load_start = load_average();
     let mut out = serde_json::json!({
         "steps_per_s": rate.closed_loop.round(),
         "frictionless_steps_per_s": rate_nf.closed_loop.round(),
@@ -501,8 +504,9 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     });
     if !a.no_reference {
         let script = default_path("bench/reference/mujoco_step_bench.py");
+        let friction_file = default_path("params/friction_jk5.yaml");
         let py = python();
-        match std::process::Command::new(&py).arg(&script).output() {
+        match std::process::Command::new(&py).arg(&script).arg("--friction").arg(&friction_file).output() {
             Ok(o) if o.status.success() => {
                 let text = String::from_utf8_lossy(&o.stdout);
                 match serde_json::from_str::<serde_json::Value>(text.lines().last().unwrap_or("")) {
@@ -513,6 +517,11 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
                             out["plant_only_ratio_vs_mj_step"] = serde_json::json!((rate.plant_only / mj * 100.0).round() / 100.0);
                             out["frictionless_plant_only_ratio_vs_mj_step"] =
                                 serde_json::json!((rate_nf.plant_only / mj * 100.0).round() / 100.0);
+                        }
+                        if let Some(mjf) = v.get("mj_step_friction_per_s").and_then(|x| x.as_f64()) {
+                            out["mujoco_mj_step_friction_per_s"] = serde_json::json!(mjf);
+                            out["plant_only_ratio_vs_mj_step_friction"] =
+                                serde_json::json!((rate.plant_only / mjf * 100.0).round() / 100.0);
                         }
                         out["mujoco_reference"] = v;
                     }
@@ -528,10 +537,16 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
             Err(e) => eprintln!("naic bench sim: cannot run {py} (set NAIC_PYTHON or NAIC_VENV): {e}"),
         }
     }
+    out["load_average_1min"] = serde_json::json!([load_start, load_average()]);
     if a.json {
         println!("{out}");
     } else {
         println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
     }
     Ok(())
+}
+
+/// The 1-minute load average (`/proc/loadavg`), to say how busy the machine was.
+fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
 }
