@@ -486,7 +486,8 @@ impl Default for AnalysisOptions {
     }
 }
 
-fn solve(g: &DMatrix<f64>, p: usize) -> (Vec<f64>, f64) {
+/// Least squares from the Gram matrix `g` of `[X y]` (p columns): (θ, SSR).
+pub(crate) fn solve(g: &DMatrix<f64>, p: usize) -> (Vec<f64>, f64) {
     // g is (p+1)x(p+1) Gram of [X y]
     // Columns are scaled to unit norm first, so the tiny ridge that keeps the solve
     // defined for collinear or empty columns is the same relative size for every column

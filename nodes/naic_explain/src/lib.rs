@@ -19,6 +19,7 @@
 //! "measured" data with hidden effects, for tests and benchmarks).
 
 pub mod analysis;
+pub mod baseline;
 pub mod catalogue;
 pub mod closed_loop;
 pub mod contact;
@@ -81,6 +82,8 @@ pub struct ExplainOptions {
     pub block_s: f64,
     /// Worker threads (joints are analysed in parallel).
     pub threads: usize,
+    /// Also fit the classical baseline ([`baseline`]) on time series.
+    pub baseline: bool,
 }
 
 impl Default for ExplainOptions {
@@ -94,6 +97,7 @@ impl Default for ExplainOptions {
             prepare: PrepareOptions::default(),
             analysis: AnalysisOptions::default(),
             block_s: 2.0,
+            baseline: true,
             threads: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(8),
         }
     }
@@ -119,6 +123,10 @@ pub struct Explained {
     pub first_pass: Vec<(usize, f64, f64, f64)>,
     /// `--reference`: its path and law (friction points only).
     pub reference: Option<(String, naic_core::friction::FrictionModel)>,
+    /// The classical identification on the same samples (time series without contact).
+    pub baseline: Option<baseline::Baseline>,
+    /// Names of the baseline's base columns (`link3.Izz`, …).
+    pub baseline_names: Vec<String>,
 }
 
 /// Nominal Stribeck shape per joint from a params file (symmetrised by averaging the directions).
@@ -467,6 +475,16 @@ pub fn explain_runs(
             js.append(&v);
         }
     }
+    // the classical identification on the same samples and folds (not for contact data:
+    // its measured torques carry the contact wrench)
+    let (baseline, baseline_names) = if axes.is_empty() && opts.baseline {
+        progress(0.3, "baseline: base-parameter least squares + viscous/Coulomb/offset friction");
+        let b = baseline::fit(&model, &prep, val_prep.as_ref(), &time_fold(&prep, opts.block_s, opts.analysis.folds), opts.analysis.folds);
+        let names = b.base_columns.iter().map(|&c| baseline::Baseline::column_name(&model, c)).collect();
+        (Some(b), names)
+    } else {
+        (None, vec![])
+    };
     let p0 = if axes.is_empty() { 0.3 } else { 0.5 };
     let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
     joints.extend(axes);
@@ -516,6 +534,8 @@ pub fn explain_runs(
         outliers: vec![],
         first_pass: vec![],
         reference: None,
+        baseline,
+        baseline_names,
     })
 }
 
@@ -642,6 +662,8 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
         outliers,
         first_pass,
         reference,
+        baseline: None,
+        baseline_names: vec![],
     })
 }
 

@@ -40,6 +40,10 @@ pub struct ExplainArgs {
     /// Output directory for report.json, report.md, plots and extended_params.yaml.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Savitzky–Golay window for velocity, acceleration and torque [s] (longer: less noise
+    /// in q̈, less bandwidth).
+    #[arg(long, default_value_t = 0.051, value_name = "S")]
+    window: f64,
     /// Nominal friction params YAML; its Stribeck shape is kept (directions averaged), its levels recalibrated.
     #[arg(long)]
     nominal: Option<PathBuf>,
@@ -142,6 +146,10 @@ pub fn run(a: ExplainArgs) -> CliResult {
         reference: a.reference.clone(),
         ..Default::default()
     };
+    if !(a.window > 0.0 && a.window.is_finite()) {
+        return Err(CliError::usage(format!("--window {}: give the filter window in seconds, e.g. 0.051", a.window)));
+    }
+    opts.prepare.window_s = a.window;
     if let Some(e) = &a.effects {
         opts.analysis.effects = parse_effects(e)?;
     }
@@ -177,8 +185,32 @@ pub fn run(a: ExplainArgs) -> CliResult {
         }
         println!("report in {}", out.display());
     }
+    print_explained(&v);
     print_lack_of_fit(&v);
     Ok(())
+}
+
+/// The share of the nominal residual explained, and the validation RMSEs (time series).
+fn print_explained(v: &serde_json::Value) {
+    let Some(total) = v["explained"]["all_joints"].as_f64() else { return };
+    if total < naic_explain::report::MOSTLY_LEFT {
+        println!(
+            "most of the residual is left: the findings explain {:.0} % of the nominal held-out mean square (all joints)",
+            100.0 * total
+        );
+    } else {
+        println!("the findings explain {:.0} % of the nominal held-out mean square (all joints)", 100.0 * total);
+    }
+    let row = |m: &serde_json::Map<String, serde_json::Value>, key: &str| {
+        m.values().map(|d| format!("{:.3}", d[key].as_f64().unwrap_or(f64::NAN))).collect::<Vec<_>>().join(" / ")
+    };
+    if let Some(val) = v["validation"].as_object() {
+        println!("validation-run RMSE per joint [N·m]: nominal {}; extended {}", row(val, "nominal_rmse"), row(val, "extended_rmse"));
+    }
+    if let Some(b) = v["baseline"]["joints"].as_object() {
+        let val = if v["validation"].is_object() { format!("; on the validation runs {}", row(b, "validation_rmse")) } else { String::new() };
+        println!("baseline (base parameters + viscous/Coulomb/offset friction) held-out RMSE per joint [N·m]: {}{val}", row(b, "heldout_rmse"));
+    }
 }
 
 /// One line on what the extended model leaves (friction points): the directions whose
