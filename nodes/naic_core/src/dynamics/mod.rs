@@ -12,6 +12,7 @@
 //! | [`crba`] | `M(q)`, full symmetric | Composite Rigid Body Algorithm (Featherstone §6.2, table 6.2) |
 //! | [`aba`] | `q̈ = M⁻¹(τ − C q̇ − G)` | Articulated Body Algorithm (Featherstone §7.3, table 7.1) |
 //! | [`cartesian_terms`] | `D`, `h` of the paper's eq. 3 | from `M`, `C q̇ + G`, `J`, `J̇ q̇` with a (damped) SVD inverse of `J` |
+//! | [`regressor::joint_torque_regressor`] | `Y(q, q̇, q̈)` with `τ = Y π`, 10 inertial parameters per body | RNEA's wrenches written linearly in π (Atkeson et al. 1986; Pinocchio `computeJointTorqueRegressor`) |
 //! | [`solve_damped`] | `J x = b` for a 6×6 `J` | the same damping rule ([`Damping`]); LU fast path away from singularities |
 //!
 //! All of them work in *local* joint frames like Pinocchio's default
@@ -48,6 +49,7 @@
 //! `model.nv()`, a `data` made for another model, or a `FrameId` from another
 //! model. Model input errors are caught at load time ([`crate::model::ModelError`]).
 
+pub mod regressor;
 pub mod spatial;
 
 mod cartesian;
