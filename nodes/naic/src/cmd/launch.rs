@@ -66,6 +66,10 @@ pub struct LaunchArgs {
     /// naic_controller:desired_force:=15.0
     #[arg(long = "param", short = 'p')]
     pub params: Vec<String>,
+    /// The three nodes in one process (one thread runs the control path, no DDS on it;
+    /// every topic still on DDS): see README, "One process or three".
+    #[arg(long)]
+    pub composed: bool,
 }
 
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -257,7 +261,7 @@ fn launch_params(a: &LaunchArgs) -> Result<BTreeMap<String, NodeLaunch>, CliErro
 }
 
 /// Command-line arguments of `node`: its params file, the launch overrides.
-fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliError> {
+pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliError> {
     let file = a.params_dir.join(format!("{node}.yaml"));
     if !file.is_file() {
         return Err(CliError::usage(format!(
@@ -440,6 +444,9 @@ pub fn run(a: LaunchArgs) -> CliResult {
     }
     // Check everything before starting anything.
     let launch = launch_params(&a)?;
+    if a.composed {
+        return super::composed::run(&a);
+    }
     let mut slots = vec![];
     for node in NODES {
         slots.push(Slot {

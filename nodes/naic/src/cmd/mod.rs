@@ -4,6 +4,7 @@ pub mod bag;
 pub mod bench;
 pub mod explain;
 pub mod bench_chain;
+pub mod composed;
 pub mod friction;
 pub mod launch;
 pub mod plot;
