@@ -71,3 +71,17 @@ def test_ros_composed_lockstep_equals_three_process_lockstep(bins):
     assert not diff, f"{len(diff)} of {len(common)} samples differ, first: {diff[:3]}"
     last = a[common[-1]]
     assert last[0] == 1 and abs(last[1] - 10.0) < 2.0 and last[2] < 1.0, last
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--respawn"], "--respawn with --composed"),
+    (["-p", "naic_controller:learning_rate:=-1"], "naic_controller: bad parameter: parameter 'learning_rate'"),
+    (["-p", "jk5_sim_driver:urdf:=nope.urdf"], "jk5_sim_driver: bad parameter: cannot load the robot model 'nope.urdf'"),
+])
+def test_ros_composed_refuses_bad_configurations_before_starting(bins, args, needle):
+    """Refused before any DDS participant exists, with exit 2 and the node named."""
+    import subprocess
+    out = subprocess.run([str(bins / "naic"), "launch", "--composed", *args], cwd=ru.ROOT, capture_output=True,
+                         text=True, timeout=60, env=ru.ros_env(ru.fresh_domain(195)))
+    assert out.returncode == 2 and needle in out.stderr, out.stderr
+    assert "started /" not in out.stderr, out.stderr
