@@ -229,7 +229,8 @@ pub fn parse_timeseries_csv(name: &str, text: &str) -> Result<TimeSeries, Explai
         find(want)?.ok_or_else(|| {
             ExplainError::input(format!(
                 "{name}: line {}: missing column `{want}`; a time series needs `t,q1..qN,dq1..dqN,tau1..tauN` \
-                 for the N joints of the URDF (s, rad, rad/s, N·m; tau = measured joint torque)",
+                 for the N joints of the URDF, e.g. `t,q1..q6,dq1..dq6,tau1..tau6` for the JK5 \
+                 (s, rad, rad/s, N·m; tau = measured joint torque)",
                 hl + 1
             ))
         })

@@ -239,7 +239,9 @@ def generate(case, workdir, arrays=False):
     urdf = arm.urdf
     if case.tip != "tip":  # the analysis gets a URDF whose tool frame has another name
         urdf = workdir / f"{case.arm}_{case.tip}.urdf"
-        urdf.write_text(arm.urdf.read_text().replace('name="tip"', f'name="{case.tip}"'))
+        # the link and every reference to it (a joint's <child link="tip"/>)
+        text = arm.urdf.read_text().replace('name="tip"', f'name="{case.tip}"').replace('link="tip"', f'link="{case.tip}"')
+        urdf.write_text(text)
     t = _instants(case, rng)
     exc = motion_mod.make(case.excitation, rng, arm.home, case.duration_s, arm.lower, arm.upper)
     fc, fv = _base_friction(arm, rng)

@@ -376,7 +376,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     } else if scheduled {
         // Approach: limit the speed along n near the expected surface.
         let a = &p.force_law.scheduled.approach;
-        let a_n = scheduled::approach_accel(a, sign * a.expected_surface, sign * u.p[ax], sign * u.x_dot[ax], sign * out.v[ax], imp.b_d[ax] / imp.m_d[ax]);
+        let a_n = scheduled::approach_accel(a, a.expected_surface.map_or(f64::NAN, |z| sign * z), sign * u.p[ax], sign * u.x_dot[ax], sign * out.v[ax], imp.b_d[ax] / imp.m_d[ax]);
         out.v[ax] = sign * a_n;
     }
     if scheduled {

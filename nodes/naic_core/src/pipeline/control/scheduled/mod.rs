@@ -51,8 +51,10 @@ use schedule::{Gains, ScheduleParams};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ApproachParams {
     /// Coordinate of the expected surface on the force axis, base frame [m]
-    /// (e.g. z = 0.08); NaN: no expected surface, the free-space impedance alone.
-    pub expected_surface: f64,
+    /// (e.g. z = 0.08); `None`: no expected surface, the free-space impedance alone.
+    /// (An `Option`, not NaN: the parameter-change policy compares parameters with `==`,
+    /// and a NaN would make every set look like a change.)
+    pub expected_surface: Option<f64>,
     /// Distance before the expected surface where the speed limit starts [m].
     pub band: f64,
     /// Approach speed along n inside the band [m/s].
@@ -61,7 +63,7 @@ pub struct ApproachParams {
 
 impl Default for ApproachParams {
     fn default() -> Self {
-        Self { expected_surface: f64::NAN, band: 0.01, speed: 0.01 }
+        Self { expected_surface: None, band: 0.01, speed: 0.01 }
     }
 }
 
@@ -102,8 +104,8 @@ impl ScheduledParams {
             ));
         }
         let a = &self.approach;
-        if !(a.expected_surface.is_nan() || a.expected_surface.is_finite()) {
-            return Err(format!("approach.expected_surface = {} must be finite (NaN: none)", a.expected_surface));
+        if let Some(z) = a.expected_surface.filter(|z| !z.is_finite()) {
+            return Err(format!("approach.expected_surface = {z} must be finite (or none)"));
         }
         if !(a.band >= 0.0 && a.band.is_finite() && a.speed > 0.0 && a.speed <= 0.5) {
             return Err(format!("approach band = {} m must be >= 0 and speed = {} m/s in (0, 0.5]", a.band, a.speed));
@@ -293,7 +295,7 @@ mod tests {
 
     #[test]
     fn approach_limits_the_speed_only_near_the_expected_surface() {
-        let a = ApproachParams { expected_surface: 0.0, band: 0.01, speed: 0.01 };
+        let a = ApproachParams { expected_surface: Some(0.0), band: 0.01, speed: 0.01 };
         assert_eq!(approach_accel(&a, 0.0, -0.05, 0.05, 3.0, 40.0), 3.0);
         let near = approach_accel(&a, 0.0, -0.005, 0.05, 3.0, 40.0);
         assert!((near - 40.0 * (0.01 - 0.05)).abs() < 1e-12);
