@@ -79,6 +79,16 @@ def fresh_domain(offset=0):
     raise RuntimeError("no free ROS domain id in 101..231 on this machine")
 
 
+def release_domains():
+    """Give back this process's domain claims (the lock files; called after every test by
+    tests/python/conftest.py). Without it a long pytest run holds one claim per test and
+    runs out of the 131 ids. A domain still in use by a longer-lived fixture stays safe:
+    its participants hold its discovery port, which `fresh_domain` checks."""
+    for f in _CLAIMED.values():
+        f.close()
+    _CLAIMED.clear()
+
+
 def ros_env(domain):
     env = dict(os.environ)
     env["ROS_DOMAIN_ID"] = str(domain)
