@@ -12,12 +12,17 @@ step is not counted; each repeat restarts from the same initial state):
         (tau = G(q0) - J_tip^T (0, 0, 10)). Open loop, so the tip slowly slides (table
         friction 0.1); over the 0.5 s rollout it stays pressing (contact force 1.6-17 N), and
         the script checks that the tip contact force is non-zero in every step.
+  friction ("mj_step_friction_per_s"): the table scenario on the same MJCF with joint
+        frictionloss/damping from --friction (default params/friction_jk5.yaml), made by
+        jk5_friction_mjcf.py (frictionloss = f_a, damping = f_v, directions averaged):
+        the reference for the plant with joint friction. Skipped with --no-friction.
   free ("mj_step_free_per_s"): contacts disabled, no torque, the arm swings under gravity
         from q = (0, 0.5, -1.0, 0.5, 0.3, 0) -- rigid-body dynamics only.
 Steps/s = steps per rollout / wall time; the printed figure is the median over repeats.
 
-Prints ONE JSON line: {"mj_step_per_s": ..., "mj_step_free_per_s": ..., ...}.
-Usage: python bench/reference/mujoco_step_bench.py [--mjcf PATH] [--steps N] [--repeats R]
+Prints ONE JSON line: {"mj_step_per_s": ..., "mj_step_friction_per_s": ..., "mj_step_free_per_s": ..., ...}.
+Usage: python bench/reference/mujoco_step_bench.py [--mjcf PATH] [--friction YAML | --no-friction]
+       [--steps N] [--repeats R]
 """
 import argparse
 import json
@@ -90,11 +95,25 @@ def time_rollouts(m, d, q0, ctrl, steps, repeats, mujoco, rollout):
     return statistics.median(rates), sensordata[0]
 
 
+def pressing_force(m, sensors, mujoco, what):
+    """Tip contact force per step; the scenario is what it says: the tip presses on
+    the table in every step (else exit)."""
+    adr = m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "contact_force")]
+    force = np.linalg.norm(sensors[:, adr:adr + 3], axis=1)
+    if not np.all(force > 0):
+        sys.exit(f"mujoco_step_bench: the tip left the table{what} at step {int(np.argmin(force > 0))}; "
+                 f"use fewer --steps")
+    return force
+
+
 def main():
     ap = argparse.ArgumentParser(description="MuJoCo mj_step/s on the JK5 table model")
     ap.add_argument("--mjcf", default=str(DEFAULT_MJCF))
     ap.add_argument("--steps", type=int, default=500, help="steps per rollout (default 500 = 0.5 s)")
     ap.add_argument("--repeats", type=int, default=100)
+    ap.add_argument("--friction", default=str(ROOT / "params" / "friction_jk5.yaml"),
+                    help="friction file for the joint-friction variant (default params/friction_jk5.yaml)")
+    ap.add_argument("--no-friction", action="store_true", help="skip the joint-friction variant")
     args = ap.parse_args()
     if args.steps < 1 or args.repeats < 1:
         sys.exit("mujoco_step_bench: --steps and --repeats must be positive")
@@ -111,23 +130,38 @@ def main():
 
     q_press, tau_press = press_pose(m, d, mujoco)
     table_rate, sensors = time_rollouts(m, d, q_press, tau_press, args.steps, args.repeats, mujoco, rollout)
-    # the scenario is what it says: the tip presses on the table in every step
-    adr = m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "contact_force")]
-    force = np.linalg.norm(sensors[:, adr:adr + 3], axis=1)
-    if not np.all(force > 0):
-        sys.exit(f"mujoco_step_bench: the tip left the table at step {int(np.argmin(force > 0))}; "
-                 f"use fewer --steps")
+    force = pressing_force(m, sensors, mujoco, "")
+
+    friction = {}
+    if not args.no_friction:
+        sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+        from jk5_friction_mjcf import friction_variant
+        text, levels = friction_variant(args.mjcf, args.friction)
+        mf = mujoco.MjModel.from_xml_string(text)
+        if not (np.all(mf.dof_frictionloss > 0) and np.all(mf.dof_damping > 0)):
+            sys.exit(f"mujoco_step_bench: the friction variant has frictionloss {mf.dof_frictionloss}, "
+                     f"damping {mf.dof_damping}")
+        df = mujoco.MjData(mf)
+        rate_f, sensors_f = time_rollouts(mf, df, q_press, tau_press, args.steps, args.repeats, mujoco, rollout)
+        force_f = pressing_force(mf, sensors_f, mujoco, " with joint friction")
+        friction = {
+            "mj_step_friction_per_s": round(rate_f),
+            "friction_contact_force_n": [round(float(force_f.min()), 2), round(float(force_f.max()), 2)],
+            "friction_levels": levels,
+        }
 
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
     free_rate, _ = time_rollouts(m, d, np.array([0.0, 0.5, -1.0, 0.5, 0.3, 0.0]), np.zeros(m.nu),
                                  args.steps, args.repeats, mujoco, rollout)
     print(json.dumps({
         "mj_step_per_s": round(table_rate),
+        **({"mj_step_friction_per_s": friction["mj_step_friction_per_s"]} if friction else {}),
         "mj_step_free_per_s": round(free_rate),
         "table_contact_force_n": [round(float(force.min()), 2), round(float(force.max()), 2)],
         "steps_per_rollout": args.steps,
         "repeats": args.repeats,
         "mujoco": mujoco.__version__,
+        **{k: v for k, v in friction.items() if k != "mj_step_friction_per_s"},
     }))
 
 

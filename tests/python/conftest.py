@@ -3,6 +3,7 @@ reference material and the release `naic` binary are."""
 import os
 import pathlib
 import subprocess
+import sys
 
 import pytest
 
@@ -28,3 +29,12 @@ def naic_bin():
     subprocess.run(["cargo", "build", "--release", "-q", "--bin", "naic"], cwd=ROOT, check=True)
     target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
     return target / "release" / "naic"
+
+
+@pytest.fixture(autouse=True)
+def _release_ros_domains():
+    """After each test, give back the DDS domain ids it claimed (tests/ros/rostest_util.py)."""
+    yield
+    ru = sys.modules.get("rostest_util")
+    if ru is not None and hasattr(ru, "release_domains"):
+        ru.release_domains()

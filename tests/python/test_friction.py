@@ -91,7 +91,10 @@ def test_per_direction_fit_matches_scipy_and_intervals(naic_bin, data_dir, tmp_p
                 jac[:, i] = (model(tp, v) - model(tm, v)) / (2 * h)
             jf = jac[:, free]
             dof = n - len(free)
-            cov = ssr / dof * np.linalg.inv(jf.T @ jf)
+            # pinv, not inv: with an unidentifiable parameter (f_b = f_a, q_s free) the
+            # Fisher matrix is singular, and inv returns garbage (numpy 2.4 returned zeros
+            # and 1e38 here); pinv equals inv where it is regular.
+            cov = ssr / dof * np.linalg.pinv(jf.T @ jf)
             tq = stats.t.ppf(0.975, dof)
             for c, i in enumerate(free):
                 ci = br["ci95"][NAMES[i]]

@@ -176,6 +176,7 @@ def test_ros_naic_params_received_by_rclpy_with_built_naic_msgs(suite):
         from rclpy.parameter import Parameter
         from rclpy.parameter_client import AsyncParameterClient
         rclpy.init()
+        import rostest_util; rostest_util.observer_priority()  # tests/ros on PYTHONPATH
         n = rclpy.create_node("naic_params_probe")
         got = []
         n.create_subscription(NaicParams, "/naic/params", got.append, 100)
@@ -194,7 +195,7 @@ def test_ros_naic_params_received_by_rclpy_with_built_naic_msgs(suite):
             fault_count=m.fault_count, measured=m.measured_force, e_f=m.e_f, set_ok=[r.successful for r in f.result().results])))
     """)
     env = {**ru.ros_env(suite["domain"]), **overlay}
-    env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
+    env["PYTHONPATH"] = os.pathsep.join([overlay["PYTHONPATH"], str(ru.ROOT / "tests/ros"), os.environ.get("PYTHONPATH", "")])
     env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
     out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
@@ -323,6 +324,7 @@ def test_ros_new_desired_force_is_followed(bins):
         from rclpy.parameter import Parameter
         from rclpy.parameter_client import AsyncParameterClient
         rclpy.init()
+        import rostest_util; rostest_util.observer_priority()  # tests/ros on PYTHONPATH
         n = rclpy.create_node("naic_force_probe")
         got = []
         n.create_subscription(NaicParams, "/naic/params", got.append, 1000)
@@ -354,7 +356,7 @@ def test_ros_new_desired_force_is_followed(bins):
         print(json.dumps(dict(before=before, trace=trace, ok=f.result().results[0].successful)))
     """)
     env = {**ru.ros_env(domain), **overlay}
-    env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
+    env["PYTHONPATH"] = os.pathsep.join([overlay["PYTHONPATH"], str(ru.ROOT / "tests/ros"), os.environ.get("PYTHONPATH", "")])
     env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
     try:
         out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=180)
@@ -389,6 +391,7 @@ def _lockstep_trace(bins, domain, until_s, extra=()):
         from rclpy.parameter_client import AsyncParameterClient
         from naic_msgs.msg import NaicParams
         rclpy.init()
+        import rostest_util; rostest_util.observer_priority()  # tests/ros on PYTHONPATH
         n = rclpy.create_node("naic_lockstep_probe")
         got = {{}}
         def cb(m):
@@ -415,7 +418,7 @@ def _lockstep_trace(bins, domain, until_s, extra=()):
         print(json.dumps({{str(k): v for k, v in got.items() if k <= {until_s} * 1e9}}))
     """)
     env = {**ru.ros_env(domain), **overlay}
-    env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
+    env["PYTHONPATH"] = os.pathsep.join([overlay["PYTHONPATH"], str(ru.ROOT / "tests/ros"), os.environ.get("PYTHONPATH", "")])
     env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
     launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true", *extra],
                      ru.ros_env(domain))

@@ -45,9 +45,13 @@ def run():
     drv = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file", "params/jk5_sim_driver.yaml",
                    "-p", f"rate:={RATE}"], ru.ros_env(domain))
     r = ru.RclpyDomain(domain, "safety_driver_test")
-    js = []  # (receive time, position, velocity, effort)
+    # (driver stamp: its wall clock when it published, position, velocity, effort). Judged
+    # by stamp, not by when this reader got the message: a reader slowed by a busy machine
+    # would otherwise count late states of one phase into the next.
+    js = []
     r.node.create_subscription(JointState, "/joint_states", lambda m: js.append(
-        (time.time(), list(m.position), list(m.velocity), list(m.effort))), 1000)
+        (m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, list(m.position), list(m.velocity), list(m.effort))),
+        1000)
     pub = r.node.create_publisher(Float64MultiArray, "/joint_effort_cmd", 10)
     params = AsyncParameterClient(r.node, "jk5_sim_driver")
     marks = {}
@@ -61,6 +65,23 @@ def run():
             nxt += 1.0 / RATE
             r.spin_until(lambda: time.time() >= nxt, 1.0)
 
+    def burst(data, expect, seconds, timeout=10.0):
+        """Publish `data` until the driver shows `expect` applied (a state stamped after the
+        first send), then `seconds` more: the burst reaches the arm for that long, or the
+        test fails here, naming what the driver applied instead."""
+        t0 = time.time()
+        reached = lambda: any(st >= t0 and e == expect for st, _, _, e in js)  # noqa: E731
+        nxt = t0
+        while not reached():
+            if time.time() - t0 > timeout:
+                seen = [e for st, _, _, e in js if st >= t0][-5:]
+                pytest.fail(f"precondition: the command {data} never reached the arm within {timeout} s "
+                            f"(expected effort {expect}; the driver applied {seen})\n{drv.output()[-2000:]}")
+            pub.publish(Float64MultiArray(data=data))
+            nxt += 1.0 / RATE
+            r.spin_until(lambda: time.time() >= nxt, 1.0)
+        send(data, seconds)
+
     def set_params(**kw):
         ps = [Parameter(k, value=v) for k, v in kw.items()]
         res = r.wait(params.set_parameters(ps)).results
@@ -71,14 +92,14 @@ def run():
         assert r.spin_until(lambda: len(js) > 50 and pub.get_subscription_count() > 0, 20), drv.output()[-2000:]
         r.spin(0.5)
         marks["burst"] = time.time()
-        send([1000.0] * 6, 0.1)
+        burst([1000.0] * 6, URDF_LIMITS, 0.1)
         marks["burst_end"] = time.time()
         r.spin(2.0)
         marks["rest"] = time.time()
         # Rejected commands hold at once: with a 0.5 s watchdog, a driver that kept the old
         # command would show it for 0.5 s after the first bad one.
         set_params(command_timeout=0.5)
-        send([20.0] * 6, 0.1)
+        burst([20.0] * 6, [20.0] * 6, 0.1)
         marks["bad"] = time.time()
         for bad in ([float("nan")] * 6, [1.0, 2.0, 3.0], [0.0, 0.0, float("inf"), 0.0, 0.0, 0.0]):
             send(bad, 0.1)
@@ -86,7 +107,7 @@ def run():
         r.spin(0.3)
         set_params(command_timeout=0.02, effort_limit=TIGHT)
         marks["tight"] = time.time()
-        send([1000.0, -1000.0, 1000.0, -1000.0, 1000.0, -1000.0], 0.05)
+        burst([1000.0, -1000.0, 1000.0, -1000.0, 1000.0, -1000.0], [60.0, -60.0, 60.0, -10.0, 10.0, -10.0], 0.05)
         marks["tight_burst_end"] = time.time()
         r.spin(1.0)
         marks["end"] = time.time()

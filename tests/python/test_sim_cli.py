@@ -22,7 +22,7 @@ def test_sim_writes_metrics_csv_and_svg(naic_bin, root, tmp_path):
     assert r.returncode == 0, r.stderr
     m = json.loads((out / "metrics.json").read_text())
     assert m["scenario"] == "flat"
-    assert set(m["controllers"]) == {"naic", "aic", "fixed"}
+    assert set(m["controllers"]) == {"naic", "aic", "fixed", "scheduled"}
     for name, c in m["controllers"].items():
         assert set(c) == {"contact_time_s", "phases"}
         assert 0.5 < c["contact_time_s"] < 3.0

@@ -14,6 +14,8 @@ from naic_msgs.msg import NaicParams
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+import rostest_util as ru  # this directory: observer_priority
+
 Q = [0.0, 0.5, -1.0, 0.0, 1.0, 0.0]
 RATE = 250.0
 
@@ -31,6 +33,7 @@ def main():
         rclpy.spin_once(n, timeout_sec=0.05)
 
     def run(seconds, q=Q, fz=-4.16, send_wrench=True):
+        ru.observer_priority()  # this probe plays the driver: its 250 Hz must not starve
         js = JointState(name=[f"joint{i}" for i in range(1, 7)], position=q, velocity=[0.0] * 6, effort=[0.0] * 6)
         w = WrenchStamped()
         w.header.frame_id = "ft_sensor"

@@ -28,11 +28,65 @@ def build_nodes():
     return target_dir()
 
 
+# Domains this process has claimed: {domain: open lock file}. Kept for the life of the
+# process (a module fixture's domain is still in use while later tests run); 131 ids are
+# enough for the few dozen a test session takes, and for several sessions at once.
+_CLAIMED = {}
+
+
+def _domain_port_free(domain):
+    """True when no DDS participant of this machine uses `domain`'s first unicast
+    discovery port (RTPS default mapping: 7400 + 250 d + 10; participant 0 takes it, the
+    next participants take the ports above)."""
+    import socket
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        s.bind(("127.0.0.1", 7410 + 250 * domain))
+        return True
+    except OSError:
+        return False
+    finally:
+        s.close()
+
+
 def fresh_domain(offset=0):
-    """A domain id unlikely to be used by anyone else right now: 101..231 (ids up to 232
-    fit the RTPS port mapping; low ids are what people use by hand)."""
+    """A domain id no one else on this machine uses right now: 101..231 (ids up to 232 fit
+    the RTPS port mapping; low ids are what people use by hand). Concurrent test runs (other
+    checkouts, CI jobs) each claim their domains with a lock file, and a domain whose
+    discovery port is taken (any DDS participant, ours or not) is skipped: two runs on one
+    domain see each other's nodes (a second /naic_controller answering parameter requests,
+    another chain's commands reaching a lone driver) and fail in ways that look like load."""
+    import fcntl
+    import tempfile
     base = random.Random(os.getpid() * 7919 + time.time_ns()).randint(0, 130)
-    return 101 + (base + offset) % 131
+    lock_dir = pathlib.Path(tempfile.gettempdir()) / "naic-ros-domains"
+    lock_dir.mkdir(exist_ok=True)
+    for k in range(131):
+        d = 101 + (base + offset + k) % 131
+        if d in _CLAIMED:
+            continue
+        f = open(lock_dir / f"{d}.lock", "w")
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.close()
+            continue
+        if not _domain_port_free(d):
+            f.close()
+            continue
+        _CLAIMED[d] = f
+        return d
+    raise RuntimeError("no free ROS domain id in 101..231 on this machine")
+
+
+def release_domains():
+    """Give back this process's domain claims (the lock files; called after every test by
+    tests/python/conftest.py). Without it a long pytest run holds one claim per test and
+    runs out of the 131 ids. A domain still in use by a longer-lived fixture stays safe:
+    its participants hold its discovery port, which `fresh_domain` checks."""
+    for f in _CLAIMED.values():
+        f.close()
+    _CLAIMED.clear()
 
 
 def ros_env(domain):
@@ -99,6 +153,41 @@ def naic_msgs_env():
     return env
 
 
+OBSERVER_PRIORITY = 10  # SCHED_RR, below the nodes' SCHED_FIFO 50 (params/ realtime_priority)
+_warned_priority = []
+
+
+def observer_priority():
+    """Run every thread of this process (the rclpy observer: its executor and Fast DDS's
+    threads) at SCHED_RR OBSERVER_PRIORITY, with SCHED_RESET_ON_FORK so processes it starts
+    (cargo, the nodes, naic) and threads created later start with normal scheduling (call
+    again after creating a context).
+
+    Why: on a busy machine a normal-priority Python observer gets a small share of a CPU
+    (Linux autogroups split the CPUs between sessions, so nice does not help): it then
+    receives a few hundred of the 1 kHz messages, publishes its commands late and judges
+    the nodes by what it failed to read. The nodes run real-time; their observers must not
+    starve. Without CAP_SYS_NICE this warns once and runs normally."""
+    policy = os.SCHED_RR | getattr(os, "SCHED_RESET_ON_FORK", 0x40000000)
+    param = os.sched_param(OBSERVER_PRIORITY)
+    try:
+        tids = [int(t) for t in os.listdir("/proc/self/task")]
+    except OSError:
+        tids = [0]
+    for tid in tids:
+        try:
+            if os.sched_getscheduler(tid) & ~0x40000000 != os.SCHED_RR:
+                os.sched_setscheduler(tid, policy, param)
+        except PermissionError as e:
+            if not _warned_priority:
+                _warned_priority.append(e)
+                print(f"rostest_util: cannot raise the rclpy observer to SCHED_RR {OBSERVER_PRIORITY} ({e}); "
+                      "on a busy machine it may miss messages", file=sys.stderr)
+            return
+        except OSError:
+            continue  # the thread ended meanwhile
+
+
 def with_naic_msgs(env):
     """`env` plus the naic_msgs overlay (PYTHONPATH, LD_LIBRARY_PATH prepended) for an rclpy
     subprocess that imports naic_msgs."""
@@ -110,7 +199,8 @@ def with_naic_msgs(env):
 
 
 class RclpyDomain:
-    """An rclpy context, node and executor on one domain (tests can use several domains)."""
+    """An rclpy context, node and executor on one domain (tests can use several domains).
+    Its threads run at [`observer_priority`]."""
 
     def __init__(self, domain, name="naic_test"):
         import rclpy
@@ -122,13 +212,16 @@ class RclpyDomain:
         self.node = rclpy.create_node(name, context=self.ctx)
         self.ex = SingleThreadedExecutor(context=self.ctx)
         self.ex.add_node(self.node)
+        observer_priority()
 
     def spin(self, seconds):
+        observer_priority()
         t0 = time.time()
         while time.time() - t0 < seconds:
             self.ex.spin_once(timeout_sec=0.01)
 
     def spin_until(self, cond, timeout):
+        observer_priority()  # threads Fast DDS started since
         t0 = time.time()
         while time.time() - t0 < timeout:
             self.ex.spin_once(timeout_sec=0.01)

@@ -9,6 +9,8 @@ private ROS_DOMAIN_ID.
 
     /tmp/venv/bin/python tests/soak/soak.py --minutes 10 --subscribers 5 --out runs/soak.json
 
+`--composed` soaks `naic launch --composed` instead (the three nodes in one process).
+
 CI runs only a 20 s smoke version (tests/python/test_safety_soak.py).
 """
 import argparse
@@ -74,12 +76,13 @@ def slope_per_min(samples):
     return 60.0 * sum((t - mt) * (r - mr) for t, r in samples) / den if den > 0 else None
 
 
-def soak(seconds, subscribers, sample_every=5.0, warmup=5.0, log=sys.stderr):
+def soak(seconds, subscribers, sample_every=5.0, warmup=5.0, log=sys.stderr, composed=False):
+    """`composed`: the three nodes in one process (`naic launch --composed`)."""
     bins = ru.build_nodes()
     domain = ru.fresh_domain(17)
     env = ru.ros_env(domain)
     report = pathlib.Path(tempfile.mkdtemp(prefix="naic_soak_")) / "latency.json"
-    nodes = {
+    nodes = {} if composed else {
         "naic_controller": ru.Proc([str(bins / "naic_controller"), "--ros-args", "--params-file",
                                     "params/naic_controller.yaml"], env),
         "friction_compensation": ru.Proc([str(bins / "friction_compensation"), "--ros-args", "--params-file",
@@ -89,9 +92,14 @@ def soak(seconds, subscribers, sample_every=5.0, warmup=5.0, log=sys.stderr):
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                              preexec_fn=ru._die_with_parent) for i in range(subscribers)]
     time.sleep(2.0)  # let the controller and subscribers come up before the first state
-    nodes["jk5_sim_driver"] = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file",
-                                       "params/jk5_sim_driver.yaml", "-p", f"latency_report:={report}",
-                                       "-p", f"latency_warmup:={warmup}"], env)
+    if composed:
+        nodes["naic_composed"] = ru.Proc([str(bins / "naic"), "launch", "--composed", "-p",
+                                          f"jk5_sim_driver:latency_report:={report}", "-p",
+                                          f"jk5_sim_driver:latency_warmup:={warmup}"], env)
+    else:
+        nodes["jk5_sim_driver"] = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file",
+                                           "params/jk5_sim_driver.yaml", "-p", f"latency_report:={report}",
+                                           "-p", f"latency_warmup:={warmup}"], env)
     rss = {name: [] for name in nodes}
     t0 = time.time()
     died = {}
@@ -106,9 +114,8 @@ def soak(seconds, subscribers, sample_every=5.0, warmup=5.0, log=sys.stderr):
             if r is not None:
                 rss[name].append((t, r))
         print(f"soak t={t:6.0f}s rss_kib={ {k: v[-1][1] if v else None for k, v in rss.items()} }", file=log, flush=True)
-    codes = {name: p.stop(timeout=15) for name, p in [("jk5_sim_driver", nodes["jk5_sim_driver"]),
-                                                      ("naic_controller", nodes["naic_controller"]),
-                                                      ("friction_compensation", nodes["friction_compensation"])]}
+    stop_order = ["naic_composed"] if composed else ["jk5_sim_driver", "naic_controller", "friction_compensation"]
+    codes = {name: nodes[name].stop(timeout=15) for name in stop_order}
     sub_out = []
     for s in subs:
         s.send_signal(signal.SIGINT)
@@ -136,6 +143,7 @@ def soak(seconds, subscribers, sample_every=5.0, warmup=5.0, log=sys.stderr):
     return {
         "duration_s": round(time.time() - t0, 1),
         "subscribers": subscribers,
+        "composed": composed,
         "domain": domain,
         "chain": latency,
         "memory": mem,
@@ -163,11 +171,12 @@ def main():
     ap.add_argument("--subscribers", type=int, default=5)
     ap.add_argument("--sample-every", type=float, default=5.0, help="RSS sampling period [s]")
     ap.add_argument("--out", type=pathlib.Path, help="also write the JSON here")
+    ap.add_argument("--composed", action="store_true", help="the three nodes in one process (naic launch --composed)")
     a = ap.parse_args()
     if not (a.minutes > 0 and 0 <= a.subscribers <= 50 and a.sample_every > 0):
         print("soak: error: --minutes must be > 0, --subscribers in 0..=50, --sample-every > 0", file=sys.stderr)
         return 2
-    res, _ = soak(a.minutes * 60.0, a.subscribers, a.sample_every)
+    res, _ = soak(a.minutes * 60.0, a.subscribers, a.sample_every, composed=a.composed)
     line = json.dumps(res)
     print(line)
     if a.out:

@@ -4,6 +4,7 @@
 
 pub mod config;
 pub mod core;
+pub mod shell;
 
 #[cfg(test)]
 #[global_allocator]

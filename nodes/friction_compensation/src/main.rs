@@ -9,23 +9,19 @@
 
 use std::time::Duration;
 
-use friction_compensation::{config, core};
-use naic_core::{model::Model, pipeline::sense::SenseParams};
+use friction_compensation::{config, core, shell::{self, Setup, NODE}};
 use naic_ros::{
     alloc_check,
     msgs::{self, Float64MultiArray, JointState},
     node::{QOS_PUB, QOS_SUB},
-    params::{effort_limit_within, EFFORT_CAP},
     time::wall_ns,
     wait::{take_until, Waiter},
-    ParamView, RosArgs, RosError, RosNode,
+    RosArgs, RosError, RosNode,
 };
 
 #[cfg(debug_assertions)]
 #[global_allocator]
 static COUNTING: alloc_check::CountingAlloc = alloc_check::CountingAlloc;
-
-const NODE: &str = "friction_compensation";
 
 fn main() {
     naic_ros::run_main(NODE, run)
@@ -34,22 +30,9 @@ fn main() {
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
     let args = RosArgs::parse(std::env::args().skip(1))?;
-    let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
-    let robot = Model::from_urdf_file(&urdf)
-        .map_err(|e| RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
-    let l = robot.effort_limits();
-    if l.len() != 6 {
-        return Err(RosError::Param(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
-    }
-    let effort_limit: [f64; 6] = std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i].min(EFFORT_CAP) } else { EFFORT_CAP });
-    // The velocity filter: the controller's sense stage (joint limits of the model).
-    let sense = SenseParams { wrench_max: [f64::INFINITY; 6], joint_timeout: 1.0, wrench_timeout: 1.0, ..SenseParams::for_model(&robot) };
-    // A friction file that does not load, or a saturation above the URDF's, is rejected like any bad value.
-    let check: naic_ros::params::SetCheck = Box::new(move |p: &ParamView| {
-        effort_limit_within(p, &effort_limit)?;
-        config::load_model(p).map(|_| ())
-    });
-    let mut node = RosNode::new(args, NODE, config::specs(&effort_limit), Some(check))?;
+    let setup = Setup::from_args(&args)?;
+    let sense = setup.sense;
+    let mut node = RosNode::new(args, NODE, setup.specs(), Some(setup.check()))?;
     let mut cmd_sub = node.subscription::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     let js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let cmd_pub = node.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB)?;
@@ -63,11 +46,7 @@ fn run() -> Result<(), RosError> {
     let mut step = |p: &core::Params, s: &mut core::State, inbox: core::Inbox| -> core::Outbox {
         let (next, out) = alloc_check::check(NODE, &mut warned, || core::step(p, s, &inbox, wall_ns()));
         *s = next;
-        match out.event {
-            Some(core::Event::BadCommand(e)) => log::warn!("ignoring /naic/effort: {e}"),
-            Some(core::Event::MissingJoint(j)) => log::error!("/joint_states has no '{j}': no friction feedforward"),
-            None => {}
-        }
+        shell::log_event(&out.event);
         out
     };
 
@@ -75,13 +54,7 @@ fn run() -> Result<(), RosError> {
         // Wait first, then take the parameters: a value accepted while waiting applies to
         // the data that woke us ("takes effect at the next cycle").
         waiter.wait(Some(Duration::from_millis(100)));
-        if node.params.generation() != gen {
-            gen = node.params.generation();
-            match node.params.with(|v| config::core_params(v, &sense)) {
-                Ok(np) => p = np,
-                Err(e) => log::error!("{e}"),
-            }
-        }
+        shell::reload(&node, &mut gen, &sense, &mut p);
         while let Ok(Some((js, _))) = js_sub.take() {
             step(&p, &mut s, core::Inbox { joint_states: Some(&js), ..Default::default() });
         }

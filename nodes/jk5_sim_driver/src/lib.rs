@@ -7,6 +7,7 @@ pub mod config;
 pub mod core;
 pub mod latency;
 pub mod plant;
+pub mod shell;
 pub mod sim_plant;
 
 #[cfg(test)]

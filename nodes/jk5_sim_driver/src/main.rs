@@ -39,24 +39,22 @@ use std::{
 
 use jk5_sim_driver::{
     config,
-    core::{self, Commands, Hold},
+    core::{self, Commands},
     plant::Plant,
-    sim_plant::make_plant,
+    shell::{self, monotonic_ns, sim_stamp_ns, sim_stamps, sleep_until, Setup, StateMsgs, NODE},
 };
 use naic_ros::{
     alloc_check,
-    msgs::{self, Clock, Float64MultiArray, Header, JointState, WrenchStamped},
+    msgs::{self, Clock, Float64MultiArray, JointState, WrenchStamped},
     node::{Pub, QOS_PUB, QOS_SUB_RELIABLE},
     time::{time_from_ns, wall_ns},
     wait::Waiter,
-    ParamTable, ParamView, RosArgs, RosError, RosNode,
+    RosArgs, RosError, RosNode,
 };
 
 #[cfg(debug_assertions)]
 #[global_allocator]
 static COUNTING: alloc_check::CountingAlloc = alloc_check::CountingAlloc;
-
-const NODE: &str = "jk5_sim_driver";
 
 /// The newest command, shared with the receive thread (which wakes the lockstep wait).
 struct Shared {
@@ -72,8 +70,7 @@ impl Shared {
 
 /// The state messages, preallocated; published by value (ros2-client), one clone each.
 struct StatePub {
-    js: JointState,
-    w: WrenchStamped,
+    m: StateMsgs,
     js_pub: Pub<JointState>,
     w_pub: Pub<WrenchStamped>,
     clock_pub: Pub<Clock>,
@@ -82,21 +79,11 @@ struct StatePub {
 impl StatePub {
     /// Publish joint states, wrench and clock; returns the stamp used [ns].
     fn publish(&mut self, plant: &impl Plant, sim_stamps: bool) -> i64 {
-        let sim_ns = sim_stamp_ns(plant);
-        let stamp_ns = if sim_stamps { sim_ns } else { wall_ns() };
-        let (q, v, t) = plant.joints();
-        self.js.header.stamp = time_from_ns(stamp_ns);
-        self.js.position.copy_from_slice(&q);
-        self.js.velocity.copy_from_slice(&v);
-        self.js.effort.copy_from_slice(&t);
-        let w = plant.wrench();
-        self.w.header.stamp = time_from_ns(stamp_ns);
-        (self.w.wrench.force.x, self.w.wrench.force.y, self.w.wrench.force.z) = (w[0], w[1], w[2]);
-        (self.w.wrench.torque.x, self.w.wrench.torque.y, self.w.wrench.torque.z) = (w[3], w[4], w[5]);
+        let stamp_ns = self.m.fill(plant, sim_stamps);
         // Wrench first: the controller cycles on /joint_states and uses the newest wrench.
-        let _ = self.w_pub.publish(self.w.clone());
-        let _ = self.js_pub.publish(self.js.clone());
-        let _ = self.clock_pub.publish(Clock { clock: time_from_ns(sim_ns) });
+        let _ = self.w_pub.publish(self.m.w.clone());
+        let _ = self.js_pub.publish(self.m.js.clone());
+        let _ = self.clock_pub.publish(Clock { clock: time_from_ns(sim_stamp_ns(plant)) });
         stamp_ns
     }
 }
@@ -108,18 +95,12 @@ fn main() {
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
     let args = RosArgs::parse(std::env::args().skip(1))?;
-    // Files first, before any DDS participant exists: the robot model (effort limits), then
-    // the whole plant (model, scenario, friction file) from the start-up parameters.
-    let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
-    let urdf_effort = config::urdf_effort_limits(&urdf).map_err(RosError::Param)?;
-    let mut plant = ParamTable::new(config::specs(&urdf_effort), Some(config::check(urdf_effort)), &args.overrides(NODE)?)
-        .map_err(RosError::Param)?
-        .with(make_plant)
-        .map_err(RosError::Param)?;
-    let mut node = RosNode::new(args, NODE, config::specs(&urdf_effort), Some(config::check(urdf_effort)))?;
+    // Files first, before any DDS participant exists.
+    let setup = Setup::from_args(&args)?;
+    let mut node = RosNode::new(args, NODE, setup.specs(), Some(setup.check()))?;
+    let mut plant = setup.plant;
     let mut out = StatePub {
-        js: JointState { name: msgs::JOINT_NAMES.iter().map(|s| s.to_string()).collect(), position: vec![0.0; 6], velocity: vec![0.0; 6], effort: vec![0.0; 6], ..Default::default() },
-        w: WrenchStamped { header: Header { frame_id: "ft_sensor".into(), ..Default::default() }, ..Default::default() },
+        m: StateMsgs::default(),
         js_pub: node.publisher("joint_states", msgs::JOINT_STATE, QOS_PUB)?,
         w_pub: node.publisher("wrench", msgs::WRENCH_STAMPED, QOS_PUB)?,
         clock_pub: node.publisher("/clock", msgs::CLOCK, QOS_PUB)?,
@@ -201,62 +182,14 @@ fn run() -> Result<(), RosError> {
         let cmd = shared.lock().view();
         let (n, o) = alloc_check::check(NODE, &mut warned, || core::step(&p, &s, &cmd, wall_ns(), &mut plant));
         s = n;
-        match o.events.hold {
-            Some(Hold::Timeout) => log::warn!("no /joint_effort_cmd for {} ms: holding the arm", p.command_timeout_ns / 1_000_000),
-            Some(Hold::Rejected) => log::warn!("last /joint_effort_cmd rejected: holding the arm"),
-            None if o.events.released => log::info!("commands resumed; releasing the hold"),
-            None => {}
-        }
-        if let Some(c) = o.events.saturated {
-            log::warn!("torque saturated at effort_limit {:?} N m (joints {c:?}; {} cycles so far)", p.effort_limit, s.saturated_cycles);
-        }
+        shell::log_events(&o, &p, &s);
         // Lockstep: announce the state before publishing it, so its command is never early.
         shared.lock().expect(p.lockstep.then(|| sim_stamp_ns(&plant)));
         s.last_published_stamp = Some(out.publish(&plant, p.lockstep || sim));
     }
 
     // Report the chain latency.
-    let c = shared.lock();
-    let recorded_ns = (wall_ns() - c.record_after_ns).max(0);
-    if c.stale_dropped > 0 {
-        log::info!("lockstep: {} commands computed from an earlier state were dropped", c.stale_dropped);
-    }
-    let mut report = config::latency_report(&c.latency, s.missed, s.cycles, recorded_ns, c.rejected);
-    report["saturated_cycles"] = s.saturated_cycles.into();
     let path = node.params.with(|p| p.str("latency_report").to_string());
-    if !path.is_empty() {
-        if let Err(e) = std::fs::write(&path, report.to_string()) {
-            log::error!("cannot write latency report {path}: {e}");
-        }
-    }
-    log::info!("stopped after {} cycles; chain latency {report}", s.cycles);
+    shell::write_report(&shared.lock(), &s, &path, serde_json::json!({}));
     Ok(())
-}
-
-/// Stamps are simulated time.
-fn sim_stamps(p: &ParamView) -> bool {
-    p.bool("lockstep") || p.bool("use_sim_time")
-}
-
-/// The simulated-time stamp of the plant's current state [ns].
-fn sim_stamp_ns(plant: &impl Plant) -> i64 {
-    (plant.time() * 1e9).round() as i64
-}
-
-fn monotonic_ns() -> i64 {
-    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-    // SAFETY: valid pointer to a timespec.
-    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-    ts.tv_sec as i64 * 1_000_000_000 + ts.tv_nsec as i64
-}
-
-fn sleep_until(deadline_ns: i64) {
-    let ts = libc::timespec {
-        tv_sec: (deadline_ns / 1_000_000_000) as libc::time_t,
-        tv_nsec: (deadline_ns % 1_000_000_000) as libc::c_long,
-    };
-    // SAFETY: absolute sleep on CLOCK_MONOTONIC with a valid timespec; EINTR just returns early.
-    unsafe {
-        libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut());
-    }
 }

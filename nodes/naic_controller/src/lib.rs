@@ -5,6 +5,7 @@
 pub mod config;
 pub mod core;
 pub mod reference;
+pub mod shell;
 
 #[cfg(test)]
 #[global_allocator]

@@ -7,27 +7,21 @@
 //! core hold the arm; above `force_limit` it backs off and stays off (latched) until any
 //! parameter is set. This shell only moves messages.
 
-use std::{fmt::Write, time::Duration};
+use std::time::Duration;
 
-use naic_controller::{config, core, reference::ScenarioReference};
-use naic_core::{
-    model::Model,
-    pipeline::{control::force_law::{self, Mode}, controller::{Controller, ControllerParams}},
-};
+use naic_controller::{core, shell::{self, fill_report, log_events, log_reference_events, Setup, NODE}};
 use naic_ros::{
     alloc_check,
     msgs::{self, Float64MultiArray, JointState, NaicParams, PoseStamped, WrenchStamped},
     node::{QOS_PUB, QOS_SUB},
-    time::{time_from_ns, wall_ns},
+    time::wall_ns,
     wait::{take_newest, take_until, Waiter},
-    ParamTable, RosArgs, RosError, RosNode,
+    RosArgs, RosError, RosNode,
 };
 
 #[cfg(debug_assertions)]
 #[global_allocator]
 static COUNTING: alloc_check::CountingAlloc = alloc_check::CountingAlloc;
-
-const NODE: &str = "naic_controller";
 
 fn main() {
     naic_ros::run_main(NODE, run)
@@ -36,27 +30,15 @@ fn main() {
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
     let args = RosArgs::parse(std::env::args().skip(1))?;
-    let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
-    let model = Model::from_urdf_file(&urdf)
-        .map_err(|e| RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
-    // Defaults: the core's paper settings on this model (learning rate: not in the paper).
-    let base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
     // Everything that reads a file or can reject the model is checked before the DDS
-    // participant exists: the start-up parameters, the model (6 joints, 'tip' and
-    // 'ft_sensor' frames) and the scenario.
-    let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides(NODE)?).map_err(RosError::Param)?;
-    let bad_model = |e: String| RosError::Param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
-    let cp = table.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
-    let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
-    let reference = ScenarioReference::new(&table.with(|p| p.str("scenario").to_string()), &model).map_err(RosError::Param)?;
-    let follow_topics = reference.is_none();
-    let rp = table.with(config::reference_params);
-    let mut p = core::Params::new(ctl, table.with(config::settings), reference, rp).map_err(RosError::Param)?;
-    let mut node = RosNode::new(args, NODE, config::specs(&base), Some(config::check(base)))?;
+    // participant exists.
+    let setup = Setup::from_args(&args)?;
+    let (specs, check, base, mut p) = (setup.specs(), Some(setup.check()), setup.base, setup.params);
+    let mut node = RosNode::new(args, NODE, specs, check)?;
     let mut js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let w_sub = node.subscription::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_SUB)?;
     // The reference topics: the real-robot setting (scenario 'none') only.
-    let (tp_sub, dw_sub) = if follow_topics {
+    let (tp_sub, dw_sub) = if p.reference.is_none() {
         (
             Some(node.subscription::<PoseStamped>("naic/target_pose", msgs::POSE_STAMPED, QOS_SUB)?),
             Some(node.subscription::<WrenchStamped>("naic/desired_wrench", msgs::WRENCH_STAMPED, QOS_SUB)?),
@@ -78,16 +60,7 @@ fn run() -> Result<(), RosError> {
         // Wait first, then take the parameters: a value accepted while waiting applies to
         // the data that woke us ("takes effect at the next cycle").
         waiter.wait(Some(Duration::from_millis(100)));
-        if node.params.generation() != gen {
-            gen = node.params.generation();
-            let (cp, settings, rp) =
-                node.params.with(|v| (config::controller_params(v, &base), config::settings(v), config::reference_params(v)));
-            match cp.and_then(|cp| core::set_params(&mut p, &mut s, cp, settings, rp)) {
-                Ok(o) if o.resumed => log::info!("parameters changed: resuming force control"),
-                Ok(_) => {}
-                Err(e) => log::error!("parameters not applied: {e}"),
-            }
-        }
+        shell::reload(&node, &mut gen, &base, &mut p, &mut s);
         let mut step = |s: &mut core::State, inbox: core::Inbox| {
             let (next, out) = alloc_check::check(NODE, &mut warned, || core::step(&p, s, &inbox, wall_ns(), &mut ws));
             *s = next;
@@ -124,58 +97,4 @@ fn run() -> Result<(), RosError> {
     }
     log::info!("stopped after {} cycles", s.cycles);
     Ok(())
-}
-
-fn log_events(e: &core::Events, force_limit: f64) {
-    if let Some(j) = e.missing_joint {
-        log::error!("/joint_states has no '{j}'; holding");
-    }
-    if let Some(p) = e.start_tip {
-        log::info!("start tip position {p:?}");
-    }
-    if let Some(f) = e.force_limited {
-        log::warn!("measured force {f:.1} N above force_limit {force_limit} N: retracting (set any parameter to resume)");
-    }
-    if let Some((f, n)) = e.fault {
-        log::warn!("holding: {f} (faults so far: {n})");
-    }
-    if e.non_finite_torque {
-        log::error!("controller produced a non-finite torque; not published");
-    }
-}
-
-fn log_reference_events(e: &core::Events, tp: Option<&PoseStamped>, dw: Option<&WrenchStamped>, base: &str) {
-    if e.reference_too_early {
-        log::warn!("reference sample before the first /joint_states (no start pose yet): ignored");
-    }
-    if let (Some((r, n)), Some(m)) = (e.target_rejected, tp) {
-        log::warn!("/naic/target_pose (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far)", m.header.frame_id);
-    }
-    if let (Some((r, n)), Some(m)) = (e.wrench_rejected, dw) {
-        log::warn!("/naic/desired_wrench (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far)", m.header.frame_id);
-    }
-}
-
-/// `/naic/params` from the core's report, in place (the strings keep their capacity).
-fn fill_report(m: &mut NaicParams, r: &core::Report) {
-    let st = &r.status;
-    m.header.stamp = time_from_ns(r.stamp_ns);
-    m.mode.clear();
-    m.mode.push_str(st.mode.as_str());
-    m.phase = st.phase as u8;
-    m.force_axis = st.force_axis as u8;
-    (m.desired_force, m.measured_force, m.e_f) = (st.f_d, st.f_ext, st.e_f);
-    (m.m_d, m.b_d, m.k_d, m.sigma, m.phi) = (st.m_d, st.b_d, st.k_d, st.sigma, st.phi);
-    (m.gamma, m.gamma_bound, m.gamma_clipped) = (st.gamma, st.gamma_bound, st.gamma_clipped);
-    m.fault.clear();
-    if let Some(f) = &r.fault {
-        let _ = write!(m.fault, "{f}");
-    }
-    m.fault_count = st.fault_count;
-    let a = &r.reference;
-    m.reference_source.clear();
-    m.reference_source.push_str(a.source);
-    m.reference_position.clear();
-    m.reference_position.extend_from_slice(&a.position);
-    (m.reference_stale, m.reference_rejected) = (a.stale, a.rejected);
 }

@@ -509,3 +509,63 @@ fn jk5_loads_with_its_frames_and_is_singular_when_straight_up() {
     assert!((c.lambda - lambda).abs() < 1e-9);
     assert!(c.j_inv.singular_values().max() <= 1.0 / (2.0 * lambda) + 1e-9);
 }
+
+/// `Data` reuses joint placements when an algorithm is called again at the same q
+/// (e.g. FK, Jacobian, J̇q̇ and RNEA of one controller cycle): any interleaving of the
+/// algorithms at repeated and changing q gives bit-identical results to a fresh `Data`.
+#[test]
+fn reused_placements_give_bit_identical_results_in_any_call_order() {
+    for (name, model) in models() {
+        let mut rng = Rng(7);
+        let mut data = Data::new(&model);
+        let n = model.nv();
+        let frames: Vec<_> = model.frames().iter().enumerate().map(|(k, _)| naic_core::model::FrameId(k)).collect();
+        let qs: Vec<DVector<f64>> = (0..4).map(|_| random_q(&model, &mut rng)).collect();
+        let v = DVector::from_fn(n, |_, _| rng.uniform(-1.0, 1.0));
+        let a = DVector::from_fn(n, |_, _| rng.uniform(-5.0, 5.0));
+        let mut calls = [0usize; 8];
+        for step in 0..400 {
+            // mostly repeat the last q, sometimes switch (also back to an earlier one)
+            let q = &qs[if rng.uniform(0.0, 1.0) < 0.7 { (step / 7) % 4 } else { (rng.uniform(0.0, 4.0) as usize).min(3) }];
+            let algo = (rng.uniform(0.0, 8.0) as usize).min(7);
+            calls[algo] += 1;
+            let mut fresh = Data::new(&model);
+            let frame = frames[(rng.uniform(0.0, frames.len() as f64) as usize).min(frames.len() - 1)];
+            let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            let (got, want): (Vec<u64>, Vec<u64>) = match algo {
+                0 => {
+                    dynamics::forward_kinematics(&model, &mut data, q);
+                    dynamics::forward_kinematics(&model, &mut fresh, q);
+                    let pose = |d: &Data| {
+                        let mut x = Vec::new();
+                        for &f in &frames {
+                            let p = d.frame_placement(f).to_homogeneous();
+                            x.extend(p.iter().copied());
+                        }
+                        for i in 0..n {
+                            x.extend(d.joint_placement(i).rot.iter().copied());
+                            x.extend(d.joint_placement(i).trans.iter().copied());
+                        }
+                        x
+                    };
+                    (bits(&pose(&data)), bits(&pose(&fresh)))
+                }
+                1 => (
+                    bits(dynamics::frame_jacobian(&model, &mut data, q, frame).as_slice()),
+                    bits(dynamics::frame_jacobian(&model, &mut fresh, q, frame).as_slice()),
+                ),
+                2 => (
+                    bits(dynamics::frame_jdot_qdot(&model, &mut data, q, &v, frame).as_slice()),
+                    bits(dynamics::frame_jdot_qdot(&model, &mut fresh, q, &v, frame).as_slice()),
+                ),
+                3 => (bits(dynamics::rnea(&model, &mut data, q, &v, &a).as_slice()), bits(dynamics::rnea(&model, &mut fresh, q, &v, &a).as_slice())),
+                4 => (bits(dynamics::bias_torques(&model, &mut data, q, &v).as_slice()), bits(dynamics::bias_torques(&model, &mut fresh, q, &v).as_slice())),
+                5 => (bits(dynamics::gravity_torques(&model, &mut data, q).as_slice()), bits(dynamics::gravity_torques(&model, &mut fresh, q).as_slice())),
+                6 => (bits(dynamics::crba(&model, &mut data, q).as_slice()), bits(dynamics::crba(&model, &mut fresh, q).as_slice())),
+                _ => (bits(dynamics::aba(&model, &mut data, q, &v, &a).as_slice()), bits(dynamics::aba(&model, &mut fresh, q, &v, &a).as_slice())),
+            };
+            assert_eq!(got, want, "{name}: step {step}, algorithm {algo}: reused placements changed the result");
+        }
+        assert!(calls.iter().all(|&c| c > 20), "{name}: every algorithm must be exercised: {calls:?}");
+    }
+}

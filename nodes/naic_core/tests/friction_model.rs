@@ -164,3 +164,37 @@ fn model_rejects_unphysical_parameters_naming_joint_and_field() {
         assert!(e.to_string().contains("v_s"), "{e}");
     }
 }
+
+#[test]
+fn analytic_slope_matches_finite_differences_and_torque_is_bit_identical() {
+    for v_s in [DEFAULT_V_S, 0.02] {
+        for law in laws() {
+            let mut checked = 0;
+            for v in speeds() {
+                let (tau, slope) = law.tau_f_smooth_and_slope(v, v_s);
+                assert_eq!(tau.to_bits(), law.tau_f_smooth(v, v_s).to_bits(), "{law:?} at {v}: torque differs from tau_f_smooth");
+                // central difference with a step well inside the smallest velocity scale
+                let d = 1e-6 * v_s.min(0.036).max(v.abs() * 1e-3);
+                let fd = (law.tau_f_smooth(v + d, v_s) - law.tau_f_smooth(v - d, v_s)) / (2.0 * d);
+                assert!((slope - fd).abs() <= 1e-5 * (slope.abs() + 1.0), "{law:?} at {v}, v_s {v_s}: slope {slope} vs fd {fd}");
+                checked += 1;
+            }
+            assert!(checked > 200);
+        }
+    }
+    // the model-level entry point: the same torque as tau_f, the analytic slope with tanh,
+    // the central difference with the exact law
+    let per_dir = JointFriction::StribeckPerDirection { positive: POS, negative: NEG };
+    let m = FrictionModel::new(vec![per_dir]).unwrap();
+    let (t, s) = m.tau_f_and_slope(0, 0.05);
+    assert_eq!((t, s), (m.tau_f(0, 0.05), (m.tau_f(0, 0.05 + 1e-7) - m.tau_f(0, 0.05 - 1e-7)) / 2e-7));
+    let smooth = m.with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S }).unwrap();
+    for v in [0.0, 2e-4, -3e-3, 0.05, -0.5] {
+        let (t, s) = smooth.tau_f_and_slope(0, v);
+        assert_eq!(t.to_bits(), smooth.tau_f(0, v).to_bits());
+        assert_eq!(s, per_dir.tau_f_smooth_and_slope(v, DEFAULT_V_S).1);
+    }
+    // at rest the tanh slope dominates: ≈ f_b/v_s (both branches weigh ½ there)
+    let (_, s0) = smooth.tau_f_and_slope(0, 0.0);
+    assert!((s0 - (0.5 * (POS.f_b + NEG.f_b) / DEFAULT_V_S + 0.5 * (POS.f_v + NEG.f_v))).abs() < 1e-9 * s0);
+}

@@ -30,6 +30,10 @@ use crate::catalogue::{k_grid, n_exp_grid, q_s_grid, Effect, ALL_EFFECTS};
 use nalgebra::{DMatrix, DVector};
 use std::collections::BTreeSet;
 
+/// The `fold` of a sample from a validation run (`--validate`): never trained on, scored
+/// with the model fitted on all the other samples ([`Eval::val_ssr`]).
+pub const VALIDATION_FOLD: u8 = u8::MAX;
+
 /// Direction a friction column applies to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dir {
@@ -321,6 +325,34 @@ impl JointSamples {
         }
     }
 
+    /// Appends the samples of `o` (same target).
+    pub fn append(&mut self, o: &JointSamples) {
+        for (a, b) in [
+            (&mut self.y, &o.y),
+            (&mut self.v, &o.v),
+            (&mut self.s, &o.s),
+            (&mut self.q, &o.q),
+            (&mut self.t, &o.t),
+            (&mut self.tn, &o.tn),
+            (&mut self.a, &o.a),
+            (&mut self.dtau, &o.dtau),
+            (&mut self.payload, &o.payload),
+            (&mut self.cu, &o.cu),
+            (&mut self.cz, &o.cz),
+            (&mut self.crate_, &o.crate_),
+            (&mut self.cg0, &o.cg0),
+            (&mut self.cg1, &o.cg1),
+        ] {
+            a.extend_from_slice(b);
+        }
+        self.fold.extend_from_slice(&o.fold);
+    }
+
+    /// Whether sample `i` belongs to a validation run.
+    pub fn is_validation(&self, i: usize) -> bool {
+        self.fold[i] == VALIDATION_FOLD
+    }
+
     /// The samples with `keep[i]`; friction-point folds are re-interleaved.
     pub fn filtered(&self, keep: &[bool], folds: usize) -> JointSamples {
         let pick = |v: &Vec<f64>| -> Vec<f64> { v.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect() };
@@ -415,13 +447,21 @@ pub struct Eval {
     pub fold_theta: Vec<Vec<f64>>,
     pub fold_ssr: Vec<f64>,
     pub heldout_ssr: f64,
+    /// Samples fitted and held out (validation samples not counted).
     pub n: usize,
     pub n_params: usize,
+    /// SSR of the whole-data fit on the validation samples, and their number (0: none).
+    pub val_ssr: f64,
+    pub val_n: usize,
 }
 
 impl Eval {
     pub fn heldout_rmse(&self) -> f64 {
         (self.heldout_ssr / self.n.max(1) as f64).sqrt()
+    }
+    /// RMSE on the validation runs (`None` without them).
+    pub fn validation_rmse(&self) -> Option<f64> {
+        (self.val_n > 0).then(|| (self.val_ssr / self.val_n as f64).sqrt())
     }
     /// Whole-data coefficient of a column.
     pub fn coef(&self, c: Col) -> Option<f64> {
@@ -446,7 +486,8 @@ impl Default for AnalysisOptions {
     }
 }
 
-fn solve(g: &DMatrix<f64>, p: usize) -> (Vec<f64>, f64) {
+/// Least squares from the Gram matrix `g` of `[X y]` (p columns): (θ, SSR).
+pub(crate) fn solve(g: &DMatrix<f64>, p: usize) -> (Vec<f64>, f64) {
     // g is (p+1)x(p+1) Gram of [X y]
     // Columns are scaled to unit norm first, so the tiny ridge that keeps the solve
     // defined for collinear or empty columns is the same relative size for every column
@@ -479,14 +520,15 @@ fn heldout(g: &DMatrix<f64>, theta: &[f64]) -> f64 {
 /// Per-fold Gram matrices of `[X y]` for one structure (columns in `cols` order).
 fn fold_grams(js: &JointSamples, st: &Structure, sh: &NominalShape, cols: &[Col], k_folds: usize) -> Vec<DMatrix<f64>> {
     let p = cols.len();
-    let mut g = vec![DMatrix::<f64>::zeros(p + 1, p + 1); k_folds];
+    // one Gram per fold, and the last one for the validation samples
+    let mut g = vec![DMatrix::<f64>::zeros(p + 1, p + 1); k_folds + 1];
     let mut x = vec![0.0; p + 1];
     for i in 0..js.len() {
         for (c, xc) in cols.iter().zip(x.iter_mut()) {
             *xc = js.col(*c, st, sh, i);
         }
         x[p] = js.y[i];
-        let gm = &mut g[js.fold[i] as usize];
+        let gm = &mut g[gram_index(js.fold[i], k_folds)];
         for a in 0..=p {
             let xa = x[a];
             if xa == 0.0 {
@@ -505,6 +547,15 @@ fn fold_grams(js: &JointSamples, st: &Structure, sh: &NominalShape, cols: &[Col]
         }
     }
     g
+}
+
+#[inline]
+fn gram_index(fold: u8, k_folds: usize) -> usize {
+    if fold == VALIDATION_FOLD {
+        k_folds
+    } else {
+        fold as usize
+    }
 }
 
 /// Like [`fold_grams`] for a structure that differs from the one behind `base` only in
@@ -533,7 +584,7 @@ fn fold_grams_update(
             *xc = js.col(*c, st, sh, i);
         }
         x[p] = js.y[i];
-        let gm = &mut g[js.fold[i] as usize];
+        let gm = &mut g[gram_index(js.fold[i], base.len() - 1)];
         for &a in scan_cols {
             let xa = x[a];
             if xa == 0.0 {
@@ -617,7 +668,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         let mut tried: Vec<(Vec<f64>, Vec<DMatrix<f64>>)> = Vec::new();
         let eval_cfg = |vals: &[f64], tried: &mut Vec<(Vec<f64>, Vec<DMatrix<f64>>)>| -> f64 {
             if let Some((_, g)) = tried.iter().find(|(v, _)| v.as_slice() == vals) {
-                let tot = sum(g);
+                let tot = sum(&g[..k_folds]);
                 return solve(&tot, p).1;
             }
             let pairs: Vec<(ScanParam, f64)> = scan.iter().copied().zip(vals.iter().copied()).collect();
@@ -627,7 +678,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
                 Some((_, base)) => fold_grams_update(js, &s, sh, &cols, &scan_cols, base),
                 None => fold_grams(js, &s, sh, &cols, k_folds),
             };
-            let ssr = solve(&sum(&g), p).1;
+            let ssr = solve(&sum(&g[..k_folds]), p).1;
             tried.push((vals.to_vec(), g));
             ssr
         };
@@ -743,7 +794,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         }
     }
     // Whole data and per fold: choose the configuration by training SSR.
-    let totals: Vec<DMatrix<f64>> = grams.iter().map(|g| sum(g)).collect();
+    let totals: Vec<DMatrix<f64>> = grams.iter().map(|g| sum(&g[..k_folds])).collect();
     let mut full = (f64::INFINITY, 0usize, vec![]);
     for (c, tot) in totals.iter().enumerate() {
         let (th, ssr) = solve(tot, p);
@@ -768,6 +819,8 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         fold_theta.push(best.2);
     }
     let n_shape = st.n_shape();
+    let val_n = js.fold.iter().filter(|&&f| f == VALIDATION_FOLD).count();
+    let val_ssr = if val_n > 0 { heldout(&grams[full.1][k_folds], &full.2) } else { 0.0 };
     Eval {
         structure: configs[full.1].clone(),
         columns: cols,
@@ -778,8 +831,10 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         fold_structure,
         fold_theta,
         fold_ssr,
-        n: js.len(),
+        n: js.len() - val_n,
         n_params: p + n_shape,
+        val_ssr,
+        val_n,
     }
 }
 
@@ -798,7 +853,8 @@ pub fn residuals(js: &JointSamples, ev: &Eval, sh: &NominalShape) -> (Vec<f64>, 
     let mut ins = Vec::with_capacity(js.len());
     for i in 0..js.len() {
         let f = js.fold[i] as usize;
-        let (sf, tf) = (&ev.fold_structure[f], &ev.fold_theta[f]);
+        // validation samples: the whole-data fit (they were never trained on either)
+        let (sf, tf) = if js.is_validation(i) { (&ev.full_structure, &ev.full_theta) } else { (&ev.fold_structure[f], &ev.fold_theta[f]) };
         let mut pf = 0.0;
         let mut pa = 0.0;
         for (k, &c) in ev.columns.iter().enumerate() {
@@ -844,7 +900,7 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
     let ev = evaluate(js, &st, &scan, sh, o.folds);
     let gain = if cur.heldout_ssr > 0.0 { 1.0 - ev.heldout_ssr / cur.heldout_ssr } else { 0.0 };
     let fold_wins = ev.fold_ssr.iter().zip(&cur.fold_ssr).filter(|(a, b)| a < b).count();
-    let n_eff = (js.len() as f64 / js.corr_len.max(1.0)).max(2.0);
+    let n_eff = (ev.n as f64 / js.corr_len.max(1.0)).max(2.0);
     let dp = ev.n_params.saturating_sub(cur.n_params) as f64;
     let delta_bic = if cur.full_ssr > 0.0 && ev.full_ssr > 0.0 {
         n_eff * (ev.full_ssr / cur.full_ssr).ln() + dp * n_eff.ln()
@@ -884,5 +940,5 @@ pub fn analyse_joint(js: &JointSamples, sh: &NominalShape, o: &AnalysisOptions) 
             }
         }
     }
-    JointResult { joint: js.joint, n: js.len(), nominal, steps, final_eval: cur, rejected }
+    JointResult { joint: js.joint, n: nominal.n, nominal, steps, final_eval: cur, rejected }
 }

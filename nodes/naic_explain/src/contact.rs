@@ -28,9 +28,9 @@ use crate::analysis::{Col, JointResult, JointSamples};
 use crate::catalogue::lin_grid;
 use crate::prepare::Prepared;
 use crate::ExplainError;
-use nalgebra::{Rotation3, SVector, Vector3};
+use nalgebra::{DVector, Rotation3, Vector3};
 use naic_core::dynamics::{forward_kinematics, frame_jacobian};
-use naic_core::model::{Data6, FrameId, Model};
+use naic_core::model::{Data, FrameId, Model};
 
 /// Target numbers of the sensor axes are `AXIS_BASE + 1 ..= AXIS_BASE + 6` (joints are 1..).
 pub const AXIS_BASE: usize = 100;
@@ -99,16 +99,18 @@ pub struct ContactKinematics {
 
 /// Forward kinematics of `sensor` and `tip` at the analysis instants.
 pub fn kinematics(p: &Prepared, model: &Model, sensor: FrameId, tip: FrameId) -> Result<ContactKinematics, ExplainError> {
-    let mut data = Data6::try_new(model).map_err(|e| ExplainError::model(format!("{e}")))?;
+    let mut data = Data::new(model);
     let mut k = ContactKinematics::default();
+    let nj = model.nv();
+    let (mut q, mut v) = (DVector::zeros(nj), DVector::zeros(nj));
     for i in 0..p.len() {
-        let q = SVector::<f64, 6>::from(p.q[i]);
-        let v = SVector::<f64, 6>::from(p.v[i]);
+        q.copy_from_slice(&p.q[i]);
+        v.copy_from_slice(&p.v[i]);
         forward_kinematics(model, &mut data, &q);
         let ps = data.frame_placement(sensor);
         let pt = data.frame_placement(tip);
-        let jt = *frame_jacobian(model, &mut data, &q, tip);
-        let vt = jt.fixed_rows::<3>(0) * v;
+        let jt = frame_jacobian(model, &mut data, &q, tip);
+        let vt = jt.fixed_rows::<3>(0) * &v;
         k.r_ws.push(ps.rotation.to_rotation_matrix());
         k.r_tip.push(pt.translation.vector - ps.translation.vector);
         k.z_tip.push(pt.translation.vector.z);
@@ -235,9 +237,11 @@ pub fn external_torques(
     ck: &ContactKinematics,
     tool: &Tool,
     results: &[JointResult],
-) -> Result<Vec<[f64; 6]>, ExplainError> {
-    let mut data = Data6::try_new(model).map_err(|e| ExplainError::model(format!("{e}")))?;
-    let mut out = Vec::with_capacity(p.len());
+) -> Result<crate::input::Rows, ExplainError> {
+    let mut data = Data::new(model);
+    let nj = model.nv();
+    let mut out = crate::input::Rows::with_capacity(nj, p.len());
+    let mut q = DVector::zeros(nj);
     for i in 0..p.len() {
         let r = &ck.r_ws[i];
         let tw = tool_wrench(tool, r);
@@ -250,12 +254,12 @@ pub fn external_torques(
         }
         let f = r * Vector3::new(w[0], w[1], w[2]);
         let t = r * Vector3::new(w[3], w[4], w[5]);
-        let q = SVector::<f64, 6>::from(p.q[i]);
-        let j = *frame_jacobian(model, &mut data, &q, sensor);
-        let mut wv = SVector::<f64, 6>::zeros();
+        q.copy_from_slice(&p.q[i]);
+        let j = frame_jacobian(model, &mut data, &q, sensor);
+        let mut wv = nalgebra::Vector6::zeros();
         wv.fixed_rows_mut::<3>(0).copy_from(&f);
         wv.fixed_rows_mut::<3>(3).copy_from(&t);
-        out.push((j.transpose() * wv).into());
+        out.push((j.transpose() * wv).as_slice());
     }
     Ok(out)
 }

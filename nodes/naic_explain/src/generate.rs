@@ -10,7 +10,10 @@
 //! between (cosine velocity ramps), then all joints move together (sum of sines).
 
 use crate::catalogue::Effect;
-use crate::input::{TimeSeries, NJ};
+use crate::input::TimeSeries;
+
+/// The generator drives the six joints of the JK5 (`urdf/jk5.urdf`).
+pub const NJ: usize = 6;
 use nalgebra::{SVector, Vector3};
 use naic_core::dynamics::{frame_jacobian, frame_jdot_qdot, rnea};
 use naic_core::model::{Data6, Model};

@@ -3,8 +3,10 @@
 //! * **bag**: an MCAP file (rosbag2 profile) with `/joint_states` (position, velocity,
 //!   effort = measured joint torque), optionally `/joint_effort_cmd` (used as the torque
 //!   when `/joint_states` carries no effort) and `/wrench`.
-//! * **timeseries**: CSV with header `t,q1..q6,dq1..dq6,tau1..tau6` (s, rad, rad/s, N·m),
-//!   optional `ddq1..ddq6` and `fx,fy,fz,mx,my,mz`; extra columns are ignored.
+//! * **timeseries**: CSV with header `t,q1..qN,dq1..dqN,tau1..tauN` (s, rad, rad/s, N·m;
+//!   N = the number of `qK` columns, checked against the URDF's joints), optional
+//!   `fx,fy,fz,mx,my,mz`; extra columns are ignored. Timestamps need not be uniform
+//!   ([`crate::resample`] puts them on a uniform grid); they must increase.
 //! * **friction_points**: CSV `joint,velocity_rad_s,torque_nm` (steady-state segment
 //!   means), read by [`naic_core::friction::FrictionData`].
 //!
@@ -15,8 +17,72 @@ use crate::ExplainError;
 use naic_core::friction::FrictionData;
 use std::path::Path;
 
-/// Number of joints of the time-series kinds.
-pub const NJ: usize = 6;
+/// Rows of equal width stored flat, row-major: `rows[i]` is sample i's slice (one
+/// allocation for a whole recording instead of one per sample).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Rows {
+    width: usize,
+    data: Vec<f64>,
+}
+
+impl Rows {
+    /// Empty rows of `width` values, with room for `n` rows.
+    pub fn with_capacity(width: usize, n: usize) -> Self {
+        Self { width, data: Vec::with_capacity(width * n) }
+    }
+    /// `n` rows of zeros.
+    pub fn zeros(width: usize, n: usize) -> Self {
+        Self { width, data: vec![0.0; width * n] }
+    }
+    pub fn width(&self) -> usize {
+        self.width
+    }
+    pub fn len(&self) -> usize {
+        self.data.len().checked_div(self.width).unwrap_or(0)
+    }
+    pub fn is_empty(&self) -> bool {
+        self.data.is_empty()
+    }
+    /// Appends a row; the first row of an empty `Rows::default()` sets the width.
+    /// Panics (a programming error) when a row has another width.
+    pub fn push(&mut self, row: impl AsRef<[f64]>) {
+        let r = row.as_ref();
+        if self.data.is_empty() && self.width == 0 {
+            self.width = r.len();
+        }
+        assert_eq!(r.len(), self.width, "Rows::push: row of {} values into rows of {}", r.len(), self.width);
+        self.data.extend_from_slice(r);
+    }
+    /// Appends every row of `other` (same width).
+    pub fn extend(&mut self, other: &Rows) {
+        for r in other.iter() {
+            self.push(r);
+        }
+    }
+    pub fn iter(&self) -> std::slice::ChunksExact<'_, f64> {
+        self.data.chunks_exact(self.width.max(1))
+    }
+    pub fn iter_mut(&mut self) -> std::slice::ChunksExactMut<'_, f64> {
+        self.data.chunks_exact_mut(self.width.max(1))
+    }
+    /// Column `j` as a vector.
+    pub fn column(&self, j: usize) -> Vec<f64> {
+        self.iter().map(|r| r[j]).collect()
+    }
+}
+
+impl std::ops::Index<usize> for Rows {
+    type Output = [f64];
+    fn index(&self, i: usize) -> &[f64] {
+        &self.data[i * self.width..(i + 1) * self.width]
+    }
+}
+
+impl std::ops::IndexMut<usize> for Rows {
+    fn index_mut(&mut self, i: usize) -> &mut [f64] {
+        &mut self.data[i * self.width..(i + 1) * self.width]
+    }
+}
 
 /// Which kind of input was read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,19 +102,19 @@ impl Kind {
     }
 }
 
-/// A uniformly sampled six-joint time series.
+/// A time series of an N-joint arm (N = `q.width()`).
 #[derive(Clone, Debug, Default)]
 pub struct TimeSeries {
     /// Time [s], strictly increasing.
     pub t: Vec<f64>,
-    /// Joint positions [rad].
-    pub q: Vec<[f64; NJ]>,
+    /// Joint positions [rad], one row per sample.
+    pub q: Rows,
     /// Measured joint velocities [rad/s] (kept for reference; the analysis differentiates `q`).
-    pub dq: Vec<[f64; NJ]>,
+    pub dq: Rows,
     /// Measured joint torques [N·m].
-    pub tau: Vec<[f64; NJ]>,
+    pub tau: Rows,
     /// Wrench in the sensor frame when present (force then torque).
-    pub wrench: Option<Vec<[f64; NJ]>>,
+    pub wrench: Option<Vec<[f64; 6]>>,
     /// Column names that were present but not used.
     pub ignored_columns: Vec<String>,
 }
@@ -60,6 +126,10 @@ impl TimeSeries {
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
     }
+    /// Number of joints.
+    pub fn nj(&self) -> usize {
+        self.q.width()
+    }
     /// Median sample period [s].
     pub fn dt(&self) -> f64 {
         if self.t.len() < 2 {
@@ -70,7 +140,8 @@ impl TimeSeries {
         *d.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
     }
 
-    /// Checks length agreement, finiteness, strictly increasing and (nearly) uniform time.
+    /// Checks length agreement and strictly increasing time (uniformity is not needed:
+    /// [`crate::resample`] handles jitter and gaps).
     pub fn validate(&self, name: &str) -> Result<(), ExplainError> {
         let n = self.t.len();
         if n < 200 {
@@ -78,7 +149,7 @@ impl TimeSeries {
                 "{name}: only {n} samples; the analysis needs at least 200 (seconds of data at ≥ 100 Hz)"
             )));
         }
-        if self.q.len() != n || self.tau.len() != n || self.dq.len() != n {
+        if self.q.len() != n || self.tau.len() != n || self.dq.len() != n || self.dq.width() != self.nj() || self.tau.width() != self.nj() {
             return Err(ExplainError::input(format!("{name}: t, q, dq and tau have different lengths")));
         }
         let dt = self.dt();
@@ -93,17 +164,6 @@ impl TimeSeries {
                     i + 1,
                     self.t[i],
                     self.t[i - 1]
-                )));
-            }
-        }
-        for i in 1..n {
-            let d = self.t[i] - self.t[i - 1];
-            if d > 1.5 * dt || d < 0.5 * dt {
-                return Err(ExplainError::input(format!(
-                    "{name}: sample {} (t = {}): time step {d} s differs from the median step {dt} s by more than 50 %; \
-                     the analysis needs uniformly sampled data (resample, or split the file at the gap)",
-                    i + 1,
-                    self.t[i]
                 )));
             }
         }
@@ -144,7 +204,7 @@ pub fn load(path: &Path) -> Result<(Kind, Measured), ExplainError> {
     }
     Err(ExplainError::input(format!(
         "{name}: cannot tell the kind of data from the header `{header}`; expected a time series \
-         `t,q1..q6,dq1..dq6,tau1..tau6` or friction points `joint,velocity_rad_s,torque_nm`, or an .mcap bag"
+         `t,q1..qN,dq1..dqN,tau1..tauN` or friction points `joint,velocity_rad_s,torque_nm`, or an .mcap bag"
     )))
 }
 
@@ -168,17 +228,26 @@ pub fn parse_timeseries_csv(name: &str, text: &str) -> Result<TimeSeries, Explai
     let need = |want: &str| -> Result<usize, ExplainError> {
         find(want)?.ok_or_else(|| {
             ExplainError::input(format!(
-                "{name}: line {}: missing column `{want}`; a time series needs `t,q1..q6,dq1..dq6,tau1..tau6` \
+                "{name}: line {}: missing column `{want}`; a time series needs `t,q1..qN,dq1..dqN,tau1..tauN` \
+                 for the N joints of the URDF, e.g. `t,q1..q6,dq1..dq6,tau1..tau6` for the JK5 \
                  (s, rad, rad/s, N·m; tau = measured joint torque)",
                 hl + 1
             ))
         })
     };
     let ct = need("t")?;
-    let mut cq = [0; NJ];
-    let mut cdq = [0; NJ];
-    let mut ctau = [0; NJ];
-    for j in 0..NJ {
+    // the joint count is the number of consecutive position columns q1, q2, …
+    let mut nj = 0;
+    while find(&format!("q{}", nj + 1))?.is_some() {
+        nj += 1;
+    }
+    if nj == 0 {
+        need("q1")?;
+    }
+    let mut cq = vec![0; nj];
+    let mut cdq = vec![0; nj];
+    let mut ctau = vec![0; nj];
+    for j in 0..nj {
         cq[j] = need(&format!("q{}", j + 1))?;
         cdq[j] = need(&format!("dq{}", j + 1))?;
         ctau[j] = need(&format!("tau{}", j + 1))?;
@@ -196,7 +265,14 @@ pub fn parse_timeseries_csv(name: &str, text: &str) -> Result<TimeSeries, Explai
     used.extend(cq.iter().chain(&cdq).chain(&ctau));
     used.extend(cw.iter().flatten());
     let ignored: Vec<String> = cols.iter().enumerate().filter(|(i, _)| !used.contains(i)).map(|(_, c)| c.clone()).collect();
-    let mut ts = TimeSeries { ignored_columns: ignored, ..Default::default() };
+    let mut ts = TimeSeries {
+        q: Rows::with_capacity(nj, 0),
+        dq: Rows::with_capacity(nj, 0),
+        tau: Rows::with_capacity(nj, 0),
+        ignored_columns: ignored,
+        ..Default::default()
+    };
+    let (mut q, mut dq, mut tau) = (vec![0.0; nj], vec![0.0; nj], vec![0.0; nj]);
     let mut wrench = Vec::new();
     let mut fields: Vec<&str> = Vec::with_capacity(cols.len());
     for (ln, line) in lines {
@@ -222,19 +298,16 @@ pub fn parse_timeseries_csv(name: &str, text: &str) -> Result<TimeSeries, Explai
             }
         };
         ts.t.push(num(ct)?);
-        let mut q = [0.0; NJ];
-        let mut dq = [0.0; NJ];
-        let mut tau = [0.0; NJ];
-        for j in 0..NJ {
+        for j in 0..nj {
             q[j] = num(cq[j])?;
             dq[j] = num(cdq[j])?;
             tau[j] = num(ctau[j])?;
         }
-        ts.q.push(q);
-        ts.dq.push(dq);
-        ts.tau.push(tau);
+        ts.q.push(&q);
+        ts.dq.push(&dq);
+        ts.tau.push(&tau);
         if n_w == 6 {
-            let mut w = [0.0; NJ];
+            let mut w = [0.0; 6];
             for k in 0..6 {
                 w[k] = num(cw[k].unwrap_or(0))?;
             }
@@ -254,7 +327,7 @@ pub fn write_timeseries_csv(ts: &TimeSeries) -> String {
     let mut s = String::with_capacity(ts.len() * 200);
     s.push_str("t");
     for p in ["q", "dq", "tau"] {
-        for j in 1..=NJ {
+        for j in 1..=ts.nj() {
             let _ = write!(s, ",{p}{j}");
         }
     }
@@ -289,7 +362,12 @@ fn load_bag(path: &Path, bytes: Vec<u8>) -> Result<TimeSeries, ExplainError> {
     if js.is_empty() {
         return Err(ExplainError::input(format!("{name}: /joint_states has no messages")));
     }
-    let has_effort = js.iter().all(|m| m.msg.effort.len() >= NJ);
+    // the joint count is the first message's number of positions (checked against the URDF later)
+    let nj = js[0].msg.position.len();
+    if nj == 0 {
+        return Err(ExplainError::input(format!("{name}: the first /joint_states message has no positions")));
+    }
+    let has_effort = js.iter().all(|m| m.msg.effort.len() >= nj);
     let cmd = if has_effort {
         None
     } else {
@@ -303,15 +381,16 @@ fn load_bag(path: &Path, bytes: Vec<u8>) -> Result<TimeSeries, ExplainError> {
     };
     let wrench = bag.messages::<WrenchStamped>("/wrench", ..).ok();
     let mut ts = TimeSeries::default();
+    let (mut q, mut dq, mut tau) = (vec![0.0; nj], vec![0.0; nj], vec![0.0; nj]);
     let mut ci = 0usize;
     let mut wi = 0usize;
     let mut wv = Vec::new();
     let mut t_first: Option<u64> = None;
     for (k, m) in js.iter().enumerate() {
         let s = &m.msg;
-        if s.position.len() < NJ {
+        if s.position.len() != nj {
             return Err(ExplainError::input(format!(
-                "{name}: /joint_states message {} has {} positions; 6 are needed (joint1..joint6)",
+                "{name}: /joint_states message {} has {} positions, the first one {nj}; every message needs all joints",
                 k + 1,
                 s.position.len()
             )));
@@ -322,24 +401,21 @@ fn load_bag(path: &Path, bytes: Vec<u8>) -> Result<TimeSeries, ExplainError> {
         // as f64 seconds would keep only ~0.2 µs resolution
         let t0_ns = *t_first.get_or_insert(t_ns);
         let t = (t_ns as i128 - t0_ns as i128) as f64 * 1e-9;
-        let mut q = [0.0; NJ];
-        let mut dq = [0.0; NJ];
-        let mut tau = [0.0; NJ];
-        for j in 0..NJ {
+        for j in 0..nj {
             q[j] = s.position[j];
             dq[j] = s.velocity.get(j).copied().unwrap_or(0.0);
         }
         if has_effort {
-            tau.copy_from_slice(&s.effort[..NJ]);
+            tau.copy_from_slice(&s.effort[..nj]);
         } else if let Some(c) = &cmd {
             while ci + 1 < c.len() && c[ci + 1].log_time <= m.log_time {
                 ci += 1;
             }
             let d = &c.get(ci).ok_or_else(|| ExplainError::input(format!("{name}: /joint_effort_cmd has no messages")))?.msg.data;
-            if d.len() < NJ {
-                return Err(ExplainError::input(format!("{name}: /joint_effort_cmd message has {} values; 6 are needed", d.len())));
+            if d.len() < nj {
+                return Err(ExplainError::input(format!("{name}: /joint_effort_cmd message has {} values; {nj} are needed", d.len())));
             }
-            tau.copy_from_slice(&d[..NJ]);
+            tau.copy_from_slice(&d[..nj]);
         }
         for (what, arr) in [("position", &q), ("velocity", &dq), ("effort", &tau)] {
             if arr.iter().any(|v| !v.is_finite()) {
@@ -356,9 +432,9 @@ fn load_bag(path: &Path, bytes: Vec<u8>) -> Result<TimeSeries, ExplainError> {
             }
         }
         ts.t.push(t);
-        ts.q.push(q);
-        ts.dq.push(dq);
-        ts.tau.push(tau);
+        ts.q.push(&q);
+        ts.dq.push(&dq);
+        ts.tau.push(&tau);
     }
     if wv.len() == ts.t.len() {
         ts.wrench = Some(wv);

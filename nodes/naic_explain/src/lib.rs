@@ -19,6 +19,7 @@
 //! "measured" data with hidden effects, for tests and benchmarks).
 
 pub mod analysis;
+pub mod baseline;
 pub mod catalogue;
 pub mod closed_loop;
 pub mod contact;
@@ -28,9 +29,10 @@ pub mod lack_of_fit;
 pub mod plots;
 pub mod prepare;
 pub mod report;
+pub mod resample;
 
 use analysis::{AnalysisOptions, JointResult, JointSamples, NominalShape};
-use input::{Kind, Measured, NJ};
+use input::{Kind, Measured};
 use naic_core::friction::{FrictionData, FrictionParams, JointFriction};
 use naic_core::model::Model;
 use prepare::{PrepareOptions, Prepared};
@@ -64,8 +66,9 @@ impl ExplainError {
 pub struct ExplainOptions {
     /// The robot model (URDF) used for the rigid-body part.
     pub urdf: PathBuf,
-    /// Frame where a payload would sit (and the contact point of contact data).
-    pub tip_frame: String,
+    /// Frame where a payload would sit (and the contact point of contact data); `None`:
+    /// the last link of the chain (reported in the method table).
+    pub tip_frame: Option<String>,
     /// Frame of the F/T sensor (contact data).
     pub sensor_frame: String,
     /// Nominal friction parameter file; its Stribeck shape (symmetrised) is kept, its levels recalibrated.
@@ -79,20 +82,23 @@ pub struct ExplainOptions {
     pub block_s: f64,
     /// Worker threads (joints are analysed in parallel).
     pub threads: usize,
+    /// Also fit the classical baseline ([`baseline`]) on time series.
+    pub baseline: bool,
 }
 
 impl Default for ExplainOptions {
     fn default() -> Self {
         Self {
             urdf: PathBuf::from("urdf/jk5.urdf"),
-            tip_frame: "tip".into(),
+            tip_frame: None,
             sensor_frame: "ft_sensor".into(),
             nominal: None,
             reference: None,
             prepare: PrepareOptions::default(),
             analysis: AnalysisOptions::default(),
             block_s: 2.0,
-            threads: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(NJ),
+            baseline: true,
+            threads: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(8),
         }
     }
 }
@@ -117,6 +123,10 @@ pub struct Explained {
     pub first_pass: Vec<(usize, f64, f64, f64)>,
     /// `--reference`: its path and law (friction points only).
     pub reference: Option<(String, naic_core::friction::FrictionModel)>,
+    /// The classical identification on the same samples (time series without contact).
+    pub baseline: Option<baseline::Baseline>,
+    /// Names of the baseline's base columns (`link3.Izz`, …).
+    pub baseline_names: Vec<String>,
 }
 
 /// Nominal Stribeck shape per joint from a params file (symmetrised by averaging the directions).
@@ -161,7 +171,7 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
     let dur = (t1 - t0).max(1e-9);
     let fold_of = time_fold(p, block_s, folds);
     let corr = (p.window_samples as f64 / p.stride as f64).max(1.0);
-    (0..NJ)
+    (0..p.nj())
         .map(|j| {
             let mut js = JointSamples { joint: j + 1, corr_len: corr, time_series: true, ..Default::default() };
             for i in 0..p.len() {
@@ -281,7 +291,14 @@ pub fn analyse_all(
     results
 }
 
-/// Analyses a time series that is already in memory.
+/// One recording to analyse: its name (file) and data.
+#[derive(Clone, Copy)]
+pub struct Run<'a> {
+    pub name: &'a str,
+    pub ts: &'a input::TimeSeries,
+}
+
+/// Analyses a time series that is already in memory (one run, time blocks held out).
 pub fn explain_series(
     name: &str,
     kind: Kind,
@@ -289,28 +306,123 @@ pub fn explain_series(
     opts: &ExplainOptions,
     progress: &(dyn Fn(f64, &str) + Sync),
 ) -> Result<Explained, ExplainError> {
-    let model = Model::from_urdf_file(&opts.urdf).map_err(|e| ExplainError::model(format!("{}: {e}", opts.urdf.display())))?;
-    if model.nv() != NJ {
-        return Err(ExplainError::model(format!("{} has {} joints; the time-series analysis needs 6", opts.urdf.display(), model.nv())));
+    explain_runs(&[Run { name, ts }], &[], kind, opts, progress)
+}
+
+/// The tool frame: `--tip` when given, else the last link of the chain (the last URDF
+/// link carried by the last joint).
+pub fn tip_frame(model: &Model, urdf: &Path, tip: Option<&str>) -> Result<(naic_core::model::FrameId, String), ExplainError> {
+    use naic_core::model::FrameKind;
+    match tip {
+        Some(t) => model.frame_id(t).map(|id| (id, format!("`{t}` (--tip)"))).ok_or_else(|| {
+            let links: Vec<&str> = model.frames().iter().filter(|f| f.kind == FrameKind::Link).map(|f| f.name.as_str()).collect();
+            ExplainError::model(format!(
+                "{} has no frame `{t}`; give --tip one of its links: {}",
+                urdf.display(),
+                links.join(", ")
+            ))
+        }),
+        None => {
+            let last = model.nv().checked_sub(1);
+            model
+                .frames()
+                .iter()
+                .enumerate()
+                .rev()
+                .find(|(_, f)| f.kind == FrameKind::Link && f.parent == last)
+                .map(|(k, f)| (naic_core::model::FrameId(k), format!("`{}` (the last link; no --tip given)", f.name)))
+                .ok_or_else(|| ExplainError::model(format!("{}: no link on the last joint; give --tip FRAME", urdf.display())))
+        }
     }
-    let tip = model.frame_id(&opts.tip_frame).ok_or_else(|| {
-        ExplainError::model(format!("{} has no frame `{}`; pass the tool frame", opts.urdf.display(), opts.tip_frame))
-    })?;
+}
+
+/// Prepares every run: split at gaps, resampled where the clock jitters, filtered and
+/// evaluated ([`prepare::prepare`]); the segments are appended in order.
+fn prepare_runs(
+    runs: &[Run],
+    model: &Model,
+    tip: naic_core::model::FrameId,
+    opts: &ExplainOptions,
+    urdf_joints: &str,
+    progress: &mut dyn FnMut(f64, &str),
+) -> Result<(Prepared, Vec<(String, resample::Sampling)>, Vec<input::TimeSeries>), ExplainError> {
+    let mut prep = Prepared::default();
+    let mut sampling = Vec::new();
+    let mut segments_all = Vec::new();
+    let min_len = (4.0 * opts.prepare.window_s).max(0.5);
+    for (r, run) in runs.iter().enumerate() {
+        if run.ts.nj() != model.nv() {
+            return Err(ExplainError::input(format!(
+                "{}: the data has {} joints (q1..q{}), the robot model {} has {} ({urdf_joints}); give the URDF of this robot with --urdf",
+                run.name,
+                run.ts.nj(),
+                run.ts.nj(),
+                opts.urdf.display(),
+                model.nv()
+            )));
+        }
+        let (segs, s) = resample::uniform_segments(run.name, run.ts, min_len)?;
+        let ns = segs.len();
+        for (k, seg) in segs.iter().enumerate() {
+            let f0 = (r as f64 + k as f64 / ns as f64) / runs.len() as f64;
+            let p = prepare::prepare(seg, model, tip, &opts.prepare, &mut |f| {
+                progress(f0 + f / (ns * runs.len()) as f64, "estimating velocity, acceleration, rigid-body torque")
+            })
+            .map_err(|e| ExplainError::input(format!("{}: {e}", run.name)))?;
+            prep.append(p);
+        }
+        sampling.push((run.name.to_string(), s));
+        segments_all.extend(segs);
+    }
+    Ok((prep, sampling, segments_all))
+}
+
+/// Analyses the time series `fit` (the catalogue is selected on time blocks held out of
+/// them) and, when `validate` is not empty, scores the nominal and final models, fitted
+/// on all of `fit`, on those whole other runs.
+pub fn explain_runs(
+    fit: &[Run],
+    validate: &[Run],
+    kind: Kind,
+    opts: &ExplainOptions,
+    progress: &(dyn Fn(f64, &str) + Sync),
+) -> Result<Explained, ExplainError> {
+    let model = Model::from_urdf_file(&opts.urdf).map_err(|e| ExplainError::model(format!("{}: {e}", opts.urdf.display())))?;
+    let urdf_joints = model.joint_names().collect::<Vec<_>>().join(", ");
+    let (tip, tip_note) = tip_frame(&model, &opts.urdf, opts.tip_frame.as_deref())?;
+    let tip_name = model.frame(tip).name.clone();
+    let nj = model.nv();
+    let name = fit.iter().map(|r| r.name).collect::<Vec<_>>().join(", ");
     let (params, nominal_source) = load_nominal(opts)?;
-    let shapes = nominal_shapes(params.as_ref(), NJ);
-    let mut prep = prepare::prepare(ts, &model, tip, &opts.prepare, &mut |f| progress(0.3 * f, "estimating velocity, acceleration, rigid-body torque"))?;
+    let shapes = nominal_shapes(params.as_ref(), nj);
+    let share = if validate.is_empty() { 0.3 } else { 0.2 };
+    let (mut prep, mut sampling, segs) =
+        prepare_runs(fit, &model, tip, opts, &urdf_joints, &mut |f, w| progress(share * f, w))?;
+    let val_prep = if validate.is_empty() {
+        None
+    } else {
+        let (vp, vs, _) = prepare_runs(validate, &model, tip, opts, &urdf_joints, &mut |f, w| progress(0.2 + 0.1 * f, w))?;
+        sampling.extend(vs.into_iter().map(|(n, s)| (format!("{n} (validation)"), s)));
+        Some(vp)
+    };
     // contact data: analyse the sensor axes first, then take the measured contact wrench
     // (sensor errors found removed) out of the joint residual
     let mut axes: Vec<JointSamples> = Vec::new();
     let mut axis_results: Vec<JointResult> = Vec::new();
     let mut contact_note = None;
-    if let Some(w) = &ts.wrench {
+    let has_wrench = fit.iter().chain(validate).any(|r| r.ts.wrench.is_some());
+    if has_wrench && (fit.len() != 1 || !validate.is_empty() || segs.len() != 1) {
+        return Err(ExplainError::input(format!(
+            "{name}: contact data (wrench columns) is analysed from one continuous recording: give one --measured file \
+             without gaps and no --validate"
+        )));
+    }
+    if let Some(w) = segs.first().and_then(|s| s.wrench.as_ref()) {
         let sensor = model.frame_id(&opts.sensor_frame).ok_or_else(|| {
             ExplainError::model(format!(
-                "{} has no frame `{}`; wrench data needs the F/T sensor frame (and `{}`) in the URDF",
+                "{} has no frame `{}`; wrench data needs the F/T sensor frame (and the tool frame, --tip) in the URDF",
                 opts.urdf.display(),
                 opts.sensor_frame,
-                opts.tip_frame
             ))
         })?;
         let (mass, com) = naic_sim::sensor::tool_from_urdf(&opts.urdf).map_err(ExplainError::model)?;
@@ -332,8 +444,8 @@ pub fn explain_series(
         }
         axis_results = analyse_all(&axes, &[], &opts.analysis, opts.threads, &|f, w| progress(0.3 + 0.2 * f, w));
         let tau_ext = contact::external_torques(&prep, &model, sensor, &ck, &tool, &axis_results)?;
-        for (rb, te) in prep.tau_rb.iter_mut().zip(&tau_ext) {
-            for j in 0..NJ {
+        for (rb, te) in prep.tau_rb.iter_mut().zip(tau_ext.iter()) {
+            for j in 0..nj {
                 rb[j] -= te[j];
             }
         }
@@ -343,10 +455,10 @@ pub fn explain_series(
              with the URDF's tool ({mass:.3} kg, centre of mass {:.4}, {:.4}, {:.4} m in the sensor frame); h is \
              calibrated on the axis that sees the contact force most, the spring's scale per axis, on the training folds. The joint residual has the measured contact wrench \
              (J_ftᵀ W; the URDF tool's weight and any ft_bias found removed) taken out.",
-            opts.tip_frame, com.x, com.y, com.z
+            tip_name, com.x, com.y, com.z
         ));
     }
-    let joints = joint_samples_from_series(&prep, opts.block_s, opts.analysis.folds);
+    let mut joints = joint_samples_from_series(&prep, opts.block_s, opts.analysis.folds);
     for js in &joints {
         if js.len() < 50 {
             return Err(ExplainError::input(format!(
@@ -356,17 +468,36 @@ pub fn explain_series(
             )));
         }
     }
+    if let Some(vp) = &val_prep {
+        let vj = joint_samples_from_series(vp, opts.block_s, opts.analysis.folds);
+        for (js, mut v) in joints.iter_mut().zip(vj) {
+            v.fold.iter_mut().for_each(|f| *f = analysis::VALIDATION_FOLD);
+            js.append(&v);
+        }
+    }
+    // the classical identification on the same samples and folds (not for contact data:
+    // its measured torques carry the contact wrench)
+    let (baseline, baseline_names) = if axes.is_empty() && opts.baseline {
+        progress(0.3, "baseline: base-parameter least squares + viscous/Coulomb/offset friction");
+        let b = baseline::fit(&model, &prep, val_prep.as_ref(), &time_fold(&prep, opts.block_s, opts.analysis.folds), opts.analysis.folds);
+        let names = b.base_columns.iter().map(|&c| baseline::Baseline::column_name(&model, c)).collect();
+        (Some(b), names)
+    } else {
+        (None, vec![])
+    };
     let p0 = if axes.is_empty() { 0.3 } else { 0.5 };
     let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
-    let mut joints = joints;
     joints.extend(axes);
     results.extend(axis_results);
     let mut notes = Vec::new();
     notes.extend(contact_note);
-    if !ts.ignored_columns.is_empty() {
-        notes.push(format!("Columns ignored: {}.", ts.ignored_columns.join(", ")));
+    for run in fit.iter().chain(validate) {
+        if !run.ts.ignored_columns.is_empty() {
+            notes.push(format!("{}: columns ignored: {}.", run.name, run.ts.ignored_columns.join(", ")));
+        }
     }
-    let method = vec![
+    let mut method = vec![
+        ("robot model".into(), format!("{} ({nj} joints: {urdf_joints}); tool frame {tip_note}", opts.urdf.display())),
         ("velocity/acceleration".into(), format!(
             "Savitzky–Golay, polynomial order {}, window {} samples ({:.0} ms), derivatives of q; torque smoothed by the same filter",
             opts.prepare.order,
@@ -374,13 +505,26 @@ pub fn explain_series(
             prep.window_samples as f64 * prep.dt_raw * 1e3
         )),
         ("analysis rate".into(), format!("{:.1} Hz (every {} raw samples, raw dt {:.4} ms)", 1.0 / prep.dt(), prep.stride, prep.dt_raw * 1e3)),
-        ("held-out".into(), format!("{} folds of interleaved time blocks of ≥ {} s", opts.analysis.folds, opts.block_s)),
-        ("samples used".into(), "steady motion and rest; samples within a filter window of a direction change are left out".into()),
     ];
+    for (n, s) in &sampling {
+        method.push((format!("sampling of {n}"), s.describe()));
+    }
+    method.push(("held-out".into(), format!("{} folds of interleaved time blocks of ≥ {} s", opts.analysis.folds, opts.block_s)));
+    if !validate.is_empty() {
+        method.push((
+            "validation".into(),
+            format!(
+                "the catalogue is selected on the held-out time blocks of the fit runs ({name}); the nominal and final models, \
+                 fitted on all of them, are then scored on the whole validation runs ({})",
+                validate.iter().map(|r| r.name).collect::<Vec<_>>().join(", ")
+            ),
+        ));
+    }
+    method.push(("samples used".into(), "steady motion and rest; samples within a filter window of a direction change are left out".into()));
     Ok(Explained {
-        path: name.to_string(),
+        path: name,
         kind,
-        samples: ts.len(),
+        samples: fit.iter().map(|r| r.ts.len()).sum(),
         joints,
         results,
         shapes,
@@ -390,6 +534,8 @@ pub fn explain_series(
         outliers: vec![],
         first_pass: vec![],
         reference: None,
+        baseline,
+        baseline_names,
     })
 }
 
@@ -516,6 +662,8 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
         outliers,
         first_pass,
         reference,
+        baseline: None,
+        baseline_names: vec![],
     })
 }
 
@@ -542,14 +690,51 @@ pub struct Outlier {
 
 /// Reads `path` (any kind) and analyses it.
 pub fn explain(path: &Path, opts: &ExplainOptions, progress: &(dyn Fn(f64, &str) + Sync)) -> Result<Explained, ExplainError> {
-    let (kind, m) = input::load(path)?;
-    let name = path.display().to_string();
-    match m {
-        Measured::Series(_) if opts.reference.is_some() => Err(ExplainError::input(format!(
-            "{name}: --reference evaluates a friction law on steady-state friction points (joint,velocity_rad_s,torque_nm); \
-             this file is a time series: leave --reference out"
-        ))),
-        Measured::Series(ts) => explain_series(&name, kind, &ts, opts, progress),
-        Measured::Points(d) => explain_points(&name, &d, opts, progress),
+    explain_files(&[path.to_path_buf()], &[], opts, progress)
+}
+
+/// Reads the fit files `measured` and the validation files `validate` and analyses them.
+/// Several files must all be time series (bags or CSV); friction points are one file.
+pub fn explain_files(
+    measured: &[PathBuf],
+    validate: &[PathBuf],
+    opts: &ExplainOptions,
+    progress: &(dyn Fn(f64, &str) + Sync),
+) -> Result<Explained, ExplainError> {
+    if measured.is_empty() {
+        return Err(ExplainError::input("give at least one --measured file"));
     }
+    let mut fit = Vec::new();
+    let mut kind = Kind::TimeSeries;
+    for (k, path) in measured.iter().chain(validate).enumerate() {
+        let (kd, m) = input::load(path)?;
+        let name = path.display().to_string();
+        match m {
+            Measured::Points(d) => {
+                if measured.len() > 1 || !validate.is_empty() {
+                    return Err(ExplainError::input(format!(
+                        "{name}: friction points (joint,velocity_rad_s,torque_nm) are analysed one file at a time, with their \
+                         own interleaved velocity folds: give it alone, without --validate"
+                    )));
+                }
+                return explain_points(&name, &d, opts, progress);
+            }
+            Measured::Series(_) if opts.reference.is_some() => {
+                return Err(ExplainError::input(format!(
+                    "{name}: --reference evaluates a friction law on steady-state friction points (joint,velocity_rad_s,torque_nm); \
+                     this file is a time series: leave --reference out"
+                )))
+            }
+            Measured::Series(ts) => {
+                if k == 0 {
+                    kind = kd;
+                }
+                fit.push((name, ts));
+            }
+        }
+    }
+    let val = fit.split_off(measured.len());
+    let runs: Vec<Run> = fit.iter().map(|(n, ts)| Run { name: n, ts }).collect();
+    let vruns: Vec<Run> = val.iter().map(|(n, ts)| Run { name: n, ts }).collect();
+    explain_runs(&runs, &vruns, kind, opts, progress)
 }

@@ -18,15 +18,15 @@
 //! marked `keep = false`: there the friction sign flips inside the filter window and
 //! neither the smoothed torque nor any static friction law is meaningful.
 //!
-//! Then the rigid-body torque `τ_rb = RNEA(q, q̇, q̈)` of `urdf/jk5.urdf`, the gravity
+//! Then the rigid-body torque `τ_rb = RNEA(q, q̇, q̈)` of the URDF (any serial arm), the gravity
 //! torque, the tool-mass regressor `J_tipᵀ (p̈_tip − g)` and the torque rate `τ̇` are
 //! computed per sample.
 
-use crate::input::{TimeSeries, NJ};
+use crate::input::{Rows, TimeSeries};
 use crate::ExplainError;
-use nalgebra::{DMatrix, SVector, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 use naic_core::dynamics::{frame_jacobian, frame_jdot_qdot, gravity_torques, rnea};
-use naic_core::model::{Data6, FrameId, Model};
+use naic_core::model::{Data, FrameId, Model};
 
 /// Settings of the estimation step.
 #[derive(Clone, Debug)]
@@ -80,21 +80,21 @@ pub fn savgol_coefficients(h: usize, order: usize, dt: f64) -> [Vec<f64>; 3] {
 #[derive(Clone, Debug, Default)]
 pub struct Prepared {
     pub t: Vec<f64>,
-    pub q: Vec<[f64; NJ]>,
-    pub v: Vec<[f64; NJ]>,
-    pub a: Vec<[f64; NJ]>,
+    pub q: Rows,
+    pub v: Rows,
+    pub a: Rows,
     /// Smoothed measured torque.
-    pub tau: Vec<[f64; NJ]>,
+    pub tau: Rows,
     /// Time derivative of the smoothed measured torque.
-    pub dtau: Vec<[f64; NJ]>,
+    pub dtau: Rows,
     /// Rigid-body torque RNEA(q, v, a).
-    pub tau_rb: Vec<[f64; NJ]>,
+    pub tau_rb: Rows,
     /// Gravity torque G(q).
-    pub grav: Vec<[f64; NJ]>,
+    pub grav: Rows,
     /// Torque per kg of a point mass at the `tip` frame: J_tip,linᵀ (p̈_tip − g).
-    pub payload: Vec<[f64; NJ]>,
-    pub regime: Vec<[i8; NJ]>,
-    pub keep: Vec<[bool; NJ]>,
+    pub payload: Rows,
+    pub regime: Vec<Vec<i8>>,
+    pub keep: Vec<Vec<bool>>,
     /// Raw sample index of each analysis instant.
     pub raw_index: Vec<usize>,
     /// Measured wrench smoothed by the same filter (empty without wrench data).
@@ -116,6 +116,41 @@ impl Prepared {
     /// Analysis sample period [s].
     pub fn dt(&self) -> f64 {
         self.dt_raw * self.stride as f64
+    }
+    /// Number of joints.
+    pub fn nj(&self) -> usize {
+        self.q.width()
+    }
+    /// Appends the analysis instants of another segment (same model and filter). Its
+    /// times are shifted to start one analysis step after this one's last instant when
+    /// they would overlap (separate runs each starting at t = 0).
+    pub fn append(&mut self, o: Prepared) {
+        if self.is_empty() {
+            *self = o;
+            return;
+        }
+        let last = self.t.last().copied().unwrap_or(0.0);
+        let first = o.t.first().copied().unwrap_or(0.0);
+        let shift = if first <= last { last + self.dt() - first } else { 0.0 };
+        self.t.extend(o.t.iter().map(|t| t + shift));
+        let base = self.raw_samples;
+        self.raw_index.extend(o.raw_index.iter().map(|i| i + base));
+        for (a, b) in [
+            (&mut self.q, &o.q),
+            (&mut self.v, &o.v),
+            (&mut self.a, &o.a),
+            (&mut self.tau, &o.tau),
+            (&mut self.dtau, &o.dtau),
+            (&mut self.tau_rb, &o.tau_rb),
+            (&mut self.grav, &o.grav),
+            (&mut self.payload, &o.payload),
+        ] {
+            a.extend(b);
+        }
+        self.regime.extend(o.regime);
+        self.keep.extend(o.keep);
+        self.wrench.extend(o.wrench);
+        self.raw_samples += o.raw_samples;
     }
 }
 
@@ -154,17 +189,26 @@ pub fn prepare(
         ..Default::default()
     };
     p.t.reserve(m);
-    let mut data = Data6::try_new(model).map_err(|e| ExplainError::model(format!("{e}")))?;
+    let nj = model.nv();
+    if ts.nj() != nj {
+        return Err(ExplainError::input(format!("the data has {} joints, the robot model {nj}", ts.nj())));
+    }
+    for r in [&mut p.q, &mut p.v, &mut p.a, &mut p.tau, &mut p.dtau, &mut p.tau_rb, &mut p.grav, &mut p.payload] {
+        *r = Rows::with_capacity(nj, m);
+    }
+    let mut data = Data::new(model);
     let g = Vector3::new(0.0, 0.0, -9.81);
+    let (mut qv, mut vv, mut av) = (DVector::zeros(nj), DVector::zeros(nj), DVector::zeros(nj));
+    let (mut tau, mut dtau, mut pl) = (vec![0.0; nj], vec![0.0; nj], vec![0.0; nj]);
     for (k, &i) in idx.iter().enumerate() {
         if k % 8192 == 0 {
             progress(k as f64 / m as f64);
         }
-        let mut q = [0.0; NJ];
-        let mut v = [0.0; NJ];
-        let mut a = [0.0; NJ];
-        let mut tau = [0.0; NJ];
-        let mut dtau = [0.0; NJ];
+        qv.fill(0.0);
+        vv.fill(0.0);
+        av.fill(0.0);
+        tau.fill(0.0);
+        dtau.fill(0.0);
         if let Some(wr) = &ts.wrench {
             let mut ws = [0.0; 6];
             for (w, r) in (i - h..=i + h).enumerate() {
@@ -178,50 +222,50 @@ pub fn prepare(
             let (w0, w1, w2) = (c0[w], c1[w], c2[w]);
             let qr = &ts.q[r];
             let tr = &ts.tau[r];
-            for j in 0..NJ {
-                q[j] += w0 * qr[j];
-                v[j] += w1 * qr[j];
-                a[j] += w2 * qr[j];
+            for j in 0..nj {
+                qv[j] += w0 * qr[j];
+                vv[j] += w1 * qr[j];
+                av[j] += w2 * qr[j];
                 tau[j] += w0 * tr[j];
                 dtau[j] += w1 * tr[j];
             }
         }
-        let qv = SVector::<f64, 6>::from(q);
-        let vv = SVector::<f64, 6>::from(v);
-        let av = SVector::<f64, 6>::from(a);
-        let rb = *rnea(model, &mut data, &qv, &vv, &av);
-        let gr = *gravity_torques(model, &mut data, &qv);
+        p.tau_rb.push(rnea(model, &mut data, &qv, &vv, &av).as_slice());
+        p.grav.push(gravity_torques(model, &mut data, &qv).as_slice());
         let jdqd = frame_jdot_qdot(model, &mut data, &qv, &vv, tip);
-        let jac = *frame_jacobian(model, &mut data, &qv, tip);
+        let jdqd_lin = Vector3::new(jdqd[0], jdqd[1], jdqd[2]);
+        let jac = frame_jacobian(model, &mut data, &qv, tip);
         let jl = jac.fixed_rows::<3>(0);
-        let acc = jl * av + Vector3::new(jdqd[0], jdqd[1], jdqd[2]);
-        let pl = jl.transpose() * (acc - g);
-        let mut reg = [0i8; NJ];
-        for j in 0..NJ {
-            reg[j] = if v[j] > opts.v_rest {
-                1
-            } else if v[j] < -opts.v_rest {
-                -1
-            } else {
-                0
-            };
+        let acc_g = jl * &av + jdqd_lin - g;
+        for (j, x) in pl.iter_mut().enumerate() {
+            *x = jl.column(j).dot(&acc_g);
         }
+        let reg: Vec<i8> = vv
+            .iter()
+            .map(|&v| {
+                if v > opts.v_rest {
+                    1
+                } else if v < -opts.v_rest {
+                    -1
+                } else {
+                    0
+                }
+            })
+            .collect();
         p.t.push(ts.t[i]);
         p.raw_index.push(i);
-        p.q.push(q);
-        p.v.push(v);
-        p.a.push(a);
-        p.tau.push(tau);
-        p.dtau.push(dtau);
-        p.tau_rb.push(rb.into());
-        p.grav.push(gr.into());
-        p.payload.push(pl.into());
+        p.q.push(qv.as_slice());
+        p.v.push(vv.as_slice());
+        p.a.push(av.as_slice());
+        p.tau.push(&tau);
+        p.dtau.push(&dtau);
+        p.payload.push(&pl);
         p.regime.push(reg);
     }
     // Keep mask: constant regime over ± (h/stride + 1) analysis samples.
     let margin = h.div_ceil(stride) + 1;
-    p.keep = vec![[true; NJ]; m];
-    for j in 0..NJ {
+    p.keep = vec![vec![true; nj]; m];
+    for j in 0..nj {
         // last index at which the regime changed, scanning both ways
         let mut change = vec![false; m];
         for k in 1..m {

@@ -199,6 +199,9 @@ pub fn direction_rmse_insample(js: &JointSamples, ev: &Eval, sh: &NominalShape) 
 fn split_rmse(js: &JointSamples, oof: &[f64]) -> (f64, f64) {
     let (mut sp, mut np, mut sn, mut nn) = (0.0, 0usize, 0.0, 0usize);
     for (i, r) in oof.iter().enumerate() {
+        if js.is_validation(i) {
+            continue;
+        }
         if js.s[i] > 0.0 {
             sp += r * r;
             np += 1;
@@ -275,8 +278,19 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
                    "model": r.final_eval.full_structure.effects.iter().map(|e| e.name()).collect::<Vec<_>>()}),
         );
     }
+    let joints: Vec<&JointResult> = ex.results.iter().filter(|r| !crate::contact::is_axis(r.joint)).collect();
+    let validation: Map<String, Value> = joints
+        .iter()
+        .filter_map(|r| {
+            Some((jkey(r.joint), json!({"samples": r.final_eval.val_n, "nominal_rmse": r.nominal.validation_rmse()?,
+                "extended_rmse": r.final_eval.validation_rmse()?})))
+        })
+        .collect();
     json!({
         "data": {"path": ex.path, "kind": ex.kind.name(), "samples": ex.samples},
+        "explained": explained_json(&joints),
+        "baseline": baseline_json(ex),
+        "validation": if validation.is_empty() { Value::Null } else { Value::Object(validation) },
         "nominal": {"heldout_rmse": map_of(&nominal), "model": ex.nominal_source},
         "findings": findings,
         "extended": {"heldout_rmse": map_of(&extended), "params_file": params_file, "heldout_rmse_by_direction": Value::Object(per_dir)},
@@ -288,6 +302,47 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
         "notes": ex.notes,
         "lack_of_fit": lack_of_fit_json(ex),
     })
+}
+
+/// `report.json`'s `baseline` (see [`crate::baseline`]; `null` when it was not fitted).
+fn baseline_json(ex: &Explained) -> Value {
+    let Some(b) = &ex.baseline else { return Value::Null };
+    let mut per = Map::new();
+    for j in 0..b.nj {
+        let (fv, fc, fo) = b.friction(j);
+        per.insert(
+            jkey(j + 1),
+            json!({"heldout_rmse": b.heldout_rmse[j], "validation_rmse": b.validation_rmse.get(j),
+                   "urdf_rigid_body_rmse": b.urdf_rmse[j], "f_v": fv, "f_c": fc, "f_o": fo}),
+        );
+    }
+    let base: Map<String, Value> = ex.baseline_names.iter().zip(&b.theta).map(|(n, v)| (n.clone(), json!(v))).collect();
+    json!({
+        "model": "base parameters of the rigid body (least squares on the joint-torque regressor, pivoted-QR column selection) + per joint f_v q̇ + f_c sgn(q̇) + f_o; same samples, folds and validation runs as the extended model",
+        "base_parameters": base,
+        "joints": Value::Object(per),
+    })
+}
+
+/// Below this share of the nominal held-out mean square explained (over all joints),
+/// the report says that most of the residual is left.
+pub const MOSTLY_LEFT: f64 = 0.5;
+
+/// `report.json`'s `explained`: per joint and over all joints, the share of the nominal
+/// model's held-out mean-square residual that the extended model removes.
+fn explained_json(joints: &[&JointResult]) -> Value {
+    let mut m = Map::new();
+    let (mut nom, mut ext) = (0.0, 0.0);
+    for r in joints {
+        let (a, b) = (r.nominal.heldout_ssr / r.nominal.n.max(1) as f64, r.final_eval.heldout_ssr / r.final_eval.n.max(1) as f64);
+        nom += a;
+        ext += b;
+        m.insert(jkey(r.joint), json!(if a > 0.0 { 1.0 - b / a } else { 0.0 }));
+    }
+    let total = if nom > 0.0 { 1.0 - ext / nom } else { 0.0 };
+    m.insert("all_joints".into(), json!(total));
+    m.insert("method".into(), json!("1 − (extended held-out mean square)/(nominal held-out mean square); all_joints sums the mean squares over the joints"));
+    Value::Object(m)
 }
 
 /// `report.json`'s `lack_of_fit`: per joint and direction, the data's noise floor against
@@ -477,7 +532,21 @@ pub fn write_all(ex: &Explained, dir: &Path) -> Result<Value, ExplainError> {
 fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String)]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# naic explain: {}\n", ex.path);
-    let _ = writeln!(s, "Kind: **{}**, {} samples. Nominal model: rigid body (`urdf/jk5.urdf`) + {}.\n", ex.kind.name(), ex.samples, ex.nominal_source);
+    let rb = if ex.kind == crate::input::Kind::FrictionPoints { "" } else { "rigid body of the robot model (see Method) + " };
+    let _ = writeln!(s, "Kind: **{}**, {} samples. Nominal model: {rb}{}.\n", ex.kind.name(), ex.samples, ex.nominal_source);
+    if let Some(total) = v["explained"]["all_joints"].as_f64() {
+        if total < MOSTLY_LEFT {
+            let _ = writeln!(
+                s,
+                "**Most of the residual is left**: the findings explain {:.0} % of the nominal model's held-out mean-square residual \
+                 (over all joints); {:.0} % is not explained by anything in the catalogue. See \"Held-out RMSE per joint\".\n",
+                100.0 * total,
+                100.0 * (1.0 - total)
+            );
+        } else {
+            let _ = writeln!(s, "The findings explain {:.0} % of the nominal model's held-out mean-square residual (over all joints).\n", 100.0 * total);
+        }
+    }
     let _ = writeln!(s, "## Method\n");
     for (k, m) in &ex.method {
         let _ = writeln!(s, "- {k}: {m}");
@@ -524,20 +593,62 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
         let _ = writeln!(s, "- `{}`: {}", f.effect.name(), f.evidence);
     }
     let _ = writeln!(s, "\n## Held-out RMSE per joint [N·m]\n");
-    let _ = writeln!(s, "| joint | nominal | extended | extended + | extended − | model |\n| --- | --- | --- | --- | --- | --- |");
+    let _ = writeln!(s, "| joint | nominal | extended | explained | extended + | extended − | model |\n| --- | --- | --- | --- | --- | --- | --- |");
     for r in ex.results.iter().filter(|r| !crate::contact::is_axis(r.joint)) {
         let k = jkey(r.joint);
         let d = &v["extended"]["heldout_rmse_by_direction"][&k];
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {} |",
+            "| {} | {:.4} | {:.4} | {:.0} % | {:.4} | {:.4} | {} |",
             r.joint,
             r.nominal.heldout_rmse(),
             r.final_eval.heldout_rmse(),
+            100.0 * v["explained"][&k].as_f64().unwrap_or(f64::NAN),
             d["extended"]["positive"].as_f64().unwrap_or(f64::NAN),
             d["extended"]["negative"].as_f64().unwrap_or(f64::NAN),
             r.final_eval.full_structure.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + ")
         );
+    }
+    if let Some(val) = v["validation"].as_object() {
+        let _ = writeln!(s, "\n## RMSE on the validation runs [N·m]\n\nModels fitted on all of the fit runs, scored on the whole validation runs.\n");
+        let _ = writeln!(s, "| joint | samples | nominal | extended | baseline (classical) |\n| --- | --- | --- | --- | --- |");
+        for (k, d) in val {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.4} | {:.4} | {:.4} |",
+                k.trim_start_matches("joint"),
+                d["samples"],
+                d["nominal_rmse"].as_f64().unwrap_or(f64::NAN),
+                d["extended_rmse"].as_f64().unwrap_or(f64::NAN),
+                v["baseline"]["joints"][k]["validation_rmse"].as_f64().unwrap_or(f64::NAN)
+            );
+        }
+    }
+    if let Some(b) = v["baseline"]["joints"].as_object() {
+        let _ = writeln!(
+            s,
+            "\n## Baseline: classical identification on the same samples [N·m]\n\n{} base parameters of the rigid body by least squares + per-joint \
+             viscous, Coulomb and offset friction, fitted from nothing (the URDF's inertials are not used); held-out on the same time blocks. \
+             `URDF, no friction` is τ − RNEA of the robot model, nothing fitted.\n",
+            v["baseline"]["base_parameters"].as_object().map_or(0, |m| m.len())
+        );
+        let _ = writeln!(s, "| joint | URDF, no friction | nominal | extended | baseline | baseline f_v | f_c | f_o |\n| --- | --- | --- | --- | --- | --- | --- | --- |");
+        for r in ex.results.iter().filter(|r| !crate::contact::is_axis(r.joint)) {
+            let d = &b[&jkey(r.joint)];
+            let g = |k: &str| d[k].as_f64().unwrap_or(f64::NAN);
+            let _ = writeln!(
+                s,
+                "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |",
+                r.joint,
+                g("urdf_rigid_body_rmse"),
+                r.nominal.heldout_rmse(),
+                r.final_eval.heldout_rmse(),
+                g("heldout_rmse"),
+                g("f_v"),
+                g("f_c"),
+                g("f_o")
+            );
+        }
     }
     if ex.results.iter().any(|r| crate::contact::is_axis(r.joint)) {
         let _ = writeln!(s, "\n## Held-out RMSE per sensor axis [N, N·m]\n");

@@ -75,23 +75,33 @@ impl RosNode {
         check: Option<SetCheck>,
     ) -> Result<RosNode, RosError> {
         let name = args.node_name.clone().unwrap_or_else(|| default_name.to_string());
-        let ns = args.namespace.clone().unwrap_or_else(|| "/".to_string());
         crate::log::init(&name, args.log_level.as_deref());
-        let fqn = args.fqn(default_name);
-        let overrides = args.overrides(default_name)?;
-        let params = ParamTable::new(specs, check, &overrides).map_err(RosError::Param)?;
-
+        let params = ParamTable::new(specs, check, &args.overrides(default_name)?).map_err(RosError::Param)?;
         // Real-time scheduling before any thread exists, so the DDS threads inherit it.
-        let prio = params.with(|p| p.i64("realtime_priority"));
-        if prio > 0 {
-            set_realtime(prio as i32);
-        }
-        let cpu = params.with(|p| p.i64("cpu_affinity"));
-        if cpu >= 0 {
-            pin_to_cpu(cpu as usize);
-        }
+        params.with(apply_scheduling);
+        let context = create_context(&DdsSettings::from_env()?)?;
+        Self::build(args, default_name, params, context)
+    }
+
+    /// A node in an existing DDS participant (several nodes in one process, as a ROS 2
+    /// component container has them). Scheduling (`realtime_priority`, `cpu_affinity`) is
+    /// the process's, set by whoever created `context` ([`apply_scheduling`]).
+    pub fn in_context(
+        args: RosArgs,
+        default_name: &str,
+        specs: Vec<ParamSpec>,
+        check: Option<SetCheck>,
+        context: &Context,
+    ) -> Result<RosNode, RosError> {
+        let params = ParamTable::new(specs, check, &args.overrides(default_name)?).map_err(RosError::Param)?;
+        Self::build(args, default_name, params, context.clone())
+    }
+
+    fn build(args: RosArgs, default_name: &str, params: ParamTable, context: Context) -> Result<RosNode, RosError> {
+        let name = args.node_name.clone().unwrap_or_else(|| default_name.to_string());
+        let ns = args.namespace.clone().unwrap_or_else(|| "/".to_string());
+        let fqn = args.fqn(default_name);
         let settings = DdsSettings::from_env()?;
-        let context = create_context(&settings)?;
         let node_name = NodeName::new(&ns, &name)
             .map_err(|e| RosError::Args(format!("bad node name '{ns}/{name}': {e:?}")))?;
         let mut node = context
@@ -412,6 +422,19 @@ impl ParamServices {
 
 /// Publisher alias used by the nodes.
 pub type Pub<M> = Publisher<M>;
+
+/// The calling thread's scheduling from a node's `realtime_priority` and `cpu_affinity`
+/// (call it before any thread exists: the threads created afterwards inherit it).
+pub fn apply_scheduling(p: &crate::ParamView) {
+    let prio = p.i64("realtime_priority");
+    if prio > 0 {
+        set_realtime(prio as i32);
+    }
+    let cpu = p.i64("cpu_affinity");
+    if cpu >= 0 {
+        pin_to_cpu(cpu as usize);
+    }
+}
 
 /// Pin the calling thread (and the threads it creates afterwards) to one CPU.
 fn pin_to_cpu(cpu: usize) {

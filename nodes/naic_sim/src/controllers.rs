@@ -33,7 +33,19 @@ pub struct LoopSettings {
     pub contact_exit_n: f64,
     /// Safety force limit [N]: above it the controller retracts (`inf` disables).
     pub force_limit_n: f64,
+    /// Sensor-to-torque delay of the loop in control periods (0 = the in-process
+    /// loop; 1–2 = the DDS chain): the controller sees the measurements of `d` periods ago.
+    pub delay_cycles: usize,
+    /// The controller's dynamic model is the plant's with every mass and inertia scaled by this.
+    pub model_mass_error: f64,
 }
+
+/// The largest `delay_cycles` the simulated loop supports.
+pub const MAX_DELAY_CYCLES: usize = 4;
+
+/// The controllers of `naic sim --controller`: the core's modes, plus the benchmark-only
+/// `oracle` (the scheduled law with the simulator's true k_e instead of its estimate).
+pub const CONTROLLERS: [&str; 5] = ["naic", "aic", "fixed", "scheduled", "oracle"];
 
 impl Default for LoopSettings {
     fn default() -> Self {
@@ -45,6 +57,8 @@ impl Default for LoopSettings {
             contact_enter_n: 1.0,
             contact_exit_n: 0.2,
             force_limit_n: 50.0,
+            delay_cycles: 0,
+            model_mass_error: 1.0,
         }
     }
 }
@@ -56,6 +70,11 @@ pub struct PipelineController {
     pipeline: Pipeline,
     state: PipelineState,
     ws: Workspace,
+    /// The scheduled law is given the true stiffness (the `oracle` benchmark).
+    oracle: bool,
+    /// The last `delay + 1` measurements, newest first.
+    delayed: [Option<Measurements>; MAX_DELAY_CYCLES + 1],
+    delay: usize,
 }
 
 impl PipelineController {
@@ -70,6 +89,14 @@ impl PipelineController {
         tool_com: Vector3<f64>,
         settings: &LoopSettings,
     ) -> Result<Self, String> {
+        if settings.delay_cycles > MAX_DELAY_CYCLES {
+            return Err(format!("delay_cycles = {} must be at most {MAX_DELAY_CYCLES}", settings.delay_cycles));
+        }
+        let f = settings.model_mass_error;
+        if !(f > 0.0 && f.is_finite()) {
+            return Err(format!("model mass error = {f} must be a positive factor (1 = exact model)"));
+        }
+        let model = &if f == 1.0 { model.clone() } else { model.with_scaled_inertias(f) };
         let n = scenario.force_axis;
         let axis = (0..3).max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs())).unwrap_or(2);
         if (n.norm() - 1.0).abs() > 1e-9 || (n[axis].abs() - 1.0).abs() > 1e-9 {
@@ -104,7 +131,27 @@ impl PipelineController {
             actuate: ActuateParams { effort_limit: effort, max_delta: [f64::INFINITY; 6] },
         };
         let state = pipeline.initial_state();
-        Ok(Self { name: mode.as_str().to_string(), pipeline, state, ws })
+        let delayed = [None; MAX_DELAY_CYCLES + 1];
+        Ok(Self { name: mode.as_str().to_string(), pipeline, state, ws, oracle: false, delayed, delay: settings.delay_cycles })
+    }
+
+    /// A controller by its `naic sim` name (one of [`CONTROLLERS`]).
+    pub fn by_name(
+        name: &str,
+        scenario: &Scenario,
+        model: &Model,
+        friction: Option<FrictionModel>,
+        tool: (f64, Vector3<f64>),
+        settings: &LoopSettings,
+    ) -> Result<Self, String> {
+        let oracle = name == "oracle";
+        let mode = if oracle { Mode::Scheduled } else { Mode::parse(name)? };
+        let mut c = Self::new(mode, scenario, model, friction, tool.0, tool.1, settings)?;
+        c.oracle = oracle;
+        if oracle {
+            c.name = "oracle".into();
+        }
+        Ok(c)
     }
 }
 
@@ -130,7 +177,17 @@ impl SimController for PipelineController {
         &self.name
     }
 
+    fn set_true_stiffness(&mut self, k_e: f64) {
+        if self.oracle && k_e > 0.0 {
+            self.state.controller.control.sched.k_known = Some(k_e);
+        }
+    }
+
     fn step(&mut self, m: &Measurements, r: &ReferenceSample) -> ControlReport {
+        // The loop delay: the controller works on the measurement of `delay` periods ago.
+        self.delayed.rotate_right(1);
+        self.delayed[0] = Some(*m);
+        let m = &self.delayed[..=self.delay].iter().rev().find_map(|x| *x).unwrap_or(*m);
         let raw = RawMeasurements { t: m.t, q: m.q, dq: m.dq, joints_stamp: m.t, wrench: m.wrench, wrench_stamp: m.t };
         let reference = Reference { p_d: r.p_d, r_d: r.r_d, v_d: r.v_d, a_d: r.a_d, f_d: r.f_d };
         let (state, out) = pipeline::step(&self.pipeline, &self.state, &raw, &reference, &mut self.ws);
@@ -145,6 +202,8 @@ impl SimController for PipelineController {
             gamma_bound: st.gamma_bound,
             f_ext: st.f_ext,
             phase: st.phase as u8,
+            k_e_hat: st.k_e_hat,
+            k_e_confidence: st.k_e_confidence,
         }
     }
 }

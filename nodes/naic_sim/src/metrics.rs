@@ -270,7 +270,7 @@ pub fn spread_table(files: &[MetricsFile], with_header: bool) -> String {
         t.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
     }
     let Some(first) = files.first() else { return t };
-    for name in ["naic", "aic", "fixed"].iter().filter(|n| first.controllers.contains_key(**n)) {
+    for name in crate::controllers::CONTROLLERS.iter().filter(|n| first.controllers.contains_key(**n)) {
         let cms: Vec<&ControllerMetrics> = files.iter().filter_map(|f| f.controllers.get(*name)).collect();
         let n_ph = cms.iter().map(|c| c.phases.len()).min().unwrap_or(0);
         let contact: Vec<Option<f64>> = cms.iter().map(|c| c.contact_time_s).collect();

@@ -42,6 +42,8 @@ use naic_core::friction::FrictionModel;
 use naic_core::model::{Data6, FrameId, Model};
 use nalgebra::{Isometry3, Matrix3x6, Matrix6, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
 
+mod implicit;
+
 /// Number of joints of the JK5.
 pub const NJ: usize = 6;
 
@@ -111,15 +113,21 @@ impl PlantState {
     }
 }
 
-/// Preallocated workspace.
+/// Preallocated workspace (scratch memory; results never depend on its contents).
 #[derive(Clone, Debug)]
 pub struct PlantWorkspace {
     data: Data6,
+    /// The friction torques and slopes at the last implicit step's solution,
+    /// reused when the next step starts from that bit-identical velocity.
+    friction: implicit::FrictionAt,
 }
 
 impl PlantWorkspace {
     pub fn new(p: &PlantParams) -> Self {
-        Self { data: Data6::try_new(&p.model).expect("PlantParams::new checked the model has 6 joints") }
+        Self {
+            data: Data6::try_new(&p.model).expect("PlantParams::new checked the model has 6 joints"),
+            friction: implicit::FrictionAt::default(),
+        }
     }
 }
 
@@ -235,17 +243,6 @@ fn friction_torques(p: &PlantParams, v: &Vector6<f64>) -> Vector6<f64> {
     }
 }
 
-/// Slope ∂τ_f/∂q̇ by central difference (per joint, diagonal).
-fn friction_slopes(p: &PlantParams, v: &Vector6<f64>) -> Vector6<f64> {
-    match &p.friction {
-        None => Vector6::zeros(),
-        Some(f) => Vector6::from_fn(|i, _| {
-            let d = 1e-7;
-            (f.tau_f(i, v[i] + d) - f.tau_f(i, v[i] - d)) / (2.0 * d)
-        }),
-    }
-}
-
 /// Tip pose, tip velocity, linear Jacobian and contact at `(t, q, v)`.
 fn tip_contact(
     p: &PlantParams,
@@ -269,7 +266,8 @@ fn accel(p: &PlantParams, ws: &mut PlantWorkspace, t: f64, q: &Vector6<f64>, v: 
     *dynamics::aba(&p.model, &mut ws.data, q, v, &tau_tot)
 }
 
-/// One integration step of length `h` from `(t, q, v)` with torque `tau`.
+/// One integration step of length `h` from `(t, q, v)` with torque `tau`:
+/// `(q⁺, q̇⁺)` and, if the scheme computed it, `τ_f(q̇⁺)`.
 fn integrate(
     p: &PlantParams,
     ws: &mut PlantWorkspace,
@@ -278,12 +276,12 @@ fn integrate(
     v: &Vector6<f64>,
     tau: &Vector6<f64>,
     h: f64,
-) -> (Vector6<f64>, Vector6<f64>) {
+) -> (Vector6<f64>, Vector6<f64>, Option<Vector6<f64>>) {
     match p.integrator {
         Integrator::SemiImplicitEuler => {
             let a = accel(p, ws, t, q, v, tau);
             let v1 = v + a * h;
-            (q + v1 * h, v1)
+            (q + v1 * h, v1, None)
         }
         Integrator::Rk4 => {
             let k1v = accel(p, ws, t, q, v, tau);
@@ -296,75 +294,17 @@ fn integrate(
             let k4v = accel(p, ws, t + h, &q4, &v4, tau);
             let v1 = v + (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0);
             let q1 = q + (k1q + v2 * 2.0 + v3 * 2.0 + v4) * (h / 6.0);
-            (q1, v1)
+            (q1, v1, None)
         }
         Integrator::ImplicitFriction => {
             let (_, _, jl, c) = tip_contact(p, ws, t, q, v);
             let rhs0 = tau + jl.transpose() * c.force - dynamics::bias_torques(&p.model, &mut ws.data, q, v);
             let m = *dynamics::crba(&p.model, &mut ws.data, q);
-            // Newton on r(v⁺) = M (v⁺ − v) − h (rhs0 − τ_f(v⁺)) = 0 from v⁺ = v,
-            // with backtracking on |r| (the tanh friction is far from linear
-            // within a few mrad/s of rest, so full steps can overshoot).
-            let residual = |v1: &Vector6<f64>| m * (v1 - v) - (rhs0 - friction_torques(p, v1)) * h;
-            let mut v1 = *v;
-            let mut r = residual(&v1);
-            for _ in 0..30 {
-                let r_norm = r.norm();
-                // converged: residual below 1e-10 N·m·s (1e-7 N·m of torque at 1 ms)
-                if r_norm < 1e-10 {
-                    break;
-                }
-                let mut jac = m;
-                if p.friction.is_some() {
-                    let slopes = friction_slopes(p, &v1);
-                    for i in 0..NJ {
-                        jac[(i, i)] += h * slopes[i].max(0.0);
-                    }
-                }
-                // Negative Stribeck slopes (joint 5: about −90 N·m·s/rad near
-                // 3 mrad/s) can cancel a light link's inertia and make the exact
-                // Jacobian singular; they are clamped at 0 in the Jacobian only.
-                let Some(dv) = jac.lu().solve(&r) else { break };
-                // Inside the tanh zone of the friction (|q̇| < 3 v_s, where its
-                // slope changes by orders of magnitude) a Newton step is only
-                // trusted up to 2 v_s per joint; outside it, fully.
-                let mut alpha: f64 = 1.0;
-                for i in 0..NJ {
-                    let (from, to) = (v1[i], v1[i] - dv[i]);
-                    if (from.abs() < 3.0 * V_S_ZONE || to.abs() < 3.0 * V_S_ZONE) && dv[i].abs() > 2.0 * V_S_ZONE {
-                        alpha = alpha.min(2.0 * V_S_ZONE / dv[i].abs());
-                    }
-                }
-                let alpha_min = 1e-9 * alpha;
-                let mut improved = false;
-                while alpha >= alpha_min {
-                    let trial = v1 - dv * alpha;
-                    let r_trial = residual(&trial);
-                    if r_trial.norm() <= (1.0 - 1e-4 * alpha) * r_norm {
-                        v1 = trial;
-                        r = r_trial;
-                        improved = true;
-                        break;
-                    }
-                    alpha *= 0.5;
-                }
-                // No descent (a Stribeck branch with negative slope makes the
-                // Jacobian nearly singular): keep the best point found.
-                if !improved {
-                    break;
-                }
-                if p.friction.is_none() || dv.amax() * alpha < 1e-13 || r.norm() < 1e-14 {
-                    break;
-                }
-            }
-            (q + v1 * h, v1)
+            let sol = implicit::solve(p.friction.as_ref(), &m, v, &rhs0, h, &mut ws.friction);
+            (q + sol.v1 * h, sol.v1, Some(sol.tau_f))
         }
     }
 }
-
-/// Velocity scale of the friction's tanh zone for the Newton trust region [rad/s]
-/// (the smoothing velocity of the friction model, `DEFAULT_V_S`).
-const V_S_ZONE: f64 = naic_core::friction::DEFAULT_V_S;
 
 /// Saturate the commanded torque at the effort limits.
 fn saturate(p: &PlantParams, tau_cmd: &[f64; NJ]) -> ([f64; NJ], bool) {
@@ -382,6 +322,18 @@ fn saturate(p: &PlantParams, tau_cmd: &[f64; NJ]) -> ([f64; NJ], bool) {
 /// Measure the current state (encoders, F/T sensor) and collect the truth.
 /// Pure: returns the state with its RNG advanced.
 pub fn observe(p: &PlantParams, s: &PlantState, ws: &mut PlantWorkspace, tau_applied: [f64; NJ], saturated: bool) -> (PlantState, Observation) {
+    observe_with_friction(p, s, ws, tau_applied, saturated, None)
+}
+
+/// [`observe`], with `τ_f(q̇)` at the state if the integrator already has it.
+fn observe_with_friction(
+    p: &PlantParams,
+    s: &PlantState,
+    ws: &mut PlantWorkspace,
+    tau_applied: [f64; NJ],
+    saturated: bool,
+    tau_f: Option<Vector6<f64>>,
+) -> (PlantState, Observation) {
     let q = Vector6::from(s.q);
     let v = Vector6::from(s.dq);
     let (pos, vel, _, contact) = tip_contact(p, ws, s.t, &q, &v);
@@ -394,7 +346,7 @@ pub fn observe(p: &PlantParams, s: &PlantState, ws: &mut PlantWorkspace, tau_app
     let wrench = p.ft.measure(&r_ws, &r_tip, &contact.force, &mut rng);
     let wrench_true = p.ft.true_wrench(&r_ws, &r_tip, &contact.force);
     let (qm, dqm) = p.encoders.measure(&s.q, &s.dq, &mut rng);
-    let tf = friction_torques(p, &v);
+    let tf = tau_f.unwrap_or_else(|| friction_torques(p, &v));
     let mut limit_violation = false;
     for (i, j) in p.model.joints().iter().enumerate() {
         limit_violation |= s.q[i] < j.limits.lower || s.q[i] > j.limits.upper;
@@ -427,12 +379,13 @@ pub fn step(p: &PlantParams, s: &PlantState, tau_cmd: &[f64; NJ], ws: &mut Plant
     let h = p.h();
     let mut q = Vector6::from(s.q);
     let mut v = Vector6::from(s.dq);
+    let mut tau_f = None;
     for k in 0..p.substeps {
         let t = s.t + k as f64 * h;
-        (q, v) = integrate(p, ws, t, &q, &v, &tau_v, h);
+        (q, v, tau_f) = integrate(p, ws, t, &q, &v, &tau_v, h);
     }
     let next = PlantState { k: s.k + 1, t: (s.k + 1) as f64 * p.dt, q: q.into(), dq: v.into(), rng: s.rng };
-    observe(p, &next, ws, tau, saturated)
+    observe_with_friction(p, &next, ws, tau, saturated, tau_f)
 }
 
 /// Open-loop replay: from `(q0, dq0)` apply `torques[k]` over period `k` and

@@ -21,6 +21,9 @@ pub struct ControlReport {
     pub f_ext: f64,
     /// 0 free, 1 contact, 2 hold (controller's phase).
     pub phase: u8,
+    /// The scheduled law's stiffness estimate [N/m] and its confidence (0 otherwise).
+    pub k_e_hat: f64,
+    pub k_e_confidence: f64,
 }
 
 /// A force-tracking controller as the simulator drives it: measured signals
@@ -31,6 +34,9 @@ pub trait Controller {
     /// Name used in files and legends (`naic`, `aic`, `fixed`).
     fn name(&self) -> &str;
     fn step(&mut self, meas: &Measurements, reference: &ReferenceSample) -> ControlReport;
+    /// The simulator's true stiffness under the tip before each step: only the
+    /// `oracle` benchmark uses it (default: ignored).
+    fn set_true_stiffness(&mut self, _k_e: f64) {}
 }
 
 /// One recorded control period.
@@ -62,6 +68,7 @@ pub struct Record {
     pub gamma_bound: f64,
     pub phase: u8,
     pub saturated: bool,
+    pub k_e_hat: f64,
 }
 
 /// The outcome of one closed-loop run.
@@ -102,6 +109,7 @@ fn record(s: &Scenario, k: usize, obs: &Observation, rep: &ControlReport, refere
         gamma_bound: rep.gamma_bound,
         phase: rep.phase,
         saturated: tr.saturated,
+        k_e_hat: rep.k_e_hat,
     }
 }
 
@@ -119,6 +127,7 @@ pub fn run(s: &Scenario, p: &PlantParams, controller: &mut dyn Controller, progr
     let every = (n / 100).max(1);
     for k in 0..=n {
         let reference = s.reference(k as f64 * s.dt);
+        controller.set_true_stiffness(obs.truth.contact.k_e);
         let rep = controller.step(&obs.meas, &reference);
         records.push(record(s, k, &obs, &rep, &reference, &state, p));
         limit_violation |= obs.truth.limit_violation;

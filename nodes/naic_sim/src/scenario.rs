@@ -51,7 +51,7 @@ use naic_core::model::{Data6, Model};
 use nalgebra::{Unit, UnitQuaternion, Vector3, Vector6};
 
 /// The scenario names of `naic sim --scenario`.
-pub const SCENARIOS: [&str; 5] = ["flat", "stiffness-step", "slope", "foam", "two-material"];
+pub const SCENARIOS: [&str; 6] = ["flat", "stiffness-step", "slope", "foam", "two-material", "acrylic"];
 
 /// Impedance parameters of the paper's §4.1 (the authors' code).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -165,6 +165,31 @@ impl Scenario {
         }
         ev.sort_by(|a, b| a.t_start.total_cmp(&b.t_start));
         ev
+    }
+
+    /// The same scenario on a surface of stiffness `k_e` (`naic sim --stiffness`): a
+    /// uniform surface gets `k_e`; a stiffness schedule (eq 22) is scaled so that its
+    /// first value is `k_e`. The two-material surface has no single stiffness: an error.
+    pub fn with_stiffness(&self, k_e: f64) -> Result<Scenario, String> {
+        if !(k_e > 0.0 && k_e.is_finite()) {
+            return Err(format!("stiffness {k_e} N/m must be a positive number"));
+        }
+        let mut s = self.clone();
+        match &mut s.env.material {
+            MaterialMap::Uniform(m) => m.k_e = k_e,
+            MaterialMap::StiffnessSchedule { base, switches } => {
+                let f = k_e / base.k_e;
+                base.k_e = k_e;
+                for sw in switches.iter_mut() {
+                    sw.1 *= f;
+                }
+            }
+            MaterialMap::SplitX { .. } => {
+                return Err(format!("scenario '{}' has two materials: --stiffness applies to one-material scenarios", s.name))
+            }
+        }
+        s.description = format!("{} (stiffness overridden: k_e = {k_e} N/m)", s.description);
+        Ok(s)
     }
 
     /// Number of control steps.
@@ -290,6 +315,12 @@ pub fn preset(name: &str, model: &Model) -> Result<Scenario, String> {
             description: "§4.1: flat surface z = 0.08 m, k_e = 2000 N/m, f_d = 10 N then 20 N at t = 3 s".into(),
             f_d_steps: vec![(0.0, 10.0), (3.0, 20.0)],
             paper_notes: "Fig 2: contact at t = 0.7 s; NAIC converges faster and with less oscillation than AIC".into(),
+            ..base
+        },
+        "acrylic" => Scenario {
+            description: "§4.1 approach onto acrylic (k_e = 50 000 N/m, b_e = 50 N·s/m, our choice) at z = 0.08 m, f_d = 10 N".into(),
+            env: Environment::horizontal(0.08, MaterialMap::Uniform(acrylic())),
+            paper_notes: "not in the paper: the hard surface of §5.2.2 with the §4.1 approach and target (issue 12)".into(),
             ..base
         },
         "stiffness-step" => Scenario {

@@ -3,7 +3,6 @@
 
 use naic_core::friction::{FrictionParams, Smoothing, DEFAULT_V_S};
 use naic_core::model::Model;
-use naic_core::pipeline::control::force_law::Mode;
 use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::plant::{self, Integrator, PlantParams, PlantState, PlantWorkspace};
 use naic_sim::rng::Rng;
@@ -41,20 +40,33 @@ fn plant_and_controller_steps_do_not_allocate() {
     let s = scenario::preset("flat", &m).unwrap();
     let ft = Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(1));
     let p = PlantParams::new(m.clone(), Some(f.clone()), Integrator::ImplicitFriction, 1e-3, 2, s.env.clone(), ft, Encoders::default()).unwrap();
-    let mut c = PipelineController::new(Mode::Naic, &s, &m, Some(f), 0.424, Vector3::new(0.0, 0.0, 0.015), &LoopSettings::default()).unwrap();
-    let mut ws = PlantWorkspace::new(&p);
-    let (mut st, mut obs) = plant::observe(&p, &PlantState::at_rest(s.q0, 1), &mut ws, [0.0; 6], false);
-    // run into contact first (allocation-free too, but counted only below)
-    for k in 0..1700 {
-        let rep = c.step(&obs.meas, &s.reference(k as f64 * 1e-3));
-        (st, obs) = plant::step(&p, &st, &rep.tau, &mut ws);
+    // every law; the scheduled one with the DDS-chain delay and a model mass error
+    // (the oracle is the scheduled law with the true stiffness)
+    let delayed = LoopSettings { delay_cycles: 2, model_mass_error: 1.25, ..LoopSettings::default() };
+    for (name, settings) in [("naic", LoopSettings::default()), ("aic", LoopSettings::default()), ("fixed", LoopSettings::default()), ("scheduled", delayed), ("oracle", delayed)] {
+        let c = PipelineController::by_name(name, &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &settings).unwrap();
+        count_in_contact(name, c, &s, &p);
     }
-    assert!(obs.truth.contact.in_contact, "the check must cover the contact path");
-    let before = ALLOCS.load(Ordering::SeqCst);
-    for k in 1700..1800 {
+}
+
+fn count_in_contact(name: &str, mut c: PipelineController, s: &scenario::Scenario, p: &PlantParams) {
+    let mut ws = PlantWorkspace::new(p);
+    let (mut st, mut obs) = plant::observe(p, &PlantState::at_rest(s.q0, 1), &mut ws, [0.0; 6], false);
+    // run into contact first (allocation-free too, but counted only below)
+    let mut k = 0;
+    while k < 1700 || (!obs.truth.contact.in_contact && k < 4000) {
+        k += 1;
+        c.set_true_stiffness(obs.truth.contact.k_e);
         let rep = c.step(&obs.meas, &s.reference(k as f64 * 1e-3));
-        (st, obs) = plant::step(&p, &st, &rep.tau, &mut ws);
+        (st, obs) = plant::step(p, &st, &rep.tau, &mut ws);
+    }
+    assert!(obs.truth.contact.in_contact, "{name}: the check must cover the contact path");
+    let before = ALLOCS.load(Ordering::SeqCst);
+    for k in k..k + 100 {
+        c.set_true_stiffness(obs.truth.contact.k_e);
+        let rep = c.step(&obs.meas, &s.reference(k as f64 * 1e-3));
+        (st, obs) = plant::step(p, &st, &rep.tau, &mut ws);
     }
     let after = ALLOCS.load(Ordering::SeqCst);
-    assert_eq!(after - before, 0, "{} heap allocations in 100 closed-loop periods", after - before);
+    assert_eq!(after - before, 0, "{name}: {} heap allocations in 100 closed-loop periods", after - before);
 }

@@ -22,7 +22,7 @@ use std::time::Instant;
 pub enum BenchCmd {
     /// Median ns per call of the dynamics algorithms and of one NAIC controller step.
     Dynamics(DynamicsArgs),
-    /// Closed-loop simulator steps per second (plant + sensor + NAIC, flat, in contact) vs MuJoCo mj_step.
+    /// Simulator steps per second (closed loop, plant alone, with and without joint friction) vs MuJoCo mj_step (with and without joint frictionloss).
     Sim(super::sim::SimBenchArgs),
     /// Bag read+decode messages/s (1 kHz, 4 topics, 60 s) against Python mcap_ros2, same file.
     Bag {

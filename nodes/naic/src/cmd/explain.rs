@@ -1,8 +1,10 @@
 //! `naic explain`: find what the nominal model gets wrong in measured data (issue 6).
 //!
-//! * `naic explain --measured FILE --out DIR [--nominal params/…]` — analyse a bag, a CSV
-//!   time series or a friction-points CSV; writes `DIR/report.json`, `DIR/report.md`
-//!   (+ SVG plots) and `DIR/extended_params.yaml`.
+//! * `naic explain --measured FILE… [--validate FILE…] --out DIR [--urdf robot.urdf] [--tip FRAME]
+//!   [--nominal params/…]` — analyse bags or CSV time series of any serial arm (the joint
+//!   count comes from the URDF), or a friction-points CSV; writes `DIR/report.json`,
+//!   `DIR/report.md` (+ SVG plots) and `DIR/extended_params.yaml`. With `--validate` the
+//!   models fitted on the `--measured` runs are scored on those whole other runs.
 //! * `naic explain --generate FILE.csv --seed N [--hide effect,…] [--contact]` — write seeded
 //!   synthetic data with hidden effects (the tests' generators; contact data with wrench
 //!   columns when a contact effect is hidden or `--contact` is given), to try the tool.
@@ -22,13 +24,26 @@ use std::time::Instant;
 
 #[derive(clap::Args, Default)]
 pub struct ExplainArgs {
-    /// Measured data: an .mcap bag (/joint_states …), a CSV time series `t,q1..q6,dq1..dq6,tau1..tau6`,
-    /// or friction points `joint,velocity_rad_s,torque_nm`.
-    #[arg(long)]
-    measured: Option<PathBuf>,
+    /// Measured data to fit: .mcap bags (/joint_states …) or CSV time series `t,q1..qN,dq1..dqN,tau1..tauN`
+    /// (N joints of the URDF; several runs are analysed together), or one friction-points CSV
+    /// `joint,velocity_rad_s,torque_nm`.
+    #[arg(long, num_args = 1.., value_name = "FILE")]
+    measured: Vec<PathBuf>,
+    /// Whole other runs (time series) to score the fitted models on; without it, time blocks
+    /// of the --measured runs are held out.
+    #[arg(long, num_args = 1.., value_name = "FILE")]
+    validate: Vec<PathBuf>,
+    /// Tool frame of the URDF (where a payload sits; the contact point of wrench data)
+    /// [default: the last link of the chain].
+    #[arg(long, value_name = "FRAME")]
+    tip: Option<String>,
     /// Output directory for report.json, report.md, plots and extended_params.yaml.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Savitzky–Golay window for velocity, acceleration and torque [s] (longer: less noise
+    /// in q̈, less bandwidth).
+    #[arg(long, default_value_t = 0.051, value_name = "S")]
+    window: f64,
     /// Nominal friction params YAML; its Stribeck shape is kept (directions averaged), its levels recalibrated.
     #[arg(long)]
     nominal: Option<PathBuf>,
@@ -118,16 +133,28 @@ pub fn run(a: ExplainArgs) -> CliResult {
     if a.closed_loop {
         return run_closed_loop(&a);
     }
-    let measured = a.measured.as_ref().ok_or_else(|| {
-        CliError::usage("give --measured FILE (bag, time-series CSV or friction-points CSV) and --out DIR; or --generate / --bench")
-    })?;
+    if a.measured.is_empty() {
+        return Err(CliError::usage(
+            "give --measured FILE… (bags, time-series CSVs, or one friction-points CSV) and --out DIR; or --generate / --bench",
+        ));
+    }
     let out = a.out.as_ref().ok_or_else(|| CliError::usage("give --out DIR for report.json, report.md and extended_params.yaml"))?;
-    let mut opts = ExplainOptions { urdf: a.urdf.clone(), nominal: a.nominal.clone(), reference: a.reference.clone(), ..Default::default() };
+    let mut opts = ExplainOptions {
+        urdf: a.urdf.clone(),
+        tip_frame: a.tip.clone(),
+        nominal: a.nominal.clone(),
+        reference: a.reference.clone(),
+        ..Default::default()
+    };
+    if !(a.window > 0.0 && a.window.is_finite()) {
+        return Err(CliError::usage(format!("--window {}: give the filter window in seconds, e.g. 0.051", a.window)));
+    }
+    opts.prepare.window_s = a.window;
     if let Some(e) = &a.effects {
         opts.analysis.effects = parse_effects(e)?;
     }
     let progress = progress_printer(a.quiet);
-    let ex = naic_explain::explain(measured, &opts, &progress).map_err(err)?;
+    let ex = naic_explain::explain_files(&a.measured, &a.validate, &opts, &progress).map_err(err)?;
     let v = report::write_all(&ex, out).map_err(err)?;
     if !a.quiet {
         eprintln!();
@@ -158,8 +185,32 @@ pub fn run(a: ExplainArgs) -> CliResult {
         }
         println!("report in {}", out.display());
     }
+    print_explained(&v);
     print_lack_of_fit(&v);
     Ok(())
+}
+
+/// The share of the nominal residual explained, and the validation RMSEs (time series).
+fn print_explained(v: &serde_json::Value) {
+    let Some(total) = v["explained"]["all_joints"].as_f64() else { return };
+    if total < naic_explain::report::MOSTLY_LEFT {
+        println!(
+            "most of the residual is left: the findings explain {:.0} % of the nominal held-out mean square (all joints)",
+            100.0 * total
+        );
+    } else {
+        println!("the findings explain {:.0} % of the nominal held-out mean square (all joints)", 100.0 * total);
+    }
+    let row = |m: &serde_json::Map<String, serde_json::Value>, key: &str| {
+        m.values().map(|d| format!("{:.3}", d[key].as_f64().unwrap_or(f64::NAN))).collect::<Vec<_>>().join(" / ")
+    };
+    if let Some(val) = v["validation"].as_object() {
+        println!("validation-run RMSE per joint [N·m]: nominal {}; extended {}", row(val, "nominal_rmse"), row(val, "extended_rmse"));
+    }
+    if let Some(b) = v["baseline"]["joints"].as_object() {
+        let val = if v["validation"].is_object() { format!("; on the validation runs {}", row(b, "validation_rmse")) } else { String::new() };
+        println!("baseline (base parameters + viscous/Coulomb/offset friction) held-out RMSE per joint [N·m]: {}{val}", row(b, "heldout_rmse"));
+    }
 }
 
 /// One line on what the extended model leaves (friction points): the directions whose
@@ -235,8 +286,8 @@ fn run_bench(a: &ExplainArgs) -> CliResult {
     let zero = nalgebra::SVector::<f64, 6>::zeros();
     let mut acc = 0.0;
     for i in 0..g.ts.len() {
-        let q = nalgebra::SVector::<f64, 6>::from(g.ts.q[i]);
-        let v = nalgebra::SVector::<f64, 6>::from(g.ts.dq[i]);
+        let q = nalgebra::SVector::<f64, 6>::from_column_slice(&g.ts.q[i]);
+        let v = nalgebra::SVector::<f64, 6>::from_column_slice(&g.ts.dq[i]);
         acc += naic_core::dynamics::rnea(&model, &mut data, &q, &v, &zero)[1];
     }
     let reference_s = t2.elapsed().as_secs_f64();

@@ -1,32 +1,61 @@
-//! `naic launch`: the three ROS 2 nodes as separate processes.
+//! `naic launch`: the three ROS 2 nodes as separate, supervised processes.
 //!
-//! Starts `jk5_sim_driver`, `naic_controller` and `friction_compensation` (found next to
-//! the `naic` executable) with `--params-file params/<node>.yaml`, prefixes every log line
-//! with the node name, and stops all of them cleanly (SIGINT, then SIGKILL after a grace
-//! period) on Ctrl-C / SIGTERM, when `--duration` has passed, or when one of them fails.
+//! Starts `jk5_sim_driver`, `friction_compensation` and `naic_controller` (found next to
+//! the `naic` executable), in that order, each with `--params-file params/<node>.yaml`,
+//! and prefixes every log line with the node name. The driver (the robot side) comes
+//! first: it holds the arm until commands arrive.
+//!
+//! Supervision (`params/launch.yaml`, `--respawn`):
+//! - a node that dies is reported with its exit status (code or signal);
+//! - the driver keeps running and holds the arm (its command watchdog);
+//! - with `respawn: true` (or `--respawn`) a dead `naic_controller` or
+//!   `friction_compensation` is started again after `respawn_delay`; it takes over through
+//!   friction_compensation's rate limit from the measured torque, as any restart does;
+//! - a node that exits with code 2 refused its configuration: it is never respawned, and
+//!   at the launch's first start everything is stopped (exit 2);
+//! - if the driver dies nothing holds the arm any more: the other nodes are stopped (exit 4);
+//! - Ctrl-C / SIGTERM / `--duration` stop the nodes one at a time in reverse start order,
+//!   the driver last (SIGINT, then SIGKILL after a grace period).
+//!
+//! Exit codes: see [`Outcome::exit_code`].
 //!
 //! Chain: jk5_sim_driver → /joint_states, /wrench → naic_controller → /naic/effort →
 //! friction_compensation → /joint_effort_cmd → jk5_sim_driver.
 
 use std::{
+    collections::BTreeMap,
     io::{BufRead, BufReader, Write},
     path::{Path, PathBuf},
-    process::{Child, Command, Stdio},
+    process::{Child, Command, ExitStatus, Stdio},
     sync::atomic::{AtomicBool, Ordering},
     time::{Duration, Instant},
 };
 
 use super::{CliError, CliResult};
 
-/// The node binaries, in start order (the driver last, so the chain is ready when the
-/// first state arrives).
-pub const NODES: [&str; 3] = ["naic_controller", "friction_compensation", "jk5_sim_driver"];
+/// The node binaries, in start order: the driver first (it holds the arm until commands
+/// arrive), the controller last. They are stopped in the reverse order, the driver last.
+pub const NODES: [&str; 3] = ["jk5_sim_driver", "friction_compensation", "naic_controller"];
+
+/// The robot side: never respawned; when it dies the launch stops.
+const DRIVER: &str = "jk5_sim_driver";
+
+/// How long a node gets to stop on SIGINT before it is killed.
+const STOP_GRACE: Duration = Duration::from_secs(5);
 
 #[derive(clap::Args, Debug, Default)]
 pub struct LaunchArgs {
     /// Directory with <node>.yaml parameter files.
     #[arg(long, default_value = "params")]
     pub params_dir: PathBuf,
+    /// Launch parameters (per node: respawn, respawn_delay); default: PARAMS_DIR/launch.yaml
+    /// if it exists.
+    #[arg(long)]
+    pub launch_file: Option<PathBuf>,
+    /// Restart naic_controller and friction_compensation when they die (overrides the
+    /// launch file's respawn: false).
+    #[arg(long)]
+    pub respawn: bool,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long)]
     pub duration: Option<f64>,
@@ -37,6 +66,10 @@ pub struct LaunchArgs {
     /// naic_controller:desired_force:=15.0
     #[arg(long = "param", short = 'p')]
     pub params: Vec<String>,
+    /// The three nodes in one process (one thread runs the control path, no DDS on it;
+    /// every topic still on DDS): see README, "One process or three".
+    #[arg(long)]
+    pub composed: bool,
 }
 
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -80,6 +113,9 @@ pub struct NodeProcess {
 }
 
 /// Spawn one node binary with `args`, its stdout/stderr prefixed by `[name]` on our stderr.
+///
+/// The node gets its own process group, so a Ctrl-C in the terminal reaches only the
+/// launcher, which then stops the nodes in order; and SIGINT when the launcher dies.
 pub fn spawn_node(name: &str, bin: &Path, args: &[String], envs: &[(String, String)]) -> Result<NodeProcess, CliError> {
     let mut cmd = Command::new(bin);
     cmd.args(args).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
@@ -87,10 +123,11 @@ pub fn spawn_node(name: &str, bin: &Path, args: &[String], envs: &[(String, Stri
         cmd.env(k, v);
     }
     // If naic itself dies (even by SIGKILL), the kernel stops the node too: no orphans.
-    // SAFETY: prctl is async-signal-safe; nothing else runs between fork and exec.
+    // SAFETY: prctl and setpgid are async-signal-safe; nothing else runs between fork and exec.
     unsafe {
         use std::os::unix::process::CommandExt;
         cmd.pre_exec(|| {
+            libc::setpgid(0, 0);
             libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGINT as libc::c_ulong);
             Ok(())
         });
@@ -114,36 +151,117 @@ pub fn spawn_node(name: &str, bin: &Path, args: &[String], envs: &[(String, Stri
     Ok(NodeProcess { name: name.to_string(), child })
 }
 
-/// Ask every process to stop (SIGINT), wait up to `grace`, then kill what is left.
-/// Returns the names of the processes that had to be killed.
-pub fn stop_all(procs: &mut [NodeProcess], grace: Duration) -> Vec<String> {
-    for p in procs.iter() {
-        if let Ok(pid) = i32::try_from(p.child.id()) {
-            // SAFETY: sending a signal to our own child process id.
-            unsafe { libc::kill(pid, libc::SIGINT) };
-        }
+/// Stop one process: SIGINT, wait up to `grace`, then SIGKILL. Returns its exit status
+/// and whether it had to be killed.
+fn stop_one(p: &mut NodeProcess, grace: Duration) -> (Option<ExitStatus>, bool) {
+    if let Ok(Some(st)) = p.child.try_wait() {
+        return (Some(st), false);
+    }
+    if let Ok(pid) = i32::try_from(p.child.id()) {
+        // SAFETY: sending a signal to our own child process id.
+        unsafe { libc::kill(pid, libc::SIGINT) };
     }
     let t0 = Instant::now();
-    let mut killed = vec![];
-    for p in procs.iter_mut() {
-        loop {
-            match p.child.try_wait() {
-                Ok(Some(_)) => break,
-                Ok(None) if t0.elapsed() < grace => std::thread::sleep(Duration::from_millis(20)),
-                _ => {
-                    let _ = p.child.kill();
-                    let _ = p.child.wait();
-                    killed.push(p.name.clone());
-                    break;
-                }
+    loop {
+        match p.child.try_wait() {
+            Ok(Some(st)) => return (Some(st), false),
+            Ok(None) if t0.elapsed() < grace => std::thread::sleep(Duration::from_millis(10)),
+            _ => {
+                let _ = p.child.kill();
+                return (p.child.wait().ok(), true);
             }
+        }
+    }
+}
+
+/// Stop every process, one at a time from the last to the first (the reverse of the start
+/// order), each with SIGINT then SIGKILL after `grace`. Returns the names of the processes
+/// that had to be killed.
+pub fn stop_all(procs: &mut [NodeProcess], grace: Duration) -> Vec<String> {
+    let mut killed = vec![];
+    for p in procs.iter_mut().rev() {
+        if stop_one(p, grace).1 {
+            killed.push(p.name.clone());
         }
     }
     killed
 }
 
+/// Supervision of one node, from the launch parameters (`params/launch.yaml`).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeLaunch {
+    /// Start the node again when it dies (not the driver).
+    #[serde(default)]
+    pub respawn: bool,
+    /// Seconds between a death and the restart.
+    #[serde(default = "default_respawn_delay")]
+    pub respawn_delay: f64,
+}
+
+fn default_respawn_delay() -> f64 {
+    0.5
+}
+
+impl Default for NodeLaunch {
+    fn default() -> Self {
+        NodeLaunch { respawn: false, respawn_delay: default_respawn_delay() }
+    }
+}
+
+/// The launch parameters of every node (missing nodes: no respawn).
+pub fn parse_launch_file(text: &str, file: &Path) -> Result<BTreeMap<String, NodeLaunch>, CliError> {
+    let bad = |msg: String| CliError::usage(format!("launch file {}: {msg}", file.display()));
+    let map: BTreeMap<String, NodeLaunch> = if text.trim().is_empty() {
+        BTreeMap::new()
+    } else {
+        serde_yaml::from_str(text).map_err(|e| {
+            bad(format!("{e} (expected `<node>: {{respawn: true|false, respawn_delay: seconds}}` for the nodes {})", NODES.join(", ")))
+        })?
+    };
+    for (node, l) in &map {
+        if !NODES.contains(&node.as_str()) {
+            return Err(bad(format!("unknown node '{node}' (nodes: {})", NODES.join(", "))));
+        }
+        if !(l.respawn_delay.is_finite() && (0.0..=3600.0).contains(&l.respawn_delay)) {
+            return Err(bad(format!("{node}: respawn_delay {} must be 0..=3600 seconds", l.respawn_delay)));
+        }
+        if node == DRIVER && l.respawn {
+            return Err(bad(format!(
+                "{DRIVER}: respawn is not supported: the driver is the robot side, a restarted simulator \
+                 would start the arm again from its initial pose; when it dies naic launch stops the other \
+                 nodes (exit 4). Set respawn: false"
+            )));
+        }
+    }
+    Ok(map)
+}
+
+/// Launch parameters: the file given, else `params_dir/launch.yaml` if it exists, else
+/// defaults; `--respawn` turns respawn on for every node but the driver.
+fn launch_params(a: &LaunchArgs) -> Result<BTreeMap<String, NodeLaunch>, CliError> {
+    let (file, required) = match &a.launch_file {
+        Some(f) => (f.clone(), true),
+        None => (a.params_dir.join("launch.yaml"), false),
+    };
+    let mut map = match std::fs::read_to_string(&file) {
+        Ok(text) => parse_launch_file(&text, &file)?,
+        Err(e) if required || e.kind() != std::io::ErrorKind::NotFound => {
+            return Err(CliError::usage(format!("launch file {}: {e}", file.display())))
+        }
+        Err(_) => BTreeMap::new(),
+    };
+    for node in NODES {
+        let l = map.entry(node.to_string()).or_default();
+        if a.respawn && node != DRIVER {
+            l.respawn = true;
+        }
+    }
+    Ok(map)
+}
+
 /// Command-line arguments of `node`: its params file, the launch overrides.
-fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliError> {
+pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliError> {
     let file = a.params_dir.join(format!("{node}.yaml"));
     if !file.is_file() {
         return Err(CliError::usage(format!(
@@ -152,7 +270,7 @@ fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliError> {
         )));
     }
     let mut args = vec!["--ros-args".to_string(), "--params-file".to_string(), file.display().to_string()];
-    if a.lockstep && node == "jk5_sim_driver" {
+    if a.lockstep && node == DRIVER {
         args.extend(["-p".into(), "lockstep:=true".into()]);
     }
     if a.lockstep {
@@ -175,6 +293,149 @@ fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliError> {
     Ok(args)
 }
 
+/// What the launcher does when a node has exited.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OnExit {
+    /// Start it again after its respawn delay.
+    Respawn,
+    /// Leave it dead; the others (the driver holding the arm) keep running.
+    Leave,
+    /// A node refused its configuration at the first start: stop everything (exit 2).
+    StopConfig,
+    /// The driver died: nothing holds the arm; stop the others (exit 4).
+    StopDriverDied,
+}
+
+/// The supervision rule. `code`: the node's exit code (None: killed by a signal);
+/// `first_start`: the launch's original instance of the node (not a respawn).
+pub fn on_exit(node: &str, code: Option<i32>, first_start: bool, respawn: bool) -> OnExit {
+    if node == DRIVER {
+        OnExit::StopDriverDied
+    } else if code == Some(2) && first_start {
+        OnExit::StopConfig
+    } else if code == Some(2) || !respawn {
+        OnExit::Leave
+    } else {
+        OnExit::Respawn
+    }
+}
+
+/// What happened during a launch, for the exit code and the final message.
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct Outcome {
+    /// Deaths of nodes other than the driver (`name (status)`).
+    pub deaths: Vec<String>,
+    /// How many of them were respawned.
+    pub respawns: usize,
+    /// The driver died (its status).
+    pub driver_died: Option<String>,
+    /// A node refused its configuration at the first start (its name and status).
+    pub config_refused: Option<String>,
+    /// Nodes that did not stop on SIGINT within the grace period, or exited non-zero when
+    /// asked to stop.
+    pub unclean_stops: Vec<String>,
+}
+
+impl Outcome {
+    /// The exit code of `naic launch`:
+    /// - 0: ran until Ctrl-C / SIGTERM / `--duration`; no node died; every node exited 0
+    ///   when asked to stop;
+    /// - 1: could not start a node (binary missing, spawn failed);
+    /// - 2: bad input: command line, launch or parameter file, or a node refused its
+    ///   configuration at the first start (its own exit code 2);
+    /// - 3: a node other than the driver died during the run (respawned or not) while the
+    ///   driver held the arm;
+    /// - 4: the driver died; the other nodes were stopped;
+    /// - 5: no node died, but one did not stop cleanly (killed after the grace period, or a
+    ///   non-zero exit on SIGINT).
+    pub fn exit_code(&self) -> i32 {
+        if self.driver_died.is_some() {
+            4
+        } else if self.config_refused.is_some() {
+            2
+        } else if !self.deaths.is_empty() {
+            3
+        } else if !self.unclean_stops.is_empty() {
+            5
+        } else {
+            0
+        }
+    }
+
+    fn into_result(self) -> CliResult {
+        let code = self.exit_code();
+        let mut parts = vec![];
+        if let Some(d) = &self.driver_died {
+            parts.push(format!("{d}: nothing held the arm any more, stopped the other nodes"));
+        }
+        if let Some(c) = &self.config_refused {
+            parts.push(format!("{c}: it refused its configuration (see its message above); stopped the other nodes"));
+        }
+        if !self.deaths.is_empty() {
+            parts.push(format!(
+                "{} node exit(s) during the run: {} ({} respawned); the driver held the arm",
+                self.deaths.len(),
+                self.deaths.join(", "),
+                self.respawns
+            ));
+        }
+        if !self.unclean_stops.is_empty() {
+            parts.push(format!("did not stop cleanly: {}", self.unclean_stops.join(", ")));
+        }
+        match code {
+            0 => Ok(()),
+            c => Err(CliError::with_code(c, parts.join("; "))),
+        }
+    }
+}
+
+/// One supervised node.
+struct Slot {
+    name: &'static str,
+    bin: PathBuf,
+    args: Vec<String>,
+    launch: NodeLaunch,
+    proc: Option<NodeProcess>,
+    started: Instant,
+    /// 0: the launch's original instance; n: the n-th respawn.
+    instance: u32,
+    respawn_at: Option<Instant>,
+}
+
+impl Slot {
+    fn start(&mut self) -> CliResult {
+        let p = spawn_node(self.name, &self.bin, &self.args, &[])?;
+        let what = if self.instance == 0 { "started".to_string() } else { format!("respawned ({})", self.instance) };
+        eprintln!("naic launch: {what} {} (pid {})", self.name, p.child.id());
+        self.proc = Some(p);
+        self.started = Instant::now();
+        self.respawn_at = None;
+        Ok(())
+    }
+}
+
+/// `signal: 9 (SIGKILL)` / `exit status: 1`.
+fn describe(st: &ExitStatus) -> String {
+    st.to_string()
+}
+
+fn stop_slots(slots: &mut [Slot], outcome: &mut Outcome) {
+    for s in slots.iter_mut().rev() {
+        if let Some(p) = s.proc.as_mut() {
+            eprintln!("naic launch: stopping {}", s.name);
+            let (st, killed) = stop_one(p, STOP_GRACE);
+            if killed {
+                eprintln!("naic launch: had to kill {} (no exit within {} s of SIGINT)", s.name, STOP_GRACE.as_secs());
+                outcome.unclean_stops.push(format!("{} (killed)", s.name));
+            } else if let Some(st) = st.filter(|st| !st.success()) {
+                eprintln!("naic launch: {} stopped with {}", s.name, describe(&st));
+                outcome.unclean_stops.push(format!("{} ({})", s.name, describe(&st)));
+            }
+            s.proc = None;
+        }
+    }
+}
+
 pub fn run(a: LaunchArgs) -> CliResult {
     if let Some(d) = a.duration {
         if !(d > 0.0 && d.is_finite()) {
@@ -182,45 +443,152 @@ pub fn run(a: LaunchArgs) -> CliResult {
         }
     }
     // Check everything before starting anything.
-    let mut plan = vec![];
+    let launch = launch_params(&a)?;
+    if a.composed {
+        return super::composed::run(&a);
+    }
+    let mut slots = vec![];
     for node in NODES {
-        plan.push((node, node_binary(node)?, node_args(node, &a)?));
+        slots.push(Slot {
+            name: node,
+            bin: node_binary(node)?,
+            args: node_args(node, &a)?,
+            launch: launch[node].clone(),
+            proc: None,
+            started: Instant::now(),
+            instance: 0,
+            respawn_at: None,
+        });
     }
     install_signal_handlers();
-    let mut procs = vec![];
-    for (node, bin, args) in &plan {
-        eprintln!("naic launch: starting {node}");
-        match spawn_node(node, bin, args, &[]) {
-            Ok(p) => procs.push(p),
-            Err(e) => {
-                stop_all(&mut procs, Duration::from_secs(3));
-                return Err(e);
-            }
+    let mut outcome = Outcome::default();
+    for i in 0..slots.len() {
+        if let Err(e) = slots[i].start() {
+            stop_slots(&mut slots[..i], &mut outcome);
+            return Err(e);
         }
     }
+    let respawning: Vec<&str> = slots.iter().filter(|s| s.launch.respawn).map(|s| s.name).collect();
+    if !respawning.is_empty() {
+        eprintln!("naic launch: respawn on for {}", respawning.join(", "));
+    }
     let t0 = Instant::now();
-    let mut failed: Option<String> = None;
-    while !stop_requested() {
+    'run: while !stop_requested() {
         if a.duration.is_some_and(|d| t0.elapsed().as_secs_f64() >= d) {
             break;
         }
-        for p in procs.iter_mut() {
-            if let Ok(Some(status)) = p.child.try_wait() {
-                failed = Some(format!("{} exited ({status})", p.name));
+        for s in slots.iter_mut() {
+            let Some(p) = s.proc.as_mut() else { continue };
+            let Ok(Some(st)) = p.child.try_wait() else { continue };
+            s.proc = None;
+            let status = format!("{} exited ({}) after {:.1} s", s.name, describe(&st), s.started.elapsed().as_secs_f64());
+            match on_exit(s.name, st.code(), s.instance == 0, s.launch.respawn) {
+                OnExit::StopDriverDied => {
+                    eprintln!("naic launch: {status}; nothing holds the arm any more: stopping the other nodes");
+                    outcome.driver_died = Some(status);
+                    break 'run;
+                }
+                OnExit::StopConfig => {
+                    eprintln!("naic launch: {status}: it refused its configuration; stopping the other nodes");
+                    outcome.config_refused = Some(status);
+                    break 'run;
+                }
+                OnExit::Respawn => {
+                    eprintln!(
+                        "naic launch: {status}; {DRIVER} holds the arm; respawning in {} s",
+                        s.launch.respawn_delay
+                    );
+                    outcome.deaths.push(format!("{} ({})", s.name, describe(&st)));
+                    s.respawn_at = Some(Instant::now() + Duration::from_secs_f64(s.launch.respawn_delay));
+                }
+                OnExit::Leave => {
+                    let why = if st.code() == Some(2) {
+                        "it refused its configuration, not respawned"
+                    } else {
+                        "not respawned (respawn is off: --respawn or the launch file)"
+                    };
+                    eprintln!("naic launch: {status}; {why}; {DRIVER} holds the arm; Ctrl-C stops the launch");
+                    outcome.deaths.push(format!("{} ({})", s.name, describe(&st)));
+                }
             }
         }
-        if failed.is_some() {
-            break;
+        for s in slots.iter_mut() {
+            if s.respawn_at.is_some_and(|t| Instant::now() >= t) {
+                s.instance += 1;
+                if let Err(e) = s.start() {
+                    eprintln!("naic launch: cannot respawn {}: {e}; {DRIVER} holds the arm", s.name);
+                    s.respawn_at = None;
+                } else {
+                    outcome.respawns += 1;
+                }
+            }
         }
-        std::thread::sleep(Duration::from_millis(50));
+        std::thread::sleep(Duration::from_millis(20));
     }
     eprintln!("naic launch: stopping");
-    let killed = stop_all(&mut procs, Duration::from_secs(5));
-    if !killed.is_empty() {
-        eprintln!("naic launch: had to kill {}", killed.join(", "));
+    stop_slots(&mut slots, &mut outcome);
+    outcome.into_result()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn supervision_rule() {
+        // The driver's death always ends the launch.
+        for code in [None, Some(0), Some(1), Some(2)] {
+            assert_eq!(on_exit(DRIVER, code, false, true), OnExit::StopDriverDied);
+        }
+        // A refused configuration at the first start stops all; later it is left dead.
+        assert_eq!(on_exit("naic_controller", Some(2), true, true), OnExit::StopConfig);
+        assert_eq!(on_exit("naic_controller", Some(2), false, true), OnExit::Leave);
+        // Crashes and kills are respawned only when asked.
+        assert_eq!(on_exit("naic_controller", None, true, true), OnExit::Respawn);
+        assert_eq!(on_exit("friction_compensation", Some(101), true, true), OnExit::Respawn);
+        assert_eq!(on_exit("friction_compensation", None, true, false), OnExit::Leave);
+        assert_eq!(on_exit("naic_controller", Some(0), false, true), OnExit::Respawn);
     }
-    match failed {
-        Some(f) => Err(CliError::failure(format!("{f}; stopped the other nodes"))),
-        None => Ok(()),
+
+    #[test]
+    fn exit_codes_say_what_happened() {
+        let mut o = Outcome::default();
+        assert_eq!(o.exit_code(), 0);
+        o.unclean_stops.push("naic_controller (killed)".into());
+        assert_eq!(o.exit_code(), 5);
+        o.deaths.push("friction_compensation (signal: 9 (SIGKILL))".into());
+        assert_eq!(o.exit_code(), 3);
+        o.driver_died = Some("jk5_sim_driver exited".into());
+        assert_eq!(o.exit_code(), 4);
+        let refused = Outcome { config_refused: Some("x".into()), ..Default::default() };
+        assert_eq!(refused.exit_code(), 2);
+        let e = o.into_result().unwrap_err();
+        assert_eq!(e.exit_code(), 4);
+        assert!(e.message.contains("friction_compensation (signal: 9 (SIGKILL))") && e.message.contains("jk5_sim_driver"), "{}", e.message);
+    }
+
+    #[test]
+    fn launch_file_is_checked() {
+        let f = Path::new("launch.yaml");
+        let m = parse_launch_file("naic_controller: {respawn: true, respawn_delay: 2.0}\n", f).unwrap();
+        assert_eq!(m["naic_controller"], NodeLaunch { respawn: true, respawn_delay: 2.0 });
+        assert!(parse_launch_file("# nothing\n", f).unwrap().is_empty());
+        let e = parse_launch_file("naic_controler: {respawn: true}\n", f).unwrap_err();
+        assert!(e.exit_code() == 2 && e.message.contains("unknown node 'naic_controler'"), "{}", e.message);
+        let e = parse_launch_file("naic_controller: {respawn: true, delay: 1}\n", f).unwrap_err();
+        assert!(e.message.contains("launch.yaml") && e.message.contains("delay"), "{}", e.message);
+        let e = parse_launch_file("jk5_sim_driver: {respawn: true}\n", f).unwrap_err();
+        assert!(e.message.contains("respawn is not supported"), "{}", e.message);
+        let e = parse_launch_file("friction_compensation: {respawn_delay: -1}\n", f).unwrap_err();
+        assert!(e.message.contains("respawn_delay"), "{}", e.message);
+    }
+
+    #[test]
+    fn respawn_flag_covers_all_but_the_driver() {
+        let a = LaunchArgs { respawn: true, params_dir: PathBuf::from("/nonexistent"), ..Default::default() };
+        let m = launch_params(&a).unwrap();
+        assert!(m["naic_controller"].respawn && m["friction_compensation"].respawn && !m[DRIVER].respawn);
+        let a = LaunchArgs { launch_file: Some(PathBuf::from("/nonexistent/launch.yaml")), ..Default::default() };
+        assert!(launch_params(&a).unwrap_err().message.contains("/nonexistent/launch.yaml"));
     }
 }

@@ -4,29 +4,34 @@ pub mod bag;
 pub mod bench;
 pub mod explain;
 pub mod bench_chain;
+pub mod composed;
 pub mod friction;
 pub mod launch;
 pub mod plot;
 pub mod record;
 pub mod sim;
 
-/// A command failure: a message for the user and whether it was their input.
+/// A command failure: a message for the user and the exit code.
 #[derive(Debug)]
 pub struct CliError {
     pub message: String,
-    /// true: the user gave bad input (exit 2); false: the command failed (exit 1).
-    pub usage: bool,
+    /// 2: the user gave bad input; 1: the command failed; other codes: see the command
+    /// (e.g. `naic launch`'s supervision outcome).
+    pub code: i32,
 }
 
 impl CliError {
     pub fn usage(msg: impl Into<String>) -> Self {
-        Self { message: msg.into(), usage: true }
+        Self { message: msg.into(), code: 2 }
     }
     pub fn failure(msg: impl Into<String>) -> Self {
-        Self { message: msg.into(), usage: false }
+        Self { message: msg.into(), code: 1 }
+    }
+    pub fn with_code(code: i32, msg: impl Into<String>) -> Self {
+        Self { message: msg.into(), code }
     }
     pub fn exit_code(&self) -> i32 {
-        if self.usage { 2 } else { 1 }
+        self.code
     }
 }
 

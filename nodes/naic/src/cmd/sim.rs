@@ -10,7 +10,7 @@ use super::{CliError, CliResult};
 use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
 use naic_core::model::Model;
 use naic_core::pipeline::control::force_law::Mode;
-use naic_sim::controllers::{LoopSettings, PipelineController};
+use naic_sim::controllers::{LoopSettings, PipelineController, CONTROLLERS, MAX_DELAY_CYCLES};
 use naic_sim::environment::{Environment, Material, MaterialMap};
 use naic_sim::metrics::MetricsFile;
 use naic_sim::plant::{self, Integrator, PlantParams};
@@ -28,7 +28,8 @@ pub struct SimArgs {
     /// Scenario: flat, stiffness-step, slope, foam or two-material [default: flat].
     #[arg(long)]
     pub scenario: Option<String>,
-    /// Controller: naic, aic, fixed or all [default: all].
+    /// Controller: naic, aic, fixed, scheduled, oracle (benchmark: the scheduled law
+    /// with the true k_e) or all (= naic, aic, fixed, scheduled) [default: all].
     #[arg(long)]
     pub controller: Option<String>,
     /// Output folder [default: a new folder runs/<UTC time>-<scenario>/].
@@ -53,6 +54,17 @@ pub struct SimArgs {
     /// Median window on the measured joint velocity (1 = off) [default: 5].
     #[arg(long)]
     pub median_window: Option<usize>,
+    /// Override the surface stiffness k_e [N/m] of a one-material scenario
+    /// (a stiffness schedule is scaled to start at K).
+    #[arg(long, value_name = "K", allow_hyphen_values = true)]
+    pub stiffness: Option<f64>,
+    /// Sensor-to-torque delay of the loop in control periods (0 in process; 1–2 is
+    /// the DDS chain) [default: 0].
+    #[arg(long, value_name = "N")]
+    pub delay_cycles: Option<usize>,
+    /// Scale the controller's dynamic model (every mass and inertia) by F, e.g. 0.8 or 1.25 [default: 1].
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    pub model_mass_error: Option<f64>,
     /// Seed of the simulated noise and sensor bias [default: 1].
     #[arg(long)]
     pub seed: Option<u64>,
@@ -208,14 +220,13 @@ pub fn run_scenario(
     model: &Model,
     friction_ff: Option<&FrictionModel>,
     tool: (f64, Vector3<f64>),
-    modes: &[Mode],
+    controllers: &[&str],
     settings: &LoopSettings,
     show_progress: bool,
 ) -> Result<Vec<RunResult>, CliError> {
     let mut runs = Vec::new();
-    for &mode in modes {
-        let mut c = PipelineController::new(mode, s, model, friction_ff.cloned(), tool.0, tool.1, settings).map_err(CliError::usage)?;
-        let name = mode.as_str();
+    for &name in controllers {
+        let mut c = PipelineController::by_name(name, s, model, friction_ff.cloned(), tool, settings).map_err(CliError::usage)?;
         let mut last = -1i64;
         let mut progress = |f: f64| {
             if !show_progress {
@@ -304,16 +315,22 @@ pub fn run(a: SimArgs) -> CliResult {
         return Err(CliError::usage(format!("--scenario '{name}': use one of {}", SCENARIOS.join(", "))));
     }
     let which = a.controller.clone().unwrap_or_else(|| "all".into());
-    let modes: Vec<Mode> = if which == "all" {
-        vec![Mode::Naic, Mode::Aic, Mode::Fixed]
+    let modes: Vec<&str> = if which == "all" {
+        vec!["naic", "aic", "fixed", "scheduled"]
     } else {
-        vec![Mode::parse(&which).map_err(|e| CliError::usage(format!("--controller: {e} (or all)")))?]
+        match CONTROLLERS.iter().find(|c| **c == which.trim().to_ascii_lowercase()) {
+            Some(c) => vec![*c],
+            None => return Err(CliError::usage(format!("--controller '{which}': use one of {} or all", CONTROLLERS.join(", ")))),
+        }
     };
     let model = load_model(a.urdf.as_deref())?;
     let friction = if a.no_friction { None } else { Some(load_friction(a.friction.as_deref())?) };
     let mut s = scenario::preset(&name, &model).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
     if let Some(seed) = a.seed {
         s.seed = seed;
+    }
+    if let Some(k) = a.stiffness {
+        s = s.with_stiffness(k).map_err(|e| CliError::usage(format!("--stiffness: {e}")))?;
     }
     if let Some(d) = a.duration {
         if !(d > 0.0 && d.is_finite()) {
@@ -342,6 +359,18 @@ pub fn run(a: SimArgs) -> CliResult {
             )));
         }
         settings.median_window = w;
+    }
+    if let Some(d) = a.delay_cycles {
+        if d > MAX_DELAY_CYCLES {
+            return Err(CliError::usage(format!("--delay-cycles {d}: must be in 0..={MAX_DELAY_CYCLES}")));
+        }
+        settings.delay_cycles = d;
+    }
+    if let Some(f) = a.model_mass_error {
+        if !(f > 0.0 && f.is_finite()) {
+            return Err(CliError::usage(format!("--model-mass-error {f}: must be a positive factor (1 = exact model)")));
+        }
+        settings.model_mass_error = f;
     }
     let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
@@ -435,8 +464,10 @@ fn python() -> String {
 }
 
 /// Closed loop (plant + sensor + NAIC pipeline + friction feedforward, 1 ms,
-/// flat scenario in contact from t = 2.5 s) and MuJoCo's `mj_step` on the
-/// authors' MJCF measured in the same run.
+/// flat scenario in contact from t = 2.5 s) and MuJoCo's `mj_step` measured in
+/// the same run: on the authors' MJCF (the closed loop's reference) and on its
+/// variant with joint `frictionloss`/`damping` from the same friction file
+/// (`bench/reference/jk5_friction_mjcf.py`; the plant-with-friction's reference).
 pub fn bench(a: SimBenchArgs) -> CliResult {
     if a.steps == 0 || a.repeats == 0 {
         return Err(CliError::usage("--steps and --repeats must be at least 1"));
@@ -458,6 +489,7 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     let c_nf = PipelineController::new(Mode::Naic, &s, &model, None, tool.0, tool.1, &LoopSettings::default())
         .map_err(CliError::failure)?;
     let (rate_nf, _) = runner::bench_closed_loop(&s, &plant_nf, &c_nf, t_start, steps, a.repeats);
+    let load_start = load_average();
     let mut out = serde_json::json!({
         "steps_per_s": rate.closed_loop.round(),
         "frictionless_steps_per_s": rate_nf.closed_loop.round(),
@@ -472,8 +504,9 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     });
     if !a.no_reference {
         let script = default_path("bench/reference/mujoco_step_bench.py");
+        let friction_file = default_path("params/friction_jk5.yaml");
         let py = python();
-        match std::process::Command::new(&py).arg(&script).output() {
+        match std::process::Command::new(&py).arg(&script).arg("--friction").arg(&friction_file).output() {
             Ok(o) if o.status.success() => {
                 let text = String::from_utf8_lossy(&o.stdout);
                 match serde_json::from_str::<serde_json::Value>(text.lines().last().unwrap_or("")) {
@@ -484,6 +517,11 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
                             out["plant_only_ratio_vs_mj_step"] = serde_json::json!((rate.plant_only / mj * 100.0).round() / 100.0);
                             out["frictionless_plant_only_ratio_vs_mj_step"] =
                                 serde_json::json!((rate_nf.plant_only / mj * 100.0).round() / 100.0);
+                        }
+                        if let Some(mjf) = v.get("mj_step_friction_per_s").and_then(|x| x.as_f64()) {
+                            out["mujoco_mj_step_friction_per_s"] = serde_json::json!(mjf);
+                            out["plant_only_ratio_vs_mj_step_friction"] =
+                                serde_json::json!((rate.plant_only / mjf * 100.0).round() / 100.0);
                         }
                         out["mujoco_reference"] = v;
                     }
@@ -499,10 +537,16 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
             Err(e) => eprintln!("naic bench sim: cannot run {py} (set NAIC_PYTHON or NAIC_VENV): {e}"),
         }
     }
+    out["load_average_1min"] = serde_json::json!([load_start, load_average()]);
     if a.json {
         println!("{out}");
     } else {
         println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
     }
     Ok(())
+}
+
+/// The 1-minute load average (`/proc/loadavg`), to say how busy the machine was.
+fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
 }

@@ -12,6 +12,7 @@
 //! | [`crba`] | `M(q)`, full symmetric | Composite Rigid Body Algorithm (Featherstone §6.2, table 6.2) |
 //! | [`aba`] | `q̈ = M⁻¹(τ − C q̇ − G)` | Articulated Body Algorithm (Featherstone §7.3, table 7.1) |
 //! | [`cartesian_terms`] | `D`, `h` of the paper's eq. 3 | from `M`, `C q̇ + G`, `J`, `J̇ q̇` with a (damped) SVD inverse of `J` |
+//! | [`regressor::joint_torque_regressor`] | `Y(q, q̇, q̈)` with `τ = Y π`, 10 inertial parameters per body | RNEA's wrenches written linearly in π (Atkeson et al. 1986; Pinocchio `computeJointTorqueRegressor`) |
 //! | [`solve_damped`] | `J x = b` for a 6×6 `J` | the same damping rule ([`Damping`]); LU fast path away from singularities |
 //!
 //! All of them work in *local* joint frames like Pinocchio's default
@@ -48,6 +49,7 @@
 //! `model.nv()`, a `data` made for another model, or a `FrameId` from another
 //! model. Model input errors are caught at load time ([`crate::model::ModelError`]).
 
+pub mod regressor;
 pub mod spatial;
 
 mod cartesian;
@@ -74,17 +76,39 @@ where
     assert!(x.nrows() == model.nv(), "naic_core::dynamics: {what} has {} entries, the model has {} joints", x.nrows(), model.nv());
 }
 
-/// Joint placements `λMi(q)` and `oMi(q)` of joints `0..=last`.
+/// Joint transforms `λMi(q)` of joints `0..=last` into `data.li_m_i`, reusing
+/// those already computed for a bit-identical `q` (see `Data::placed_q`).
+#[inline(always)]
+fn joint_transforms<D: Dim, S: Storage<f64, D>>(model: &Model, data: &mut Data<D>, q: &Vector<f64, D, S>, last: usize)
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U6, D>,
+{
+    let n = data.nv();
+    if (0..n).any(|i| data.placed_q[i].to_bits() != q[i].to_bits()) {
+        for i in 0..n {
+            data.placed_q[i] = q[i];
+        }
+        data.li_valid = 0;
+        data.o_valid = 0;
+    }
+    for i in data.li_valid..=last {
+        data.li_m_i[i] = model.joints[i].transform(q[i]);
+    }
+    data.li_valid = data.li_valid.max(last + 1);
+}
+
+/// Joint placements `λMi(q)` and `oMi(q)` of joints `0..=last` (reused as in [`joint_transforms`]).
 #[inline(always)]
 fn joint_placements<D: Dim, S: Storage<f64, D>>(model: &Model, data: &mut Data<D>, q: &Vector<f64, D, S>, last: usize)
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U6, D>,
 {
-    for i in 0..=last {
-        let li = model.joints[i].transform(q[i]);
-        data.li_m_i[i] = li;
+    joint_transforms(model, data, q, last);
+    for i in data.o_valid..=last {
+        let li = data.li_m_i[i];
         data.o_m_i[i] = if i == 0 { li } else { data.o_m_i[i - 1].compose(&li) };
     }
+    data.o_valid = data.o_valid.max(last + 1);
 }
 
 /// Forward kinematics: world pose of every joint and every frame
@@ -166,17 +190,15 @@ where
         data.o_m_f[frame.0] = fr.placement;
         return Vector6::zeros();
     };
+    joint_placements(model, data, q, p);
     for i in 0..=p {
         let jm = &model.joints[i];
-        let li = jm.transform(q[i]);
-        data.li_m_i[i] = li;
+        let li = data.li_m_i[i];
         let vj = jm.s_mul(v[i]);
         if i == 0 {
-            data.o_m_i[0] = li;
             data.v[0] = vj;
             data.a[0] = Motion::zero();
         } else {
-            data.o_m_i[i] = data.o_m_i[i - 1].compose(&li);
             let vi = li.act_inv_motion(&data.v[i - 1]).add(&vj);
             data.a[i] = li.act_inv_motion(&data.a[i - 1]).add(&vi.cross_motion(&vj));
             data.v[i] = vi;
@@ -204,10 +226,10 @@ fn rnea_impl<D: Dim, S1: Storage<f64, D>, S2: Storage<f64, D>, S3: Storage<f64, 
 {
     let n = data.nv();
     let a0 = Motion::new(-model.gravity, nalgebra::Vector3::zeros());
+    joint_transforms(model, data, q, n - 1);
     for i in 0..n {
         let jm = &model.joints[i];
-        let li = jm.transform(q[i]);
-        data.li_m_i[i] = li;
+        let li = data.li_m_i[i];
         let qd = v.map_or(0.0, |v| v[i]);
         let qdd = a.map_or(0.0, |a| a[i]);
         let vj = jm.s_mul(qd);
@@ -294,12 +316,18 @@ where
     check(model, data, q, "q");
     let n = data.nv();
     // M does not depend on the first joint's position (everything is relative
-    // to body 0), so λM₀ is never needed: only joints 1.. are placed.
-    data.ycrb[0] = model.joints[0].inertia;
-    for i in 1..n {
-        let jm = &model.joints[i];
-        data.li_m_i[i] = jm.transform(q[i]);
-        data.ycrb[i] = jm.inertia;
+    // to body 0), so λM₀ is never needed: only joints 1.. are placed (unless
+    // all placements for this q are already in `data`).
+    let placed = data.li_valid == n && (0..n).all(|i| data.placed_q[i].to_bits() == q[i].to_bits());
+    if !placed {
+        data.li_valid = 0; // λM₀ stays stale: no placement is current for any q
+        data.o_valid = 0;
+        for i in 1..n {
+            data.li_m_i[i] = model.joints[i].transform(q[i]);
+        }
+    }
+    for i in 0..n {
+        data.ycrb[i] = model.joints[i].inertia;
     }
     // Leaf to root: when body i is reached its composite inertia Ic_i is complete.
     // Column i: F = Ic_i S_i carried to every ancestor j, M[j,i] = S_jᵀ F; then Ic_i joins its parent.
@@ -339,10 +367,10 @@ where
     check(model, data, tau, "tau");
     let n = data.nv();
     // Pass 1, root to leaf: velocities, bias accelerations, rigid inertias.
+    joint_transforms(model, data, q, n - 1);
     for i in 0..n {
         let jm = &model.joints[i];
-        let li = jm.transform(q[i]);
-        data.li_m_i[i] = li;
+        let li = data.li_m_i[i];
         let vj = jm.s_mul(v[i]);
         let vi = if i == 0 { vj } else { li.act_inv_motion(&data.v[i - 1]).add(&vj) };
         data.v[i] = vi;

@@ -52,6 +52,14 @@ impl StribeckParams {
         self.f_a + (self.f_b - self.f_a) * (-x * x).exp()
     }
 
+    /// g(q̇) as [`Self::magnitude`] (bit-identical) and its slope dg/dq̇ = −2 q̇/q_s² · (f_b − f_a)·e^{−(q̇/q_s)²}.
+    #[inline]
+    fn magnitude_and_slope(&self, qdot: f64) -> (f64, f64) {
+        let x = qdot / self.q_s;
+        let e = (self.f_b - self.f_a) * (-x * x).exp();
+        (self.f_a + e, -2.0 * x / self.q_s * e)
+    }
+
     /// Checks the physical bounds; `what` names the joint/direction in the message.
     pub fn validate(&self, what: &str) -> Result<(), FrictionError> {
         nonneg(what, "f_a", self.f_a, "the Coulomb level at high speed, N·m")?;
@@ -121,6 +129,33 @@ impl JointFriction {
                 let w_neg = 0.5 * (1.0 - s);
                 s * (w_pos * positive.magnitude(qdot) + w_neg * negative.magnitude(qdot))
                     + (w_pos * positive.f_v + w_neg * negative.f_v) * qdot
+            }
+        }
+    }
+
+    /// [`Self::tau_f_smooth`] (bit-identical) and its slope ∂τ_f/∂q̇ in N·m·s/rad, analytic,
+    /// for implicit integrators. For the per-direction law the branch whose weight
+    /// (1 ± s)/2 is exactly 0 (|q̇| ≳ 19 v_s, where tanh rounds to ±1) is not evaluated.
+    #[inline]
+    pub fn tau_f_smooth_and_slope(&self, qdot: f64, v_s: f64) -> (f64, f64) {
+        let s = (qdot / v_s).tanh();
+        let ds = (1.0 - s * s) / v_s;
+        match self {
+            Self::CoulombViscous { f_c, f_v } => (f_c * s + f_v * qdot, f_c * ds + f_v),
+            Self::Stribeck(p) => {
+                let (g, dg) = p.magnitude_and_slope(qdot);
+                (g * s + p.f_v * qdot, dg * s + g * ds + p.f_v)
+            }
+            Self::StribeckPerDirection { positive, negative } => {
+                let w_pos = 0.5 * (1.0 + s);
+                let w_neg = 0.5 * (1.0 - s);
+                let (g_pos, dg_pos) = if w_pos == 0.0 { (0.0, 0.0) } else { positive.magnitude_and_slope(qdot) };
+                let (g_neg, dg_neg) = if w_neg == 0.0 { (0.0, 0.0) } else { negative.magnitude_and_slope(qdot) };
+                let g = w_pos * g_pos + w_neg * g_neg;
+                let f_v = w_pos * positive.f_v + w_neg * negative.f_v;
+                let dw = 0.5 * ds; // dw⁺/dq̇ = −dw⁻/dq̇
+                let dg = dw * (g_pos - g_neg) + w_pos * dg_pos + w_neg * dg_neg;
+                (s * g + f_v * qdot, ds * g + s * dg + dw * (positive.f_v - negative.f_v) * qdot + f_v)
             }
         }
     }
@@ -242,6 +277,23 @@ impl FrictionModel {
         match self.smoothing {
             Smoothing::Exact => j.tau_f(qdot),
             Smoothing::Tanh { v_s } => j.tau_f_smooth(qdot, v_s),
+        }
+    }
+
+    /// Friction torque of joint `joint` and its slope ∂τ_f/∂q̇ (N·m·s/rad) at `qdot`.
+    /// With [`Smoothing::Tanh`] the torque is bit-identical to [`Self::tau_f`] and the slope
+    /// analytic ([`JointFriction::tau_f_smooth_and_slope`]); the exact laws have no
+    /// derivative at 0, so with [`Smoothing::Exact`] the slope is the central difference
+    /// over ±1e-7 rad/s. Panics if `joint >= n_joints()`.
+    #[inline]
+    pub fn tau_f_and_slope(&self, joint: usize, qdot: f64) -> (f64, f64) {
+        let j = &self.joints[joint];
+        match self.smoothing {
+            Smoothing::Tanh { v_s } => j.tau_f_smooth_and_slope(qdot, v_s),
+            Smoothing::Exact => {
+                let d = 1e-7;
+                (j.tau_f(qdot), (j.tau_f(qdot + d) - j.tau_f(qdot - d)) / (2.0 * d))
+            }
         }
     }
 

@@ -37,6 +37,14 @@ where
     pub(crate) dinv: Vec<f64>,
     pub(crate) u: Vec<f64>,
     pub(crate) c: Vec<Motion>,
+    /// The joint positions `li_m_i`/`o_m_i` were last computed for, and how
+    /// many of them are current for it: `li_m_i[..li_valid]` and
+    /// `o_m_i[..o_valid]` (`o_valid ≤ li_valid`). Every algorithm reuses the
+    /// placements when called again at bit-identical q (e.g. FK, Jacobian,
+    /// J̇q̇ and RNEA of one controller cycle), so results do not change.
+    pub(crate) placed_q: OVector<f64, D>,
+    pub(crate) li_valid: usize,
+    pub(crate) o_valid: usize,
     /// Joint torques of the last [`crate::dynamics::rnea`] (or bias/gravity torques).
     pub tau: OVector<f64, D>,
     /// Joint accelerations of the last [`crate::dynamics::aba`].
@@ -87,6 +95,9 @@ where
             dinv: vec![0.0; n],
             u: vec![0.0; n],
             c: vec![Motion::zero(); n],
+            placed_q: OVector::<f64, D>::zeros_generic(nv, nalgebra::Const::<1>),
+            li_valid: 0,
+            o_valid: 0,
             tau: OVector::<f64, D>::zeros_generic(nv, nalgebra::Const::<1>),
             ddq: OVector::<f64, D>::zeros_generic(nv, nalgebra::Const::<1>),
             m: OMatrix::<f64, D, D>::zeros_generic(nv, nv),

@@ -268,6 +268,17 @@ impl Model {
         self.joints.iter().map(|j| j.limits.effort).collect()
     }
     /// Total mass of the moving bodies, kg.
+    /// The same robot with every body's mass and rotational inertia scaled by `factor`
+    /// (a controller's model that is `factor` times too heavy, e.g. 0.8 or 1.25).
+    pub fn with_scaled_inertias(&self, factor: f64) -> Model {
+        let mut m = self.clone();
+        for j in &mut m.joints {
+            j.inertia.mass *= factor;
+            j.inertia.inertia *= factor;
+        }
+        m
+    }
+
     pub fn moving_mass(&self) -> f64 {
         self.joints.iter().map(|j| j.inertia.mass).sum()
     }

@@ -175,6 +175,10 @@ pub struct Status {
     pub gamma_bound: f64,
     pub gamma_clipped: bool,
     pub weights_projected: bool,
+    /// The scheduled law's stiffness estimate `k̂_e` [N/m] and its confidence [0, 1]
+    /// (0 and 0 for the paper laws).
+    pub k_e_hat: f64,
+    pub k_e_confidence: f64,
     pub fault: Option<Fault>,
     pub fault_count: u32,
     /// The F/T tare is complete.
@@ -243,6 +247,7 @@ pub fn step(
     let e_p = r.p_d - tip.trans;
     let e_r = orientation_error(&r.r_d, &tip.rot);
     let task = TaskInputs {
+        p: tip.trans,
         e: Vector6::new(e_p.x, e_p.y, e_p.z, e_r.x, e_r.y, e_r.z),
         e_dot: r.v_d - x_dot,
         x_dot,
@@ -275,6 +280,8 @@ pub fn step(
         gamma_bound: out.law.gamma_bound,
         gamma_clipped: out.law.gamma_clipped,
         weights_projected: out.law.weights_projected,
+        k_e_hat: out.law.k_e_hat,
+        k_e_confidence: out.law.k_e_confidence,
         fault: None,
         fault_count: next.fault_count,
         tared,
@@ -332,6 +339,8 @@ fn hold(
         gamma_bound: f64::INFINITY,
         gamma_clipped: false,
         weights_projected: false,
+        k_e_hat: 0.0,
+        k_e_confidence: 0.0,
         fault: Some(fault),
         fault_count: next.fault_count,
         tared: s.tare.done(p.tare_samples),
@@ -382,6 +391,7 @@ impl ControllerParams {
                     sigma_margin: 0.5,
                     // = force_limit.limit_n below (anti-windup of eq 9, see ForceLawParams).
                     integral_limit_n: 50.0,
+                    scheduled: Default::default(),
                 },
                 contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
                 force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },

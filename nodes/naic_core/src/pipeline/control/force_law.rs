@@ -68,6 +68,8 @@
 //! also projects σ below `sigma_margin` times that limit; `sigma_margin = ∞`
 //! restores the law as written.
 
+use super::scheduled::ScheduledParams;
+
 /// Which law runs on the force axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -77,6 +79,8 @@ pub enum Mode {
     Aic,
     /// Neural adaptive impedance control, eq 10–15.
     Naic,
+    /// The stiffness-scheduled law of [`super::scheduled`] (not a paper law).
+    Scheduled,
 }
 
 impl Mode {
@@ -86,16 +90,21 @@ impl Mode {
             Mode::Fixed => "fixed",
             Mode::Aic => "aic",
             Mode::Naic => "naic",
+            Mode::Scheduled => "scheduled",
         }
     }
 
-    /// Parses `fixed`, `aic` or `naic`.
+    /// Every mode, paper laws first.
+    pub const ALL: [Mode; 4] = [Mode::Naic, Mode::Aic, Mode::Fixed, Mode::Scheduled];
+
+    /// Parses `fixed`, `aic`, `naic` or `scheduled`.
     pub fn parse(s: &str) -> Result<Mode, String> {
         match s.trim().to_ascii_lowercase().as_str() {
             "fixed" => Ok(Mode::Fixed),
             "aic" => Ok(Mode::Aic),
             "naic" => Ok(Mode::Naic),
-            other => Err(format!("unknown controller mode '{other}': use naic, aic or fixed")),
+            "scheduled" => Ok(Mode::Scheduled),
+            other => Err(format!("unknown controller mode '{other}': use naic, aic, fixed or scheduled")),
         }
     }
 }
@@ -146,7 +155,10 @@ pub struct ForceLawParams {
     /// that does not give) it would grow without bound and so would the torque. The
     /// controller sets it to its contact-force limit: a correction larger than the force
     /// the robot may apply is never needed. `f64::INFINITY` leaves eq 9 as written.
+    /// The scheduled law clamps its integral with the same limit.
     pub integral_limit_n: f64,
+    /// Settings of [`Mode::Scheduled`] (unused by the paper laws).
+    pub scheduled: ScheduledParams,
 }
 
 /// The largest `σ` for which the AIC/NAIC force loop is stable.
@@ -218,6 +230,10 @@ pub struct ForceLawOutputs {
     pub gamma_clipped: bool,
     /// A weight hit its [`WeightBounds`] and was projected back.
     pub weights_projected: bool,
+    /// [`Mode::Scheduled`]: the stiffness estimate `k̂_e` [N/m] and its confidence in
+    /// [0, 1] (0 for the paper laws, which estimate nothing).
+    pub k_e_hat: f64,
+    pub k_e_confidence: f64,
 }
 
 /// Eq 15: the largest learning rate for which ΔV ≤ 0 (eq 21).
@@ -245,7 +261,9 @@ pub fn step(p: &ForceLawParams, s: &ForceLawState, u: &ForceLawInputs) -> (Force
     let mut out = ForceLawOutputs { e_f, gamma_bound: f64::INFINITY, ..Default::default() };
     let mut next = *s;
     match p.mode {
-        Mode::Fixed => {
+        // The scheduled law runs in `super::scheduled` (the control stage dispatches);
+        // called here it is fixed impedance with the current weights.
+        Mode::Fixed | Mode::Scheduled => {
             // Eq 8 with k_d = 0: e_f = m_d ë + b_d ė.
             out.e_ddot = (e_f - s.b_d * u.e_dot) / s.m_d;
         }
@@ -287,7 +305,7 @@ mod tests {
     use super::*;
 
     fn params(mode: Mode, gamma: f64) -> ForceLawParams {
-        ForceLawParams { mode, sigma: 0.01, gamma, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY }
+        ForceLawParams { mode, sigma: 0.01, gamma, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY, scheduled: ScheduledParams::default() }
     }
 
     /// A 1-D plant: the impedance law's commanded acceleration is realised
@@ -429,7 +447,7 @@ mod tests {
 
     #[test]
     fn mode_names_round_trip_and_bad_names_are_explained() {
-        for m in [Mode::Fixed, Mode::Aic, Mode::Naic] {
+        for m in Mode::ALL {
             assert_eq!(Mode::parse(m.as_str()), Ok(m));
         }
         let e = Mode::parse("pid").unwrap_err();

@@ -41,9 +41,11 @@
 //! calls [`ControlState::resume`] (the ROS node does on any parameter change).
 
 pub mod force_law;
+pub mod scheduled;
 
-use force_law::{ForceLawInputs, ForceLawOutputs, ForceLawParams, ForceLawState};
-use nalgebra::Vector6;
+use force_law::{ForceLawInputs, ForceLawOutputs, ForceLawParams, ForceLawState, Mode};
+use nalgebra::{Vector3, Vector6};
+use scheduled::{ScheduledInputs, ScheduledState};
 
 /// Diagonal impedance parameters, one entry per Cartesian axis (x, y, z, rx, ry, rz).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -148,6 +150,9 @@ impl ControlParams {
         if !(b.sigma.0 <= fl.sigma && fl.sigma <= b.sigma.1) {
             return Err(format!("sigma ({}) must lie in the NAIC weight bounds {:?}", fl.sigma, b.sigma));
         }
+        if fl.mode == Mode::Scheduled {
+            fl.scheduled.validate()?;
+        }
         let fl = &self.force_limit;
         if !(fl.limit_n > self.contact.enter_n) {
             return Err(format!(
@@ -190,6 +195,8 @@ pub struct ControlState {
     /// Latched after a retraction ([`ForceLimit::latch`]): the error `e` along the force
     /// axis (base frame) to keep, i.e. the tool stays at `X_d − e_hold` on that axis.
     pub retract_hold: Option<f64>,
+    /// The scheduled law's memory (estimator, gains, integral); idle for the paper laws.
+    pub sched: ScheduledState,
 }
 
 impl ControlState {
@@ -201,6 +208,7 @@ impl ControlState {
             law: ForceLawState::new(&p.force_law, p.impedance.m_d[n], p.impedance.b_d[n]),
             retract_left: 0,
             retract_hold: None,
+            sched: ScheduledState::new(&p.force_law.scheduled, p.force_law.lambda),
         }
     }
 
@@ -222,6 +230,9 @@ impl ControlState {
 /// Task-space inputs of one cycle, base frame, world-aligned at the tip.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TaskInputs {
+    /// Measured tip position `p` [m] (the scheduled law's stiffness estimator regresses
+    /// the force on it).
+    pub p: Vector3<f64>,
     /// `E = X_d − X` (position; rotation vector of `R_d Rᵀ`).
     pub e: Vector6<f64>,
     /// `Ė = Ẋ_d − Ẋ`.
@@ -249,6 +260,15 @@ pub struct TaskOutputs {
     pub law: ForceLawOutputs,
     /// The force limit was exceeded: the tool is retracting, or latched off the surface.
     pub retracting: bool,
+}
+
+/// `(k̂_e, confidence)` of the scheduled law's estimator (the oracle's known k_e if set).
+fn estimator_report(p: &scheduled::ScheduledParams, s: &ScheduledState) -> (f64, f64) {
+    if let Some(k) = s.k_known {
+        return (k, 1.0);
+    }
+    let e = scheduled::estimator::estimate(&p.estimator, &s.est);
+    (e.k_e, e.confidence)
 }
 
 /// Eq 6 per axis with stiffness `k` and no force target:
@@ -303,6 +323,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
                 next.phase = Phase::Contact;
                 next.below_exit = 0;
                 next.law = s.law.rearm(f_ext - u.f_d);
+                next.sched = s.sched.rearm(&p.force_law.scheduled, sign * u.p[ax], f_ext);
             }
         }
         Phase::Contact => {
@@ -323,13 +344,45 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
         law: ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() },
         retracting: false,
     };
-    if contact {
+    let scheduled = p.force_law.mode == Mode::Scheduled;
+    if contact && scheduled {
+        let fl = &p.force_law;
+        let inputs =
+            ScheduledInputs { x: sign * u.p[ax], x_dot: sign * u.x_dot[ax], e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d };
+        let (sched, r) = scheduled::step(&fl.scheduled, fl.lambda, fl.integral_limit_n, &next.sched, &inputs);
+        next.sched = sched;
+        let g = &sched.gains;
+        // The shared law state reports the scheduled weights (Status, /naic/params).
+        next.law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: sched.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
+        out.v[ax] = u.a_d[ax] - sign * r.e_ddot;
+        out.k_d = 0.0;
+        out.law = ForceLawOutputs {
+            e_ddot: r.e_ddot,
+            e_f: r.e_f,
+            gamma: r.gamma,
+            gamma_bound: r.gamma_bound,
+            gamma_clipped: r.gamma_clipped,
+            weights_projected: r.weights_projected,
+            k_e_hat: r.estimate.k_e,
+            k_e_confidence: r.estimate.confidence,
+        };
+    } else if contact {
         let inputs = ForceLawInputs { e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d };
         let (law, report) = force_law::step(&p.force_law, &next.law, &inputs);
         next.law = law;
         out.v[ax] = u.a_d[ax] - sign * report.e_ddot;
         out.k_d = 0.0;
         out.law = report;
+    } else if scheduled {
+        // Approach: limit the speed along n near the expected surface.
+        let a = &p.force_law.scheduled.approach;
+        let a_n = scheduled::approach_accel(a, a.expected_surface.map_or(f64::NAN, |z| sign * z), sign * u.p[ax], sign * u.x_dot[ax], sign * out.v[ax], imp.b_d[ax] / imp.m_d[ax]);
+        out.v[ax] = sign * a_n;
+    }
+    if scheduled {
+        let e = estimator_report(&p.force_law.scheduled, &next.sched);
+        out.law.k_e_hat = e.0;
+        out.law.k_e_confidence = e.1;
     }
     (next, out)
 }
@@ -348,7 +401,7 @@ mod tests {
                 k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
             },
             force_axis: ForceAxis { axis: 2, sign: -1.0 },
-            force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY },
+            force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY, scheduled: Default::default() },
             contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
             force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
         }
@@ -371,7 +424,7 @@ mod tests {
             let pen = (-x[2]).max(0.0);
             let mut f_e = Vector6::zeros();
             f_e[2] = -k_e * pen; // the robot pushes down: F_e,z < 0, f_ext = −F_e,z > 0
-            let u = TaskInputs { e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d: 10.0 };
+            let u = TaskInputs { p: x.fixed_rows::<3>(0).into(), e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d: 10.0 };
             let (n, o) = step(&p, &s, &u);
             s = n;
             v += o.v * dt;
@@ -383,7 +436,7 @@ mod tests {
 
     #[test]
     fn two_phase_controller_tracks_the_desired_force_with_every_law() {
-        for mode in [Mode::Fixed, Mode::Aic, Mode::Naic] {
+        for mode in Mode::ALL {
             let (f, s) = run(mode, 4000);
             assert_eq!(s.phase, Phase::Contact, "{mode:?}");
             let last = *f.last().unwrap();
@@ -397,6 +450,7 @@ mod tests {
         let p = params(Mode::Naic);
         let s = ControlState::new(&p);
         let u = TaskInputs {
+            p: Vector3::zeros(),
             e: Vector6::new(0.01, -0.02, 0.03, 0.1, -0.1, 0.05),
             e_dot: Vector6::new(0.1, 0.0, -0.2, 0.0, 0.3, 0.0),
             x_dot: -Vector6::new(0.1, 0.0, -0.2, 0.0, 0.3, 0.0),
@@ -419,6 +473,7 @@ mod tests {
         p.contact.exit_cycles = 3;
         let mut s = ControlState::new(&p);
         let mut u = TaskInputs {
+            p: Vector3::zeros(),
             e: Vector6::zeros(),
             e_dot: Vector6::zeros(),
             x_dot: Vector6::zeros(),
@@ -441,6 +496,7 @@ mod tests {
         let p = params(Mode::Naic);
         let mut s = ControlState::new(&p);
         let mut u = TaskInputs {
+            p: Vector3::zeros(),
             e: Vector6::new(0.0, 0.0, -0.03, 0.0, 0.0, 0.0),
             e_dot: Vector6::zeros(),
             x_dot: Vector6::zeros(),
@@ -485,7 +541,7 @@ mod tests {
         let mut step_rig = |s: &ControlState, f_d: f64| {
             let mut f_e = Vector6::zeros();
             f_e[2] = -k_e * (-x[2]).max(0.0);
-            let u = TaskInputs { e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d };
+            let u = TaskInputs { p: x.fixed_rows::<3>(0).into(), e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d };
             let (n, o) = step(&p, s, &u);
             v += o.v * dt;
             x += v * dt;

@@ -1,0 +1,87 @@
+"""`naic launch --composed` (issue 15, part 1): the three node cores in one process, the
+control path in one thread, every topic still on DDS; checked with real rclpy on a
+private loopback-only domain.
+"""
+import os
+import sys
+
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "ros"))
+sys.path.insert(0, os.path.dirname(__file__))
+import rostest_util as ru  # noqa: E402
+
+rclpy = pytest.importorskip("rclpy")
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
+from test_ros_nodes import _lockstep_trace  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def bins():
+    return ru.build_nodes()
+
+
+def test_ros_composed_serves_the_three_nodes_parameters(bins):
+    """Composed, in real time: the three nodes are listed under their own names with their
+    parameters (one process, one DDS participant); a bad value is rejected with its reason
+    and the chain keeps running; a good one is taken and reported back."""
+    from sensor_msgs.msg import JointState
+    domain = ru.fresh_domain(190)
+    launch = ru.Proc([str(bins / "naic"), "launch", "--composed"], ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "naic_composed_test")
+    try:
+        js = []
+        r.node.create_subscription(JointState, "/joint_states", js.append, 100)
+        ok = r.spin_until(lambda: set(ru.NODES) <= {n for n, _ in r.node.get_node_names_and_namespaces()}, 30)
+        assert ok, (r.node.get_node_names_and_namespaces(), launch.output()[-3000:])
+        assert "composed" in launch.output() and launch.alive()
+        for node, name in [("naic_controller", "desired_force"), ("jk5_sim_driver", "hold_damping"),
+                           ("friction_compensation", "torque_rate_limit")]:
+            c = AsyncParameterClient(r.node, node)
+            assert c.wait_for_services(20.0), node
+            names = r.wait(c.list_parameters([], 0)).result.names
+            assert name in names, (node, names)
+        c = AsyncParameterClient(r.node, "naic_controller")
+        res = r.wait(c.set_parameters([Parameter("learning_rate", value=-1.0)])).results[0]
+        assert not res.successful and "learning_rate" in res.reason, res
+        res = r.wait(c.set_parameters([Parameter("desired_force", value=15.0)])).results[0]
+        assert res.successful, res
+        assert r.wait(c.get_parameters(["desired_force"])).values[0].double_value == 15.0
+        js.clear()
+        assert r.spin_until(lambda: len(js) > 100, 20), "the chain stopped after the parameter sets"
+    finally:
+        r.close()
+        rc = launch.stop(timeout=15)
+    assert rc == 0, launch.output()[-3000:]
+    assert "panicked" not in launch.output()
+
+
+def test_ros_composed_lockstep_equals_three_process_lockstep(bins):
+    """The same cores in both modes: composed lockstep and three-process lockstep give the
+    same /naic/params (read by rclpy) at every stamp, through the approach, first contact
+    and NAIC adapting to 10 N on `flat` (3 simulated seconds)."""
+    a, log_a = _lockstep_trace(bins, ru.fresh_domain(200), 3.0, ["--composed"])
+    b, log_b = _lockstep_trace(bins, ru.fresh_domain(210), 3.0)
+    assert "composed" in log_a and "composed" not in log_b
+    common = sorted(set(a) & set(b))
+    # Every stamp of the 3 s (1 ms steps) seen from both runs.
+    assert len(common) > 2900, (len(a), len(b), log_a[-1500:])
+    diff = [(k, a[k], b[k]) for k in common if a[k] != b[k]]
+    assert not diff, f"{len(diff)} of {len(common)} samples differ, first: {diff[:3]}"
+    last = a[common[-1]]
+    assert last[0] == 1 and abs(last[1] - 10.0) < 2.0 and last[2] < 1.0, last
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--respawn"], "--respawn with --composed"),
+    (["-p", "naic_controller:learning_rate:=-1"], "naic_controller: bad parameter: parameter 'learning_rate'"),
+    (["-p", "jk5_sim_driver:urdf:=nope.urdf"], "jk5_sim_driver: bad parameter: cannot load the robot model 'nope.urdf'"),
+])
+def test_ros_composed_refuses_bad_configurations_before_starting(bins, args, needle):
+    """Refused before any DDS participant exists, with exit 2 and the node named."""
+    import subprocess
+    out = subprocess.run([str(bins / "naic"), "launch", "--composed", *args], cwd=ru.ROOT, capture_output=True,
+                         text=True, timeout=60, env=ru.ros_env(ru.fresh_domain(195)))
+    assert out.returncode == 2 and needle in out.stderr, out.stderr
+    assert "started /" not in out.stderr, out.stderr
