@@ -7,7 +7,7 @@ import re
 import subprocess
 
 DOC_GLOBS = ["README.md", "BENCHMARKS.md", "docs/**/*.md", "urdf/README.md", "bench/reference/README.md", "examples/**/*.md"]
-TOP = ("nodes/", "crates/", "msgs/", "params/", "urdf/", "tests/", "bench/", "tools/", "docs/", "examples/", ".ci/")
+TOP = ("nodes/", "crates/", "cli/", "msgs/", "params/", "urdf/", "tests/", "bench/", "tools/", "docs/", "examples/", ".ci/")
 # A path token: starts a code span or follows a space/paren/quote, so that
 # `sensor_msgs/JointState` is not read as msgs/JointState.
 PATH = re.compile(r"(?:^|(?<=[\s(\"'=]))((?:\.\./shared/|" + "|".join(re.escape(t) for t in TOP) + r")[A-Za-z0-9_./<>*{}-]*)")

@@ -2,7 +2,7 @@
 
 naic side: `cargo run --release -p naic_core --example dump_dynamics -- URDF STATES.json`
 (Model::from_urdf_file + Data<Dyn>; the 6-DOF stack path is checked equal to it
-bit for bit in nodes/naic_core/tests/dynamics.rs).
+bit for bit in crates/naic_core/tests/dynamics.rs).
 
 * Pinocchio 4.1 loading the same urdf/jk5.urdf: RNEA, bias and gravity torques,
   M (CRBA), ABA, `tip` and `ft_sensor` poses, LOCAL_WORLD_ALIGNED Jacobians and

@@ -1,5 +1,5 @@
 """Robustness of `naic explain` on data from an independent generator (tests/python/explain_gen:
-Python + Pinocchio, no code shared with nodes/naic_explain/src/generate.rs).
+Python + Pinocchio, no code shared with crates/naic_explain/src/generate.rs).
 
 Goal (issue 14): each hidden effect named first in ≥ 19 of 20 seeds with its parameters within
 the stated tolerances (explain_gen/check.py), and noise-only data giving any finding in ≤ 1 of

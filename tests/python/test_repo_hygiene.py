@@ -30,7 +30,7 @@ def test_the_pattern_catches_machine_paths_and_spares_relative_ones():
     assert MACHINE_PATH.search("/home/alice/robot.urdf")
     assert not MACHINE_PATH.search("../shared/data/jk5-friction/x.csv")
     assert not MACHINE_PATH.search("--out /tmp/run")
-    assert not MACHINE_PATH.search("nodes/naic_core/src/work/x.rs")
+    assert not MACHINE_PATH.search("crates/naic_core/src/work/x.rs")
 
 
 def test_no_committed_file_names_an_absolute_machine_path(root):

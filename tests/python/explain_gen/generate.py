@@ -1,5 +1,5 @@
 """Synthetic "measured" joint data with one hidden effect, independent of
-`nodes/naic_explain/src/generate.rs` (no shared code, data or conventions beyond the CSV
+`crates/naic_explain/src/generate.rs` (no shared code, data or conventions beyond the CSV
 format and the report's parameter names).
 
 Truth torque per joint j at instant t (the instants are the controller's, jittered):

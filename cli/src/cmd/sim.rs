@@ -101,7 +101,7 @@ fn default_path(rel: &str) -> PathBuf {
     if here.exists() {
         return here;
     }
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(rel);
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel);
     if src.exists() {
         src
     } else {
