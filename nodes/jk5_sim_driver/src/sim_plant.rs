@@ -76,7 +76,7 @@ mod tests {
     use naic_ros::RosArgs;
 
     use super::*;
-    use crate::shell::Setup;
+    use crate::setup::Setup;
 
     /// The driver's plant on the repository's JK5 files (scenario `flat`, 1 kHz).
     fn plant() -> SimPlant {
