@@ -1,0 +1,85 @@
+"""How long rclpy takes to find naic_controller and its parameter services (issue 13).
+
+    python tests/ros/discovery_probe.py [--trials N] [--chain] [--rclpy-first]
+
+Each trial starts a lone `naic_controller` (or, with --chain, `naic launch`) on a fresh
+private domain (loopback only) and an rclpy observer (after the node, or before it with
+--rclpy-first), then polls every 10 ms, without spinning (discovery runs in Fast DDS's own
+threads), for: the first `/naic/params` publisher seen (SPDP + SEDP of the node's
+participant), the node name (`ros_discovery_info`), and each of the six parameter
+services ready (`Client.service_is_ready`: the request writer and the response reader
+matched). Prints one JSON line per trial (seconds since the node was started) and a
+summary; run it with the machine loaded to see where the time goes.
+"""
+import argparse
+import json
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(__file__))
+import rostest_util as ru  # noqa: E402
+
+
+def trial(bins, chain, rclpy_first, limit):
+    from rclpy.client import Client
+    from rclpy.parameter_client import AsyncParameterClient
+    domain = ru.fresh_domain()
+    env = ru.ros_env(domain)
+    r = ru.RclpyDomain(domain, "discovery_probe") if rclpy_first else None
+    t0 = time.time()
+    if chain:
+        p = ru.Proc([str(bins / "naic"), "launch"], env)
+    else:
+        p = ru.Proc([str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml"], env)
+    if r is None:
+        r = ru.RclpyDomain(domain, "discovery_probe")
+    out = {"domain": domain, "rclpy_ready": round(time.time() - t0, 3)}
+    c = AsyncParameterClient(r.node, "naic_controller")
+    clients = {k.strip("_"): v for k, v in vars(c).items() if isinstance(v, Client)}
+    ready = {}
+    try:
+        while time.time() - t0 < limit and len(ready) < len(clients):
+            now = round(time.time() - t0, 3)
+            if "params_pub" not in out and r.node.count_publishers("/naic/params") > 0:
+                out["params_pub"] = now
+            if "node" not in out and "naic_controller" in {n for n, _ in r.node.get_node_names_and_namespaces()}:
+                out["node"] = now
+            for k, cl in clients.items():
+                if k not in ready and cl.service_is_ready():
+                    ready[k] = now
+            time.sleep(0.01)
+    finally:
+        out["services"] = ready
+        out["all_services"] = max(ready.values()) if len(ready) == len(clients) else None
+        r.close()
+        out["exit"] = p.stop(timeout=15)
+        ru.release_domains()
+    if out["all_services"] is None:
+        out["node_output_tail"] = p.output()[-1500:]
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--trials", type=int, default=10)
+    ap.add_argument("--chain", action="store_true", help="naic launch (three nodes, real time) instead of a lone controller")
+    ap.add_argument("--rclpy-first", action="store_true", help="start the rclpy observer before the node")
+    ap.add_argument("--limit", type=float, default=30.0, help="give up a trial after this many seconds")
+    a = ap.parse_args()
+    bins = ru.build_nodes()
+    times = []
+    for _ in range(a.trials):
+        t = trial(bins, a.chain, a.rclpy_first, a.limit)
+        print(json.dumps(t), flush=True)
+        times.append(t["all_services"])
+    ok = sorted(x for x in times if x is not None)
+    print(json.dumps({
+        "trials": len(times), "found": len(ok), "load": os.getloadavg()[0],
+        "median_s": ok[len(ok) // 2] if ok else None, "max_s": ok[-1] if ok else None,
+        "over_10s": sum(1 for x in times if x is None or x > 10.0),
+    }))
+
+
+if __name__ == "__main__":
+    main()
