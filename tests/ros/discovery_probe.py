@@ -1,6 +1,6 @@
 """How long rclpy takes to find naic_controller and its parameter services (issue 13).
 
-    python tests/ros/discovery_probe.py [--trials N] [--chain] [--rclpy-first]
+    python tests/ros/discovery_probe.py [--trials N] [--chain] [--rclpy-first] [--extra K] [--client-after S]
 
 Each trial starts a lone `naic_controller` (or, with --chain, `naic launch`) on a fresh
 private domain (loopback only) and an rclpy observer (after the node, or before it with
@@ -21,11 +21,30 @@ sys.path.insert(0, os.path.dirname(__file__))
 import rostest_util as ru  # noqa: E402
 
 
-def trial(bins, chain, rclpy_first, limit):
+def _port_bound(port):
+    import socket
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        s.bind(("127.0.0.1", port))
+        return False
+    except OSError:
+        return True
+    finally:
+        s.close()
+
+
+def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0):
     from rclpy.client import Client
     from rclpy.parameter_client import AsyncParameterClient
     domain = ru.fresh_domain()
     env = ru.ros_env(domain)
+    # Other participants first (lone friction_compensation nodes under other names), so the
+    # controller's participant gets id `extra` (RTPS ports 7410 + 250 d + 2 id).
+    pads = [ru.Proc([str(bins / "friction_compensation"), "--ros-args", "-p", "realtime_priority:=0",
+                     "-r", f"__node:=pad{i}"], env) for i in range(extra)]
+    t_pad = time.time()
+    while extra and time.time() - t_pad < 20 and not all(_port_bound(7410 + 250 * domain + 2 * i) for i in range(extra)):
+        time.sleep(0.05)
     r = ru.RclpyDomain(domain, "discovery_probe") if rclpy_first else None
     t0 = time.time()
     if chain:
@@ -34,7 +53,10 @@ def trial(bins, chain, rclpy_first, limit):
         p = ru.Proc([str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml"], env)
     if r is None:
         r = ru.RclpyDomain(domain, "discovery_probe")
-    out = {"domain": domain, "rclpy_ready": round(time.time() - t0, 3)}
+    out = {"domain": domain, "extra_participants": extra, "rclpy_ready": round(time.time() - t0, 3)}
+    # A long-lived observer (the suite's): its clients are created later.
+    time.sleep(client_after)
+    t0 = time.time()
     c = AsyncParameterClient(r.node, "naic_controller")
     clients = {k.strip("_"): v for k, v in vars(c).items() if isinstance(v, Client)}
     ready = {}
@@ -54,6 +76,8 @@ def trial(bins, chain, rclpy_first, limit):
         out["all_services"] = max(ready.values()) if len(ready) == len(clients) else None
         r.close()
         out["exit"] = p.stop(timeout=15)
+        for q in pads:
+            q.stop(timeout=15)
         ru.release_domains()
     if out["all_services"] is None:
         out["node_output_tail"] = p.output()[-1500:]
@@ -65,12 +89,14 @@ def main():
     ap.add_argument("--trials", type=int, default=10)
     ap.add_argument("--chain", action="store_true", help="naic launch (three nodes, real time) instead of a lone controller")
     ap.add_argument("--rclpy-first", action="store_true", help="start the rclpy observer before the node")
+    ap.add_argument("--extra", type=int, default=0, help="start this many other RustDDS participants first")
+    ap.add_argument("--client-after", type=float, default=0.0, help="create the parameter client this long after the observer (times are then from its creation)")
     ap.add_argument("--limit", type=float, default=30.0, help="give up a trial after this many seconds")
     a = ap.parse_args()
     bins = ru.build_nodes()
     times = []
     for _ in range(a.trials):
-        t = trial(bins, a.chain, a.rclpy_first, a.limit)
+        t = trial(bins, a.chain, a.rclpy_first, a.limit, a.extra, a.client_after)
         print(json.dumps(t), flush=True)
         times.append(t["all_services"])
     ok = sorted(x for x in times if x is not None)
