@@ -1,6 +1,7 @@
 """How long rclpy takes to find naic_controller and its parameter services (issue 13).
 
-    python tests/ros/discovery_probe.py [--trials N] [--chain] [--rclpy-first] [--extra K] [--client-after S]
+    python tests/ros/discovery_probe.py [--trials N] [--chain [--lockstep]] [--node NAME] [--rclpy-first]
+        [--extra K] [--client-after S]
 
 Each trial starts a lone `naic_controller` (or, with --chain, `naic launch`) on a fresh
 private domain (loopback only) and an rclpy observer (after the node, or before it with
@@ -33,7 +34,7 @@ def _port_bound(port):
         s.close()
 
 
-def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0):
+def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0, lockstep=False, node="naic_controller"):
     from rclpy.client import Client
     from rclpy.parameter_client import AsyncParameterClient
     domain = ru.fresh_domain()
@@ -48,7 +49,7 @@ def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0):
     r = ru.RclpyDomain(domain, "discovery_probe") if rclpy_first else None
     t0 = time.time()
     if chain:
-        p = ru.Proc([str(bins / "naic"), "launch"], env)
+        p = ru.Proc([str(bins / "naic"), "launch", *(["--lockstep"] if lockstep else [])], env)
     else:
         p = ru.Proc([str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml"], env)
     if r is None:
@@ -57,7 +58,7 @@ def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0):
     # A long-lived observer (the suite's): its clients are created later.
     time.sleep(client_after)
     t0 = time.time()
-    c = AsyncParameterClient(r.node, "naic_controller")
+    c = AsyncParameterClient(r.node, node)
     clients = {k.strip("_"): v for k, v in vars(c).items() if isinstance(v, Client)}
     ready = {}
     try:
@@ -65,7 +66,7 @@ def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0):
             now = round(time.time() - t0, 3)
             if "params_pub" not in out and r.node.count_publishers("/naic/params") > 0:
                 out["params_pub"] = now
-            if "node" not in out and "naic_controller" in {n for n, _ in r.node.get_node_names_and_namespaces()}:
+            if "node" not in out and node in {n for n, _ in r.node.get_node_names_and_namespaces()}:
                 out["node"] = now
             for k, cl in clients.items():
                 if k not in ready and cl.service_is_ready():
@@ -91,12 +92,14 @@ def main():
     ap.add_argument("--rclpy-first", action="store_true", help="start the rclpy observer before the node")
     ap.add_argument("--extra", type=int, default=0, help="start this many other RustDDS participants first")
     ap.add_argument("--client-after", type=float, default=0.0, help="create the parameter client this long after the observer (times are then from its creation)")
+    ap.add_argument("--lockstep", action="store_true", help="with --chain: naic launch --lockstep")
+    ap.add_argument("--node", default="naic_controller", help="whose parameter services to wait for")
     ap.add_argument("--limit", type=float, default=30.0, help="give up a trial after this many seconds")
     a = ap.parse_args()
     bins = ru.build_nodes()
     times = []
     for _ in range(a.trials):
-        t = trial(bins, a.chain, a.rclpy_first, a.limit, a.extra, a.client_after)
+        t = trial(bins, a.chain, a.rclpy_first, a.limit, a.extra, a.client_after, a.lockstep, a.node)
         print(json.dumps(t), flush=True)
         times.append(t["all_services"])
     ok = sorted(x for x in times if x is not None)
