@@ -1,7 +1,7 @@
 """How long rclpy takes to find naic_controller and its parameter services (issue 13).
 
     python tests/ros/discovery_probe.py [--trials N] [--chain [--lockstep]] [--node NAME] [--rclpy-first]
-        [--extra K] [--client-after S]
+        [--extra K] [--client-after S [--subscribe]]
 
 Each trial starts a lone `naic_controller` (or, with --chain, `naic launch`) on a fresh
 private domain (loopback only) and an rclpy observer (after the node, or before it with
@@ -34,7 +34,7 @@ def _port_bound(port):
         s.close()
 
 
-def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0, lockstep=False, node="naic_controller"):
+def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0, lockstep=False, node="naic_controller", subscribe=False):
     from rclpy.client import Client
     from rclpy.parameter_client import AsyncParameterClient
     domain = ru.fresh_domain()
@@ -55,8 +55,18 @@ def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0, lockstep=F
     if r is None:
         r = ru.RclpyDomain(domain, "discovery_probe")
     out = {"domain": domain, "extra_participants": extra, "rclpy_ready": round(time.time() - t0, 3)}
-    # A long-lived observer (the suite's): its clients are created later.
-    time.sleep(client_after)
+    # A long-lived observer (the suite's): its clients are created later; with `subscribe`
+    # it receives /joint_states and /clock meanwhile (as the lockstep test does).
+    if subscribe:
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import JointState
+        got = []
+        r.node.create_subscription(JointState, "/joint_states", got.append, 100)
+        r.node.create_subscription(Clock, "/clock", got.append, 100)
+        r.spin(client_after)
+        out["received"] = len(got)
+    else:
+        time.sleep(client_after)
     t0 = time.time()
     c = AsyncParameterClient(r.node, node)
     clients = {k.strip("_"): v for k, v in vars(c).items() if isinstance(v, Client)}
@@ -74,6 +84,15 @@ def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0, lockstep=F
             time.sleep(0.01)
     finally:
         out["services"] = ready
+        if len(ready) < len(clients):
+            # Which of the server's endpoints the observer knows (its DDS topics
+            # rq/<node>/<service>Request, read by the server, and .../<service>Reply).
+            srvs = ("get_parameters", "get_parameter_types", "set_parameters", "set_parameters_atomically",
+                    "list_parameters", "describe_parameters")
+            out["server_endpoints_seen"] = {
+                sv: (len(r.node.get_subscriptions_info_by_topic(f"rq/{node}/{sv}Request", no_mangle=True)),
+                     len(r.node.get_publishers_info_by_topic(f"rr/{node}/{sv}Reply", no_mangle=True)))
+                for sv in srvs}
         out["all_services"] = max(ready.values()) if len(ready) == len(clients) else None
         r.close()
         out["exit"] = p.stop(timeout=15)
@@ -94,12 +113,13 @@ def main():
     ap.add_argument("--client-after", type=float, default=0.0, help="create the parameter client this long after the observer (times are then from its creation)")
     ap.add_argument("--lockstep", action="store_true", help="with --chain: naic launch --lockstep")
     ap.add_argument("--node", default="naic_controller", help="whose parameter services to wait for")
+    ap.add_argument("--subscribe", action="store_true", help="the observer receives /joint_states and /clock (spinning) before making its client")
     ap.add_argument("--limit", type=float, default=30.0, help="give up a trial after this many seconds")
     a = ap.parse_args()
     bins = ru.build_nodes()
     times = []
     for _ in range(a.trials):
-        t = trial(bins, a.chain, a.rclpy_first, a.limit, a.extra, a.client_after, a.lockstep, a.node)
+        t = trial(bins, a.chain, a.rclpy_first, a.limit, a.extra, a.client_after, a.lockstep, a.node, a.subscribe)
         print(json.dumps(t), flush=True)
         times.append(t["all_services"])
     ok = sorted(x for x in times if x is not None)
