@@ -93,6 +93,13 @@ def trial(bins, chain, rclpy_first, limit, extra=0, client_after=0.0, lockstep=F
                 sv: (len(r.node.get_subscriptions_info_by_topic(f"rq/{node}/{sv}Request", no_mangle=True)),
                      len(r.node.get_publishers_info_by_topic(f"rr/{node}/{sv}Reply", no_mangle=True)))
                 for sv in srvs}
+            # The node's other endpoints, created before the services (/parameter_events)
+            # and after them (its topics).
+            out["other_endpoints_seen"] = {
+                "/parameter_events writer": sum(1 for i in r.node.get_publishers_info_by_topic("/parameter_events") if i.node_name == node),
+                "/joint_effort_cmd reader": sum(1 for i in r.node.get_subscriptions_info_by_topic("/joint_effort_cmd") if i.node_name == node),
+                "/joint_states writer": sum(1 for i in r.node.get_publishers_info_by_topic("/joint_states") if i.node_name == node),
+            }
         out["all_services"] = max(ready.values()) if len(ready) == len(clients) else None
         r.close()
         out["exit"] = p.stop(timeout=15)
