@@ -96,6 +96,15 @@ def test_ros_fault_force_limit_retracts_latches_and_resumes_on_a_parameter_chang
     assert "above force_limit" in log and "resuming force control" in log, log[-3000:]
 
 
+def _source_stamp(m):
+    """The `/joint_states` stamp [ns] a command answers (its label `joints;stamp_ns=<ns>`)."""
+    label = m.layout.dim[0].label if m.layout.dim else ""
+    for kv in label.split(";"):
+        if kv.startswith("stamp_ns="):
+            return int(kv[len("stamp_ns="):])
+    return None
+
+
 def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
     """Issue 7 item 4 over DDS: SIGKILL friction_compensation mid-run → the driver holds
     the arm itself (no old torque kept); a restarted node starts from the measured torque,
@@ -115,7 +124,7 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
         r.node.create_subscription(JointState, "/joint_states", lambda m: js.append(
             (time.time(), list(m.effort), m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec)), 100)
         r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd",
-                                   lambda m: cmds.append((time.time(), list(m.data))), 100)
+                                   lambda m: cmds.append((time.time(), list(m.data), _source_stamp(m))), 100)
         # Both streams must reach this probe (under load, DDS discovery can take a while).
         assert r.spin_until(lambda: len(cmds) > 200 and len(js) > 200, 40), \
             (len(cmds), len(js), procs["friction_compensation"].output()[-2000:])
@@ -137,10 +146,17 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
         # most the rate limit of 1 N m. Judged on the commands themselves: under load
         # several commands can land in one driver cycle. Without the limit the take-over
         # step is about 100 N m.
-        new = [(t, c) for t, c in cmds[n_before:]]
+        new = [(t, c) for t, c, _ in cmds[n_before:]]
         steps = [max(abs(a - b) for a, b in zip(c1, c0)) for (_, c0), (_, c1) in zip(new, new[1:])]
         assert len(steps) > 400
-        assert max(steps) <= 1.0 + 1e-9, f"command step {max(steps):.3f} N m at take-over"
+        # On failure, say whether rclpy may have missed a command between the two: the
+        # /joint_states stamps they answer, and how many states rclpy saw between them.
+        k = max(range(len(steps)), key=steps.__getitem__)
+        s0, s1 = cmds[n_before + k][2], cmds[n_before + k + 1][2]
+        between = sum(1 for _, _, st in js if s0 is not None and s1 is not None and s0 * 1e-9 < st < s1 * 1e-9)
+        assert max(steps) <= 1.0 + 1e-9, \
+            f"command step {max(steps):.3f} N m at take-over (command {k + 1} of the restarted node; " \
+            f"it answers state {s1}, the one before it state {s0}; {between} states between them seen by rclpy)"
         # The arm's torque, cycle by cycle (stamp order): the first cycle that applies one
         # of the new node's commands (command j: under load the driver may take a later
         # one of several that arrived in one cycle), and the hold torque of the cycle

@@ -69,3 +69,27 @@ pub fn take_newest<M: serde::de::DeserializeOwned + 'static>(sub: &ros2_client::
     }
     newest
 }
+
+/// Start a thread named `name` that wakes on each sample of `sub` and hands it to `on`,
+/// until shutdown is requested (a driver's receive thread: it stamps each command's
+/// arrival as it comes, whatever the main loop is doing).
+pub fn spawn_receiver<M: serde::de::DeserializeOwned + 'static>(
+    name: &str,
+    mut sub: ros2_client::Subscription<M>,
+    mut on: impl FnMut(M) + Send + 'static,
+) -> std::io::Result<()>
+where
+    ros2_client::Subscription<M>: Send,
+{
+    let mut waiter = Waiter::new()?;
+    waiter.add(&mut sub, 0)?;
+    std::thread::Builder::new().name(name.into()).spawn(move || {
+        while !crate::shutdown_requested() {
+            waiter.wait(Some(Duration::from_millis(50)));
+            while let Ok(Some((m, _))) = sub.take() {
+                on(m);
+            }
+        }
+    })?;
+    Ok(())
+}

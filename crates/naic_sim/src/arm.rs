@@ -1,9 +1,12 @@
 //! A stateful handle on the simulator for drivers (e.g. the `jk5_sim_driver`
 //! ROS node): the pure [`crate::plant::step`] with its state and workspace
 //! kept inside, one call per control period.
+//!
+//! It has no hold of its own: a driver holds the arm with `naic_core::pipeline::hold` at
+//! the *measured* state, as a real driver does from its encoders (`jk5_sim_driver`'s
+//! `SimPlant`), the same law the controller applies on a fault.
 
 use crate::plant::{self, Observation, PlantParams, PlantState, PlantWorkspace};
-use naic_core::model::Data6;
 
 /// The simulated JK5 + mini45 in one scenario's world.
 pub struct SimArm {
@@ -11,7 +14,6 @@ pub struct SimArm {
     state: PlantState,
     ws: PlantWorkspace,
     obs: Observation,
-    data: Data6,
 }
 
 impl SimArm {
@@ -19,19 +21,12 @@ impl SimArm {
     pub fn new(params: PlantParams, q0: [f64; 6], seed: u64) -> Self {
         let mut ws = PlantWorkspace::new(&params);
         let (state, obs) = plant::observe(&params, &PlantState::at_rest(q0, seed), &mut ws, [0.0; 6], false);
-        let data = Data6::try_new(&params.model).expect("PlantParams checked 6 joints");
-        Self { params, state, ws, obs, data }
+        Self { params, state, ws, obs }
     }
 
     /// Advance one control period (`params().dt`) under `tau` [N·m] (saturated at the effort limits).
     pub fn step(&mut self, tau: &[f64; 6]) {
         (self.state, self.obs) = plant::step(&self.params, &self.state, tau, &mut self.ws);
-    }
-
-    /// Gravity compensation + joint damping at the true state (for a driver's hold): the
-    /// core's hold law (`naic_core::pipeline::hold`, damping capped for stability at `dt`).
-    pub fn hold_torque(&mut self, damping: f64) -> [f64; 6] {
-        naic_core::pipeline::hold::torque(&self.params.model, &mut self.data, &self.state.q, &self.state.dq, &[damping; 6], self.params.dt)
     }
 
     /// Measured joint positions [rad], velocities [rad/s], and the applied joint torques [N·m].

@@ -1,10 +1,11 @@
-//! `friction_compensation` as a library: the node's pure core ([`core`]) and its ROS
-//! parameters ([`config`]), used by the DDS shell (`main.rs`) and by anything that runs
-//! the node in process.
+//! `friction_compensation` as a library: the node's pure core ([`core`]), its ROS
+//! parameters ([`config`]), its set-up from the command line ([`setup`]) and its loop body
+//! ([`runner`]), used by the DDS shell (`main.rs`) and by `naic launch --composed`.
 
 pub mod config;
 pub mod core;
-pub mod shell;
+pub mod runner;
+pub mod setup;
 
 #[cfg(test)]
 #[global_allocator]

@@ -93,6 +93,11 @@ impl Commands {
         }
     }
 
+    /// Lockstep: the command for the announced state is in; takes it (`ready` is cleared).
+    pub fn take_ready(&mut self) -> bool {
+        std::mem::take(&mut self.ready)
+    }
+
     /// What [`step`] needs of the newest command.
     pub fn view(&self) -> Command {
         Command {

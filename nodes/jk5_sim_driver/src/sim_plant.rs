@@ -64,3 +64,63 @@ impl Plant for SimPlant {
         self.arm.time()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{UnitQuaternion, Vector3, Vector6};
+    use naic_core::pipeline::{
+        control::{force_law::{Mode, DEFAULT_GAMMA}, Phase},
+        controller::{self, Controller, ControllerParams, Reference},
+        sense::RawMeasurements,
+    };
+    use naic_ros::RosArgs;
+
+    use super::*;
+    use crate::setup::Setup;
+
+    /// The driver's plant on the repository's JK5 files (scenario `flat`, 1 kHz).
+    fn plant() -> SimPlant {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+        let args = [
+            "--ros-args".to_string(),
+            "-p".into(),
+            format!("urdf:={root}/urdf/jk5.urdf"),
+            "-p".into(),
+            format!("friction_file:={root}/params/friction_jk5.yaml"),
+        ];
+        Setup::from_args(&RosArgs::parse(args).unwrap()).unwrap().plant
+    }
+
+    /// One hold law: the driver's hold (no command) and the controller's fault hold give
+    /// the same torque at the same measured joint state.
+    #[test]
+    fn the_drivers_hold_is_the_controllers_fault_hold_at_the_measured_state() {
+        let mut plant = plant();
+        // Let the arm fall for 30 ms, so the damping term is not zero.
+        for _ in 0..30 {
+            plant.step(&[0.0; 6], 1e-3);
+        }
+        let (q, dq, _) = plant.joints();
+        assert!(dq.iter().any(|v| v.abs() > 1e-2), "the arm did not move: the damping would be untested ({dq:?})");
+        let driver = plant.hold_torque(5.0);
+
+        let model = plant.arm.params().model.clone();
+        let mut cp = ControllerParams::paper_defaults(&model, Mode::Naic, DEFAULT_GAMMA);
+        cp.hold_damping = [5.0; 6];
+        assert_eq!(cp.control.force_law.lambda, plant.dt, "same control period");
+        let ctl = Controller::new(model.clone(), cp).unwrap();
+        let mut ws = ctl.workspace();
+        let r = Reference { p_d: Vector3::new(-0.4, -0.11, 0.05), r_d: UnitQuaternion::identity(), v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d: 10.0 };
+        let mut bad = [0.0; 6];
+        bad[2] = f64::NAN;
+        let meas = RawMeasurements { t: 0.0, q, dq, joints_stamp: 0.0, wrench: bad, wrench_stamp: 0.0 };
+        let (_, out) = controller::step(&ctl, &ctl.initial_state(), &meas, &r, &mut ws);
+        assert_eq!(out.status.phase, Phase::Hold, "a NaN wrench must make the controller hold");
+        for i in 0..6 {
+            assert!((out.tau[i] - driver[i]).abs() < 1e-12, "joint {i}: driver {} vs controller {}", driver[i], out.tau[i]);
+        }
+        // Not gravity alone: the damping of the moving joints is in both.
+        let gravity = hold::torque(&model, &mut Data6::try_new(&model).unwrap(), &q, &[0.0; 6], &[5.0; 6], 1e-3);
+        assert!((0..6).any(|i| (driver[i] - gravity[i]).abs() > 1e-3), "{driver:?} vs gravity {gravity:?}");
+    }
+}

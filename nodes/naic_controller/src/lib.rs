@@ -1,11 +1,13 @@
 //! `naic_controller` as a library: the node's pure core ([`core`]), its ROS parameters
-//! ([`config`]) and the position reference ([`reference`]), used by the DDS shell
-//! (`main.rs`) and by anything that runs the node in process.
+//! ([`config`]), the position reference ([`reference`]), its set-up from the command line
+//! ([`setup`]) and its loop body ([`runner`]), used by the DDS shell (`main.rs`) and by
+//! `naic launch --composed`.
 
 pub mod config;
 pub mod core;
 pub mod reference;
-pub mod shell;
+pub mod runner;
+pub mod setup;
 
 #[cfg(test)]
 #[global_allocator]

@@ -1,15 +1,13 @@
-//! What every shell of friction_compensation needs besides the core: the start-up checks
-//! (robot model, effort limits, the velocity filter), the parameter check, the reload of
-//! accepted parameters and the event log. Used by the DDS shell (`main.rs`) and by
-//! `naic launch --composed`.
+//! Building the node from its arguments, before any DDS participant exists: the robot
+//! model (effort limits, the velocity filter) and the check of parameter values.
 
 use naic_core::{model::Model, pipeline::sense::SenseParams};
 use naic_ros::{
     params::{effort_limit_within, SetCheck, EFFORT_CAP},
-    ParamSpec, ParamView, RosArgs, RosError, RosNode,
+    ParamSpec, ParamView, RosArgs, RosError,
 };
 
-use crate::{config, core};
+use crate::config;
 
 pub const NODE: &str = "friction_compensation";
 
@@ -47,24 +45,5 @@ impl Setup {
             effort_limit_within(p, &effort_limit)?;
             config::load_model(p).map(|_| ())
         })
-    }
-}
-
-/// Take the node's parameters when a set was accepted since generation `gen`.
-pub fn reload(node: &RosNode, gen: &mut u64, sense: &SenseParams, p: &mut core::Params) {
-    if node.params.generation() != *gen {
-        *gen = node.params.generation();
-        match node.params.with(|v| config::core_params(v, sense)) {
-            Ok(np) => *p = np,
-            Err(e) => log::error!("{e}"),
-        }
-    }
-}
-
-pub fn log_event(e: &Option<core::Event>) {
-    match e {
-        Some(core::Event::BadCommand(e)) => log::warn!("ignoring /naic/effort: {e}"),
-        Some(core::Event::MissingJoint(j)) => log::error!("/joint_states has no '{j}': no friction feedforward"),
-        None => {}
     }
 }

@@ -1,0 +1,351 @@
+//! The driver's loop body, whatever carries the messages: the DDS shell (`main.rs`) and
+//! `naic launch --composed` call it and publish the state messages it leaves in
+//! [`Runner::msgs`].
+//!
+//! [`Runner`] owns the plant, the core's parameters and state, the state messages (filled
+//! in place) and the period clock. Per cycle the shell calls [`Runner::reload`] (accepted
+//! parameter values), waits ([`Runner::pace`] in real time, [`SharedCommands::wait_ready`]
+//! or [`core::Commands::take_ready`] in lockstep, [`Runner::pause`] while paused), calls
+//! [`Runner::step`] and [`Runner::announce`] and publishes. Commands go through
+//! [`receive`] (or [`SharedCommands::receive`] from a receive thread). The core's events
+//! are logged here.
+
+use std::{
+    sync::{Condvar, Mutex, MutexGuard},
+    time::Duration,
+};
+
+use naic_ros::{
+    alloc_check,
+    msgs::{self, Clock, Float64MultiArray, Header, JointState, WrenchStamped},
+    time::{time_from_ns, wall_ns},
+    ParamTable, ParamView,
+};
+
+use crate::{
+    config,
+    core::{self, Commands, Hold},
+    plant::Plant,
+    setup::NODE,
+};
+
+/// `/joint_states`, `/wrench` and `/clock`, preallocated and rewritten in place each cycle.
+pub struct StateMsgs {
+    pub js: JointState,
+    pub w: WrenchStamped,
+    pub clock: Clock,
+}
+
+impl Default for StateMsgs {
+    fn default() -> Self {
+        StateMsgs {
+            js: JointState { name: msgs::JOINT_NAMES.iter().map(|s| s.to_string()).collect(), position: vec![0.0; 6], velocity: vec![0.0; 6], effort: vec![0.0; 6], ..Default::default() },
+            w: WrenchStamped { header: Header { frame_id: "ft_sensor".into(), ..Default::default() }, ..Default::default() },
+            clock: Clock::default(),
+        }
+    }
+}
+
+impl StateMsgs {
+    /// The plant's state into the messages; returns the stamp used [ns] (simulated time
+    /// if `sim_stamps`, else the wall clock). `/clock` is always simulated time.
+    pub fn fill(&mut self, plant: &impl Plant, sim_stamps: bool) -> i64 {
+        let stamp_ns = if sim_stamps { sim_stamp_ns(plant) } else { wall_ns() };
+        let (q, v, t) = plant.joints();
+        self.js.header.stamp = time_from_ns(stamp_ns);
+        self.js.position.copy_from_slice(&q);
+        self.js.velocity.copy_from_slice(&v);
+        self.js.effort.copy_from_slice(&t);
+        let w = plant.wrench();
+        self.w.header.stamp = time_from_ns(stamp_ns);
+        (self.w.wrench.force.x, self.w.wrench.force.y, self.w.wrench.force.z) = (w[0], w[1], w[2]);
+        (self.w.wrench.torque.x, self.w.wrench.torque.y, self.w.wrench.torque.z) = (w[3], w[4], w[5]);
+        self.clock.clock = time_from_ns(sim_stamp_ns(plant));
+        stamp_ns
+    }
+}
+
+/// Stamps are simulated time.
+pub fn sim_stamps(p: &ParamView) -> bool {
+    p.bool("lockstep") || p.bool("use_sim_time")
+}
+
+/// The simulated-time stamp of the plant's current state [ns].
+pub fn sim_stamp_ns(plant: &impl Plant) -> i64 {
+    (plant.time() * 1e9).round() as i64
+}
+
+/// The driver between two cycles.
+pub struct Runner<P: Plant> {
+    pub plant: P,
+    pub p: core::Params,
+    /// The `paused` parameter: simulated time stands still.
+    pub paused: bool,
+    /// Stamps are simulated time ([`sim_stamps`]).
+    pub sim: bool,
+    pub s: core::State,
+    /// The state messages, as of the last [`Runner::announce`].
+    pub msgs: StateMsgs,
+    /// Generation of the parameter table last applied.
+    gen: u64,
+    /// The current period's deadline [ns, CLOCK_MONOTONIC] (real time).
+    next_ns: i64,
+    warned: bool,
+}
+
+impl<P: Plant> Runner<P> {
+    /// `params` is the node's parameter table as it starts.
+    pub fn new(plant: P, params: &ParamTable) -> Runner<P> {
+        let (p, paused, sim) = params.with(read);
+        Runner { plant, p, paused, sim, s: core::State::default(), msgs: StateMsgs::default(), gen: params.generation(), next_ns: monotonic_ns(), warned: false }
+    }
+
+    /// The command slot, latency statistics from the end of `latency_warmup` on.
+    pub fn commands(&self, params: &ParamTable) -> Commands {
+        Commands::new(wall_ns() + params.with(|v| (v.f64("latency_warmup") * 1e9) as i64), self.sim)
+    }
+
+    /// Take the node's parameters when a set was accepted since the last call (at the top
+    /// of a cycle, and again just before the step, so a limit accepted while waiting
+    /// applies to that step).
+    pub fn reload(&mut self, params: &ParamTable, cmds: &mut Commands) {
+        if params.generation() != self.gen {
+            self.gen = params.generation();
+            (self.p, self.paused, self.sim) = params.with(read);
+            cmds.sim_stamps = self.sim;
+        }
+    }
+
+    /// Lockstep: the state to answer has not been announced yet (the first cycle, or just
+    /// switched to lockstep).
+    pub fn needs_announce(&self, cmds: &Commands) -> bool {
+        self.s.last_published_stamp.is_none() || cmds.expect_stamp_ns != self.s.last_published_stamp
+    }
+
+    /// The plant's state into [`Runner::msgs`], announced to `cmds` (lockstep: only a
+    /// command for it may advance the simulation) before the shell publishes it, so its
+    /// command is never early. Returns the stamp [ns].
+    pub fn announce(&mut self, cmds: &mut Commands) -> i64 {
+        let stamp = self.msgs.fill(&self.plant, self.sim);
+        cmds.expect(self.p.lockstep.then(|| sim_stamp_ns(&self.plant)));
+        self.s.last_published_stamp = Some(stamp);
+        stamp
+    }
+
+    /// One simulator step with the newest command (or the hold), its events logged.
+    pub fn step(&mut self, cmd: &core::Command) {
+        let (p, s, plant) = (&self.p, &self.s, &mut self.plant);
+        let (n, o) = alloc_check::check(NODE, &mut self.warned, || core::step(p, s, cmd, wall_ns(), plant));
+        self.s = n;
+        log_events(&o, &self.p, &self.s);
+    }
+
+    /// Paused: wait one `command_timeout` (the shell then publishes the same state again,
+    /// so late subscribers get it); the period clock restarts afterwards.
+    pub fn pause(&mut self) {
+        std::thread::sleep(self.command_timeout());
+        self.next_ns = monotonic_ns();
+    }
+
+    pub fn command_timeout(&self) -> Duration {
+        Duration::from_nanos(self.p.command_timeout_ns.max(0) as u64)
+    }
+
+    pub fn period_ns(&self) -> i64 {
+        (1e9 / self.p.rate) as i64
+    }
+
+    /// The current period's deadline [ns, CLOCK_MONOTONIC].
+    pub fn deadline_ns(&self) -> i64 {
+        self.next_ns
+    }
+
+    /// Real time: sleep until the next period's deadline (absolute, so the rate does not
+    /// drift); returns it [ns, CLOCK_MONOTONIC].
+    pub fn pace(&mut self) -> i64 {
+        let period_ns = self.period_ns();
+        self.next_ns += period_ns;
+        let now = monotonic_ns();
+        if now > self.next_ns + 10 * period_ns {
+            self.next_ns = now; // fell far behind (suspended?): resynchronise
+        }
+        sleep_until(self.next_ns);
+        self.next_ns
+    }
+
+    /// At exit: the latency report (JSON to `latency_report`, if set, with `extra`'s
+    /// fields) and the last log line.
+    pub fn finish(&self, cmds: &Commands, params: &ParamTable, extra: serde_json::Value) {
+        let path = params.with(|p| p.str("latency_report").to_string());
+        write_report(cmds, &self.s, &path, extra);
+    }
+}
+
+fn read(v: &ParamView) -> (core::Params, bool, bool) {
+    (config::core_params(v), v.bool("paused"), sim_stamps(v))
+}
+
+/// Take one `/joint_effort_cmd` (the core's [`core::receive`]), logging a refusal.
+pub fn receive(cmds: &mut Commands, m: &Float64MultiArray) {
+    if let Some(e) = core::receive(cmds, m, wall_ns()) {
+        log::warn!("ignoring /joint_effort_cmd: {e} (rejected so far: {})", cmds.rejected);
+    }
+}
+
+/// The command slot shared between a receive thread and the main loop; a command wakes
+/// the lockstep wait.
+pub struct SharedCommands {
+    slot: Mutex<Commands>,
+    cv: Condvar,
+}
+
+impl SharedCommands {
+    pub fn new(c: Commands) -> SharedCommands {
+        SharedCommands { slot: Mutex::new(c), cv: Condvar::new() }
+    }
+
+    pub fn lock(&self) -> MutexGuard<'_, Commands> {
+        self.slot.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// [`receive`], then wake the main loop.
+    pub fn receive(&self, m: &Float64MultiArray) {
+        receive(&mut self.lock(), m);
+        self.cv.notify_all();
+    }
+
+    /// Lockstep: wait up to `timeout` for the command of the announced state; takes it.
+    pub fn wait_ready(&self, timeout: Duration) -> bool {
+        let (mut c, _) = self.cv.wait_timeout_while(self.lock(), timeout, |c| !c.ready).unwrap_or_else(|e| e.into_inner());
+        c.take_ready()
+    }
+}
+
+/// Log what one step reports.
+pub fn log_events(o: &core::Outbox, p: &core::Params, s: &core::State) {
+    match o.events.hold {
+        Some(Hold::Timeout) => log::warn!("no /joint_effort_cmd for {} ms: holding the arm", p.command_timeout_ns / 1_000_000),
+        Some(Hold::Rejected) => log::warn!("last /joint_effort_cmd rejected: holding the arm"),
+        None if o.events.released => log::info!("commands resumed; releasing the hold"),
+        None => {}
+    }
+    if let Some(c) = o.events.saturated {
+        log::warn!("torque saturated at effort_limit {:?} N m (joints {c:?}; {} cycles so far)", p.effort_limit, s.saturated_cycles);
+    }
+}
+
+/// The latency report (JSON to `path`, if not empty, with `extra`'s fields) and the last
+/// log line.
+pub fn write_report(c: &Commands, s: &core::State, path: &str, extra: serde_json::Value) {
+    let recorded_ns = (wall_ns() - c.record_after_ns).max(0);
+    if c.stale_dropped > 0 {
+        log::info!("lockstep: {} commands computed from an earlier state were dropped", c.stale_dropped);
+    }
+    let mut report = config::latency_report(&c.latency, s.missed, s.cycles, recorded_ns, c.rejected);
+    report["saturated_cycles"] = s.saturated_cycles.into();
+    if let (Some(r), serde_json::Value::Object(x)) = (report.as_object_mut(), extra) {
+        r.extend(x);
+    }
+    if !path.is_empty() {
+        if let Err(e) = std::fs::write(path, report.to_string()) {
+            log::error!("cannot write latency report {path}: {e}");
+        }
+    }
+    log::info!("stopped after {} cycles; chain latency {report}", s.cycles);
+}
+
+pub fn monotonic_ns() -> i64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: valid pointer to a timespec.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as i64 * 1_000_000_000 + ts.tv_nsec as i64
+}
+
+pub fn sleep_until(deadline_ns: i64) {
+    let ts = libc::timespec {
+        tv_sec: (deadline_ns / 1_000_000_000) as libc::time_t,
+        tv_nsec: (deadline_ns % 1_000_000_000) as libc::c_long,
+    };
+    // SAFETY: absolute sleep on CLOCK_MONOTONIC with a valid timespec; EINTR just returns early.
+    unsafe {
+        libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use naic_ros::{msgs::effort_msg, ParameterValue, RosArgs};
+
+    use super::*;
+    use crate::{setup::Setup, sim_plant::SimPlant};
+
+    /// The runner on the repository's JK5 files, with `-p` overrides `extra`, and the node's
+    /// parameter table as `RosNode` would build it.
+    fn runner(extra: &[&str]) -> (Runner<SimPlant>, ParamTable) {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+        let mut args = vec!["--ros-args".to_string()];
+        for e in [format!("urdf:={root}/urdf/jk5.urdf"), format!("friction_file:={root}/params/friction_jk5.yaml")].iter().map(String::as_str).chain(extra.iter().copied()) {
+            args.extend(["-p".to_string(), e.to_string()]);
+        }
+        let args = RosArgs::parse(args).unwrap();
+        let setup = Setup::from_args(&args).unwrap();
+        let table = ParamTable::new(setup.specs(), Some(setup.check()), &args.overrides(NODE).unwrap()).unwrap();
+        (Runner::new(setup.plant, &table), table)
+    }
+
+    #[test]
+    fn lockstep_steps_once_per_command_for_the_state_just_announced() {
+        let (mut d, table) = runner(&["lockstep:=true"]);
+        let mut cmds = d.commands(&table);
+        assert!(d.needs_announce(&cmds), "nothing announced yet");
+        assert_eq!(d.announce(&mut cmds), 0);
+        assert!(!d.needs_announce(&cmds));
+        assert_eq!((d.msgs.js.header.stamp.to_nanos(), d.msgs.w.header.stamp.to_nanos(), d.msgs.clock.clock.to_nanos()), (0, 0, 0));
+        // A command for another state is dropped; the one for stamp 0 is taken, once.
+        receive(&mut cmds, &effort_msg(&[0.0; 6], Some(7)));
+        assert!(!cmds.take_ready());
+        receive(&mut cmds, &effort_msg(&[0.0; 6], Some(0)));
+        assert!(cmds.take_ready());
+        assert!(!cmds.take_ready(), "taken");
+        d.step(&cmds.view());
+        assert_eq!(d.announce(&mut cmds), 1_000_000, "one 1 ms step, simulated stamps");
+        assert_eq!((d.s.cycles, d.s.holding, cmds.stale_dropped), (1, false, 1));
+        assert_eq!(cmds.expect_stamp_ns, Some(1_000_000));
+    }
+
+    #[test]
+    fn accepted_parameters_apply_at_the_next_reload() {
+        let (mut d, table) = runner(&[]);
+        let mut cmds = d.commands(&table);
+        assert!(!d.paused && !d.sim && !cmds.sim_stamps);
+        let set = |name: &str, v| table.set_atomically(&[(name.to_string(), v)]).unwrap();
+        set("paused", ParameterValue::Boolean(true));
+        set("use_sim_time", ParameterValue::Boolean(true));
+        set("command_timeout", ParameterValue::Double(0.005));
+        assert!(!d.paused, "not before the reload");
+        d.reload(&table, &mut cmds);
+        assert!(d.paused && d.sim && cmds.sim_stamps, "simulated stamps reach the command slot too");
+        assert_eq!(d.command_timeout(), Duration::from_millis(5));
+        // Paused: the period clock restarts after one command_timeout.
+        let before = monotonic_ns();
+        d.pause();
+        assert!(d.deadline_ns() - before >= 5_000_000);
+    }
+
+    #[test]
+    fn the_report_has_the_counts_and_the_callers_fields() {
+        let path = std::env::temp_dir().join(format!("naic-driver-report-{}.json", std::process::id()));
+        let (mut d, table) = runner(&["effort_limit:=[1.0, 1.0, 1.0, 1.0, 1.0, 1.0]", &format!("latency_report:={}", path.display())]);
+        let mut cmds = d.commands(&table);
+        receive(&mut cmds, &effort_msg(&[50.0; 6], None));
+        receive(&mut cmds, &effort_msg(&[f64::NAN; 6], None));
+        d.step(&cmds.view());
+        d.finish(&cmds, &table, serde_json::json!({ "mode": "test" }));
+        let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        let _ = std::fs::remove_file(&path);
+        assert_eq!((r["cycles"].as_u64(), r["rejected_commands"].as_u64(), r["mode"].as_str()), (Some(1), Some(1), Some("test")), "{r}");
+        // The refused command made the driver hold; the hold (gravity of the JK5) is
+        // saturated at 1 N m.
+        assert_eq!(r["saturated_cycles"].as_u64(), Some(1), "{r}");
+    }
+}

@@ -1,0 +1,248 @@
+//! The controller node's loop body, whatever carries the messages: the DDS shell
+//! (`main.rs`) and `naic launch --composed` hand it the messages they received and publish
+//! what it leaves in its buffers.
+//!
+//! [`Runner`] owns the core's parameters, state and workspace and the outgoing messages
+//! (filled in place). Per wake-up the shell calls [`Runner::reload`] (accepted parameter
+//! values apply to the data that woke it), [`Runner::wrench`] for each wrench,
+//! [`Runner::reference`] for the newest reference samples and [`Runner::joint_states`]
+//! for the newest joint state. The core's events are logged here, rate-limited by the core.
+
+use std::fmt::Write;
+
+use naic_core::pipeline::controller::{ControllerParams, Workspace};
+use naic_ros::{
+    alloc_check,
+    msgs::{self, Float64MultiArray, JointState, NaicParams, PoseStamped, WrenchStamped},
+    time::{time_from_ns, wall_ns},
+    ParamTable,
+};
+
+use crate::{
+    config, core,
+    setup::{Setup, NODE},
+};
+
+/// The node between two wake-ups.
+pub struct Runner {
+    pub p: core::Params,
+    pub s: core::State,
+    ws: Workspace,
+    base: ControllerParams,
+    /// Generation of the parameter table last applied.
+    gen: u64,
+    effort: Float64MultiArray,
+    report: NaicParams,
+    warned: bool,
+}
+
+/// What a joint-state cycle leaves to publish (the runner's buffers).
+pub struct Published<'a> {
+    pub effort: Option<&'a Float64MultiArray>,
+    pub report: Option<&'a NaicParams>,
+}
+
+impl Runner {
+    /// From the node's setup; `params` is the node's parameter table as it starts.
+    pub fn new(setup: Setup, params: &ParamTable) -> Runner {
+        let s = core::State::new(&setup.params);
+        let ws = setup.params.controller.workspace();
+        Runner {
+            p: setup.params,
+            s,
+            ws,
+            base: setup.base,
+            gen: params.generation(),
+            effort: Float64MultiArray::default(),
+            report: NaicParams::default(),
+            warned: false,
+        }
+    }
+
+    /// Take the node's parameters when a set was accepted since the last call (the core's
+    /// parameter-change policy, `core::set_params`).
+    pub fn reload(&mut self, params: &ParamTable) {
+        if params.generation() == self.gen {
+            return;
+        }
+        self.gen = params.generation();
+        let base = &self.base;
+        let (cp, settings, rp) = params.with(|v| (config::controller_params(v, base), config::settings(v), config::reference_params(v)));
+        match cp.and_then(|cp| core::set_params(&mut self.p, &mut self.s, cp, settings, rp)) {
+            Ok(o) if o.resumed => log::info!("parameters changed: resuming force control"),
+            Ok(_) => {}
+            Err(e) => log::error!("parameters not applied: {e}"),
+        }
+    }
+
+    fn step(&mut self, inbox: core::Inbox, now_ns: i64) -> core::Outbox {
+        let (p, s, ws) = (&self.p, &self.s, &mut self.ws);
+        let (next, out) = alloc_check::check(NODE, &mut self.warned, || core::step(p, s, &inbox, now_ns, ws));
+        self.s = next;
+        out
+    }
+
+    /// A `/wrench` sample (the newest one is used by the next cycle).
+    pub fn wrench(&mut self, w: &WrenchStamped) {
+        self.step(core::Inbox { wrench: Some(w), ..Default::default() }, wall_ns());
+    }
+
+    /// The newest `/naic/target_pose` and `/naic/desired_wrench` samples (scenario `none`).
+    pub fn reference(&mut self, tp: Option<&PoseStamped>, dw: Option<&WrenchStamped>) {
+        if tp.is_some() || dw.is_some() {
+            let out = self.step(core::Inbox { target_pose: tp, desired_wrench: dw, ..Default::default() }, wall_ns());
+            log_reference_events(&out.events, tp, dw, &self.p.reference_params.base_frame);
+        }
+    }
+
+    /// One cycle on a `/joint_states` sample. In lockstep its wrench may still be on the
+    /// way: `paired_wrench(until_ns)` is then asked for it (wait for it until that wall
+    /// time; `None`: it did not come, and the core gives the pairing up).
+    pub fn joint_states(&mut self, js: &JointState, mut paired_wrench: impl FnMut(i64) -> Option<WrenchStamped>) -> Published<'_> {
+        let mut out = self.step(core::Inbox { joint_states: Some(js), ..Default::default() }, wall_ns());
+        while let Some(until) = out.wait_until_ns {
+            let w = paired_wrench(until);
+            let now = if w.is_some() { wall_ns() } else { wall_ns().max(until) };
+            out = self.step(core::Inbox { wrench: w.as_ref(), ..Default::default() }, now);
+        }
+        log_events(&out.events, self.p.settings.force_limit);
+        if let Some((tau, stamp)) = out.effort {
+            msgs::set_effort_msg(&mut self.effort, &tau, Some(stamp));
+        }
+        if let Some(r) = &out.report {
+            fill_report(&mut self.report, r);
+        }
+        Published { effort: out.effort.map(|_| &self.effort), report: out.report.map(|_| &self.report) }
+    }
+}
+
+pub fn log_events(e: &core::Events, force_limit: f64) {
+    if let Some(j) = e.missing_joint {
+        log::error!("/joint_states has no '{j}'; holding");
+    }
+    if let Some(p) = e.start_tip {
+        log::info!("start tip position {p:?}");
+    }
+    if let Some(f) = e.force_limited {
+        log::warn!("measured force {f:.1} N above force_limit {force_limit} N: retracting (set any parameter to resume)");
+    }
+    if let Some((f, n)) = e.fault {
+        log::warn!("holding: {f} (faults so far: {n})");
+    }
+    if e.non_finite_torque {
+        log::error!("controller produced a non-finite torque; not published");
+    }
+}
+
+pub fn log_reference_events(e: &core::Events, tp: Option<&PoseStamped>, dw: Option<&WrenchStamped>, base: &str) {
+    if e.reference_too_early {
+        log::warn!("reference sample before the first /joint_states (no start pose yet): ignored");
+    }
+    if let (Some((r, n)), Some(m)) = (e.target_rejected, tp) {
+        log::warn!("/naic/target_pose (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far)", m.header.frame_id);
+    }
+    if let (Some((r, n)), Some(m)) = (e.wrench_rejected, dw) {
+        log::warn!("/naic/desired_wrench (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far)", m.header.frame_id);
+    }
+}
+
+/// `/naic/params` from the core's report, in place (the strings keep their capacity).
+pub fn fill_report(m: &mut NaicParams, r: &core::Report) {
+    let st = &r.status;
+    m.header.stamp = time_from_ns(r.stamp_ns);
+    m.mode.clear();
+    m.mode.push_str(st.mode.as_str());
+    m.phase = st.phase as u8;
+    m.force_axis = st.force_axis as u8;
+    (m.desired_force, m.measured_force, m.e_f) = (st.f_d, st.f_ext, st.e_f);
+    (m.m_d, m.b_d, m.k_d, m.sigma, m.phi) = (st.m_d, st.b_d, st.k_d, st.sigma, st.phi);
+    (m.gamma, m.gamma_bound, m.gamma_clipped) = (st.gamma, st.gamma_bound, st.gamma_clipped);
+    m.fault.clear();
+    if let Some(f) = &r.fault {
+        let _ = write!(m.fault, "{f}");
+    }
+    m.fault_count = st.fault_count;
+    let a = &r.reference;
+    m.reference_source.clear();
+    m.reference_source.push_str(a.source);
+    m.reference_position.clear();
+    m.reference_position.extend_from_slice(&a.position);
+    (m.reference_stale, m.reference_rejected) = (a.stale, a.rejected);
+}
+
+#[cfg(test)]
+mod tests {
+    use naic_ros::{
+        msgs::{effort_source_stamp, Header, JOINT_NAMES},
+        ParameterValue, RosArgs,
+    };
+
+    use super::*;
+
+    /// The runner on the repository's JK5 model, with `-p` overrides `extra`, and the node's
+    /// parameter table as `RosNode` would build it.
+    fn runner(extra: &[&str]) -> (Runner, ParamTable) {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+        let mut args = vec!["--ros-args".to_string(), "-p".into(), format!("urdf:={root}/urdf/jk5.urdf")];
+        for e in extra {
+            args.extend(["-p".to_string(), e.to_string()]);
+        }
+        let args = RosArgs::parse(args).unwrap();
+        let setup = Setup::from_args(&args).unwrap();
+        let table = ParamTable::new(setup.specs(), Some(setup.check()), &args.overrides(NODE).unwrap()).unwrap();
+        (Runner::new(setup, &table), table)
+    }
+
+    /// The flat scenario's start pose, at rest, at `stamp` [ns].
+    fn js(stamp: i64) -> JointState {
+        JointState {
+            header: Header { stamp: time_from_ns(stamp), frame_id: String::new() },
+            name: JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
+            position: vec![0.0, 0.3, 1.8, 0.0, 1.0, 0.0],
+            velocity: vec![0.0; 6],
+            effort: vec![0.0; 6],
+        }
+    }
+
+    fn wrench(stamp: i64) -> WrenchStamped {
+        WrenchStamped { header: Header { stamp: time_from_ns(stamp), frame_id: "ft_sensor".into() }, ..Default::default() }
+    }
+
+    #[test]
+    fn in_simulated_time_a_joint_state_waits_for_the_wrench_of_its_stamp() {
+        let (mut r, _) = runner(&["use_sim_time:=true"]);
+        r.wrench(&wrench(0));
+        let out = r.joint_states(&js(0), |_| panic!("the wrench of stamp 0 is in: nothing to wait for"));
+        assert_eq!(out.effort.map(effort_source_stamp), Some(Some(0)), "the command carries its state's stamp");
+        let report = out.report.expect("a report every cycle");
+        assert_eq!((report.header.stamp.to_nanos(), report.mode.as_str(), report.fault.as_str()), (0, "naic", ""));
+        // The next state's wrench is not in yet: the runner asks for it, once.
+        let mut asked = Vec::new();
+        let out = r.joint_states(&js(1_000_000), |until| {
+            asked.push(until);
+            Some(wrench(1_000_000))
+        });
+        assert_eq!(asked.len(), 1, "{asked:?}");
+        assert!(asked[0] > wall_ns() - 1_000_000_000, "a wall-clock deadline, soon: {asked:?}");
+        assert_eq!(out.effort.map(effort_source_stamp), Some(Some(1_000_000)));
+        assert_eq!(r.s.cycles, 2);
+        // It never comes: the pairing is given up (the wrench is then stale: a hold).
+        let out = r.joint_states(&js(2_000_000), |_| None);
+        assert_eq!(out.report.map(|m| m.header.stamp.to_nanos()), Some(2_000_000));
+    }
+
+    #[test]
+    fn an_accepted_parameter_applies_at_the_next_reload() {
+        let (mut r, table) = runner(&["use_sim_time:=true"]);
+        r.wrench(&wrench(0));
+        assert_eq!(r.joint_states(&js(0), |_| None).report.unwrap().mode, "naic");
+        table.set_atomically(&[("mode".into(), ParameterValue::String("aic".into()))]).unwrap();
+        r.wrench(&wrench(1_000_000));
+        assert_eq!(r.joint_states(&js(1_000_000), |_| None).report.unwrap().mode, "naic", "not before the reload");
+        r.reload(&table);
+        r.wrench(&wrench(2_000_000));
+        assert_eq!(r.joint_states(&js(2_000_000), |_| None).report.unwrap().mode, "aic");
+        // A refused value never reaches the runner (the table refuses it).
+        assert!(table.set_atomically(&[("learning_rate".into(), ParameterValue::Double(-1.0))]).is_err());
+    }
+}

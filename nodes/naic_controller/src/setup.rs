@@ -1,0 +1,48 @@
+//! Building the node from its arguments: every file and start-up value is read and checked
+//! here, before any DDS participant exists (a bad one exits with code 2, naming it).
+
+use naic_core::{
+    model::Model,
+    pipeline::{control::force_law::{self, Mode}, controller::{Controller, ControllerParams}},
+};
+use naic_ros::{ParamSpec, ParamTable, RosArgs, RosError};
+
+use crate::{config, core, reference::ScenarioReference};
+
+pub const NODE: &str = "naic_controller";
+
+/// The node's core parameters and what its ROS parameters are declared from.
+pub struct Setup {
+    pub params: core::Params,
+    /// The core's paper settings on the loaded model: the parameters' defaults.
+    pub base: ControllerParams,
+}
+
+impl Setup {
+    /// Read and check everything that reads a file or can reject the model: the start-up
+    /// parameters, the model (6 joints, 'tip' and 'ft_sensor' frames) and the scenario.
+    pub fn from_args(args: &RosArgs) -> Result<Setup, RosError> {
+        let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
+        let model = Model::from_urdf_file(&urdf)
+            .map_err(|e| RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
+        // Defaults: the core's paper settings on this model (learning rate: not in the paper).
+        let base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
+        let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides(NODE)?).map_err(RosError::Param)?;
+        let bad_model = |e: String| RosError::Param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
+        let cp = table.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
+        // The model first (its message names the URDF file), then the scenario.
+        let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
+        let reference = ScenarioReference::new(&table.with(|p| p.str("scenario").to_string()), &model).map_err(RosError::Param)?;
+        let rp = table.with(config::reference_params);
+        let params = core::Params::new(ctl, table.with(config::settings), reference, rp).map_err(bad_model)?;
+        Ok(Setup { params, base })
+    }
+
+    pub fn specs(&self) -> Vec<ParamSpec> {
+        config::specs(&self.base)
+    }
+
+    pub fn check(&self) -> naic_ros::params::SetCheck {
+        config::check(self.base)
+    }
+}
