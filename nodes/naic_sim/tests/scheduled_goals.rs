@@ -9,27 +9,13 @@
 //! No bound here was tuned per seed: the numbers are from `naic sim --table`, seed 1,
 //! with a small margin above what is measured.
 
-use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
-use naic_core::model::Model;
+mod common;
+
+use common::{friction, model};
 use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::runner::{self, RunSummary};
 use naic_sim::scenario;
 use nalgebra::Vector3;
-
-const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
-
-fn model() -> Model {
-    Model::from_urdf_file(format!("{ROOT}/urdf/jk5.urdf")).unwrap()
-}
-
-fn friction() -> FrictionModel {
-    FrictionParams::from_yaml_file(format!("{ROOT}/params/friction_jk5.yaml"))
-        .unwrap()
-        .to_model()
-        .unwrap()
-        .with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S })
-        .unwrap()
-}
 
 /// One closed-loop run (seed 1) of `controller` on `scenario`.
 fn run(scenario: &str, controller: &str, delay: usize, mass_error: f64) -> RunSummary {
