@@ -426,3 +426,26 @@ pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&P
     println!("wrote {} ({:.0} s)", out.display(), t0.elapsed().as_secs_f64());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn medians_count_never_settled_as_infinite() {
+        assert_eq!(median_opt(&[Some(1.0), None, Some(3.0)]), Some(3.0));
+        assert_eq!(median_opt(&[Some(1.0), None, None]), None);
+        assert_eq!(median_opt(&[Some(1.0), Some(2.0)]), Some(1.5));
+        assert_eq!(median_opt(&[]), None);
+        let runs = [
+            RunSummary { contact_time_s: Some(1.0), peak_n: 10.0, later_overshoot_pct: vec![5.0, 1.0], later_settle_s: vec![None, Some(0.1)], later_recovery_overshoot_pct: vec![1.0, 2.0], ..Default::default() },
+            RunSummary { contact_time_s: None, peak_n: 30.0, ..Default::default() },
+            RunSummary { contact_time_s: Some(2.0), peak_n: 20.0, later_overshoot_pct: vec![7.0], later_settle_s: vec![Some(0.2)], later_recovery_overshoot_pct: vec![3.0], ..Default::default() },
+        ];
+        let c = cell(&runs.iter().collect::<Vec<_>>());
+        assert_eq!((c.never, c.seeds), (1, 3));
+        assert_eq!(c.median.peak_n, 20.0);
+        // Later phases: as many as every run has (here none for the run without contact).
+        assert!(c.median.later_overshoot_pct.is_empty());
+    }
+}
