@@ -52,6 +52,8 @@ def test_sim_writes_metrics_csv_and_svg(naic_bin, root, tmp_path):
         (["--urdf", "/nonexistent.urdf"], "--urdf"),
         (["--friction", "/nonexistent.yaml"], "--friction"),
         (["--replay", "/nonexistent.csv", "--q0", "0,0,0,0,0,0"], "--replay"),
+        (["--table", "--scenario", "flat"], "--scenario"),
+        (["--table", "--seeds", "0"], "--seeds"),
     ],
 )
 def test_bad_input_is_named_with_exit_code_2(naic_bin, root, tmp_path, args, needle):

@@ -585,6 +585,8 @@ pub fn write_sim_run(
             gamma_clipped: r.gamma_bound.is_finite() && r.gamma >= r.gamma_bound,
             fault: String::new(),
             fault_count: 0,
+            k_e_hat: r.k_e_hat,
+            k_e_confidence: r.k_e_confidence,
             ..Default::default()
         };
         w.write(pa, &params, ns, ns).map_err(bag_err)?;

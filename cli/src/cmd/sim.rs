@@ -93,10 +93,15 @@ pub struct SimArgs {
     /// Replay: integration steps per period [default: 1].
     #[arg(long)]
     pub substeps: Option<u32>,
+    /// Regenerate the README's "Which controller to use" table into --out: every
+    /// controller × goal scenario × delay 1 and 2, mass errors, the stiffness sweep,
+    /// the goals of issue 12 and the plots; medians of --seeds seeds [default: 5].
+    #[arg(long)]
+    pub table: bool,
 }
 
 /// Default files, found from the current directory or the source tree.
-fn default_path(rel: &str) -> PathBuf {
+pub(crate) fn default_path(rel: &str) -> PathBuf {
     let here = PathBuf::from(rel);
     if here.exists() {
         return here;
@@ -309,6 +314,25 @@ pub fn write_outputs(out: &Path, s: &Scenario, runs: &[RunResult]) -> Result<(),
 pub fn run(a: SimArgs) -> CliResult {
     if a.replay.is_some() {
         return replay(&a);
+    }
+    if a.table {
+        let given = [
+            ("--scenario", a.scenario.is_some()),
+            ("--controller", a.controller.is_some()),
+            ("--stiffness", a.stiffness.is_some()),
+            ("--delay-cycles", a.delay_cycles.is_some()),
+            ("--model-mass-error", a.model_mass_error.is_some()),
+            ("--seed", a.seed.is_some()),
+            ("--duration", a.duration.is_some()),
+            ("--gamma", a.gamma.is_some()),
+            ("--sigma-margin", a.sigma_margin.is_some()),
+            ("--median-window", a.median_window.is_some()),
+        ];
+        if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
+            return Err(CliError::usage(format!("--table runs every scenario, controller and delay with the default settings: drop {flag}")));
+        }
+        let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-table", utc_stamp())));
+        return super::sim_table::run(&out, a.seeds.unwrap_or(5), a.urdf.as_deref(), a.friction.as_deref(), a.no_friction);
     }
     let name = a.scenario.clone().unwrap_or_else(|| "flat".into());
     if !SCENARIOS.contains(&name.as_str()) {

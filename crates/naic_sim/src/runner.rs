@@ -68,7 +68,9 @@ pub struct Record {
     pub gamma_bound: f64,
     pub phase: u8,
     pub saturated: bool,
+    /// The scheduled law's stiffness estimate [N/m] and its confidence [0, 1] (0 otherwise).
     pub k_e_hat: f64,
+    pub k_e_confidence: f64,
 }
 
 /// The outcome of one closed-loop run.
@@ -110,6 +112,7 @@ fn record(s: &Scenario, k: usize, obs: &Observation, rep: &ControlReport, refere
         phase: rep.phase,
         saturated: tr.saturated,
         k_e_hat: rep.k_e_hat,
+        k_e_confidence: rep.k_e_confidence,
     }
 }
 
@@ -168,7 +171,7 @@ pub fn to_csv(records: &[Record]) -> String {
     let mut out = String::with_capacity(records.len() * 400);
     out.push_str("t,q1,q2,q3,q4,q5,q6,dq1,dq2,dq3,dq4,dq5,dq6,tau1,tau2,tau3,tau4,tau5,tau6,");
     out.push_str("tip_x,tip_y,tip_z,p_d_x,p_d_y,p_d_z,f_ext,f_ext_est,f_d,surface_z,penetration,in_contact,k_e,");
-    out.push_str("ft_fx,ft_fy,ft_fz,ft_tx,ft_ty,ft_tz,m_d,b_d,sigma,gamma,gamma_bound,phase,saturated\n");
+    out.push_str("ft_fx,ft_fy,ft_fz,ft_tx,ft_ty,ft_tz,m_d,b_d,sigma,gamma,gamma_bound,phase,saturated,k_e_hat,k_e_confidence\n");
     for r in records {
         let _ = write!(out, "{:.4}", r.t);
         for v in r.q.iter().chain(&r.dq).chain(&r.tau).chain(&r.tip).chain(&r.p_d) {
@@ -184,8 +187,8 @@ pub fn to_csv(records: &[Record]) -> String {
         }
         let _ = writeln!(
             out,
-            ",{:.6},{:.6},{:.6},{:.6e},{:.6e},{},{}",
-            r.m_d, r.b_d, r.sigma, r.gamma, r.gamma_bound, r.phase, r.saturated as u8
+            ",{:.6},{:.6},{:.6},{:.6e},{:.6e},{},{},{:.1},{:.4}",
+            r.m_d, r.b_d, r.sigma, r.gamma, r.gamma_bound, r.phase, r.saturated as u8, r.k_e_hat, r.k_e_confidence
         );
     }
     out
@@ -280,4 +283,62 @@ pub fn contact_rms(records: &[Record]) -> Option<f64> {
     let i0 = records.iter().position(|r| r.in_contact)?;
     let n = (records.len() - i0) as f64;
     Some((records[i0..].iter().map(|r| (r.f_ext - r.f_d).powi(2)).sum::<f64>() / n).sqrt())
+}
+
+/// What one run contributes to the controller table (`naic sim --table`).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct RunSummary {
+    pub contact_time_s: Option<f64>,
+    /// First contact: overshoot [% of f_d] and ±2 % settling [s] (None: never).
+    pub contact_overshoot_pct: f64,
+    pub contact_settle_s: Option<f64>,
+    /// Every later phase (f_d step, stiffness jump): overshoot [%] and ±2 % settling [s].
+    pub later_overshoot_pct: Vec<f64>,
+    pub later_settle_s: Vec<Option<f64>>,
+    /// Every later phase: the overshoot of the recovery, beyond f_d on the far side after
+    /// the force first crosses f_d [% of |f_d|] (at a stiffness jump the force jumps away
+    /// from f_d — physics; this is what the controller adds while bringing it back).
+    pub later_recovery_overshoot_pct: Vec<f64>,
+    /// Steady-state error of the last phase [N].
+    pub ss_error_n: f64,
+    /// RMS of f − f_d from first contact to the end [N].
+    pub rms_n: Option<f64>,
+    /// Peak contact force [N].
+    pub peak_n: f64,
+    /// Peak-to-peak force over the last 0.5 s [N] (a limit cycle shows here).
+    pub late_p2p_n: f64,
+}
+
+/// The table's numbers of a run (`naic sim --table`, the closed-loop goal tests).
+pub fn summarize(r: &RunResult) -> RunSummary {
+    let m = &r.metrics;
+    let mut n = RunSummary { contact_time_s: m.contact_time_s, rms_n: contact_rms(&r.records), ..Default::default() };
+    if let Some(p) = m.phases.first() {
+        n.contact_overshoot_pct = p.overshoot_pct;
+        n.contact_settle_s = p.settling_time_2pct_s;
+    }
+    for (k, p) in m.phases.iter().enumerate().skip(1) {
+        n.later_overshoot_pct.push(p.overshoot_pct);
+        n.later_settle_s.push(p.settling_time_2pct_s);
+        let t_end = m.phases.get(k + 1).map_or(f64::INFINITY, |q| q.t_start_s);
+        let f_d = p.desired_force_n;
+        let phase = r.records.iter().filter(|x| x.t >= p.t_start_s - 1e-9 && x.t < t_end - 1e-9);
+        let side = r.records.iter().find(|x| x.t >= p.t_start_s - 1e-9).map_or(0.0, |x| (x.f_ext - f_d).signum());
+        let (mut crossed, mut beyond) = (false, 0.0_f64);
+        for x in phase {
+            let e = side * (x.f_ext - f_d);
+            crossed |= e <= 0.0;
+            if crossed {
+                beyond = beyond.max(-e);
+            }
+        }
+        n.later_recovery_overshoot_pct.push(100.0 * beyond / f_d.abs().max(f64::MIN_POSITIVE));
+    }
+    n.ss_error_n = m.phases.last().map_or(f64::NAN, |p| p.steady_state_error_n);
+    n.peak_n = r.records.iter().map(|x| x.f_ext).fold(0.0, f64::max);
+    let t_end = r.records.last().map_or(0.0, |x| x.t);
+    let late = r.records.iter().filter(|x| x.t >= t_end - 0.5).map(|x| x.f_ext);
+    let (lo, hi) = late.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), f| (lo.min(f), hi.max(f)));
+    n.late_p2p_n = if hi >= lo { hi - lo } else { f64::NAN };
+    n
 }

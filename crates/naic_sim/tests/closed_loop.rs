@@ -1,7 +1,7 @@
 //! The closed loop on the paper's scenarios: deterministic, tracks the force,
 //! and the implicit friction keeps a resting arm at rest.
 
-use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
+use naic_core::friction::FrictionModel;
 use naic_core::model::Model;
 use naic_core::pipeline::control::force_law::Mode;
 use naic_sim::controllers::{LoopSettings, PipelineController};
@@ -28,20 +28,9 @@ impl Bisect for std::ops::Range<f64> {
     }
 }
 
-const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+mod common;
 
-fn model() -> Model {
-    Model::from_urdf_file(format!("{ROOT}/urdf/jk5.urdf")).unwrap()
-}
-
-fn friction() -> FrictionModel {
-    FrictionParams::from_yaml_file(format!("{ROOT}/params/friction_jk5.yaml"))
-        .unwrap()
-        .to_model()
-        .unwrap()
-        .with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S })
-        .unwrap()
-}
+use common::{friction, model};
 
 fn plant_for(s: &scenario::Scenario, m: &Model, f: Option<FrictionModel>) -> PlantParams {
     let ft = Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(s.seed));

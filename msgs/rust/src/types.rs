@@ -206,6 +206,8 @@ ros_message! {
         reference_position: Vec<f64>,
         reference_stale: bool,
         reference_rejected: u32,
+        k_e_hat: f64,
+        k_e_confidence: f64,
     }
 }
 

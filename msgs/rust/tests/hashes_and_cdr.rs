@@ -113,6 +113,8 @@ fn sample_params() -> NaicParams {
         reference_position: vec![0.4, 0.0, 0.3],
         reference_stale: true,
         reference_rejected: 2,
+        k_e_hat: 2013.5,
+        k_e_confidence: 0.97,
     }
 }
 

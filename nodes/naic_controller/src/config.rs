@@ -30,7 +30,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
     let rd = ReferenceParams::new("base_link", c.force_axis, 10.0);
     vec![
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model (URDF with 'tip' and 'ft_sensor' frames)").read_only(),
-        ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed"], "Force law on the force axis: NAIC (eq 10-15), AIC (eq 9) or fixed impedance (eq 8)"),
+        ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed", "scheduled"], "Force law on the force axis: NAIC (eq 10-15), AIC (eq 9), fixed impedance (eq 8) or 'scheduled' (impedance scheduled from an online stiffness estimate k_e_hat, reported in /naic/params; not a paper law)"),
         ParamSpec::double("desired_force", 10.0, 0.0, 100.0, "f_d [N]: force the tool applies to the environment along the force axis (pushing positive)"),
         ParamSpec::double("learning_rate", fl.gamma, 0.0, 100.0, "gamma of eq 15 (NAIC): requested learning rate, clipped every cycle to the eq-15 bound"),
         ParamSpec::doubles("m_d", &imp.m_d, 0.001, 1000.0, "Impedance mass M_d per Cartesian axis x,y,z,rx,ry,rz [kg, kg m^2] (eq 6); force-axis entry is NAIC weight w1"),
@@ -219,5 +219,15 @@ mod tests {
         assert_eq!(cp.control.force_axis, ForceAxis { axis: 0, sign: 1.0 });
         assert_eq!(cp.control.force_law.mode, Mode::Aic);
         assert_eq!(cp.control.impedance.k_contact[0], 0.0);
+    }
+
+    #[test]
+    fn the_scheduled_law_is_a_mode_choice() {
+        let (t, b) = table();
+        t.set_atomically(&[("mode".to_string(), V::String("scheduled".into()))]).unwrap();
+        let cp = t.with(|p| controller_params(p, &b)).unwrap();
+        assert_eq!(cp.control.force_law.mode, Mode::Scheduled);
+        // Its own settings are the core's defaults (one place).
+        assert_eq!(cp.control.force_law.scheduled, b.control.force_law.scheduled);
     }
 }

@@ -1,0 +1,44 @@
+"""Metrics of a real-time `naic launch` run on flat from its /naic/params CSV
+(`naic bag export-csv`), as quoted in README "Which controller to use", "On the real-time
+DDS chain". The force is the controller's measured_force (the tared F/T estimate: no
+topic carries the simulator's true force), so sensor noise and quantisation are in it.
+
+    python3 realtime_flat.py DIR/naic_params.csv [more.csv ...]
+"""
+import csv
+import math
+import sys
+
+
+def metrics(path):
+    rows = list(csv.DictReader(open(path)))
+    t = [float(r["stamp_s"]) for r in rows]
+    f = [float(r["measured_force"]) for r in rows]
+    fd = [float(r["desired_force"]) for r in rows]
+    ph = [int(r["phase"]) for r in rows]
+    ic = next((i for i, p in enumerate(ph) if p == 1), None)
+    if ic is None:
+        return dict(file=path, contact=None)
+    f_d = fd[ic]
+
+    def settle(tol):
+        last = max((i for i in range(ic, len(f)) if abs(f[i] - fd[i]) > tol * abs(f_d)), default=None)
+        return None if last is None or last + 1 >= len(f) else round(t[last + 1] - t[ic], 3)
+
+    gaps = sum(1 for i in range(ic + 1, len(t)) if t[i] - t[i - 1] > 1.5e-3)
+    return dict(
+        file=path,
+        samples=len(rows),
+        contact_s=round(t[ic] - t[0], 3),
+        overshoot_pct=round(100 * max(0.0, max(f[ic:]) - f_d) / f_d, 1),
+        settle_2pct_s=settle(0.02),
+        settle_5pct_s=settle(0.05),
+        rms_n=round(math.sqrt(sum((f[i] - fd[i]) ** 2 for i in range(ic, len(f))) / (len(f) - ic)), 3),
+        peak_n=round(max(f), 2),
+        cycles_late_over_1p5ms=gaps,
+    )
+
+
+if __name__ == "__main__":
+    for p in sys.argv[1:]:
+        print(metrics(p))
