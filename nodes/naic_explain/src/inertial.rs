@@ -19,6 +19,11 @@
 //!    `inertial_parameters` as a candidate beside the others. It is named on the joints where
 //!    it passes the usual per-joint rule.
 //!
+//! The reported δβ is refitted in the same way on the second pass's final models (the
+//! effects selected beside `inertial_parameters`, without its column): a first-pass model
+//! may hold spurious columns (a `rotor_inertia` absorbing part of a link's inertia) that
+//! the second pass drops.
+//!
 //! The corrected base parameters are `K π_URDF + δβ` (`regressor::base_map`). A URDF needs
 //! every link's 10 parameters, which base parameters do not determine; [`corrected_links`]
 //! takes the completion closest to the URDF (weighted minimum-norm `δπ` with `K δπ = δβ`)
@@ -112,7 +117,8 @@ pub fn fit(
     let names: Vec<String> = cols.iter().map(|&c| crate::baseline::Baseline::column_name(model, c)).collect();
     let mut rd = RegressorData::new(model);
     // local layout per joint: [base (r), own columns (p_j), y]
-    let own: Vec<Vec<crate::analysis::Col>> = results.iter().map(|res| res.final_eval.columns.clone()).collect();
+    let own: Vec<Vec<crate::analysis::Col>> =
+        results.iter().map(|res| res.final_eval.columns.iter().copied().filter(|c| *c != crate::analysis::Col::Inertial).collect()).collect();
     let mut grams: Vec<Vec<DMatrix<f64>>> = own.iter().map(|c| vec![DMatrix::zeros(r + c.len() + 1, r + c.len() + 1); kf + 1]).collect();
     // one pass per joint over its instants (the regressor is cheap next to the Gram updates)
     for j in 0..nj {
@@ -261,42 +267,101 @@ fn physical(y: &Inertia, p: &[f64]) -> Option<String> {
     None
 }
 
-/// The completion of the corrected base parameters closest to the URDF: per body, the
-/// weighted minimum-norm `δπ` with `K δπ = δβ` (weights: the body's mass, first moment
-/// and inertia scales, so kg, kg·m and kg·m² changes are comparable), added to the URDF
-/// child link of each joint (whose frame is the joint frame, so the 10 parameters add).
+/// Pseudo-inertia `J = [[½ tr(I_o) 1 − I_o, h], [hᵀ, m]]` of 10 dynamic parameters (about
+/// the frame origin): the parameters are physically consistent (m > 0, inertia about the
+/// centre of mass positive definite with the triangle inequality) iff `J ≻ 0`
+/// (Wensing, Kim & Slotine 2017).
+fn pseudo_inertia(p: &[f64]) -> nalgebra::Matrix4<f64> {
+    let io = Matrix3::new(p[4], p[5], p[7], p[5], p[6], p[8], p[7], p[8], p[9]);
+    let sigma = Matrix3::identity() * (0.5 * io.trace()) - io;
+    let mut j = nalgebra::Matrix4::zeros();
+    j.fixed_view_mut::<3, 3>(0, 0).copy_from(&sigma);
+    for k in 0..3 {
+        j[(k, 3)] = p[1 + k];
+        j[(3, k)] = p[1 + k];
+    }
+    j[(3, 3)] = p[0];
+    j
+}
+
+/// Inverse of [`pseudo_inertia`] (I_o = tr(Σ) 1 − Σ).
+fn from_pseudo_inertia(j: &nalgebra::Matrix4<f64>) -> [f64; PARAMS_PER_BODY] {
+    let sigma: Matrix3<f64> = j.fixed_view::<3, 3>(0, 0).into_owned();
+    let io = Matrix3::identity() * sigma.trace() - sigma;
+    [j[(3, 3)], j[(0, 3)], j[(1, 3)], j[(2, 3)], io[(0, 0)], io[(0, 1)], io[(1, 1)], io[(0, 2)], io[(1, 2)], io[(2, 2)]]
+}
+
+/// The completion of the corrected base parameters closest to the URDF, per URDF child
+/// link of each joint (its frame is the joint frame, so the 10 parameters add to the fixed
+/// descendants' into the body's). Distances are Frobenius norms of the pseudo-inertia
+/// change, one metric for kg, kg·m and kg·m². Start: the minimum-distance `δπ` with
+/// `K δπ = δβ`; when a link is not physically consistent, alternating projections between
+/// that affine set and the consistent set `J ⪰ ε` (both convex) look for a point in both.
 pub fn corrected_links(model: &Model, urdf: &Path, fit: &InertialFit) -> Result<Vec<LinkChange>, String> {
     let nj = model.nv();
-    let base = naic_core::dynamics::regressor::BaseParameters { columns: fit.base_columns.clone(), total: PARAMS_PER_BODY * nj, gap: 0.0 };
+    let np = PARAMS_PER_BODY * nj;
+    let base = naic_core::dynamics::regressor::BaseParameters { columns: fit.base_columns.clone(), total: np, gap: 0.0 };
     let k = base_map(model, &base, 30 * nj);
-    let mut s = vec![0.0; PARAMS_PER_BODY * nj];
-    for (i, jm) in model.joints().iter().enumerate() {
-        let p = dynamic_parameters(&jm.inertia);
-        let m = p[0].max(0.05);
-        let inertia = ((p[4] + p[6] + p[9]) / 3.0).abs().max(1e-3);
-        for kk in 0..PARAMS_PER_BODY {
-            s[PARAMS_PER_BODY * i + kk] = match kk {
-                0 => m,
-                1..=3 => (0.1 * m).max(5e-3),
-                _ => inertia,
-            };
-        }
-    }
-    let sd = DMatrix::from_diagonal(&DVector::from_vec(s));
-    let ks = &k * &sd;
-    let z = ks.svd(true, true).solve(&DVector::from_vec(fit.delta.clone()), 1e-9).map_err(|e| format!("minimum-norm completion: {e}"))?;
-    let dpi = &sd * z;
     let robot = urdf_rs::read_file(urdf).map_err(|e| format!("{}: {e}", urdf.display()))?;
-    let mut out = Vec::new();
+    let mut links = Vec::with_capacity(nj);
+    let mut x = DVector::zeros(np);
+    let mut fixed = DVector::zeros(np);
     for (i, jm) in model.joints().iter().enumerate() {
         let link = robot.links.iter().find(|l| l.name == jm.child_link).ok_or_else(|| format!("{}: no link `{}`", urdf.display(), jm.child_link))?;
         let old = link_inertia(link);
-        let mut p = dynamic_parameters(&old);
-        for (kk, v) in p.iter_mut().enumerate() {
-            *v += dpi[PARAMS_PER_BODY * i + kk];
+        let (pl, pb) = (dynamic_parameters(&old), dynamic_parameters(&jm.inertia));
+        for kk in 0..PARAMS_PER_BODY {
+            x[PARAMS_PER_BODY * i + kk] = pl[kk];
+            fixed[PARAMS_PER_BODY * i + kk] = pb[kk] - pl[kk];
         }
-        let new = inertia_from_parameters(&p);
-        out.push(LinkChange { link: jm.child_link.clone(), urdf: old, corrected: new, inconsistent: physical(&new, &p) });
+        links.push((jm.child_link.clone(), old));
+    }
+    let target = DVector::from_vec(fit.corrected()) - &k * &fixed;
+    // metric Q = Lᵀ L, L: π ↦ vec(J) per body (block diagonal)
+    let mut l = DMatrix::zeros(16 * nj, np);
+    for i in 0..nj {
+        for kk in 0..PARAMS_PER_BODY {
+            let mut e = [0.0; PARAMS_PER_BODY];
+            e[kk] = 1.0;
+            let j = pseudo_inertia(&e);
+            for (r, v) in j.iter().enumerate() {
+                l[(16 * i + r, PARAMS_PER_BODY * i + kk)] = *v;
+            }
+        }
+    }
+    let q = l.tr_mul(&l);
+    let qinv = q.clone().try_inverse().ok_or("pseudo-inertia metric is singular")?;
+    let kq = &k * &qinv;
+    let gram = (&kq * k.transpose()).pseudo_inverse(1e-12).map_err(|e| e.to_string())?;
+    let project_affine = |x: &DVector<f64>| -> DVector<f64> { x - kq.transpose() * (&gram * (&k * x - &target)) };
+    // floor of the consistent set: a thousandth of each URDF link's smallest pseudo-inertia eigenvalue
+    let floor: Vec<f64> = (0..nj)
+        .map(|i| {
+            let e = SymmetricEigen::new(pseudo_inertia(&x.as_slice()[PARAMS_PER_BODY * i..PARAMS_PER_BODY * (i + 1)])).eigenvalues;
+            1e-3 * e.min().max(1e-9)
+        })
+        .collect();
+    let consistent = |x: &DVector<f64>| (0..nj).all(|i| SymmetricEigen::new(pseudo_inertia(&x.as_slice()[PARAMS_PER_BODY * i..PARAMS_PER_BODY * (i + 1)])).eigenvalues.min() > 0.0);
+    let mut y = project_affine(&x);
+    for _ in 0..2000 {
+        if consistent(&y) {
+            break;
+        }
+        for i in 0..nj {
+            let j = pseudo_inertia(&y.as_slice()[PARAMS_PER_BODY * i..PARAMS_PER_BODY * (i + 1)]);
+            let mut e = SymmetricEigen::new(j);
+            e.eigenvalues.iter_mut().for_each(|v| *v = v.max(2.0 * floor[i]));
+            let p = from_pseudo_inertia(&e.recompose());
+            y.as_mut_slice()[PARAMS_PER_BODY * i..PARAMS_PER_BODY * (i + 1)].copy_from_slice(&p);
+        }
+        y = project_affine(&y);
+    }
+    x = y;
+    let mut out = Vec::new();
+    for (i, (name, old)) in links.into_iter().enumerate() {
+        let p = &x.as_slice()[PARAMS_PER_BODY * i..PARAMS_PER_BODY * (i + 1)];
+        let new = inertia_from_parameters(p);
+        out.push(LinkChange { link: name, urdf: old, corrected: new, inconsistent: physical(&new, p) });
     }
     Ok(out)
 }

@@ -503,8 +503,13 @@ pub fn explain_runs(
                 js.inertial = c.clone();
             }
             results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(0.95 + 0.05 * f, w));
+            // the estimate beside the effects that survived the second pass
+            let mut fit = fit;
+            fit.delta = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis).delta;
+            Some(fit)
+        } else {
+            Some(fit)
         }
-        Some(fit)
     } else {
         None
     };
