@@ -522,7 +522,8 @@ pub(crate) fn solve(g: &DMatrix<f64>, p: usize) -> (Vec<f64>, f64) {
     (theta.iter().copied().collect(), ssr)
 }
 
-fn heldout(g: &DMatrix<f64>, theta: &[f64]) -> f64 {
+/// SSR of the parameters `theta` on the samples of the Gram matrix `g` of `[X y]`.
+pub(crate) fn heldout(g: &DMatrix<f64>, theta: &[f64]) -> f64 {
     let p = theta.len();
     let th = DVector::from_column_slice(theta);
     let b = g.view((0, p), (p, 1)).column(0).clone_owned();

@@ -30,7 +30,7 @@
 //! and checks it is physically consistent (mass > 0, inertia about the centre of mass
 //! positive definite and satisfying the triangle inequality). Only then is a URDF written.
 
-use crate::analysis::{solve, AnalysisOptions, JointResult, JointSamples, NominalShape, VALIDATION_FOLD};
+use crate::analysis::{heldout, solve, AnalysisOptions, JointResult, JointSamples, NominalShape, VALIDATION_FOLD};
 use crate::prepare::Prepared;
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, SymmetricEigen, Vector3};
 use naic_core::dynamics::regressor::{
@@ -76,7 +76,7 @@ fn sample_instants<'p>(fit: &'p Prepared, val: Option<&'p Prepared>, j: usize) -
     one(fit).chain(val.into_iter().flat_map(one))
 }
 
-/// Least squares with the base block regularised: (θ, SSR). Weakly excited combinations of
+/// Least squares with the base block regularised: θ. Weakly excited combinations of
 /// base parameters are held at the URDF's value instead of fitting noise.
 fn solve_reg(g: &DMatrix<f64>, p: usize, r: usize) -> Vec<f64> {
     let mut g2 = g.clone();
@@ -88,13 +88,6 @@ fn solve_reg(g: &DMatrix<f64>, p: usize, r: usize) -> Vec<f64> {
 
 /// Relative ridge on the diagonal of the base-parameter block (scaled columns).
 const BASE_RIDGE: f64 = 1e-6;
-
-fn quad_ssr(g: &DMatrix<f64>, th: &[f64]) -> f64 {
-    let p = th.len();
-    let t = DVector::from_column_slice(th);
-    let b = g.view((0, p), (p, 1)).column(0).clone_owned();
-    (g[(p, p)] - 2.0 * t.dot(&b) + (g.view((0, 0), (p, p)) * &t).dot(&t)).max(0.0)
-}
 
 /// The all-joint stage (see the module docs). `joints` and `results` are the per-joint
 /// samples and final models of the first pass, in joint order.
@@ -192,9 +185,9 @@ pub fn fit(
         }
         let th = solve_reg(&train, np, r);
         for j in 0..nj {
-            ho_with[j][f] = quad_ssr(&grams[j][f], &local(&th, j));
+            ho_with[j][f] = heldout(&grams[j][f], &local(&th, j));
             let (tw, _) = solve(&sub(&(&totals[j] - &grams[j][f]), j), own[j].len());
-            ho_without[j][f] = quad_ssr(&sub(&grams[j][f], j), &tw);
+            ho_without[j][f] = heldout(&sub(&grams[j][f], j), &tw);
         }
         fold_delta.push(th[..r].to_vec());
     }
@@ -215,9 +208,8 @@ pub fn fit(
     for j in 0..nj {
         let n_eff = (results[j].final_eval.n as f64 / joints[j].corr_len.max(1.0)).max(2.0);
         n_eff_total += n_eff;
-        let with = quad_ssr(&totals[j], &local(&th_all, j));
-        let (tw, without) = solve(&sub(&totals[j], j), own[j].len());
-        let _ = tw;
+        let with = heldout(&totals[j], &local(&th_all, j));
+        let (_, without) = solve(&sub(&totals[j], j), own[j].len());
         if with > 0.0 && without > 0.0 {
             bic += n_eff * (with / without).ln();
         }
