@@ -33,8 +33,8 @@ LOG = os.environ.get("NAIC_EXPLAIN_SWEEP_LOG")
 SHARD = os.environ.get("NAIC_EXPLAIN_SHARD")  # "i/n": run only every n-th case from the i-th (parallel sweeps)
 N_SEEDS = 20
 CURRENT = ("friction_asymmetry", "stribeck", "position_ripple", "payload", "torque_offset", "delay", "drift",
-           "rotor_inertia", "viscous_nonlinearity")
-NEW = ("torque_scale", "position_torque", "inertial_parameters")
+           "rotor_inertia", "viscous_nonlinearity", "inertial_parameters")
+NEW = ("torque_scale", "position_torque")
 
 
 class GoalNotMet(AssertionError):
@@ -100,6 +100,10 @@ KNOWN_FAILS = {
     'noise_only-stepped': ("noise only: a finding in 5/20 seeds ({'stribeck': 5}); goal ≤ 1", 0),
     'noise_only-tanh': ("noise only: a finding in 2/20 seeds ({'stribeck': 2}); goal ≤ 1", 1),
     'noise_only-30s': ("noise only: a finding in 2/20 seeds ({'stribeck': 2}); goal ≤ 1", 1),
+    'inertial_parameters-base': ("named first in 3/3 seeds run (0-2, JK5, ptp; held-out 83-99 % of the nominal explained), but the "
+                                 "corrected base parameters leave 56-59 % of the hidden rigid-body error's RMS on the data's states "
+                                 "(goal ≤ 20 %); multisine the same (58 %, 56 %) while 99.9 % of the residual is explained: the fit "
+                                 "splits the error between the base parameters and the per-joint friction columns", 0),
     'noise_only-jitter_small': ("noise only, sample instants jittered ±25 % of a period (σ 8 %) and stamped as taken: rotor_inertia "
                                 "(negative, -0.03 to -0.16 kg·m² on joints 1-3) in 12 of the 12 seeds the sweep ran", 0),
 }
@@ -150,7 +154,7 @@ def test_explain_independent(naic_bin, tmp_path, cid, kw):
     for seed in _seeds(cid):
         case = Case(**{**kw, "seed": seed})
         work = tmp_path / f"s{seed}"
-        csv, urdf, truth = generate(case, work)
+        csv, urdf, truth = generate(case, work, arrays=case.effect == "inertial_parameters")
         ok, why = _visible(truth)
         assert ok, f"generator precondition failed for {case.label()}: {why}"
         report = check.run_explain(naic_bin, csv, urdf, work / "out", tip=case.tip)

@@ -34,9 +34,14 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
     # the goal: held-out RMSE per joint at or below the published identified model
     # (rigid body + Supp. Table I friction) on the same samples — met by the baseline
     assert np.all(base <= pub), (base, pub)
-    # the catalogue on top of the published inertials: better than the published model on
-    # joints 1–5, not on 6 (README)
-    assert np.all(ext[:5] < pub[:5]), (ext, pub)
+    # the catalogue on top of the published inertials: the link inertials are the main
+    # discrepancy (inertial_parameters first); better than the published model on joints 1–5
+    # and 7, not on 6, where no finding passes (README)
+    sig = [f for f in rep["findings"] if f["significant"]]
+    assert sig[0]["effect"] == "inertial_parameters" and "joint2" in sig[0]["targets"], [(f["effect"], f["targets"]) for f in sig]
+    assert rep["inertial_parameters"]["significant"] and rep["inertial_parameters"]["folds_won"] == 10
+    assert np.all(ext[[0, 1, 2, 3, 4, 6]] < pub[[0, 1, 2, 3, 4, 6]]), (ext, pub)
     assert ext[5] > pub[5]
-    # the report must not read like success: less than half of the nominal residual is explained
-    assert rep["explained"]["all_joints"] < 0.5
+    # joint 2, the worst: within 5 % of the classical baseline (0.63 → 0.19 N·m)
+    assert ext[1] < 1.05 * base[1], (ext, base)
+    assert rep["explained"]["all_joints"] > 0.7

@@ -3,7 +3,8 @@
 //! * `naic explain --measured FILE… [--validate FILE…] --out DIR [--urdf robot.urdf] [--tip FRAME]
 //!   [--nominal params/…]` — analyse bags or CSV time series of any serial arm (the joint
 //!   count comes from the URDF), or a friction-points CSV; writes `DIR/report.json`,
-//!   `DIR/report.md` (+ SVG plots) and `DIR/extended_params.yaml`. With `--validate` the
+//!   `DIR/report.md` (+ SVG plots) and `DIR/extended_params.yaml`; `--write-urdf PATH`: the URDF
+//!   with the link inertials an `inertial_parameters` finding corrected. With `--validate` the
 //!   models fitted on the `--measured` runs are scored on those whole other runs.
 //! * `naic explain --generate FILE.csv --seed N [--hide effect,…] [--contact]` — write seeded
 //!   synthetic data with hidden effects (the tests' generators; contact data with wrench
@@ -44,6 +45,11 @@ pub struct ExplainArgs {
     /// in q̈, less bandwidth).
     #[arg(long, default_value_t = 0.051, value_name = "S")]
     window: f64,
+    /// Write the URDF with the link inertials corrected by an `inertial_parameters` finding
+    /// here (only when found and the corrected links are physically consistent; the report
+    /// says why otherwise).
+    #[arg(long, value_name = "PATH")]
+    write_urdf: Option<PathBuf>,
     /// Nominal friction params YAML; its Stribeck shape is kept (directions averaged), its levels recalibrated.
     #[arg(long)]
     nominal: Option<PathBuf>,
@@ -187,6 +193,16 @@ pub fn run(a: ExplainArgs) -> CliResult {
     }
     print_explained(&v);
     print_lack_of_fit(&v);
+    if let Some(path) = &a.write_urdf {
+        match report::inertial_links(&ex) {
+            None => println!("no corrected URDF written to {}: no inertial_parameters finding", path.display()),
+            Some(Err(e)) => println!("no corrected URDF written to {}: {e}", path.display()),
+            Some(Ok(links)) => match naic_explain::inertial::write_urdf(&a.urdf, &links, path) {
+                Ok(()) => println!("corrected URDF (inertial_parameters) written to {}", path.display()),
+                Err(e) => println!("no corrected URDF written to {}: {e}", path.display()),
+            },
+        }
+    }
     Ok(())
 }
 

@@ -56,6 +56,8 @@ pub enum Col {
     Drift,
     Rotor,
     Visc2,
+    /// The joint's share of the cross-fitted base-parameter correction (`inertial_parameters`).
+    Inertial,
     /// Contact spring `u·δ₊ⁿ` (n = 1 nominal).
     Spring,
     /// Contact damping `u·δ̇·[δ > 0]`.
@@ -170,6 +172,7 @@ impl Structure {
                 Effect::Drift => c.push(Col::Drift),
                 Effect::RotorInertia => c.push(Col::Rotor),
                 Effect::ViscousNonlinearity => c.push(Col::Visc2),
+                Effect::InertialParameters => c.push(Col::Inertial),
                 Effect::FrictionAsymmetry | Effect::Stribeck => {}
                 Effect::ContactNonlinearity | Effect::ContactDamping | Effect::FtBias | Effect::ToolGravity => {}
             }
@@ -262,6 +265,9 @@ pub struct JointSamples {
     pub h_grid: Vec<f64>,
     /// Contact: the axis sees the contact force (else it has no contact columns).
     pub coupled: bool,
+    /// `inertial_parameters`: per sample, `Y_B,j δβ` of the correction fitted without the
+    /// sample's fold (empty until the all-joint stage finds it, [`crate::inertial`]).
+    pub inertial: Vec<f64>,
 }
 
 impl JointSamples {
@@ -273,7 +279,7 @@ impl JointSamples {
     }
 
     #[inline]
-    fn col(&self, c: Col, st: &Structure, sh: &NominalShape, i: usize) -> f64 {
+    pub(crate) fn col(&self, c: Col, st: &Structure, sh: &NominalShape, i: usize) -> f64 {
         let s = self.s[i];
         let v = self.v[i];
         let ind = |d: Dir| match d {
@@ -305,6 +311,7 @@ impl JointSamples {
             Col::Drift => s * self.tn[i],
             Col::Rotor => self.a[i],
             Col::Visc2 => s * v * v,
+            Col::Inertial => self.inertial[i],
             Col::Spring => {
                 let d = st.h - self.cz[i];
                 if d > 0.0 {
@@ -342,6 +349,7 @@ impl JointSamples {
             (&mut self.crate_, &o.crate_),
             (&mut self.cg0, &o.cg0),
             (&mut self.cg1, &o.cg1),
+            (&mut self.inertial, &o.inertial),
         ] {
             a.extend_from_slice(b);
         }
@@ -378,6 +386,7 @@ impl JointSamples {
             cg1: pick(&self.cg1),
             h_grid: self.h_grid.clone(),
             coupled: self.coupled,
+            inertial: pick(&self.inertial),
         };
         if !self.time_series {
             out.assign_velocity_folds(folds);
@@ -399,7 +408,10 @@ impl JointSamples {
     /// Whether an effect can apply to these samples.
     pub fn applicable(&self, e: Effect) -> bool {
         let needs_spring = matches!(e, Effect::ContactNonlinearity | Effect::ContactDamping);
-        if e.is_contact() != self.contact || (needs_spring && !self.coupled) {
+        if e == Effect::InertialParameters {
+            // only after the all-joint stage found it and set the column (crate::inertial)
+            self.time_series && !self.contact && self.inertial.len() == self.len()
+        } else if e.is_contact() != self.contact || (needs_spring && !self.coupled) {
             false
         } else if self.time_series {
             true
@@ -510,7 +522,8 @@ pub(crate) fn solve(g: &DMatrix<f64>, p: usize) -> (Vec<f64>, f64) {
     (theta.iter().copied().collect(), ssr)
 }
 
-fn heldout(g: &DMatrix<f64>, theta: &[f64]) -> f64 {
+/// SSR of the parameters `theta` on the samples of the Gram matrix `g` of `[X y]`.
+pub(crate) fn heldout(g: &DMatrix<f64>, theta: &[f64]) -> f64 {
     let p = theta.len();
     let th = DVector::from_column_slice(theta);
     let b = g.view((0, p), (p, 1)).column(0).clone_owned();

@@ -19,6 +19,7 @@
 //! | `drift` | `s·(t − t_mid)/T` | change of the Coulomb level over the session [N·m] |
 //! | `rotor_inertia` | `q̈_j` (engineer's check: unmodelled motor/gear inertia) | I_a [kg·m²] |
 //! | `viscous_nonlinearity` | `s·q̇²` (engineer's check: non-Newtonian lubricant) | f_v2 [N·m·s²/rad²] |
+//! | `inertial_parameters` | `Y_B,j(q, q̇, q̈) δβ`: the joint's share of a base-parameter correction δβ fitted on **all joints together** and cross-fitted per fold (see [`crate::inertial`]) | δβ (shared); per joint the column's scale (≈ 1) |
 //!
 //!
 //! Contact data (wrench columns `fx..mz` in the `ft_sensor` frame, or `/wrench` in a bag)
@@ -49,13 +50,14 @@ pub enum Effect {
     Drift,
     RotorInertia,
     ViscousNonlinearity,
+    InertialParameters,
     ContactNonlinearity,
     ContactDamping,
     FtBias,
     ToolGravity,
 }
 
-pub const ALL_EFFECTS: [Effect; 13] = [
+pub const ALL_EFFECTS: [Effect; 14] = [
     Effect::FrictionAsymmetry,
     Effect::Stribeck,
     Effect::PositionRipple,
@@ -65,6 +67,7 @@ pub const ALL_EFFECTS: [Effect; 13] = [
     Effect::Drift,
     Effect::RotorInertia,
     Effect::ViscousNonlinearity,
+    Effect::InertialParameters,
     Effect::ContactNonlinearity,
     Effect::ContactDamping,
     Effect::FtBias,
@@ -83,6 +86,7 @@ impl Effect {
             Effect::Drift => "drift",
             Effect::RotorInertia => "rotor_inertia",
             Effect::ViscousNonlinearity => "viscous_nonlinearity",
+            Effect::InertialParameters => "inertial_parameters",
             Effect::ContactNonlinearity => "contact_nonlinearity",
             Effect::ContactDamping => "contact_damping",
             Effect::FtBias => "ft_bias",
@@ -133,6 +137,7 @@ impl Effect {
             Effect::Drift => "friction that changes over the session (warm-up, wear)",
             Effect::RotorInertia => "unmodelled motor/gear inertia (torque proportional to joint acceleration)",
             Effect::ViscousNonlinearity => "viscous friction that grows faster than linearly with speed",
+            Effect::InertialParameters => "the link inertials (masses, centres of mass, inertias) differ from the URDF: the rigid body's base parameters, refitted on all joints together, explain the residual",
             Effect::ContactNonlinearity => "a contact force that is not linear in the penetration (power law k·δⁿ, the elastic part of Hunt–Crossley)",
             Effect::ContactDamping => "a contact damping force c·δ̇ that the nominal linear spring lacks",
             Effect::FtBias => "a constant bias of the F/T sensor axis (not tared, or drifted since the tare)",

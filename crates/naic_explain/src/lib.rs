@@ -24,6 +24,7 @@ pub mod catalogue;
 pub mod closed_loop;
 pub mod contact;
 pub mod generate;
+pub mod inertial;
 pub mod input;
 pub mod lack_of_fit;
 pub mod plots;
@@ -127,6 +128,10 @@ pub struct Explained {
     pub baseline: Option<baseline::Baseline>,
     /// Names of the baseline's base columns (`link3.Izz`, …).
     pub baseline_names: Vec<String>,
+    /// The all-joint `inertial_parameters` stage (time series without contact).
+    pub inertial: Option<inertial::InertialFit>,
+    /// The robot model file the data were analysed with.
+    pub urdf: PathBuf,
 }
 
 /// Nominal Stribeck shape per joint from a params file (symmetrised by averaging the directions).
@@ -487,6 +492,27 @@ pub fn explain_runs(
     };
     let p0 = if axes.is_empty() { 0.3 } else { 0.5 };
     let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
+    // the link inertials: one correction shared by every joint, scored on all joints together
+    // after the per-joint catalogue; when significant, each joint gets its cross-fitted column
+    // and the per-joint selection runs again with it as a candidate (crate::inertial)
+    let inertial = if axes.is_empty() && opts.analysis.effects.contains(&catalogue::Effect::InertialParameters) {
+        progress(0.95, "inertial_parameters: base parameters on all joints");
+        let fit = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis);
+        if fit.significant {
+            for (js, c) in joints.iter_mut().zip(&fit.corrections) {
+                js.inertial = c.clone();
+            }
+            results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(0.95 + 0.05 * f, w));
+            // the estimate beside the effects that survived the second pass
+            let mut fit = fit;
+            fit.delta = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis).delta;
+            Some(fit)
+        } else {
+            Some(fit)
+        }
+    } else {
+        None
+    };
     joints.extend(axes);
     results.extend(axis_results);
     let mut notes = Vec::new();
@@ -536,6 +562,8 @@ pub fn explain_runs(
         reference: None,
         baseline,
         baseline_names,
+        inertial,
+        urdf: opts.urdf.clone(),
     })
 }
 
@@ -664,6 +692,8 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
         reference,
         baseline: None,
         baseline_names: vec![],
+        inertial: None,
+        urdf: opts.urdf.clone(),
     })
 }
 

@@ -80,6 +80,9 @@ pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(Strin
         }
         Effect::RotorInertia => push("inertia_kgm2", c(Col::Rotor)),
         Effect::ViscousNonlinearity => push("f_v2", c(Col::Visc2)),
+        // the shared correction is in report.json `inertial_parameters`; per joint, the scale
+        // the joint's fit gives its cross-fitted column (≈ 1 when the correction fits it)
+        Effect::InertialParameters => push("correction_scale", c(Col::Inertial)),
         Effect::ContactNonlinearity => {
             push("n", st.n_exp);
             push("k_n", c(Col::Spring));
@@ -301,6 +304,55 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
         "method": ex.method.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<Map<_, _>>(),
         "notes": ex.notes,
         "lack_of_fit": lack_of_fit_json(ex),
+        "inertial_parameters": inertial_json(ex),
+    })
+}
+
+/// The corrected link inertials (completion closest to the URDF), when the stage is significant.
+pub fn inertial_links(ex: &Explained) -> Option<Result<Vec<crate::inertial::LinkChange>, String>> {
+    let fit = ex.inertial.as_ref().filter(|f| f.significant)?;
+    let model = naic_core::model::Model::from_urdf_file(&ex.urdf).map_err(|e| e.to_string());
+    Some(model.and_then(|m| crate::inertial::corrected_links(&m, &ex.urdf, fit)))
+}
+
+/// `report.json`'s `inertial_parameters`: the all-joint stage, the corrected base
+/// parameters next to the URDF's, and per link the corrected completion (`null` when the
+/// stage did not run).
+fn inertial_json(ex: &Explained) -> Value {
+    let Some(fit) = &ex.inertial else { return Value::Null };
+    let base: Map<String, Value> = fit
+        .names
+        .iter()
+        .zip(fit.urdf_beta.iter().zip(fit.corrected()))
+        .map(|(n, (u, c))| (n.clone(), json!({"urdf": u, "identified": c})))
+        .collect();
+    let inertia = |y: &naic_core::dynamics::spatial::Inertia| {
+        let i = &y.inertia;
+        json!({"mass_kg": y.mass, "com_m": [y.com.x, y.com.y, y.com.z],
+               "inertia_about_com_kgm2": {"ixx": i[(0, 0)], "iyy": i[(1, 1)], "izz": i[(2, 2)], "ixy": i[(0, 1)], "ixz": i[(0, 2)], "iyz": i[(1, 2)]}})
+    };
+    let links = match inertial_links(ex) {
+        None => Value::Null,
+        Some(Err(e)) => json!({"error": e}),
+        Some(Ok(ls)) => Value::Object(
+            ls.iter()
+                .map(|l| (l.link.clone(), json!({"urdf": inertia(&l.urdf), "corrected": inertia(&l.corrected), "physically_consistent": l.inconsistent.is_none(), "problem": l.inconsistent})))
+                .collect(),
+        ),
+    };
+    json!({
+        "method": "all joints together: Y_B δβ (base parameters of the robot model's regressor) + each joint's final-model columns, \
+                   held out on the same folds, against the same columns without Y_B; BIC counts every base parameter. Corrected base \
+                   parameters = K π_URDF + δβ. Links: the completion of δβ closest to the URDF (weighted minimum norm), one of many — \
+                   base parameters do not fix the link inertials one by one",
+        "significant": fit.significant,
+        "mean_heldout_gain": fit.gain,
+        "heldout_gain_per_joint": fit.joint_gain.iter().enumerate().map(|(j, g)| (jkey(j + 1), json!(g))).collect::<Map<_, _>>(),
+        "folds_won": fit.fold_wins,
+        "folds": fit.folds,
+        "delta_bic": fit.delta_bic,
+        "base_parameters": Value::Object(base),
+        "links": links,
     })
 }
 
@@ -650,6 +702,7 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
             );
         }
     }
+    inertial_md(v, &mut s);
     if ex.results.iter().any(|r| crate::contact::is_axis(r.joint)) {
         let _ = writeln!(s, "\n## Held-out RMSE per sensor axis [N, N·m]\n");
         let _ = writeln!(s, "| axis | nominal | extended | nominal k [N/m], h [m] | model |\n| --- | --- | --- | --- | --- |");
@@ -673,6 +726,59 @@ fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(String, String
         let _ = writeln!(s, "![{name}]({name})\n");
     }
     s
+}
+
+/// `report.md`'s section on the link inertials (`inertial_parameters`).
+fn inertial_md(v: &Value, s: &mut String) {
+    let ip = &v["inertial_parameters"];
+    if ip.is_null() {
+        return;
+    }
+    let f = |k: &str| ip[k].as_f64().unwrap_or(f64::NAN);
+    let _ = writeln!(
+        s,
+        "\n## Link inertials (`inertial_parameters`)\n\nAll joints together, the {} base parameters of the robot model refitted on top of each \
+         joint's final model: mean held-out gain {:.3}, better in {}/{} folds, ΔBIC {:.1}: **{}**.\n",
+        ip["base_parameters"].as_object().map_or(0, |m| m.len()),
+        f("mean_heldout_gain"),
+        ip["folds_won"],
+        ip["folds"],
+        f("delta_bic"),
+        if ip["significant"].as_bool() == Some(true) { "significant" } else { "not significant" }
+    );
+    if ip["significant"].as_bool() != Some(true) {
+        return;
+    }
+    let _ = writeln!(s, "| base parameter | URDF | identified |\n| --- | --- | --- |");
+    if let Some(b) = ip["base_parameters"].as_object() {
+        for (n, d) in b {
+            let _ = writeln!(s, "| `{n}` | {:.5} | {:.5} |", d["urdf"].as_f64().unwrap_or(f64::NAN), d["identified"].as_f64().unwrap_or(f64::NAN));
+        }
+    }
+    match ip["links"].as_object() {
+        Some(ls) if !ls.contains_key("error") => {
+            let _ = writeln!(
+                s,
+                "\nPer link, the completion closest to the URDF (one of many: the base parameters fix combinations only):\n\n\
+                 | link | mass URDF → corrected [kg] | centre of mass URDF → corrected [m] | physically consistent |\n| --- | --- | --- | --- |"
+            );
+            for (n, d) in ls {
+                let com = |x: &Value| x.as_array().map(|a| a.iter().map(|c| format!("{:.4}", c.as_f64().unwrap_or(f64::NAN))).collect::<Vec<_>>().join(", ")).unwrap_or_default();
+                let _ = writeln!(
+                    s,
+                    "| {n} | {:.3} → {:.3} | ({}) → ({}) | {} |",
+                    d["urdf"]["mass_kg"].as_f64().unwrap_or(f64::NAN),
+                    d["corrected"]["mass_kg"].as_f64().unwrap_or(f64::NAN),
+                    com(&d["urdf"]["com_m"]),
+                    com(&d["corrected"]["com_m"]),
+                    d["problem"].as_str().map_or("yes".to_string(), |p| format!("no: {p}"))
+                );
+            }
+        }
+        _ => {
+            let _ = writeln!(s, "\nPer-link completion: {}", ip["links"]["error"].as_str().unwrap_or("not available"));
+        }
+    }
 }
 
 /// `report.md`'s section on what is left (friction points), from `report.json`'s `lack_of_fit`.

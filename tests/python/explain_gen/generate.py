@@ -205,8 +205,9 @@ def _draw_effect(case, arm, rng, fc, tr):
         model.inertias[link] = pin.Inertia(old.mass * f, old.lever + shift, old.inertia * f)
         tr.model = model
         name = arm.model.names[link]
-        return list(range(1, link + 1)), {}, {"joint": name, "mass_kg_urdf": old.mass, "mass_kg": old.mass * f,
-                                               "com_shift_m": shift.tolist()}
+        return list(range(1, link + 1)), {}, {"joint": name, "joint_index": link, "mass_kg_urdf": old.mass, "mass_kg": old.mass * f,
+                                               "com_shift_m": shift.tolist(), "com_m": (old.lever + shift).tolist(),
+                                               "inertia_about_com": (old.inertia * f).tolist()}
     raise ValueError(f"unknown effect `{e}`; known: {', '.join(EFFECTS)}")
 
 
@@ -255,7 +256,7 @@ def generate(case, workdir, arrays=False):
         raise ValueError(f"unknown friction shape `{case.friction}`; use sign or tanh")
     sigma = rng.uniform(0.02, 0.08) if case.noise is None else float(case.noise)
     tr = _Truth(arm.nj)
-    joints, params, extra = _draw_effect(case, arm, rng, fc, tr)
+    joints, params, effect_info = _draw_effect(case, arm, rng, fc, tr)
     model = tr.model if tr.model is not None else arm.model
     t_total = t[-1] - t[0]
 
@@ -295,7 +296,7 @@ def generate(case, workdir, arrays=False):
         "effect": case.effect,
         "joints": joints,
         "params": params,
-        "extra": extra,
+        "extra": effect_info,
         "noise_sigma_nm": sigma,
         "noise_after_smoother_nm": sigma_f,
         "effect_rms_nm": rms,

@@ -141,8 +141,9 @@ pub struct BaseParameters {
     pub gap: f64,
 }
 
-/// See [`BaseParameters`]. Deterministic (fixed pseudo-random sequence).
-pub fn base_parameters(model: &Model, samples: usize) -> BaseParameters {
+/// `Y` stacked over `samples` pseudo-random states (positions inside the joint limits,
+/// velocities and accelerations in ±2; a fixed sequence): `samples·nv × 10·nv`.
+pub fn stacked_regressor(model: &Model, samples: usize) -> DMatrix<f64> {
     let n = model.nv();
     let p = PARAMS_PER_BODY * n;
     let mut rd = RegressorData::new(model);
@@ -167,6 +168,23 @@ pub fn base_parameters(model: &Model, samples: usize) -> BaseParameters {
         let y = joint_torque_regressor(model, &mut rd, &q, &v, &a);
         w.view_mut((s * n, 0), (n, p)).copy_from(y);
     }
+    w
+}
+
+/// The map `K` (base × all) with `Y = Y_B K` over the state space: the base parameters of
+/// a parameter vector π are `K π` (each base column's parameter plus the combination of
+/// dependent ones the regressor cannot tell from it). Least squares on [`stacked_regressor`].
+pub fn base_map(model: &Model, base: &BaseParameters, samples: usize) -> DMatrix<f64> {
+    let w = stacked_regressor(model, samples);
+    let wb = w.select_columns(&base.columns);
+    let svd = wb.svd(true, true);
+    svd.solve(&w, 1e-12).unwrap_or_else(|_| DMatrix::zeros(base.columns.len(), w.ncols()))
+}
+
+/// See [`BaseParameters`]. Deterministic (fixed pseudo-random sequence).
+pub fn base_parameters(model: &Model, samples: usize) -> BaseParameters {
+    let p = PARAMS_PER_BODY * model.nv();
+    let mut w = stacked_regressor(model, samples);
     // scale columns to unit norm so the rank tolerance is relative per column; columns
     // below 1e-9 of the largest are rounding noise of a parameter that does not act (the
     // ±π/2 rotations of a URDF leave 6e-17 entries) and are zeroed, not scaled up
@@ -274,6 +292,25 @@ mod tests {
             assert!(b.columns.len() > nj && b.columns.len() < 10 * nj);
             if nj == 7 {
                 assert_eq!(b.columns.len(), 43);
+            }
+        }
+    }
+
+    /// `Y_B K = Y` at states the map was not built on, so `K π` are the base parameters of π.
+    #[test]
+    fn base_map_reproduces_the_full_regressor() {
+        for model in [urdf("jk5.urdf"), urdf("panda.urdf")] {
+            let n = model.nv();
+            let b = base_parameters(&model, 30 * n);
+            let k = base_map(&model, &b, 30 * n);
+            let pi = DVector::from_vec(model_parameters(&model));
+            let beta = &k * &pi;
+            let mut rd = RegressorData::new(&model);
+            for (q, v, a) in states(n, 10) {
+                let y = joint_torque_regressor(&model, &mut rd, &q, &v, &a).clone();
+                let full = &y * &pi;
+                let base = y.select_columns(&b.columns) * &beta;
+                assert!((&full - &base).amax() < 1e-9 * (1.0 + full.amax()), "{full} vs {base}");
             }
         }
     }
