@@ -7,7 +7,7 @@ with a least-squares slope and first/last/max, what each subscriber received, an
 any node panicked or died. Loopback only (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) on a
 private ROS_DOMAIN_ID.
 
-    /tmp/venv/bin/python tests/soak/soak.py --minutes 10 --subscribers 5 --out runs/soak.json
+    .venv/bin/python tests/soak/soak.py --minutes 10 --subscribers 5 --out runs/soak.json
 
 `--composed` soaks `naic launch --composed` instead (the three nodes in one process).
 

@@ -477,7 +477,7 @@ pub fn bench(json: bool, seconds: f64) -> CliResult {
 /// Messages/s of `mcap_ros2.reader.read_ros2_messages` decoding every message of `path`.
 /// None (with a note on stderr) when no Python with mcap-ros2-support is found.
 fn python_rate(path: &Path) -> Result<Option<(f64, u64)>, CliError> {
-    let python = std::env::var("NAIC_PYTHON").unwrap_or_else(|_| "/tmp/venv/bin/python".into());
+    let python = super::sim::python();
     const SCRIPT: &str = r#"
 import sys, time
 from mcap_ros2.reader import read_ros2_messages
@@ -500,7 +500,7 @@ print(n, dt)
             return Ok(None);
         }
         Err(e) => {
-            eprintln!("naic bench bag: could not start {python} (set NAIC_PYTHON): {e}");
+            eprintln!("naic bench bag: could not start {python} (set NAIC_PYTHON or NAIC_VENV): {e}");
             return Ok(None);
         }
     };

@@ -476,8 +476,8 @@ pub struct SimBenchArgs {
     pub no_reference: bool,
 }
 
-/// Python for the reference benchmark: $NAIC_PYTHON, $NAIC_VENV/bin/python, python3.
-fn python() -> String {
+/// Python for the reference benchmarks: $NAIC_PYTHON, $NAIC_VENV/bin/python, python3.
+pub(super) fn python() -> String {
     if let Ok(p) = std::env::var("NAIC_PYTHON") {
         return p;
     }

@@ -273,3 +273,71 @@ fn garbage_and_hostile_headers_never_panic() {
         assert!(bag.damage().iter().any(|x| x.message.contains("claims")), "{:?}", bag.damage());
     }
 }
+
+/// Offset of the first record with `opcode` after the header record and the first chunk.
+fn first_after_first_chunk(d: &[u8], opcode: u8) -> usize {
+    let le = |p: usize| u64::from_le_bytes(d[p + 1..p + 9].try_into().unwrap()) as usize;
+    let mut p = 8 + 9 + le(8); // past the header record
+    assert_eq!(d[p], 0x06, "first chunk");
+    p += 9 + le(p);
+    while d[p] != opcode {
+        p += 9 + le(p);
+    }
+    p
+}
+
+#[test]
+fn intact_files_are_read_through_their_index() {
+    // With an intact summary the chunks are reached through the chunk index (the mcap
+    // crate's reader): garbage between chunks in the data section is never visited, so it
+    // is neither reported nor in the way. (The record walk used for damaged files would
+    // stop at it and report it.)
+    let p = tmp("indexed.mcap");
+    write_small_chunks(&p, 200);
+    let mut d = std::fs::read(&p).unwrap();
+    let at = first_after_first_chunk(&d, 0x07); // a message index record
+    d[at] = 0x55; // an opcode MCAP does not have
+    let bag = Bag::from_bytes("indexed.mcap", d.clone()).unwrap();
+    assert!(bag.is_indexed());
+    assert!(bag.damage().is_empty(), "{:?}", bag.damage());
+    assert_eq!(bag.messages::<JointState>("/joint_states", ..).unwrap().len(), 200);
+    // The same bytes without the summary go through the record walk, which reports it and
+    // still finds every message.
+    let footer_cut = d.len() - 8;
+    d.truncate(footer_cut);
+    let walked = Bag::from_bytes("walked.mcap", d).unwrap();
+    assert!(!walked.is_indexed());
+    assert!(walked.damage().iter().any(|x| x.message.contains("invalid record opcode 0x55")), "{:?}", walked.damage());
+    let js = walked.messages::<JointState>("/joint_states", ..).unwrap();
+    assert_eq!(js.len(), 200);
+    assert_eq!(js[199].msg, cycle(199, RATE).joint_states);
+}
+
+#[test]
+fn a_summary_without_chunk_indexes_is_read_by_walking_the_records() {
+    // Another writer's choice (the mcap crate, chunk indexes off): the summary still gives
+    // topics and counts, the chunks are found by walking the data section, no damage.
+    let p = tmp("no_chunk_index.mcap");
+    let f = std::io::BufWriter::new(std::fs::File::create(&p).unwrap());
+    let mut w = mcap::WriteOptions::new().profile("ros2").emit_chunk_indexes(false).chunk_size(Some(4096)).create(f).unwrap();
+    let info = JointState::type_info();
+    let schema = w.add_schema(info.name, "ros2msg", schema_text(info).as_bytes()).unwrap();
+    let ch = w.add_channel(schema, "/joint_states", "cdr", &Default::default()).unwrap();
+    for i in 0..300u64 {
+        let c = cycle(i, RATE);
+        let header = mcap::records::MessageHeader { channel_id: ch, sequence: i as u32, log_time: c.stamp_ns, publish_time: c.stamp_ns };
+        w.write_to_known_channel(&header, &c.joint_states.to_cdr()).unwrap();
+    }
+    w.finish().unwrap();
+    drop(w);
+    let bag = Bag::open(&p).unwrap();
+    assert!(bag.is_indexed());
+    assert!(bag.damage().is_empty(), "{:?}", bag.damage());
+    assert!(bag.chunk_count() > 1, "{} chunks", bag.chunk_count());
+    assert_eq!(bag.message_count(), 300);
+    let js = bag.messages::<JointState>("/joint_states", ..).unwrap();
+    assert_eq!(js.len(), 300);
+    for (k, m) in js.iter().enumerate() {
+        assert_eq!(m.msg, cycle(k as u64, RATE).joint_states);
+    }
+}

@@ -1,8 +1,8 @@
 //! ROS 2 message types used by naic, with the exact field layout of their `.msg` files.
 //!
-//! Each type derives serde `Serialize`/`Deserialize` with fields in `.msg` order (what
-//! ros2-client's serde + CDR path needs) and also has a hand-written, allocation-light
-//! CDR codec ([`cdr`]) used by the bag reader and writer. [`RosMessage`] gives the full
+//! Each type derives serde `Serialize`/`Deserialize` with fields in `.msg` order, which is
+//! its CDR codec: ros2-client puts it on the wire through `cdr-encoding`, and [`cdr`] uses
+//! the same crate for the bag reader and writer. [`RosMessage`] gives the full
 //! ROS type name, the rosbag2 MCAP schema text ([`schema_text`]) and the REP-2011 type
 //! hash ([`type_hash`], `RIHS01_…`).
 

@@ -1,12 +1,12 @@
 //! The message structs. Field order and types follow the `.msg` files exactly
 //! (checked against rosidl's type descriptions and rclpy's CDR in the tests).
 
-use crate::cdr::{CdrDecode, CdrEncode, CdrError, CdrReader, CdrWriter};
 use crate::describe::{FieldInfo, FieldType, TypeInfo};
 use crate::RosMessage;
 use serde::{Deserialize, Serialize};
 
-/// Defines a message struct, its CDR codec and its type description from one field list.
+/// Defines a message struct (serde in field order, which is its CDR codec: see [`crate::cdr`])
+/// and its type description from one field list.
 macro_rules! ros_message {
     (
         $(#[$meta:meta])*
@@ -17,40 +17,6 @@ macro_rules! ros_message {
         #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
         pub struct $name {
             $( $(#[$fmeta])* pub $field: $ty, )*
-        }
-
-        impl CdrEncode for $name {
-            #[inline]
-            fn encode(&self, w: &mut CdrWriter<'_>) {
-                $( self.$field.encode(w); )*
-            }
-        }
-
-        impl CdrDecode for $name {
-            #[inline]
-            fn decode(r: &mut CdrReader<'_>) -> Result<Self, CdrError> {
-                Ok(Self { $( $field: <$ty as CdrDecode>::decode(r)?, )* })
-            }
-        }
-
-        impl CdrEncode for Vec<$name> {
-            fn encode(&self, w: &mut CdrWriter<'_>) {
-                w.u32(self.len() as u32);
-                for m in self {
-                    m.encode(w);
-                }
-            }
-        }
-
-        impl CdrDecode for Vec<$name> {
-            fn decode(r: &mut CdrReader<'_>) -> Result<Self, CdrError> {
-                let n = r.seq_len(1)?;
-                let mut v = Vec::with_capacity(n);
-                for _ in 0..n {
-                    v.push($name::decode(r)?);
-                }
-                Ok(v)
-            }
         }
 
         impl FieldType for $name {
