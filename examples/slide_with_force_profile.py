@@ -12,7 +12,8 @@ Steps:
   0. the controller settings of this profile (CONTROLLER_PARAMS, set on naic_controller by
      its parameter service; --keep-params leaves the node's as they are);
   1. the start tip pose, by forward kinematics of /joint_states (Pinocchio on the URDF);
-  2. `naic record` starts recording a bag (the naic topics and /naic/desired_wrench);
+  2. `naic record` starts recording a bag (the naic topics, /naic/target_pose and
+     /naic/desired_wrench);
   3. approach: targets descending at --approach-speed until the controller reports contact;
   4. 5 N until the force settles, then the slide with 5 N, 10 N and 5 N thirds;
   5. the bag is closed and `naic plot` draws it; the force error while sliding is read
@@ -185,11 +186,10 @@ def main():
     d /= np.linalg.norm(d)
     bag = out / "slide.mcap"
     bag.unlink(missing_ok=True)
-    # The naic topics and the force reference (naic record has no PoseStamped type yet, so
-    # the pose targets are not in the bag; /naic/params holds what the controller did).
+    # The naic topics and both references (/naic/params holds what the controller did).
     rec = subprocess.Popen([a.naic, "record", "--out", str(bag), "--topics", "/joint_states", "/wrench",
                             "/joint_effort_cmd", "/naic/effort", "/naic/params", "/clock", "/naic/desired_wrench",
-                            "--type", "/naic/desired_wrench=geometry_msgs/msg/WrenchStamped"], cwd=ROOT)
+                            "/naic/target_pose"], cwd=ROOT)
     period = 1.0 / a.rate
     try:
         s.spin(seconds=1.0)  # the recorder discovers the topics
@@ -214,6 +214,10 @@ def main():
             s.spin(seconds=period)
         t_end = s.now()
         s.spin(seconds=0.5)
+        # The recorder may run behind a lockstep chain that is faster than real time: give
+        # it 2 s of wall time to take what is on its way before it is stopped.
+        t_wait = time.time()
+        s.spin(lambda: time.time() - t_wait > 2.0)
     finally:
         rec.send_signal(signal.SIGINT)
         rec.wait(timeout=30)

@@ -69,5 +69,8 @@ def test_example_slides_with_the_force_profile(tmp_path):
     with open(s["bag"], "rb") as f:
         summary = make_reader(f).get_summary()
     topics = {c.topic for c in summary.channels.values()}
-    assert {"/naic/params", "/joint_states", "/naic/desired_wrench"} <= topics, topics
+    assert {"/naic/params", "/joint_states", "/naic/desired_wrench", "/naic/target_pose"} <= topics, topics
+    targets = sum(n for cid, n in summary.statistics.channel_message_counts.items()
+                  if summary.channels[cid].topic == "/naic/target_pose")
+    assert targets > 500, targets  # 50 Hz over more than the 10 s slide
     assert os.path.getsize(s["figure"]) > 1000

@@ -226,11 +226,13 @@ pub fn record(a: RecordArgs) -> CliResult {
     let t0 = Instant::now();
     let deadline = a.duration.map(Duration::from_secs_f64);
     let mut result = Ok(());
-    'run: while !STOP.load(Ordering::SeqCst) {
-        if deadline.is_some_and(|d| t0.elapsed() >= d) {
-            break;
+    'run: loop {
+        // On Ctrl-C or at the deadline, one last pass takes what has already arrived (a
+        // recorder behind a fast lockstep chain holds up to a second of it).
+        let last = STOP.load(Ordering::SeqCst) || deadline.is_some_and(|d| t0.elapsed() >= d);
+        if !last {
+            waiter.wait(Some(Duration::from_millis(50)));
         }
-        waiter.wait(Some(Duration::from_millis(50)));
         for s in &subs {
             macro_rules! drain {
                 ($sub:expr, $id:expr) => {
@@ -255,6 +257,9 @@ pub fn record(a: RecordArgs) -> CliResult {
         }
         if let Err(e) = w.flush_if_due() {
             result = Err(bag_err(e));
+            break;
+        }
+        if last {
             break;
         }
     }
