@@ -2,6 +2,7 @@
 equal, none missing) and timing within 1 ms median. DDS stays on this machine: a private
 network namespace when we may create one (root), else loopback-only discovery; always on a
 test-private ROS_DOMAIN_ID."""
+import math
 import os
 import pathlib
 import shutil
@@ -64,3 +65,48 @@ wait $rp
         med = statistics.median(delay)
         err_ms = [abs(d - med) / 1e6 for d in delay]
         assert statistics.median(err_ms) < 1.0, (t, statistics.median(err_ms))
+
+
+def test_record_pose_stamped_target_pose(naic_bin, tmp_path):
+    """`naic record` records /naic/target_pose (geometry_msgs/PoseStamped, the controller's
+    reference topic): rclpy publishes 50 targets, the bag holds all 50 with every value,
+    read back with mcap-ros2-support and with rosbags (readers no one here wrote)."""
+    rosbags_highlevel = pytest.importorskip("rosbags.highlevel")
+    pytest.importorskip("rclpy")
+    from geometry_msgs.msg import PoseStamped
+    bag = tmp_path / "pose.mcap"
+    domain = ru.fresh_domain(23)
+    rec = ru.Proc([str(naic_bin), "record", "--out", str(bag), "--topics", "/naic/target_pose"], ru.ros_env(domain))
+    sent = []
+    r = ru.RclpyDomain(domain, "naic_pose_record_test")
+    try:
+        pub = r.node.create_publisher(PoseStamped, "/naic/target_pose", 100)
+        assert r.spin_until(lambda: pub.get_subscription_count() > 0, 30), rec.output()[-2000:]
+        for k in range(50):
+            m = PoseStamped()
+            m.header.frame_id = "base_link"
+            m.header.stamp.sec, m.header.stamp.nanosec = 100 + k // 50, (k % 50) * 20_000_000
+            m.pose.position.x, m.pose.position.y, m.pose.position.z = -0.3 + 1e-4 * k, -0.11, 0.075 - 1e-6 * k
+            q = (0.1 * k / 50, 0.7, -0.1, math.sqrt(1 - 0.49 - 0.01 - (0.1 * k / 50) ** 2))
+            m.pose.orientation.x, m.pose.orientation.y, m.pose.orientation.z, m.pose.orientation.w = q
+            pub.publish(m)
+            sent.append(((m.header.stamp.sec, m.header.stamp.nanosec), (m.pose.position.x, m.pose.position.y, m.pose.position.z), q))
+            r.spin(0.02)
+        r.spin(1.0)
+    finally:
+        r.close()
+        assert rec.stop(timeout=15) == 0, rec.output()[-2000:]
+
+    def fields(m):
+        p, o = m.pose.position, m.pose.orientation
+        return ((m.header.stamp.sec, m.header.stamp.nanosec), (p.x, p.y, p.z), (o.x, o.y, o.z, o.w))
+
+    got = [fields(m.ros_msg) for m in mcap_ros2_reader.read_ros2_messages(str(bag))
+           if m.channel.topic == "/naic/target_pose"]
+    assert got == sent, (len(got), len(sent))
+    assert {m.header.frame_id for m in (x.ros_msg for x in mcap_ros2_reader.read_ros2_messages(str(bag)))} == {"base_link"}
+    with rosbags_highlevel.AnyReader([bag]) as reader:
+        conns = [c for c in reader.connections if c.topic == "/naic/target_pose"]
+        assert [c.msgtype for c in conns] == ["geometry_msgs/msg/PoseStamped"]
+        got2 = [fields(reader.deserialize(raw, c.msgtype)) for c, _, raw in reader.messages(connections=conns)]
+    assert got2 == sent

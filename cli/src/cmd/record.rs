@@ -18,13 +18,16 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// The topics `naic record` takes by default, with their types.
-pub const NAIC_TOPICS: [(&str, &str); 6] = [
+pub const NAIC_TOPICS: [(&str, &str); 8] = [
     ("/joint_states", "sensor_msgs/msg/JointState"),
     ("/wrench", "geometry_msgs/msg/WrenchStamped"),
     ("/joint_effort_cmd", "std_msgs/msg/Float64MultiArray"),
     ("/naic/effort", "std_msgs/msg/Float64MultiArray"),
     ("/naic/params", "naic_msgs/msg/NaicParams"),
     ("/clock", "rosgraph_msgs/msg/Clock"),
+    // The controller's reference topics (scenario none).
+    ("/naic/target_pose", "geometry_msgs/msg/PoseStamped"),
+    ("/naic/desired_wrench", "geometry_msgs/msg/WrenchStamped"),
 ];
 
 #[derive(clap::Args)]
@@ -115,6 +118,7 @@ enum Sub {
     Fa(Subscription<Float64MultiArray>, TopicId),
     Np(Subscription<NaicParams>, TopicId),
     Ck(Subscription<Clock>, TopicId),
+    Ps(Subscription<PoseStamped>, TopicId),
 }
 
 fn ros_type(type_name: &str) -> Option<(&'static str, &'static str)> {
@@ -128,8 +132,18 @@ fn ros_type(type_name: &str) -> Option<(&'static str, &'static str)> {
     })
 }
 
+/// What `naic record` takes besides the types it can replay: `geometry_msgs/msg/PoseStamped`
+/// (`/naic/target_pose`; written to the bag, not decoded by `naic_bag` nor replayed).
+fn record_type(type_name: &str) -> Option<(&'static str, &'static str)> {
+    match type_name {
+        "geometry_msgs/msg/PoseStamped" => Some(m::POSE_STAMPED),
+        _ => ros_type(type_name),
+    }
+}
+
 const KNOWN_TYPES: &str = "sensor_msgs/msg/JointState, geometry_msgs/msg/WrenchStamped, \
-     std_msgs/msg/Float64MultiArray, naic_msgs/msg/NaicParams, rosgraph_msgs/msg/Clock";
+     geometry_msgs/msg/PoseStamped, std_msgs/msg/Float64MultiArray, naic_msgs/msg/NaicParams, \
+     rosgraph_msgs/msg/Clock";
 
 fn default_out() -> PathBuf {
     let ns = naic_ros::time::wall_ns();
@@ -167,7 +181,7 @@ pub fn record(a: RecordArgs) -> CliResult {
             .ok_or_else(|| {
                 CliError::usage(format!("unknown type for topic {t}: add --type {t}=pkg/msg/Type (one of {KNOWN_TYPES})"))
             })?;
-        if ros_type(&ty).is_none() {
+        if record_type(&ty).is_none() {
             return Err(CliError::usage(format!("naic record cannot record {ty} (topic {t}); known types: {KNOWN_TYPES}")));
         }
         wanted.push((t, ty));
@@ -181,7 +195,7 @@ pub fn record(a: RecordArgs) -> CliResult {
     let qos = if a.best_effort { QOS_RECORD_BEST_EFFORT } else { QOS_RECORD };
     let mut waiter = Waiter::new().map_err(|e| CliError::failure(format!("poll: {e}")))?;
     for (i, (topic, ty)) in wanted.iter().enumerate() {
-        let rt = ros_type(ty).expect("checked above");
+        let rt = record_type(ty).expect("checked above");
         macro_rules! sub {
             ($M:ty, $V:ident) => {{
                 let mut s = node.subscription::<$M>(topic, rt, qos.clone()).map_err(ros_err)?;
@@ -195,6 +209,7 @@ pub fn record(a: RecordArgs) -> CliResult {
             "geometry_msgs/msg/WrenchStamped" => sub!(WrenchStamped, Ws),
             "std_msgs/msg/Float64MultiArray" => sub!(Float64MultiArray, Fa),
             "naic_msgs/msg/NaicParams" => sub!(NaicParams, Np),
+            "geometry_msgs/msg/PoseStamped" => sub!(PoseStamped, Ps),
             _ => sub!(Clock, Ck),
         });
     }
@@ -211,11 +226,13 @@ pub fn record(a: RecordArgs) -> CliResult {
     let t0 = Instant::now();
     let deadline = a.duration.map(Duration::from_secs_f64);
     let mut result = Ok(());
-    'run: while !STOP.load(Ordering::SeqCst) {
-        if deadline.is_some_and(|d| t0.elapsed() >= d) {
-            break;
+    'run: loop {
+        // On Ctrl-C or at the deadline, one last pass takes what has already arrived (a
+        // recorder behind a fast lockstep chain holds up to a second of it).
+        let last = STOP.load(Ordering::SeqCst) || deadline.is_some_and(|d| t0.elapsed() >= d);
+        if !last {
+            waiter.wait(Some(Duration::from_millis(50)));
         }
-        waiter.wait(Some(Duration::from_millis(50)));
         for s in &subs {
             macro_rules! drain {
                 ($sub:expr, $id:expr) => {
@@ -235,10 +252,14 @@ pub fn record(a: RecordArgs) -> CliResult {
                 Sub::Fa(s, id) => drain!(s, *id),
                 Sub::Np(s, id) => drain!(s, *id),
                 Sub::Ck(s, id) => drain!(s, *id),
+                Sub::Ps(s, id) => drain!(s, *id),
             }
         }
         if let Err(e) = w.flush_if_due() {
             result = Err(bag_err(e));
+            break;
+        }
+        if last {
             break;
         }
     }

@@ -8,9 +8,10 @@
 //!   within range; a rejected sample is reported as a value and changes nothing;
 //! * the accepted target becomes the goal. While the stream is live (the
 //!   previous sample came less than `timeout` ago) the goal moves from where
-//!   it is to the new target over the samples' stamp interval, so a 50 Hz
-//!   stream gives a smooth velocity instead of steps; after a pause the goal
-//!   jumps and the limits alone shape the motion;
+//!   it is to the new target over [`SPAN`] times the samples' stamp interval,
+//!   so a 50 Hz stream gives a smooth velocity instead of steps, and a sample
+//!   that comes late does not stop it; after a pause the goal jumps and the
+//!   limits alone shape the motion;
 //! * the reference follows the goal within `max_speed` / `max_accel`
 //!   (translation) and `max_angular_speed` / `max_angular_accel` (rotation),
 //!   stopping on it without overshoot ([`limit`]); the force moves towards its
@@ -253,6 +254,14 @@ pub struct ReferenceOutputs {
     pub report: ReferenceReport,
 }
 
+/// A live stream's goal reaches each target this many stamp intervals after it arrived.
+/// Over one interval (`1`) the goal would stand still, and the reference brake, whenever
+/// the next sample came a cycle late (every sample, when samples are taken between two
+/// control cycles as the node does); over two it keeps moving through a delay of up to one
+/// interval, follows a steady stream at the stream's speed two intervals behind, and takes
+/// a change of speed over a few intervals (the lag halves every interval) instead of in one.
+pub const SPAN: f64 = 2.0;
+
 fn age(r: Option<Received>, now: f64) -> f64 {
     r.map_or(f64::INFINITY, |r| now - r.at)
 }
@@ -278,10 +287,10 @@ pub fn step(p: &ReferenceParams, s: &ReferenceState, inbox: &Inbox, now: f64) ->
                 Verdict::Rejected(Rejection::OutOfOrder { stamp: tp.stamp, last: s.target.map_or(0.0, |r| r.stamp) })
             }
             Ok((pos, rot)) => {
-                // Live stream: move the goal from where it is over the stamp interval.
+                // Live stream: move the goal from where it is over SPAN stamp intervals.
                 let (gp, gr, _, _) = s.goal.at(now);
                 let duration = match s.target {
-                    Some(r) if age(Some(r), now) <= p.timeout => (tp.stamp - r.stamp).min(p.timeout),
+                    Some(r) if age(Some(r), now) <= p.timeout => (SPAN * (tp.stamp - r.stamp)).min(p.timeout),
                     _ => 0.0,
                 };
                 // (Below 1 µs the interval is no interval: jump, and keep the velocity finite.)

@@ -1,0 +1,281 @@
+//! The rclpy example (`examples/slide_with_force_profile.py`) in process: the same
+//! reference profile, fed as `/naic/target_pose` and `/naic/desired_wrench` messages at
+//! 50 Hz of simulated time into the controller's core, on the chain the DDS test runs
+//! (`naic launch --lockstep -p naic_controller:scenario:=none`): the driver's simulated
+//! JK5 on the flat scenario, friction_compensation, naic_controller, each node's core
+//! with the parameters of `params/*.yaml`, in lockstep (one plant step per command).
+//! No DDS and no clock: deterministic, and the numbers the DDS test must reproduce.
+
+use std::path::PathBuf;
+
+use friction_compensation::{config as fc_config, core as fc, shell as fc_shell};
+use jk5_sim_driver::{
+    config as drv_config,
+    core::{self as drv, Commands},
+    plant::Plant,
+    shell::{self as drv_shell, sim_stamp_ns, StateMsgs},
+};
+use naic_controller::{core as ctl, shell as ctl_shell};
+use naic_core::pipeline::control::Phase;
+use naic_ros::{
+    msgs::{self, Float64MultiArray, Header, Point, Pose, PoseStamped, Quaternion, Vector3 as V3, Wrench, WrenchStamped},
+    time::time_from_ns,
+    ParamTable, RosArgs,
+};
+use nalgebra::{UnitQuaternion, Vector3};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A node's arguments as `naic launch --lockstep` gives them, files by absolute path.
+fn args(node: &str, extra: &[&str]) -> RosArgs {
+    let r = root();
+    let mut a: Vec<String> = vec!["--ros-args".into(), "--params-file".into(), r.join(format!("params/{node}.yaml")).display().to_string()];
+    let mut p = |s: String| a.extend(["-p".to_string(), s]);
+    p("use_sim_time:=true".into());
+    p(format!("urdf:={}", r.join("urdf/jk5.urdf").display()));
+    if node == drv_shell::NODE {
+        p("lockstep:=true".into());
+    }
+    if node != ctl_shell::NODE {
+        p(format!("friction_file:={}", r.join("params/friction_jk5.yaml").display()));
+    }
+    for e in extra {
+        p(e.to_string());
+    }
+    RosArgs::parse(a).unwrap()
+}
+
+/// The three cores in lockstep, as `naic launch --composed --lockstep` runs them.
+struct Chain {
+    dp: drv::Params,
+    plant: jk5_sim_driver::sim_plant::SimPlant,
+    cmds: Commands,
+    ds: drv::State,
+    cp: ctl::Params,
+    cs: ctl::State,
+    ws: naic_core::pipeline::controller::Workspace,
+    fp: fc::Params,
+    fs: fc::State,
+    state: StateMsgs,
+    effort: Float64MultiArray,
+    cmd: Float64MultiArray,
+}
+
+impl Chain {
+    fn new(controller: &[&str]) -> Chain {
+        let da = args(drv_shell::NODE, &[]);
+        let d = drv_shell::Setup::from_args(&da).unwrap();
+        let dp = ParamTable::new(d.specs(), None, &da.overrides(drv_shell::NODE).unwrap()).unwrap().with(drv_config::core_params);
+        let mut c_extra = vec!["scenario:=none"];
+        c_extra.extend_from_slice(controller);
+        let c = ctl_shell::Setup::from_args(&args(ctl_shell::NODE, &c_extra)).unwrap();
+        let fa = args(fc_shell::NODE, &[]);
+        let f = fc_shell::Setup::from_args(&fa).unwrap();
+        let fp = ParamTable::new(f.specs(), None, &fa.overrides(fc_shell::NODE).unwrap())
+            .unwrap()
+            .with(|v| fc_config::core_params(v, &f.sense))
+            .unwrap();
+        let cs = ctl::State::new(&c.params);
+        let ws = c.params.controller.workspace();
+        Chain {
+            dp,
+            plant: d.plant,
+            cmds: Commands::new(0, true),
+            ds: drv::State::default(),
+            cp: c.params,
+            cs,
+            ws,
+            fp,
+            fs: fc::State::default(),
+            state: StateMsgs::default(),
+            effort: Float64MultiArray::default(),
+            cmd: Float64MultiArray::default(),
+        }
+    }
+
+    fn now_ns(&self) -> i64 {
+        sim_stamp_ns(&self.plant)
+    }
+
+    /// One lockstep step: the reference samples (taken before the state, as the shell
+    /// does), the state, controller, friction compensation, the plant. The report.
+    fn step(&mut self, target: Option<&PoseStamped>, wrench: Option<&WrenchStamped>) -> Option<ctl::Report> {
+        let stamp = self.state.fill(&self.plant, true);
+        self.cmds.expect(Some(stamp));
+        self.ds.last_published_stamp = Some(stamp);
+        let (cp, ws) = (&self.cp, &mut self.ws);
+        let mut c_step = |s: &mut ctl::State, inbox: ctl::Inbox| {
+            let (next, out) = ctl::step(cp, s, &inbox, stamp, ws);
+            *s = next;
+            out
+        };
+        c_step(&mut self.cs, ctl::Inbox { wrench: Some(&self.state.w), ..Default::default() });
+        if target.is_some() || wrench.is_some() {
+            let out = c_step(&mut self.cs, ctl::Inbox { target_pose: target, desired_wrench: wrench, ..Default::default() });
+            assert!(out.events.target_rejected.is_none() && out.events.wrench_rejected.is_none(), "{:?}", out.events);
+        }
+        let out = c_step(&mut self.cs, ctl::Inbox { joint_states: Some(&self.state.js), ..Default::default() });
+        assert!(out.wait_until_ns.is_none(), "the wrench of the stamp is in");
+        let report = out.report;
+        if let Some((tau, src)) = out.effort {
+            msgs::set_effort_msg(&mut self.effort, &tau, Some(src));
+            let f = |s: &mut fc::State, inbox: fc::Inbox| {
+                let (next, out) = fc::step(&self.fp, s, &inbox, stamp);
+                *s = next;
+                out
+            };
+            f(&mut self.fs, fc::Inbox { joint_states: Some(&self.state.js), ..Default::default() });
+            let o = f(&mut self.fs, fc::Inbox { command: Some(&self.effort), ..Default::default() });
+            if let Some((tau, src)) = o.command {
+                msgs::set_effort_msg(&mut self.cmd, &tau, src);
+                assert!(drv::receive(&mut self.cmds, &self.cmd, stamp).is_none());
+            }
+        }
+        assert!(self.cmds.ready, "lockstep: a command for every state");
+        self.cmds.ready = false;
+        let (n, _) = drv::step(&self.dp, &self.ds, &self.cmds.view(), stamp, &mut self.plant);
+        self.ds = n;
+        report
+    }
+}
+
+fn header(ns: i64) -> Header {
+    Header { stamp: time_from_ns(ns), frame_id: "base_link".into() }
+}
+
+fn target(ns: i64, p: &Vector3<f64>, q: &UnitQuaternion<f64>) -> PoseStamped {
+    PoseStamped {
+        header: header(ns),
+        pose: Pose { position: Point { x: p.x, y: p.y, z: p.z }, orientation: Quaternion { x: q.i, y: q.j, z: q.k, w: q.w } },
+    }
+}
+
+fn push(ns: i64, f: f64) -> WrenchStamped {
+    // The wrench the tool applies to the surface: down (force axis -z).
+    WrenchStamped { header: header(ns), wrench: Wrench { force: V3 { x: 0.0, y: 0.0, z: -f }, torque: V3::default() } }
+}
+
+/// One cycle of the slide (what the figure and the summary need).
+#[derive(Clone, Copy, Debug)]
+struct Sample {
+    t: f64,
+    f_d: f64,
+    f: f64,
+    phase: Phase,
+    x: f64,
+}
+
+/// The example's profile: 1 s still, approach at 20 mm/s until contact (5 N), the target
+/// 5 mm into the surface, `settle` s at 5 N, then 10 cm at 10 mm/s with 5, 10, 5 N thirds;
+/// targets at 50 Hz. Returns the cycles of the slide.
+fn slide(c: &mut Chain, settle: f64) -> Vec<Sample> {
+    const PERIOD_NS: i64 = 20_000_000; // 50 Hz
+    let (speed, length, forces) = (0.010, 0.10, [5.0, 10.0, 5.0]);
+    let mut first = None;
+    while first.is_none() {
+        first = c.step(None, None);
+    }
+    let (q, _, _) = c.plant.joints();
+    let model = c.cp.controller.model();
+    let (p0, r0) = naic_sim::scenario::tip_pose(model, &q);
+    let mut next_pub = c.now_ns() + 1_000_000_000;
+    let mut run_until = |c: &mut Chain, end: &mut dyn FnMut(i64, Option<&ctl::Report>) -> bool, pose: &dyn Fn(i64) -> (Vector3<f64>, f64)| {
+        let mut out = Vec::new();
+        loop {
+            let now = c.now_ns();
+            let due = now >= next_pub;
+            let (p, f) = pose(now);
+            let (tp, dw) = (target(now, &p, &r0), push(now, f));
+            if due {
+                next_pub += PERIOD_NS;
+            }
+            let r = c.step(due.then_some(&tp), due.then_some(&dw));
+            if let Some(r) = r {
+                let st = r.status;
+                out.push(Sample { t: now as f64 * 1e-9, f_d: st.f_d, f: st.f_ext, phase: st.phase, x: st.tip_position.x });
+            }
+            if end(now, r.as_ref()) {
+                return out;
+            }
+        }
+    };
+    // Still for 1 s (the example waits for the recorder).
+    let t_still = c.now_ns() + 1_000_000_000;
+    run_until(c, &mut |now, _| now >= t_still, &|_| (p0, forces[0]));
+    // Approach: descend until the controller reports contact.
+    let t0 = c.now_ns();
+    let down = move |now: i64| p0 + Vector3::new(0.0, 0.0, -0.02 * (now - t0) as f64 * 1e-9);
+    run_until(c, &mut |_, r| r.is_some_and(|r| r.status.phase == Phase::Contact), &|now| (down(now), forces[0]));
+    let p_contact = down(c.now_ns()) + Vector3::new(0.0, 0.0, -0.005);
+        let t_settle = c.now_ns() + (settle * 1e9) as i64;
+    run_until(c, &mut |now, _| now >= t_settle, &|_| (p_contact, forces[0]));
+    let t_slide = c.now_ns();
+    let duration = length / speed;
+    let d = Vector3::x();
+    let at = move |now: i64| {
+        let t = (now - t_slide) as f64 * 1e-9;
+        (p_contact + d * speed * t.min(duration), forces[((3.0 * t / duration) as usize).min(2)])
+    };
+    let end_ns = t_slide + (duration * 1e9) as i64;
+    run_until(c, &mut |now, _| now >= end_ns, &at)
+}
+
+fn summary(s: &[Sample]) -> (f64, f64, usize) {
+    let e: Vec<f64> = s.iter().map(|x| x.f - x.f_d).collect();
+    let max = e.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let rms = (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt();
+    let worst = e.iter().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).map_or(0, |w| w.0);
+    (max, rms, worst)
+}
+
+/// `NAIC_SLIDE_CSV=DIR`: the slide's cycles as CSV, to look at.
+fn write_csv(name: &str, s: &[Sample]) {
+    if let Ok(dir) = std::env::var("NAIC_SLIDE_CSV") {
+        let mut t = String::from("t,f_d,f_ext,phase,x\n");
+        for x in s {
+            t.push_str(&format!("{:.4},{:.4},{:.4},{},{:.6}\n", x.t, x.f_d, x.f, x.phase as u8, x.x));
+        }
+        std::fs::write(PathBuf::from(dir).join(format!("{name}.csv")), t).unwrap();
+    }
+}
+
+/// The controller settings the example sets (examples/slide_with_force_profile.py
+/// `CONTROLLER_PARAMS`): the force reference at 5 N/s (the default 100 N/s makes each
+/// 5 N step a step for the force loop, which overshoots it by 2.2 N), and half the
+/// impedance mass on the force axis (a force loop twice as stiff against the joint
+/// friction's torque bursts when the slide starts).
+const EXAMPLE_PARAMS: [&str; 2] = ["max_force_rate:=5.0", "m_d:=[1.0,1.0,0.5,1.0,1.0,1.0]"];
+
+#[test]
+fn the_example_profile_tracks_force_in_process() {
+    // The slide starting at a few moments (how long the example settles first): the joint
+    // friction's breakaway at the slide start differs with the state the arm is in.
+    for settle in [1.9, 2.0, 2.2] {
+        let mut a = vec!["mode:=naic"];
+        a.extend(EXAMPLE_PARAMS);
+        let mut c = Chain::new(&a);
+        let s = slide(&mut c, settle);
+        write_csv(&format!("naic_settle_{settle}"), &s);
+        let (max, rms, worst) = summary(&s);
+        let t0 = s[0].t;
+        // After the first second of the slide (the breakaway of the joints).
+        let (max_after, _, _) = summary(&s[s.iter().position(|x| x.t >= t0 + 1.0).unwrap()..]);
+        eprintln!(
+            "settle {settle} s: {} cycles, max |e_f| {max:.3} N at {:.3} s into the slide (f_d {:.2} N), after the first second {max_after:.3} N, rms {rms:.3} N",
+            s.len(),
+            s[worst].t - t0,
+            s[worst].f_d
+        );
+        // 10 cm at 10 mm/s, 1 kHz, in contact all the way, through 5 -> 10 -> 5 N.
+        assert_eq!(s.len(), 10_001);
+        assert!(s.iter().all(|x| x.phase == Phase::Contact));
+        assert!((s[s.len() - 1].x - s[0].x - 0.1).abs() < 0.003, "slid {} m", s[s.len() - 1].x - s[0].x);
+        assert!(s.iter().any(|x| x.f_d == 10.0) && s[s.len() - 1].f_d == 5.0);
+        // Issue #16's goal (|e_f| <= 0.5 N while sliding) holds after the first second; the
+        // slide's start reaches 0.3-0.7 N (README, "The rclpy example").
+        assert!(max_after <= 0.5, "settle {settle}: {max_after} N after the first second");
+        assert!(max <= 1.0 && rms <= 0.1, "settle {settle}: max {max} N, rms {rms} N");
+    }
+}
