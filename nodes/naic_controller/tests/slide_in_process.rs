@@ -8,14 +8,15 @@
 
 use std::path::PathBuf;
 
-use friction_compensation::{config as fc_config, core as fc, shell as fc_shell};
+use friction_compensation::{config as fc_config, core as fc, setup as fc_shell};
 use jk5_sim_driver::{
     config as drv_config,
     core::{self as drv, Commands},
     plant::Plant,
-    shell::{self as drv_shell, sim_stamp_ns, StateMsgs},
+    runner::{sim_stamp_ns, StateMsgs},
+    setup as drv_shell,
 };
-use naic_controller::{core as ctl, shell as ctl_shell};
+use naic_controller::{core as ctl, setup as ctl_shell};
 use naic_core::pipeline::control::Phase;
 use naic_ros::{
     msgs::{self, Float64MultiArray, Header, Point, Pose, PoseStamped, Quaternion, Vector3 as V3, Wrench, WrenchStamped},
