@@ -47,7 +47,7 @@ from sensor_msgs.msg import JointState
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 JOINTS = [f"joint{i}" for i in range(1, 7)]
 TOPICS = ("/naic/target_pose", "/naic/desired_wrench")
-# naic_controller settings for this profile (README "The rclpy example"):
+# naic_controller settings for this profile (docs/nodes.md, "The rclpy example"):
 # - max_force_rate: the force reference moves at 5 N/s. At the default 100 N/s each 5 N step
 #   reaches the force loop as a step (50 ms, less than the loop's 140 ms period on the
 #   2000 N/m table) and the paper's gains overshoot it by 2.2 N.

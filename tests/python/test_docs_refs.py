@@ -101,3 +101,27 @@ def test_every_flag_named_in_the_docs_is_defined_somewhere_in_the_sources(root):
                     continue
                 missing.append(f"{p.relative_to(root)}: --{flag}")
     assert not missing, "the docs name flags no program here defines (update the docs or the CLI):\n" + "\n".join(sorted(set(missing)))
+
+
+def test_every_relative_link_in_the_docs_resolves(root):
+    """Markdown links ([text](path#anchor)) between README.md and docs/*.md point at files
+    that exist, and an anchor at a heading of that file (the README was split into docs/)."""
+    def anchors(p):
+        text = re.sub(r"```.*?```", "", p.read_text(), flags=re.S)
+        return {re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-")
+                for h in re.findall(r"^#{1,6} (.*)$", text, flags=re.M)}
+    n, bad = 0, []
+    for p in docs(root):
+        text = re.sub(r"```.*?```", "", p.read_text(), flags=re.S)
+        for url in re.findall(r"\[[^\]]*\]\(([^)\s]+)\)", text):
+            if re.match(r"[a-z]+:", url):
+                continue
+            n += 1
+            path, _, frag = url.partition("#")
+            target = (p.parent / path).resolve() if path else p
+            if not target.exists():
+                bad.append(f"{p.relative_to(root)}: {url} (no such file)")
+            elif frag and target.suffix == ".md" and frag not in anchors(target):
+                bad.append(f"{p.relative_to(root)}: {url} (no heading '{frag}')")
+    assert n >= 10, f"only {n} relative links found in the docs: the pattern no longer matches"
+    assert not bad, "links in the docs that do not resolve:\n" + "\n".join(bad)

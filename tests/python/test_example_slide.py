@@ -61,7 +61,7 @@ def test_example_slides_with_the_force_profile(tmp_path):
     # the slide's first second (the start, the joints breaking away in their Stribeck
     # friction range, reaches 0.3-0.7 N: naic_controller/tests/slide_in_process.rs); over
     # DDS the largest error measured was 0.55 N, RMS 0.09 N. What is achieved, with the gap
-    # stated in the README ("The rclpy example"):
+    # stated in docs/nodes.md ("The rclpy example"):
     assert s["max_abs_force_error_n"] <= 1.0, s
     assert s["rms_force_error_n"] <= 0.15, s
     # The bag is a real MCAP with the topics (read with the reference mcap reader), and the figure exists.
@@ -73,6 +73,6 @@ def test_example_slides_with_the_force_profile(tmp_path):
     targets = sum(n for cid, n in summary.statistics.channel_message_counts.items()
                   if summary.channels[cid].topic == "/naic/target_pose")
     # 50 Hz of simulated time when rclpy keeps up with the chain; on the loaded 2-core
-    # machine its loop managed 8.5 Hz (227 targets, README "The rclpy example").
+    # machine its loop managed 8.5 Hz (227 targets, docs/nodes.md, "The rclpy example").
     assert targets > 100, targets
     assert os.path.getsize(s["figure"]) > 1000

@@ -313,7 +313,7 @@ def test_ros_new_desired_force_is_followed(bins):
     """The three nodes in lockstep (simulated time, deterministic, immune to machine load):
     on the flat scenario NAIC holds 10 N; after desired_force := 15 the measured contact
     force follows within a few (simulated) seconds. In real time the same works on a quiet
-    machine (README, Timing), but a loaded 2-core machine delays cycles enough to shake the
+    machine (docs/nodes.md, Timing), but a loaded 2-core machine delays cycles enough to shake the
     paper's high-gain impedance, so the assertion is made where timing is exact."""
     domain = ru.fresh_domain(60)
     launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep"], ru.ros_env(domain))

@@ -19,7 +19,7 @@
 //! - `/joint_effort_cmd` is published, not subscribed: the driver's commands come from the
 //!   chain in this process only.
 //! - A crash of this process ends all three nodes at once, the driver's hold with them
-//!   (README: "One process or three").
+//!   (docs/nodes.md: "One process or three").
 
 use std::time::Instant;
 
@@ -63,7 +63,7 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     if a.respawn {
         return Err(CliError::usage(
             "--respawn with --composed: the three nodes share one process, so a crash ends them all \
-             (README: One process or three); use the three processes (without --composed) to respawn",
+             (docs/nodes.md: One process or three); use the three processes (without --composed) to respawn",
         ));
     }
     let (dname, cname, fname) = (drv_setup::NODE, ctl_setup::NODE, fc_setup::NODE);

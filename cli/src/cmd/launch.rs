@@ -67,7 +67,7 @@ pub struct LaunchArgs {
     #[arg(long = "param", short = 'p')]
     pub params: Vec<String>,
     /// The three nodes in one process (one thread runs the control path, no DDS on it;
-    /// every topic still on DDS): see README, "One process or three".
+    /// every topic still on DDS): see docs/nodes.md, "One process or three".
     #[arg(long)]
     pub composed: bool,
 }

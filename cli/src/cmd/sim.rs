@@ -93,7 +93,7 @@ pub struct SimArgs {
     /// Replay: integration steps per period [default: 1].
     #[arg(long)]
     pub substeps: Option<u32>,
-    /// Regenerate the README's "Which controller to use" table into --out: every
+    /// Regenerate the docs/controller.md "Which controller to use" table into --out: every
     /// controller × goal scenario × delay 1 and 2, mass errors, the stiffness sweep,
     /// the goals of issue 12 and the plots; medians of --seeds seeds [default: 5].
     #[arg(long)]

@@ -1,4 +1,4 @@
-//! `naic sim --table --out DIR`: the README's "Which controller to use" table in one
+//! `naic sim --table --out DIR`: the docs/controller.md "Which controller to use" table in one
 //! command (issue 12): every controller × goal scenario × loop delay 1 and 2, medians over
 //! `--seeds` seeds (default 5); the same for the scheduled law and its oracle under a model
 //! mass error of 0.8 and 1.25; the stiffness sweep on `flat` (500 … 50 000 N/m, one

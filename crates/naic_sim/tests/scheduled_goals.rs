@@ -4,7 +4,7 @@
 //! The issue's goals are medians of 5 seeds; these tests run seed 1 only (run time: one
 //! 5–10 s simulated run per case, a few seconds in all in release). Where a goal is met
 //! the test asserts the goal. Where it is missed the test asserts what is achieved, with
-//! a comment giving the goal and the gap (README, "Which controller to use"), and
+//! a comment giving the goal and the gap (docs/controller.md, "Which controller to use"), and
 //! `issue_12_goals` (ignored) asserts the goals themselves: it fails until they are met.
 //! No bound here was tuned per seed: the numbers are from `naic sim --table`, seed 1,
 //! with a small margin above what is measured.
@@ -162,7 +162,7 @@ fn model_mass_error() {
 }
 
 #[test]
-#[ignore = "issue 12 goals not met yet (README 'Which controller to use'): flat/foam settling, d = 2 overshoot, step overshoot, acrylic, two-material contact, mass error"]
+#[ignore = "issue 12 goals not met yet (docs/controller.md 'Which controller to use'): flat/foam settling, d = 2 overshoot, step overshoot, acrylic, two-material contact, mass error"]
 fn issue_12_goals() {
     let mut missed = Vec::new();
     for d in [1, 2] {

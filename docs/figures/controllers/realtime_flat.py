@@ -1,5 +1,5 @@
 """Metrics of a real-time `naic launch` run on flat from its /naic/params CSV
-(`naic bag export-csv`), as quoted in README "Which controller to use", "On the real-time
+(`naic bag export-csv`), as quoted in controller.md "Which controller to use", "On the real-time
 DDS chain". The force is the controller's measured_force (the tared F/T estimate: no
 topic carries the simulator's true force), so sensor noise and quantisation are in it.
 

@@ -275,7 +275,7 @@ fn the_example_profile_tracks_force_in_process() {
         assert!((s[s.len() - 1].x - s[0].x - 0.1).abs() < 0.003, "slid {} m", s[s.len() - 1].x - s[0].x);
         assert!(s.iter().any(|x| x.f_d == 10.0) && s[s.len() - 1].f_d == 5.0);
         // Issue #16's goal (|e_f| <= 0.5 N while sliding) holds after the first second; the
-        // slide's start reaches 0.3-0.7 N (README, "The rclpy example").
+        // slide's start reaches 0.3-0.7 N (docs/nodes.md, "The rclpy example").
         assert!(max_after <= 0.5, "settle {settle}: {max_after} N after the first second");
         assert!(max <= 1.0 && rms <= 0.1, "settle {settle}: max {max} N, rms {rms} N");
     }

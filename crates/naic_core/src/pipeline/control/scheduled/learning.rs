@@ -6,7 +6,7 @@
 //! NAIC's neuron is `e_f = w₁ f₁ + w₂ f₂ + w₃ f₃` with `w = (m_d, b_d, σ)`,
 //! `f = (ë(t−λ), ė, −e_f(t−λ))`, and the update `w_i ← w_i − γ e_f f_i`. Its
 //! inputs differ by orders of magnitude (m/s², m/s, N), so one γ moves `b_d`
-//! 10³ times less than the others (README, "The issue's goals"). Here each
+//! 10³ times less than the others (docs/reproduction.md, "The issue's goals"). Here each
 //! weight is normalised by the running power of its own input,
 //!
 //! ```text
