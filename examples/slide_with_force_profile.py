@@ -30,6 +30,7 @@ import argparse
 import csv
 import json
 import math
+import re
 import pathlib
 import signal
 import subprocess
@@ -187,9 +188,10 @@ def main():
     bag = out / "slide.mcap"
     bag.unlink(missing_ok=True)
     # The naic topics and both references (/naic/params holds what the controller did).
+    rec_log = open(out / "record.log", "w")  # the recorder's report, incl. messages it lost
     rec = subprocess.Popen([a.naic, "record", "--out", str(bag), "--topics", "/joint_states", "/wrench",
                             "/joint_effort_cmd", "/naic/effort", "/naic/params", "/clock", "/naic/desired_wrench",
-                            "/naic/target_pose"], cwd=ROOT)
+                            "/naic/target_pose"], cwd=ROOT, stderr=rec_log)
     period = 1.0 / a.rate
     try:
         s.spin(seconds=1.0)  # the recorder discovers the topics
@@ -221,6 +223,11 @@ def main():
     finally:
         rec.send_signal(signal.SIGINT)
         rec.wait(timeout=30)
+        rec_log.close()
+    rec_text = (out / "record.log").read_text()
+    sys.stderr.write(rec_text)
+    lost = {m.group(1): int(m.group(2))
+            for m in re.finditer(r"naic record: (\S+): (\d+) messages published but not recorded", rec_text)}
     plot = subprocess.run([a.naic, "plot", str(bag), "--out", str(out), "--urdf", a.urdf], cwd=ROOT,
                           capture_output=True, text=True)
     sliding = sliding_rows(bag, a.naic, t_slide, t_end)
@@ -231,6 +238,7 @@ def main():
         "figure": str(out / "slide.svg"),
         "plot_ok": plot.returncode == 0,
         "slide_samples": len(sliding),
+        "recorder_lost": lost,
         "slide_duration_s": t_end - t_slide,
         "phases_in_contact": sum(int(m["phase"]) == NaicParams.PHASE_CONTACT for m in sliding),
         "max_abs_force_error_n": max((abs(e) for e in err), default=math.nan),

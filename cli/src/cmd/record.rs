@@ -13,6 +13,8 @@ use naic_ros::wait::Waiter;
 use naic_ros::{RosArgs, RosNode};
 use ros2_client::qos::{History, Reliability, WhenFull};
 use ros2_client::{QosProfile, Subscription};
+use std::collections::HashMap;
+use std::hash::Hash;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -226,6 +228,7 @@ pub fn record(a: RecordArgs) -> CliResult {
     let t0 = Instant::now();
     let deadline = a.duration.map(Duration::from_secs_f64);
     let mut result = Ok(());
+    let mut gaps = SeqGaps::new(subs.len());
     'run: loop {
         // On Ctrl-C or at the deadline, one last pass takes what has already arrived (a
         // recorder behind a fast lockstep chain holds up to a second of it).
@@ -233,10 +236,11 @@ pub fn record(a: RecordArgs) -> CliResult {
         if !last {
             waiter.wait(Some(Duration::from_millis(50)));
         }
-        for s in &subs {
+        for (i, s) in subs.iter().enumerate() {
             macro_rules! drain {
                 ($sub:expr, $id:expr) => {
                     while let Ok(Some((msg, info))) = $sub.take() {
+                        gaps.see(i, info.publisher_gid(), info.sequence_number());
                         let recv = naic_ros::time::wall_ns().max(0) as u64;
                         let publ = info.source_timestamp().map(|t| t.to_nanos().max(0) as u64).unwrap_or(recv);
                         if let Err(e) = w.write($id, &msg, recv, publ) {
@@ -270,7 +274,60 @@ pub fn record(a: RecordArgs) -> CliResult {
     result?;
     finished?;
     eprintln!("naic record: wrote {n} messages to {}", out.display());
+    for ((topic, _), lost) in wanted.iter().zip(&gaps.lost) {
+        if *lost > 0 {
+            eprintln!(
+                "naic record: {topic}: {lost} messages published but not recorded (gaps in the publisher's sequence \
+                 numbers: the recorder fell behind the publisher's history; record fewer topics, or on a less loaded machine)"
+            );
+        }
+    }
     Ok(())
+}
+
+/// Messages a publisher sent that never reached the recorder, per topic: gaps in each
+/// publisher's sequence numbers. A reliable writer keeps only its last samples (history
+/// depth 10 for the nodes), so a recorder that falls further behind loses the older ones;
+/// this makes the loss visible instead of silent.
+struct SeqGaps<G> {
+    last: HashMap<(usize, G), i64>,
+    lost: Vec<u64>,
+}
+
+impl<G: Hash + Eq> SeqGaps<G> {
+    fn new(topics: usize) -> Self {
+        SeqGaps { last: HashMap::new(), lost: vec![0; topics] }
+    }
+
+    fn see(&mut self, topic: usize, publisher: G, seq: i64) {
+        if let Some(prev) = self.last.insert((topic, publisher), seq) {
+            if seq > prev + 1 {
+                self.lost[topic] += (seq - prev - 1) as u64;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod seq_gap_tests {
+    use super::SeqGaps;
+
+    #[test]
+    fn gaps_are_counted_per_topic_and_publisher() {
+        let mut g = SeqGaps::new(2);
+        for seq in [1, 2, 3, 7, 8] {
+            g.see(0, 'a', seq); // 4, 5, 6 lost
+        }
+        for seq in [10, 11, 12] {
+            g.see(0, 'b', seq); // a second publisher starts at its own number: nothing lost
+        }
+        for seq in [1, 3] {
+            g.see(1, 'a', seq); // same publisher id on another topic: its own sequence
+        }
+        assert_eq!(g.lost, vec![3, 1]);
+        g.see(0, 'a', 8); // a repeat is not a loss
+        assert_eq!(g.lost, vec![3, 1]);
+    }
 }
 
 pub fn replay(a: ReplayArgs) -> CliResult {
