@@ -28,9 +28,7 @@ def phases():
     ctl = ru.Proc([str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml",
                    "-p", "wrench_timeout:=0.1", "-p", "joint_timeout:=0.1", "-p", "tare_samples:=20"],
                   ru.ros_env(domain))
-    env = {**ru.ros_env(domain), **overlay}
-    env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
-    env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    env = ru.overlay_env(ru.ros_env(domain), overlay)
     try:
         out = subprocess.run([sys.executable, str(ru.ROOT / "tests/ros/fault_probe.py")], env=env,
                              capture_output=True, text=True, timeout=120)

@@ -48,9 +48,7 @@ def _probe(bins, overlay, args, plan, timeout=300):
     launch Proc) with the launch still running unless the plan ended it."""
     domain = ru.fresh_domain(30)
     launch = ru.Proc([str(bins / "naic"), "launch", *args], ru.ros_env(domain))
-    env = {**ru.ros_env(domain), **overlay}
-    env["PYTHONPATH"] = overlay["PYTHONPATH"] + os.pathsep + os.environ.get("PYTHONPATH", "")
-    env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    env = ru.overlay_env(ru.ros_env(domain), overlay)
     try:
         out = subprocess.run([sys.executable, str(ru.ROOT / "tests/ros/launch_probe.py"), str(launch.p.pid),
                               json.dumps(plan)], env=env, capture_output=True, text=True, timeout=timeout)

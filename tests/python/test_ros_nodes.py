@@ -194,9 +194,7 @@ def test_ros_naic_params_received_by_rclpy_with_built_naic_msgs(suite):
             stamp=m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, fault=m.fault,
             fault_count=m.fault_count, measured=m.measured_force, e_f=m.e_f, set_ok=[r.successful for r in f.result().results])))
     """)
-    env = {**ru.ros_env(suite["domain"]), **overlay}
-    env["PYTHONPATH"] = os.pathsep.join([overlay["PYTHONPATH"], str(ru.ROOT / "tests/ros"), os.environ.get("PYTHONPATH", "")])
-    env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    env = ru.overlay_env(ru.ros_env(suite["domain"]), overlay, ru.ROOT / "tests/ros")
     out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     m = json.loads(out.stdout.strip().splitlines()[-1])
@@ -355,9 +353,7 @@ def test_ros_new_desired_force_is_followed(bins):
                 break
         print(json.dumps(dict(before=before, trace=trace, ok=f.result().results[0].successful)))
     """)
-    env = {**ru.ros_env(domain), **overlay}
-    env["PYTHONPATH"] = os.pathsep.join([overlay["PYTHONPATH"], str(ru.ROOT / "tests/ros"), os.environ.get("PYTHONPATH", "")])
-    env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    env = ru.overlay_env(ru.ros_env(domain), overlay, ru.ROOT / "tests/ros")
     try:
         out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=180)
     finally:
@@ -417,9 +413,7 @@ def _lockstep_trace(bins, domain, until_s, extra=()):
             rclpy.spin_once(n, timeout_sec=0.01)
         print(json.dumps({{str(k): v for k, v in got.items() if k <= {until_s} * 1e9}}))
     """)
-    env = {**ru.ros_env(domain), **overlay}
-    env["PYTHONPATH"] = os.pathsep.join([overlay["PYTHONPATH"], str(ru.ROOT / "tests/ros"), os.environ.get("PYTHONPATH", "")])
-    env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    env = ru.overlay_env(ru.ros_env(domain), overlay, ru.ROOT / "tests/ros")
     launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true", *extra],
                      ru.ros_env(domain))
     probe = subprocess.Popen([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE,

@@ -80,9 +80,7 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
         print(json.dumps(dict(first=first, ok=[x.successful for x in f.result().results + r.result().results],
                               mode_param=g.result().values[0].string_value, seen=seen)))
     """)
-    env = {**ru.ros_env(domain), **overlay}
-    env["PYTHONPATH"] = os.pathsep.join([overlay["PYTHONPATH"], str(ru.ROOT / "tests/ros"), os.environ.get("PYTHONPATH", "")])
-    env["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
+    env = ru.overlay_env(ru.ros_env(domain), overlay, ru.ROOT / "tests/ros")
     try:
         out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=300)
     finally:

@@ -191,10 +191,15 @@ def observer_priority():
 def with_naic_msgs(env):
     """`env` plus the naic_msgs overlay (PYTHONPATH, LD_LIBRARY_PATH prepended) for an rclpy
     subprocess that imports naic_msgs."""
-    overlay = naic_msgs_env()
+    return overlay_env(env, naic_msgs_env())
+
+
+def overlay_env(env, overlay, *pythonpath):
+    """`env` plus the colcon `overlay` (from `naic_msgs_env()`): its PYTHONPATH, then the
+    folders `pythonpath`, then this process's; its LD_LIBRARY_PATH before this process's."""
     out = {**env, **overlay}
-    for k in ("PYTHONPATH", "LD_LIBRARY_PATH"):
-        out[k] = overlay[k] + os.pathsep + os.environ.get(k, "")
+    out["PYTHONPATH"] = os.pathsep.join([overlay["PYTHONPATH"], *map(str, pythonpath), os.environ.get("PYTHONPATH", "")])
+    out["LD_LIBRARY_PATH"] = overlay["LD_LIBRARY_PATH"] + os.pathsep + os.environ.get("LD_LIBRARY_PATH", "")
     return out
 
 

@@ -33,6 +33,20 @@ const USAGE: &str = "usage: <node> [--ros-args [-p name:=value]... [--params-fil
 [-r __node:=NAME] [-r __ns:=/NAMESPACE] [-r from:=to]... [--log-level LEVEL] [--]]";
 
 impl RosArgs {
+    /// The arguments `--ros-args -p a₁ -p a₂ …` for the assignments `name:=value` (tests and
+    /// in-process runs of a node).
+    pub fn with_params<I, S>(assignments: I) -> Result<RosArgs, RosError>
+    where
+        I: IntoIterator<Item = S>,
+        S: Into<String>,
+    {
+        let mut args = vec!["--ros-args".to_string()];
+        for a in assignments {
+            args.extend(["-p".to_string(), a.into()]);
+        }
+        RosArgs::parse(args)
+    }
+
     /// Parse the process arguments (without the program name).
     ///
     /// Everything outside `--ros-args … [--]` is rejected: the naic nodes take no other

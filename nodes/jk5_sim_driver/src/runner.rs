@@ -283,11 +283,8 @@ mod tests {
     /// parameter table as `RosNode` would build it.
     fn runner(extra: &[&str]) -> (Runner<SimPlant>, ParamTable) {
         let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
-        let mut args = vec!["--ros-args".to_string()];
-        for e in [format!("urdf:={root}/urdf/jk5.urdf"), format!("friction_file:={root}/params/friction_jk5.yaml")].iter().map(String::as_str).chain(extra.iter().copied()) {
-            args.extend(["-p".to_string(), e.to_string()]);
-        }
-        let args = RosArgs::parse(args).unwrap();
+        let files = [format!("urdf:={root}/urdf/jk5.urdf"), format!("friction_file:={root}/params/friction_jk5.yaml")];
+        let args = RosArgs::with_params(files.into_iter().chain(extra.iter().map(|e| e.to_string()))).unwrap();
         let setup = Setup::from_args(&args).unwrap();
         let table = ParamTable::new(setup.specs(), Some(setup.check()), &args.overrides(NODE).unwrap()).unwrap();
         (Runner::new(setup.plant, &table), table)

@@ -184,11 +184,7 @@ mod tests {
     /// parameter table as `RosNode` would build it.
     fn runner(extra: &[&str]) -> (Runner, ParamTable) {
         let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
-        let mut args = vec!["--ros-args".to_string(), "-p".into(), format!("urdf:={root}/urdf/jk5.urdf")];
-        for e in extra {
-            args.extend(["-p".to_string(), e.to_string()]);
-        }
-        let args = RosArgs::parse(args).unwrap();
+        let args = RosArgs::with_params([format!("urdf:={root}/urdf/jk5.urdf")].into_iter().chain(extra.iter().map(|e| e.to_string()))).unwrap();
         let setup = Setup::from_args(&args).unwrap();
         let table = ParamTable::new(setup.specs(), Some(setup.check()), &args.overrides(NODE).unwrap()).unwrap();
         (Runner::new(setup, &table), table)
