@@ -82,6 +82,7 @@ def test_record_pose_stamped_target_pose(naic_bin, tmp_path):
     try:
         pub = r.node.create_publisher(PoseStamped, "/naic/target_pose", 100)
         assert r.spin_until(lambda: pub.get_subscription_count() > 0, 30), rec.output()[-2000:]
+        r.spin(3.0)  # rclpy has matched the recorder; give the recorder time to match rclpy's writer too
         for k in range(50):
             m = PoseStamped()
             m.header.frame_id = "base_link"
