@@ -28,6 +28,7 @@ pub mod params;
 pub mod joints;
 pub mod params_file;
 pub mod replay;
+mod reply;
 pub mod throttle;
 pub mod time;
 pub mod timebase;

@@ -11,12 +11,13 @@
 //! change.
 
 use std::{
+    collections::HashSet,
     sync::{
         atomic::{AtomicBool, Ordering},
         Arc,
     },
     thread::JoinHandle,
-    time::Duration,
+    time::{Duration, Instant},
 };
 
 use ros2_client::{
@@ -25,6 +26,7 @@ use ros2_client::{
     rcl_interfaces as rcl,
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher,
     QosProfile, Server, ServiceMapping, ServiceTypeName, Subscription,
+    service::request_id::RmwRequestId,
 };
 use serde::{de::DeserializeOwned, Serialize};
 
@@ -32,6 +34,7 @@ use crate::{
     args::RosArgs,
     context::{create_context, DdsSettings},
     params::{Changes, ParamSpec, ParamTable, SetCheck},
+    reply::{self, Verdict},
     RosError,
 };
 
@@ -195,7 +198,54 @@ impl Drop for RosNode {
     }
 }
 
-type Srv<Req, Resp> = Server<Req, Resp>;
+/// One parameter service: its server, and the replies held until their clients can receive
+/// them ([`crate::reply`]).
+struct Srv<Req: ros2_client::Message, Resp: ros2_client::Message> {
+    server: Server<Req, Resp>,
+    /// The DDS topic the replies go out on.
+    reply_topic: String,
+    held: Vec<(RmwRequestId, Resp, Instant)>,
+}
+
+impl<Req: ros2_client::Message + 'static, Resp: ros2_client::Message + 'static> Srv<Req, Resp> {
+    fn receive(&self) -> Option<(RmwRequestId, Req)> {
+        match self.server.receive_request() {
+            Ok(r) => r,
+            Err(e) => {
+                log::warn!("{}: unreadable request: {e:?}", self.reply_topic);
+                None
+            }
+        }
+    }
+
+    fn reply(&mut self, id: RmwRequestId, resp: Resp) {
+        self.held.push((id, resp, Instant::now()));
+    }
+
+    /// Send the held replies whose clients can receive them; drop those given up (warned).
+    fn flush(&mut self, sightings: &mut reply::Sightings, readers: &HashSet<(String, reply::Participant)>, now: Instant) {
+        for (id, resp, requested) in std::mem::take(&mut self.held) {
+            let client = reply::participant_of(&id);
+            let known = readers.contains(&(self.reply_topic.clone(), client));
+            match sightings.verdict(&self.reply_topic, client, known, requested, now) {
+                Verdict::Send => {
+                    if let Err(e) = self.server.send_response(id, resp) {
+                        log::warn!("{}: cannot send the reply: {e:?}", self.reply_topic);
+                    }
+                }
+                Verdict::Hold => self.held.push((id, resp, requested)),
+                Verdict::GiveUp => log::warn!(
+                    "{}: dropped the reply to request {} of client {:?}: this node never discovered the \
+                     client's reply reader within {} s (DDS discovery between the two participants failed)",
+                    self.reply_topic,
+                    id.sequence_number,
+                    id.writer_gid,
+                    reply::GIVE_UP.as_secs()
+                ),
+            }
+        }
+    }
+}
 
 struct ParamServices {
     get: Srv<rcl::GetParametersRequest, rcl::GetParametersResponse>,
@@ -204,6 +254,8 @@ struct ParamServices {
     set_atomic: Srv<rcl::SetParametersRequest, rcl::SetParametersAtomicallyResponse>,
     list: Srv<rcl::ListParametersRequest, rcl::ListParametersResponse>,
     describe: Srv<rcl::DescribeParametersRequest, rcl::DescribeParametersResponse>,
+    context: Context,
+    sightings: reply::Sightings,
     events: Publisher<raw::ParameterEvent>,
     /// Re-announces this participant's nodes on `ros_discovery_info` (see [`Rediscovery`]).
     rediscovery: Option<Rediscovery>,
@@ -246,14 +298,10 @@ where
 {
     let qos = QosProfile::publisher_default().history(History::KeepLast { depth: 10 });
     let name = Name::new(fqn, srv).map_err(|e| RosError::Dds(format!("service name {fqn}/{srv}: {e:?}")))?;
-    node.create_server(
-        ServiceMapping::Enhanced,
-        &name,
-        &ServiceTypeName::new("rcl_interfaces", ty),
-        qos.clone(),
-        qos,
-    )
-    .map_err(|e| RosError::Dds(format!("cannot create service {fqn}/{srv}: {e:?}")))
+    let server = node
+        .create_server(ServiceMapping::Enhanced, &name, &ServiceTypeName::new("rcl_interfaces", ty), qos.clone(), qos)
+        .map_err(|e| RosError::Dds(format!("cannot create service {fqn}/{srv}: {e:?}")))?;
+    Ok(Srv { server, reply_topic: reply::reply_topic(fqn, srv), held: Vec::new() })
 }
 
 impl ParamServices {
@@ -268,6 +316,8 @@ impl ParamServices {
             set_atomic: server(node, fqn, "set_parameters_atomically", "SetParametersAtomically")?,
             list: server(node, fqn, "list_parameters", "ListParameters")?,
             describe: server(node, fqn, "describe_parameters", "DescribeParameters")?,
+            context: context.clone(),
+            sightings: reply::Sightings::default(),
             events,
             rediscovery: {
                 let r = Rediscovery::new(context);
@@ -311,18 +361,19 @@ impl ParamServices {
         };
         let mut s = self;
         let reg = poll.registry();
-        let ok = reg.register(&mut s.get, Token(0), Interest::READABLE).is_ok()
-            & reg.register(&mut s.types, Token(1), Interest::READABLE).is_ok()
-            & reg.register(&mut s.set, Token(2), Interest::READABLE).is_ok()
-            & reg.register(&mut s.set_atomic, Token(3), Interest::READABLE).is_ok()
-            & reg.register(&mut s.list, Token(4), Interest::READABLE).is_ok()
-            & reg.register(&mut s.describe, Token(5), Interest::READABLE).is_ok();
+        let ok = reg.register(&mut s.get.server, Token(0), Interest::READABLE).is_ok()
+            & reg.register(&mut s.types.server, Token(1), Interest::READABLE).is_ok()
+            & reg.register(&mut s.set.server, Token(2), Interest::READABLE).is_ok()
+            & reg.register(&mut s.set_atomic.server, Token(3), Interest::READABLE).is_ok()
+            & reg.register(&mut s.list.server, Token(4), Interest::READABLE).is_ok()
+            & reg.register(&mut s.describe.server, Token(5), Interest::READABLE).is_ok();
         if !ok {
             log::warn!("parameter services: poll registration failed; falling back to 10 ms polling");
         }
         let mut events = Events::with_capacity(16);
         while !stop.load(Ordering::Relaxed) {
-            let timeout = if ok { Duration::from_millis(100) } else { Duration::from_millis(10) };
+            // Held replies are re-checked every 10 ms.
+            let timeout = if ok && !s.holds_replies() { Duration::from_millis(100) } else { Duration::from_millis(10) };
             let _ = poll.poll(&mut events, Some(timeout));
             // Serve every pending request on every service (cheap when idle).
             s.serve_all(params, fqn);
@@ -332,26 +383,52 @@ impl ParamServices {
         }
     }
 
-    fn serve_all(&self, params: &ParamTable, fqn: &str) {
-        while let Ok(Some((id, req))) = self.get.receive_request() {
+    fn holds_replies(&self) -> bool {
+        !(self.get.held.is_empty()
+            && self.types.held.is_empty()
+            && self.set.held.is_empty()
+            && self.set_atomic.held.is_empty()
+            && self.list.held.is_empty()
+            && self.describe.held.is_empty())
+    }
+
+    /// Answer every pending request, then send the replies their clients can receive.
+    fn serve_all(&mut self, params: &ParamTable, fqn: &str) {
+        self.answer_all(params, fqn);
+        if self.holds_replies() {
+            let readers = reply::discovered_readers(&self.context);
+            let now = Instant::now();
+            let sg = &mut self.sightings;
+            self.get.flush(sg, &readers, now);
+            self.types.flush(sg, &readers, now);
+            self.set.flush(sg, &readers, now);
+            self.set_atomic.flush(sg, &readers, now);
+            self.list.flush(sg, &readers, now);
+            self.describe.flush(sg, &readers, now);
+            sg.forget_gone(&readers);
+        }
+    }
+
+    fn answer_all(&mut self, params: &ParamTable, fqn: &str) {
+        while let Some((id, req)) = self.get.receive() {
             let values = params.with(|v| {
                 req.names
                     .iter()
                     .map(|n| raw::ParameterValue::from(v.get(n).cloned().unwrap_or(ParameterValue::NotSet)))
                     .collect()
             });
-            let _ = self.get.send_response(id, rcl::GetParametersResponse { values });
+            self.get.reply(id, rcl::GetParametersResponse { values });
         }
-        while let Ok(Some((id, req))) = self.types.receive_request() {
+        while let Some((id, req)) = self.types.receive() {
             let values = params.with(|v| {
                 req.names
                     .iter()
                     .map(|n| v.get(n).map(|x| x.to_parameter_type() as u8).unwrap_or(0))
                     .collect()
             });
-            let _ = self.types.send_response(id, rcl::GetParameterTypesResponse { values });
+            self.types.reply(id, rcl::GetParameterTypesResponse { values });
         }
-        while let Ok(Some((id, req))) = self.set.receive_request() {
+        while let Some((id, req)) = self.set.receive() {
             // One result per parameter, each applied on its own (rclcpp semantics).
             let results = req
                 .parameter
@@ -372,9 +449,9 @@ impl ParamServices {
                     }
                 })
                 .collect();
-            let _ = self.set.send_response(id, rcl::SetParametersResponse { results });
+            self.set.reply(id, rcl::SetParametersResponse { results });
         }
-        while let Ok(Some((id, req))) = self.set_atomic.receive_request() {
+        while let Some((id, req)) = self.set_atomic.receive() {
             let ps: Vec<(String, ParameterValue)> =
                 req.parameter.into_iter().map(|p| (p.name, p.value.into())).collect();
             let result = match params.set_atomically(&ps) {
@@ -387,15 +464,13 @@ impl ParamServices {
                     raw::SetParametersResult { successful: false, reason }
                 }
             };
-            let _ = self.set_atomic.send_response(id, rcl::SetParametersAtomicallyResponse { result });
+            self.set_atomic.reply(id, rcl::SetParametersAtomicallyResponse { result });
         }
-        while let Ok(Some((id, req))) = self.list.receive_request() {
+        while let Some((id, req)) = self.list.receive() {
             let (names, prefixes) = params.list(&req.prefixes, req.depth);
-            let _ = self
-                .list
-                .send_response(id, rcl::ListParametersResponse { result: rcl::ListParametersResult { names, prefixes } });
+            self.list.reply(id, rcl::ListParametersResponse { result: rcl::ListParametersResult { names, prefixes } });
         }
-        while let Ok(Some((id, req))) = self.describe.receive_request() {
+        while let Some((id, req)) = self.describe.receive() {
             let values = req
                 .names
                 .iter()
@@ -415,7 +490,7 @@ impl ParamServices {
                     },
                 })
                 .collect();
-            let _ = self.describe.send_response(id, rcl::DescribeParametersResponse { values });
+            self.describe.reply(id, rcl::DescribeParametersResponse { values });
         }
     }
 }
