@@ -30,3 +30,5 @@ pub mod runner;
 pub mod scenario;
 pub mod sensor;
 pub mod svg;
+#[doc(hidden)]
+pub mod test_support;

@@ -181,15 +181,14 @@ mod tests {
     use super::*;
     use crate::rng::Rng;
     use naic_core::dynamics;
-    use naic_core::friction::{FrictionParams, JointFriction, DEFAULT_V_S};
-    use naic_core::model::{Data6, Model};
-
-    const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+    use crate::test_support::{model, table1_friction as table1};
+    use naic_core::friction::{JointFriction, DEFAULT_V_S};
+    use naic_core::model::Data6;
 
     /// Random mass matrices of the JK5, start velocities (each joint at rest, in
     /// the tanh zone or moving) and right-hand sides.
     fn cases(n: usize) -> Vec<(Matrix6<f64>, Vector6<f64>, Vector6<f64>)> {
-        let model = Model::from_urdf_file(format!("{ROOT}/urdf/jk5.urdf")).unwrap();
+        let model = model();
         let mut data = Data6::try_new(&model).unwrap();
         let mut rng = Rng::seed(11);
         let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
@@ -206,16 +205,6 @@ mod tests {
                 (m, v, rhs0)
             })
             .collect()
-    }
-
-    /// Table 1 friction of the JK5, tanh-smoothed (as the scenarios use it).
-    fn table1() -> FrictionModel {
-        FrictionParams::from_yaml_file(format!("{ROOT}/params/friction_jk5.yaml"))
-            .unwrap()
-            .to_model()
-            .unwrap()
-            .with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S })
-            .unwrap()
     }
 
     /// |r(v1)| with the friction evaluated by the model itself, not by the solver.
