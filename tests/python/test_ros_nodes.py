@@ -194,10 +194,7 @@ def test_ros_naic_params_received_by_rclpy_with_built_naic_msgs(suite):
             stamp=m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, fault=m.fault,
             fault_count=m.fault_count, measured=m.measured_force, e_f=m.e_f, set_ok=[r.successful for r in f.result().results])))
     """)
-    env = ru.overlay_env(ru.ros_env(suite["domain"]), overlay, ru.ROOT / "tests/ros")
-    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=60)
-    assert out.returncode == 0, out.stderr
-    m = json.loads(out.stdout.strip().splitlines()[-1])
+    m = ru.run_in_overlay(["-c", script], suite["domain"], overlay, 60, pythonpath=[ru.ROOT / "tests/ros"])
     assert m["set_ok"] == [True, True]
     assert m["n"] > 100
     assert m["mode"] == "aic"
@@ -353,14 +350,7 @@ def test_ros_new_desired_force_is_followed(bins):
                 break
         print(json.dumps(dict(before=before, trace=trace, ok=f.result().results[0].successful)))
     """)
-    env = ru.overlay_env(ru.ros_env(domain), overlay, ru.ROOT / "tests/ros")
-    try:
-        out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=180)
-    finally:
-        rc = launch.stop(timeout=15)
-    assert out.returncode == 0, out.stderr[-3000:]
-    assert rc == 0, launch.output()[-3000:]
-    m = json.loads(out.stdout.strip().splitlines()[-1])
+    m = ru.run_in_overlay(["-c", script], domain, overlay, 180, stop=launch, pythonpath=[ru.ROOT / "tests/ros"])
     assert m["ok"]
     b = sorted(m["before"])
     assert b and b[len(b) // 2] == pytest.approx(10.0, abs=1.0), b[:: max(1, len(b) // 10)]
@@ -413,18 +403,10 @@ def _lockstep_trace(bins, domain, until_s, extra=()):
             rclpy.spin_once(n, timeout_sec=0.01)
         print(json.dumps({{str(k): v for k, v in got.items() if k <= {until_s} * 1e9}}))
     """)
-    env = ru.overlay_env(ru.ros_env(domain), overlay, ru.ROOT / "tests/ros")
     launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true", *extra],
                      ru.ros_env(domain))
-    probe = subprocess.Popen([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
-    try:
-        out, err = probe.communicate(timeout=120)
-    finally:
-        rc = launch.stop(timeout=15)
-    assert probe.returncode == 0, err[-3000:]
-    assert rc == 0, launch.output()[-3000:]
-    return {int(k): v for k, v in json.loads(out.strip().splitlines()[-1]).items()}, launch.output()
+    got = ru.run_in_overlay(["-c", script], domain, overlay, 120, stop=launch, pythonpath=[ru.ROOT / "tests/ros"])
+    return {int(k): v for k, v in got.items()}, launch.output()
 
 
 def test_ros_lockstep_closed_loop_is_deterministic(bins):

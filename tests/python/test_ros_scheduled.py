@@ -6,9 +6,7 @@ flat surface (2000 N/m in the simulated driver's flat scenario).
 Lockstep (`naic launch --lockstep`, simulated time) so that a loaded machine cannot shake the
 loop; traffic stays on loopback (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) on a private domain.
 """
-import json
 import os
-import subprocess
 import sys
 import textwrap
 
@@ -80,14 +78,7 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
         print(json.dumps(dict(first=first, ok=[x.successful for x in f.result().results + r.result().results],
                               mode_param=g.result().values[0].string_value, seen=seen)))
     """)
-    env = ru.overlay_env(ru.ros_env(domain), overlay, ru.ROOT / "tests/ros")
-    try:
-        out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=300)
-    finally:
-        rc = launch.stop(timeout=15)
-    assert out.returncode == 0, out.stderr[-3000:]
-    assert rc == 0, launch.output()[-3000:]
-    m = json.loads(out.stdout.strip().splitlines()[-1])
+    m = ru.run_in_overlay(["-c", script], domain, overlay, 300, stop=launch, pythonpath=[ru.ROOT / "tests/ros"])
     assert m["first"]["mode"] == "naic"
     # The switch happened at the start, in free space (paused driver, simulated t = 0).
     assert m["first"]["t"] < 0.1, m["first"]

@@ -203,6 +203,25 @@ def overlay_env(env, overlay, *pythonpath):
     return out
 
 
+def run_in_overlay(argv, domain, overlay, timeout, stop=None, pythonpath=()):
+    """Run `python ARGV` (an rclpy script: `["-c", SCRIPT]` or a file and its arguments) in
+    the naic_msgs `overlay` on `domain`, then stop the process `stop` (a Proc, even when
+    the script failed). Asserts that both exited cleanly, naming what each printed, and
+    returns the script's last line of output parsed as JSON."""
+    import json
+    env = overlay_env(ros_env(domain), overlay, *pythonpath)
+    try:
+        out = subprocess.run([sys.executable, *map(str, argv)], env=env, capture_output=True, text=True,
+                             timeout=timeout)
+    finally:
+        rc = stop.stop(timeout=15) if stop is not None else 0
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert rc == 0, stop.output()[-3000:]
+    lines = out.stdout.strip().splitlines()
+    assert lines, f"the script printed nothing; stderr: {out.stderr[-3000:]}"
+    return json.loads(lines[-1])
+
+
 class RclpyDomain:
     """An rclpy context, node and executor on one domain (tests can use several domains).
     Its threads run at [`observer_priority`]."""

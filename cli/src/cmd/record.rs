@@ -229,17 +229,24 @@ pub fn record(a: RecordArgs) -> CliResult {
     let deadline = a.duration.map(Duration::from_secs_f64);
     let mut result = Ok(());
     let mut gaps = SeqGaps::new(subs.len());
+    // On Ctrl-C or at the deadline the recorder keeps taking what arrives until nothing new
+    // came for QUIET (at most LINGER): a recorder behind a fast lockstep chain holds up to a
+    // second of messages, and reliable repairs of the last ones are still in flight.
+    const QUIET: Duration = Duration::from_millis(200);
+    const LINGER: Duration = Duration::from_secs(3);
+    let mut stopping: Option<(Instant, Instant)> = None; // (stop asked, last message taken)
     'run: loop {
-        // On Ctrl-C or at the deadline, one last pass takes what has already arrived (a
-        // recorder behind a fast lockstep chain holds up to a second of it).
-        let last = STOP.load(Ordering::SeqCst) || deadline.is_some_and(|d| t0.elapsed() >= d);
-        if !last {
-            waiter.wait(Some(Duration::from_millis(50)));
+        let stop = STOP.load(Ordering::SeqCst) || deadline.is_some_and(|d| t0.elapsed() >= d);
+        if stop && stopping.is_none() {
+            stopping = Some((Instant::now(), Instant::now()));
         }
+        waiter.wait(Some(Duration::from_millis(if stopping.is_some() { 20 } else { 50 })));
+        let mut taken = 0usize;
         for (i, s) in subs.iter().enumerate() {
             macro_rules! drain {
                 ($sub:expr, $id:expr) => {
                     while let Ok(Some((msg, info))) = $sub.take() {
+                        taken += 1;
                         gaps.see(i, info.publisher_gid(), info.sequence_number());
                         let recv = naic_ros::time::wall_ns().max(0) as u64;
                         let publ = info.source_timestamp().map(|t| t.to_nanos().max(0) as u64).unwrap_or(recv);
@@ -263,8 +270,13 @@ pub fn record(a: RecordArgs) -> CliResult {
             result = Err(bag_err(e));
             break;
         }
-        if last {
-            break;
+        if let Some((asked, last_taken)) = stopping.as_mut() {
+            if taken > 0 {
+                *last_taken = Instant::now();
+            }
+            if last_taken.elapsed() >= QUIET || asked.elapsed() >= LINGER {
+                break;
+            }
         }
     }
     let n = w.message_count();
