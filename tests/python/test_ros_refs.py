@@ -180,3 +180,70 @@ def test_ros_refs_ros2_control_remap_and_shuffled_joint_states_track_force(bins)
     print(f"ros2_control chain: median force {median:.3f} N (last simulated second), {len(pairs)} command/state pairs, "
           f"largest torque {big:.1f} N m, {by_index} match by index")
     assert not wrong, f"{len(wrong)} of {len(pairs)} steps applied other torques than commanded, first: {wrong[:2]}"
+
+
+def test_ros_refs_composed_follows_the_reference_topics(bins, tmp_path):
+    """`naic launch --composed` (the three nodes in one process) with `scenario:=none` follows
+    /naic/target_pose and /naic/desired_wrench as the three processes do: the rclpy example
+    (examples/slide_with_force_profile.py, the checks of test_example_slide.py) slides the
+    tool 6 cm instead of 10 at 10 mm/s with 5 → 10 → 5 N, in lockstep. The force profile can
+    only come from /naic/desired_wrench (desired_force is 10 N), and the tip (forward
+    kinematics of the bag's /joint_states, Pinocchio) moves the 6 cm of the targets along x."""
+    pin = pytest.importorskip("pinocchio")
+    import csv
+    import numpy as np
+    domain = ru.fresh_domain(90)
+    launch = ru.Proc([str(bins / "naic"), "launch", "--composed", "--lockstep", "-p", "naic_controller:scenario:=none"],
+                     ru.ros_env(domain))
+    length, speed = 0.06, 0.01
+    try:
+        r = ru.RclpyDomain(domain, "naic_composed_refs_graph")
+        try:
+            def subscribed(t):
+                return "naic_controller" in {i.node_name for i in r.node.get_subscriptions_info_by_topic(t)}
+            ok = r.spin_until(lambda: all(subscribed(t) for t in ("/naic/target_pose", "/naic/desired_wrench")), 30)
+            assert ok, f"the composed naic_controller does not subscribe the reference topics: {launch.output()[-3000:]}"
+        finally:
+            r.close()
+        env = ru.with_naic_msgs(ru.ros_env(domain))
+        out = subprocess.run([sys.executable, str(ru.ROOT / "examples/slide_with_force_profile.py"), "--out", str(tmp_path),
+                              "--use-sim-time", "--naic", str(bins / "naic"), "--timeout", "300",
+                              "--length", str(length), "--speed", str(speed)],
+                             env=env, cwd=ru.ROOT, capture_output=True, text=True, timeout=420)
+    finally:
+        rc = launch.stop(timeout=15)
+    if out.returncode != 0 and "naic_controller does not subscribe" in out.stderr:
+        pytest.xfail("discovery: the example's rclpy participant never learned naic_controller's "
+                     "reference subscriptions (known RustDDS/Fast DDS failure, issue 13): " + out.stderr.strip()[-300:])
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-3000:]
+    assert rc == 0, launch.output()[-3000:]
+    s = json.loads(out.stdout.strip().splitlines()[-1])
+    assert s["slide_duration_s"] == pytest.approx(length / speed, abs=0.1), s
+    assert s["slide_samples"] > 0 and s["phases_in_contact"] == s["slide_samples"], s
+    assert s["desired_forces_seen"] == [5.0, 10.0], s
+    assert not s["faults"], s
+    assert s["max_abs_force_error_n"] <= 1.0, s
+    assert s["rms_force_error_n"] <= 0.15, s
+    assert os.path.getsize(s["figure"]) > 1000
+    # The tip slid along the targets: x by the slide length, y and z (on the table) still.
+    model = pin.buildModelFromUrdf(str(ru.ROOT / "urdf/jk5.urdf"))
+    data = model.createData()
+    tip = model.getFrameId("tip")
+    with open(tmp_path / "csv" / "joint_states.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert rows, "no /joint_states in the bag"
+
+    def tip_at(row):
+        pin.framesForwardKinematics(model, data, np.array([float(row[f"position_{j}"]) for j in JOINTS]))
+        return data.oMf[tip].translation.copy()
+    # First row: the start pose; last: held at the last target (the approach is along z only).
+    moved = tip_at(rows[-1]) - tip_at(rows[0])
+    assert moved[0] == pytest.approx(length, abs=0.005) and abs(moved[1]) < 0.002, moved
+    # 1 kHz of /naic/params while sliding: the composed lockstep chain is paced at `rate`,
+    # so the recorder keeps up; if it did not, it must have said so (docs/bags.md).
+    if s["slide_samples"] <= 0.9 * 1000 * length / speed:
+        lost = s["recorder_lost"].get("/naic/params", 0)
+        assert lost > 0, f"the bag has {s['slide_samples']} sliding samples but naic record reported no loss: {s}"
+        pytest.xfail(f"naic record lost {lost} /naic/params messages ({s['slide_samples']} sliding samples)")
+    print(f"composed slide: max |e_f| {s['max_abs_force_error_n']:.3f} N, RMS {s['rms_force_error_n']:.3f} N, "
+          f"{s['slide_samples']} samples, tip moved {moved.round(4).tolist()} m")
