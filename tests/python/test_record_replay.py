@@ -35,16 +35,16 @@ def netns_prefix():
     return False
 
 
-def test_record_replay_record(naic_bin, tmp_path):
-    src = tmp_path / "src.mcap"
-    rec = tmp_path / "rec.mcap"
-    subprocess.run([str(naic_bin), "bag", "write-sample", str(src), "--seconds", "3"], check=True, capture_output=True)
+def replay_and_record(naic_bin, src, rec, topics, duration, domain):
+    """`naic record` of `topics` into `rec` for `duration` s while `naic replay` plays `src`
+    (started 2 s after the recorder, with --delay 2), in a private network namespace when possible; returns
+    their stderr."""
     script = f"""
 set -e
-export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID={ru.fresh_domain(17)}
+export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID={domain}
 unset ROS_LOCALHOST_ONLY
 {'ip link set lo up' if netns_prefix() else ''}
-"{naic_bin}" record --out "{rec}" --duration 9 --topics {' '.join(TOPICS)} &
+"{naic_bin}" record --out "{rec}" --duration {duration} --topics {' '.join(topics)} &
 rp=$!
 sleep 2
 "{naic_bin}" replay "{src}" --delay 2
@@ -53,6 +53,14 @@ wait $rp
     cmd = ["unshare", "-n", "bash", "-c", script] if netns_prefix() else ["bash", "-c", script]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr[-2000:]
+    return r.stderr
+
+
+def test_record_replay_record(naic_bin, tmp_path):
+    src = tmp_path / "src.mcap"
+    rec = tmp_path / "rec.mcap"
+    subprocess.run([str(naic_bin), "bag", "write-sample", str(src), "--seconds", "3"], check=True, capture_output=True)
+    replay_and_record(naic_bin, src, rec, TOPICS, 9, ru.fresh_domain(17))
     a, b = load(src), load(rec)
     assert set(b) == set(TOPICS)
     for t in TOPICS:
@@ -162,21 +170,8 @@ def test_replay_and_export_csv_include_target_pose(naic_bin, tmp_path):
     # replay -> record: the same targets.
     rec = tmp_path / "rec.mcap"
     topics = ["/naic/target_pose", "/naic/desired_wrench"]
-    script = f"""
-set -e
-export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID={ru.fresh_domain(29)}
-unset ROS_LOCALHOST_ONLY
-{'ip link set lo up' if netns_prefix() else ''}
-"{naic_bin}" record --out "{rec}" --duration 8 --topics {' '.join(topics)} &
-rp=$!
-sleep 2
-"{naic_bin}" replay "{src}" --delay 2
-wait $rp
-"""
-    cmd = ["unshare", "-n", "bash", "-c", script] if netns_prefix() else ["bash", "-c", script]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
-    assert r.returncode == 0, r.stderr[-2000:]
-    assert "skipping" not in r.stderr, r.stderr[-2000:]
+    stderr = replay_and_record(naic_bin, src, rec, topics, 8, ru.fresh_domain(29))
+    assert "skipping" not in stderr, stderr[-2000:]
     got = load(rec)
     assert set(got) == set(topics), set(got)
     poses = got["/naic/target_pose"]
