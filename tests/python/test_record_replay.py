@@ -44,16 +44,16 @@ def rt_prefix():
     return ""
 
 
-def test_record_replay_record(naic_bin, tmp_path):
-    src = tmp_path / "src.mcap"
-    rec = tmp_path / "rec.mcap"
-    subprocess.run([str(naic_bin), "bag", "write-sample", str(src), "--seconds", "3"], check=True, capture_output=True)
+def replay_and_record(naic_bin, src, rec, topics, duration, domain):
+    """`naic record` of `topics` into `rec` for `duration` s while `naic replay` plays `src`
+    (started 2 s after the recorder, with --delay 2), both at real-time priority when
+    allowed, in a private network namespace when possible; returns their stderr."""
     script = f"""
 set -e
-export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID={ru.fresh_domain(17)}
+export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID={domain}
 unset ROS_LOCALHOST_ONLY
 {'ip link set lo up' if netns_prefix() else ''}
-{rt_prefix()}"{naic_bin}" record --out "{rec}" --duration 9 --topics {' '.join(TOPICS)} &
+{rt_prefix()}"{naic_bin}" record --out "{rec}" --duration {duration} --topics {' '.join(topics)} &
 rp=$!
 sleep 2
 {rt_prefix()}"{naic_bin}" replay "{src}" --delay 2
@@ -62,6 +62,14 @@ wait $rp
     cmd = ["unshare", "-n", "bash", "-c", script] if netns_prefix() else ["bash", "-c", script]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr[-2000:]
+    return r.stderr
+
+
+def test_record_replay_record(naic_bin, tmp_path):
+    src = tmp_path / "src.mcap"
+    rec = tmp_path / "rec.mcap"
+    subprocess.run([str(naic_bin), "bag", "write-sample", str(src), "--seconds", "3"], check=True, capture_output=True)
+    replay_and_record(naic_bin, src, rec, TOPICS, 9, ru.fresh_domain(17))
     a, b = load(src), load(rec)
     assert set(b) == set(TOPICS)
     for t in TOPICS:
@@ -120,3 +128,68 @@ def test_record_pose_stamped_target_pose(naic_bin, tmp_path):
         assert [c.msgtype for c in conns] == ["geometry_msgs/msg/PoseStamped"]
         got2 = [fields(reader.deserialize(raw, c.msgtype)) for c, _, raw in reader.messages(connections=conns)]
     assert got2 == sent
+
+
+def test_replay_and_export_csv_include_target_pose(naic_bin, tmp_path):
+    """/naic/target_pose (geometry_msgs/PoseStamped) in a bag written by rosbags' rosbag2
+    writer (not naic's): `naic bag export-csv` writes its CSV with every value, and `naic
+    replay` publishes it (recorded again by `naic record`, read back with mcap-ros2-support):
+    the same 50 targets, every field equal, none missing, timing within 1 ms median."""
+    import csv
+
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    T = ts.types
+    PS, H, Time = T["geometry_msgs/msg/PoseStamped"], T["std_msgs/msg/Header"], T["builtin_interfaces/msg/Time"]
+    Pose, Point, Quat = T["geometry_msgs/msg/Pose"], T["geometry_msgs/msg/Point"], T["geometry_msgs/msg/Quaternion"]
+    WS, W, V = T["geometry_msgs/msg/WrenchStamped"], T["geometry_msgs/msg/Wrench"], T["geometry_msgs/msg/Vector3"]
+    n = 50
+    sent = []
+    with Writer(tmp_path / "rb", version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        cp = w.add_connection("/naic/target_pose", PS.__msgtype__, typestore=ts)
+        cw = w.add_connection("/naic/desired_wrench", WS.__msgtype__, typestore=ts)
+        for k in range(n):
+            qx = 0.1 * k / n
+            q = (qx, 0.7, -0.1, math.sqrt(1 - 0.49 - 0.01 - qx * qx))
+            p = (-0.3 + 1e-4 * k, -0.11, 0.075 - 1e-6 * k)
+            stamp = (100 + k // 50, (k % 50) * 20_000_000)
+            m = PS(header=H(stamp=Time(sec=stamp[0], nanosec=stamp[1]), frame_id="base_link"),
+                   pose=Pose(position=Point(x=p[0], y=p[1], z=p[2]), orientation=Quat(x=q[0], y=q[1], z=q[2], w=q[3])))
+            t_ns = 1_000_000_000 + k * 20_000_000
+            w.write(cp, t_ns, ts.serialize_cdr(m, PS.__msgtype__))
+            f = WS(header=H(stamp=Time(sec=stamp[0], nanosec=stamp[1]), frame_id="base_link"),
+                   wrench=W(force=V(x=0.0, y=0.0, z=-5.0 - 0.1 * k), torque=V(x=0.0, y=0.0, z=0.0)))
+            w.write(cw, t_ns, ts.serialize_cdr(f, WS.__msgtype__))
+            sent.append((t_ns, stamp, p, q))
+    src = tmp_path / "rb" / "rb.mcap"
+
+    # export-csv: the targets' CSV, every value.
+    out = subprocess.run([str(naic_bin), "bag", "export-csv", str(src), "--out", str(tmp_path / "csv")],
+                         capture_output=True, text=True)
+    assert out.returncode == 0 and "skipping" not in out.stderr, out.stderr
+    rows = list(csv.DictReader(open(tmp_path / "csv" / "naic_target_pose.csv")))
+    assert len(rows) == n
+    for r, (t_ns, stamp, p, q) in zip(rows, sent):
+        assert int(r["log_time_ns"]) == t_ns and r["stamp_s"] == f"{stamp[0]}.{stamp[1]:09d}" and r["frame_id"] == "base_link"
+        assert tuple(float(r[f"position_{a}"]) for a in "xyz") == p
+        assert tuple(float(r[f"orientation_{a}"]) for a in "xyzw") == q
+
+    # replay -> record: the same targets.
+    rec = tmp_path / "rec.mcap"
+    topics = ["/naic/target_pose", "/naic/desired_wrench"]
+    stderr = replay_and_record(naic_bin, src, rec, topics, 8, ru.fresh_domain(29))
+    assert "skipping" not in stderr, stderr[-2000:]
+    got = load(rec)
+    assert set(got) == set(topics), set(got)
+    poses = got["/naic/target_pose"]
+    assert len(poses) == n, f"recorded {len(poses)} of {n} targets"
+    for (_, m), (_, stamp, p, q) in zip(poses, sent):
+        o, x = m.pose.orientation, m.pose.position
+        assert ((m.header.stamp.sec, m.header.stamp.nanosec), (x.x, x.y, x.z), (o.x, o.y, o.z, o.w)) == (stamp, p, q)
+        assert m.header.frame_id == "base_link"
+    assert [m.wrench.force.z for _, m in got["/naic/desired_wrench"]] == [-5.0 - 0.1 * k for k in range(n)]
+    delay = [lb - la for (lb, _), (la, _, _, _) in zip(poses, sent)]
+    med = statistics.median(delay)
+    assert statistics.median([abs(d - med) / 1e6 for d in delay]) < 1.0

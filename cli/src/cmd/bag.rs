@@ -297,6 +297,22 @@ impl CsvRow for NaicParams {
     }
 }
 
+impl CsvRow for PoseStamped {
+    fn header(&self, _: &[usize]) -> Vec<String> {
+        ["stamp_s", "frame_id", "position_x", "position_y", "position_z", "orientation_x", "orientation_y", "orientation_z", "orientation_w"]
+            .map(String::from)
+            .to_vec()
+    }
+    fn row(&self, _: &[usize], out: &mut String) {
+        time_col(out, &self.header.stamp);
+        text(out, &self.header.frame_id);
+        let (p, q) = (&self.pose.position, &self.pose.orientation);
+        for v in [p.x, p.y, p.z, q.x, q.y, q.z, q.w] {
+            num(out, v);
+        }
+    }
+}
+
 impl CsvRow for Clock {
     fn header(&self, _: &[usize]) -> Vec<String> {
         vec!["clock_s".into()]
@@ -343,6 +359,7 @@ fn export_csv(file: &Path, out: &Path) -> CliResult {
             "std_msgs/msg/Float64MultiArray" => export_topic::<Float64MultiArray>(&bag, &t.topic, &path)?,
             "naic_msgs/msg/NaicParams" => export_topic::<NaicParams>(&bag, &t.topic, &path)?,
             "rosgraph_msgs/msg/Clock" => export_topic::<Clock>(&bag, &t.topic, &path)?,
+            "geometry_msgs/msg/PoseStamped" => export_topic::<PoseStamped>(&bag, &t.topic, &path)?,
             other => {
                 eprintln!("naic bag export-csv: skipping {} ({other} has no CSV layout)", t.topic);
                 continue;

@@ -6,7 +6,8 @@
 //! controller → friction_compensation → driver command, each runner reading the previous
 //! one's message by reference (no copy, no DDS on the control path). Then every topic goes out on DDS for observers (rclpy, `ros2 topic`, `naic
 //! record`): `/joint_states`, `/wrench`, `/clock`, `/naic/effort`, `/naic/params`,
-//! `/joint_effort_cmd`. The three ROS nodes keep their names, parameters and parameter
+//! `/joint_effort_cmd`. With `scenario: none` the controller follows `/naic/target_pose`
+//! and `/naic/desired_wrench` from DDS, as the node process does. The three ROS nodes keep their names, parameters and parameter
 //! services (three nodes in one DDS participant).
 //!
 //! - Real time: one cycle per period of the driver's `rate`; the command computed from a
@@ -97,6 +98,8 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     let mut cmds = dr.commands(&dn.params);
     let fr = fc::Runner::new(&f, &fnode.params).map_err(|e| CliError::usage(format!("{fname}: {e}")));
     let (mut cr, mut fr) = (ctl::Runner::new(c, &cn.params), fr?);
+    // scenario:=none: the reference topics, as the node process subscribes them.
+    let refs = ctl::ReferenceSubs::new(&mut cn, &cr).map_err(dds)?;
     let mut dl = Deadlines::default();
     let t0 = Instant::now();
     while !naic_ros::shutdown_requested() && !a.duration.is_some_and(|s| t0.elapsed().as_secs_f64() >= s) {
@@ -109,6 +112,9 @@ pub fn run(a: &LaunchArgs) -> CliResult {
         dr.announce(&mut cmds);
         let (js, w) = (&dr.msgs.js, &dr.msgs.w);
         cr.wrench(w);
+        if let Some(refs) = &refs {
+            refs.feed(&mut cr);
+        }
         let out = cr.joint_states(js, |_| None);
         let cmd = match out.effort {
             Some(e) => {

@@ -130,17 +130,9 @@ fn ros_type(type_name: &str) -> Option<(&'static str, &'static str)> {
         "std_msgs/msg/Float64MultiArray" => m::FLOAT64_MULTI_ARRAY,
         "naic_msgs/msg/NaicParams" => m::NAIC_PARAMS,
         "rosgraph_msgs/msg/Clock" => m::CLOCK,
+        "geometry_msgs/msg/PoseStamped" => m::POSE_STAMPED,
         _ => return None,
     })
-}
-
-/// What `naic record` takes besides the types it can replay: `geometry_msgs/msg/PoseStamped`
-/// (`/naic/target_pose`; written to the bag, not decoded by `naic_bag` nor replayed).
-fn record_type(type_name: &str) -> Option<(&'static str, &'static str)> {
-    match type_name {
-        "geometry_msgs/msg/PoseStamped" => Some(m::POSE_STAMPED),
-        _ => ros_type(type_name),
-    }
 }
 
 const KNOWN_TYPES: &str = "sensor_msgs/msg/JointState, geometry_msgs/msg/WrenchStamped, \
@@ -183,7 +175,7 @@ pub fn record(a: RecordArgs) -> CliResult {
             .ok_or_else(|| {
                 CliError::usage(format!("unknown type for topic {t}: add --type {t}=pkg/msg/Type (one of {KNOWN_TYPES})"))
             })?;
-        if record_type(&ty).is_none() {
+        if ros_type(&ty).is_none() {
             return Err(CliError::usage(format!("naic record cannot record {ty} (topic {t}); known types: {KNOWN_TYPES}")));
         }
         wanted.push((t, ty));
@@ -197,7 +189,7 @@ pub fn record(a: RecordArgs) -> CliResult {
     let qos = if a.best_effort { QOS_RECORD_BEST_EFFORT } else { QOS_RECORD };
     let mut waiter = Waiter::new().map_err(|e| CliError::failure(format!("poll: {e}")))?;
     for (i, (topic, ty)) in wanted.iter().enumerate() {
-        let rt = record_type(ty).expect("checked above");
+        let rt = ros_type(ty).expect("checked above");
         macro_rules! sub {
             ($M:ty, $V:ident) => {{
                 let mut s = node.subscription::<$M>(topic, rt, qos.clone()).map_err(ros_err)?;
@@ -385,6 +377,7 @@ pub fn replay(a: ReplayArgs) -> CliResult {
         Fa(ros2_client::Publisher<Float64MultiArray>),
         Np(ros2_client::Publisher<NaicParams>),
         Ck(ros2_client::Publisher<Clock>),
+        Ps(ros2_client::Publisher<PoseStamped>),
     }
     let mut pubs: std::collections::HashMap<u16, Pub> = Default::default();
     for t in &selected {
@@ -394,6 +387,7 @@ pub fn replay(a: ReplayArgs) -> CliResult {
             "geometry_msgs/msg/WrenchStamped" => Pub::Ws(node.publisher(&t.topic, rt, QOS_REPLAY).map_err(ros_err)?),
             "std_msgs/msg/Float64MultiArray" => Pub::Fa(node.publisher(&t.topic, rt, QOS_REPLAY).map_err(ros_err)?),
             "naic_msgs/msg/NaicParams" => Pub::Np(node.publisher(&t.topic, rt, QOS_REPLAY).map_err(ros_err)?),
+            "geometry_msgs/msg/PoseStamped" => Pub::Ps(node.publisher(&t.topic, rt, QOS_REPLAY).map_err(ros_err)?),
             _ => Pub::Ck(node.publisher(&t.topic, rt, QOS_REPLAY).map_err(ros_err)?),
         };
         pubs.insert(t.channel_id, p);
@@ -434,6 +428,7 @@ pub fn replay(a: ReplayArgs) -> CliResult {
                 (Pub::Fa(p), naic_bag::AnyMessage::Float64MultiArray(x)) => p.publish(x.clone()).is_ok(),
                 (Pub::Np(p), naic_bag::AnyMessage::NaicParams(x)) => p.publish(x.clone()).is_ok(),
                 (Pub::Ck(p), naic_bag::AnyMessage::Clock(x)) => p.publish(x.clone()).is_ok(),
+                (Pub::Ps(p), naic_bag::AnyMessage::PoseStamped(x)) => p.publish(x.clone()).is_ok(),
                 _ => false,
             };
             if !r {

@@ -341,3 +341,31 @@ fn a_summary_without_chunk_indexes_is_read_by_walking_the_records() {
         assert_eq!(m.msg, cycle(k as u64, RATE).joint_states);
     }
 }
+
+#[test]
+fn pose_stamped_targets_are_decoded_with_the_other_types() {
+    let p = tmp("pose.mcap");
+    let mut w = BagWriter::create(&p).unwrap();
+    let tp = w.add_topic::<PoseStamped>("/naic/target_pose", Qos::default()).unwrap();
+    let ck = w.add_topic::<Clock>("/clock", Qos::default()).unwrap();
+    let target = |k: u32| PoseStamped {
+        header: Header { stamp: Time { sec: 100, nanosec: k * 20_000_000 }, frame_id: "base_link".into() },
+        pose: Pose {
+            position: Point { x: -0.3 + 1e-4 * k as f64, y: -0.11, z: 0.075 },
+            orientation: Quaternion { x: 0.0, y: 1.0, z: 0.0, w: 1e-3 * k as f64 },
+        },
+    };
+    for k in 0..20u32 {
+        w.write(tp, &target(k), 1_000 + 2 * k as u64, 1_000 + 2 * k as u64).unwrap();
+        w.write(ck, &Clock { clock: Time { sec: k as i32, nanosec: 0 } }, 1_001 + 2 * k as u64, 0).unwrap();
+    }
+    w.finish().unwrap();
+    let bag = Bag::open(&p).unwrap();
+    let all = bag.decode_all(..);
+    let poses: Vec<_> = all.iter().filter_map(|m| if let AnyMessage::PoseStamped(x) = &m.msg { Some(x.clone()) } else { None }).collect();
+    assert_eq!(poses, (0..20).map(target).collect::<Vec<_>>());
+    assert_eq!(all.len(), 40, "the clock is decoded beside them");
+    assert!(bag.damage().is_empty(), "{:?}", bag.damage());
+    let typed: Vec<_> = bag.messages::<PoseStamped>("/naic/target_pose", ..).unwrap().into_iter().map(|m| m.msg).collect();
+    assert_eq!(typed, poses);
+}

@@ -3,8 +3,9 @@
 
 use naic_core::model::Model;
 use naic_ros::{
+    msgs::JOINT_NAMES,
     params::{effort_limit_within, SetCheck, EFFORT_CAP},
-    ParamSpec, ParamView,
+    ParamSpec, ParamView, ParameterValue,
 };
 
 use crate::{core, latency, sim_plant::PLANT_NAME};
@@ -47,6 +48,7 @@ pub fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
             "Paper scenario of naic_sim: environment and start pose",
         )
         .read_only(),
+        joint_order_spec(),
         ParamSpec::string("plant", PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
         ParamSpec::double("latency_warmup", 2.0, 0.0, 3600.0, "Chain-latency statistics ignore the first seconds after start").read_only(),
         ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),
@@ -70,9 +72,46 @@ pub fn urdf_effort_limits(urdf: &str) -> Result<[f64; 6], String> {
     Ok(std::array::from_fn(|i| l[i].min(EFFORT_CAP)))
 }
 
-/// Live `effort_limit` changes may tighten the URDF limits, never loosen them.
+/// `joint_order`: the order of the joints in the published `/joint_states`, as
+/// ros2_control's `joint_state_broadcaster` may publish them (default: joint1..joint6).
+fn joint_order_spec() -> ParamSpec {
+    let mut s = ParamSpec::new(
+        "joint_order",
+        ParameterValue::StringArray(JOINT_NAMES.iter().map(|n| n.to_string()).collect()),
+        "Order of the joints in the published /joint_states (each of joint1..joint6 once), e.g. to play a joint_state_broadcaster that does not follow the URDF; commands stay in joint1..joint6 order",
+    )
+    .read_only();
+    s.len = Some(6);
+    s
+}
+
+/// The published index → joint index map of `joint_order` (published slot `i` carries
+/// joint `order[i] + 1`), or why the names are not each of joint1..joint6 once.
+pub fn joint_order(p: &ParamView) -> Result<[usize; 6], String> {
+    let names = match p.get("joint_order") {
+        Some(ParameterValue::StringArray(a)) => a.as_slice(),
+        _ => &[],
+    };
+    let mut order = [0; 6];
+    for i in 0..6 {
+        let name = names.get(i).map_or("", String::as_str);
+        order[i] = JOINT_NAMES.iter().position(|j| *j == name).ok_or_else(|| {
+            format!("joint_order[{i}] = '{name}' is not a joint of the JK5; name each of {} once", JOINT_NAMES.join(", "))
+        })?;
+        if let Some(k) = order[..i].iter().position(|&o| o == order[i]) {
+            return Err(format!("joint_order names '{name}' twice (elements {k} and {i}); name each of {} once", JOINT_NAMES.join(", ")));
+        }
+    }
+    Ok(order)
+}
+
+/// Live `effort_limit` changes may tighten the URDF limits, never loosen them; the
+/// `joint_order` names each joint once.
 pub fn check(urdf_effort: [f64; 6]) -> SetCheck {
-    Box::new(move |p: &ParamView| effort_limit_within(p, &urdf_effort))
+    Box::new(move |p: &ParamView| {
+        joint_order(p)?;
+        effort_limit_within(p, &urdf_effort)
+    })
 }
 
 /// The core's parameters from the ROS parameters.

@@ -34,28 +34,37 @@ pub struct StateMsgs {
     pub js: JointState,
     pub w: WrenchStamped,
     pub clock: Clock,
+    /// `js`'s slot `i` carries joint `order[i] + 1` ([`config::joint_order`]).
+    order: [usize; 6],
 }
 
 impl Default for StateMsgs {
     fn default() -> Self {
-        StateMsgs {
-            js: JointState { name: msgs::JOINT_NAMES.iter().map(|s| s.to_string()).collect(), position: vec![0.0; 6], velocity: vec![0.0; 6], effort: vec![0.0; 6], ..Default::default() },
-            w: WrenchStamped { header: Header { frame_id: "ft_sensor".into(), ..Default::default() }, ..Default::default() },
-            clock: Clock::default(),
-        }
+        StateMsgs::in_order([0, 1, 2, 3, 4, 5])
     }
 }
 
 impl StateMsgs {
+    /// The messages with the joints of `/joint_states` in `order` (slot `i`: joint
+    /// `order[i] + 1`).
+    pub fn in_order(order: [usize; 6]) -> Self {
+        StateMsgs {
+            js: JointState { name: order.iter().map(|&j| msgs::JOINT_NAMES[j].to_string()).collect(), position: vec![0.0; 6], velocity: vec![0.0; 6], effort: vec![0.0; 6], ..Default::default() },
+            w: WrenchStamped { header: Header { frame_id: "ft_sensor".into(), ..Default::default() }, ..Default::default() },
+            clock: Clock::default(),
+            order,
+        }
+    }
+
     /// The plant's state into the messages; returns the stamp used [ns] (simulated time
     /// if `sim_stamps`, else the wall clock). `/clock` is always simulated time.
     pub fn fill(&mut self, plant: &impl Plant, sim_stamps: bool) -> i64 {
         let stamp_ns = if sim_stamps { sim_stamp_ns(plant) } else { wall_ns() };
         let (q, v, t) = plant.joints();
         self.js.header.stamp = time_from_ns(stamp_ns);
-        self.js.position.copy_from_slice(&q);
-        self.js.velocity.copy_from_slice(&v);
-        self.js.effort.copy_from_slice(&t);
+        for (i, &j) in self.order.iter().enumerate() {
+            (self.js.position[i], self.js.velocity[i], self.js.effort[i]) = (q[j], v[j], t[j]);
+        }
         let w = plant.wrench();
         self.w.header.stamp = time_from_ns(stamp_ns);
         (self.w.wrench.force.x, self.w.wrench.force.y, self.w.wrench.force.z) = (w[0], w[1], w[2]);
@@ -97,7 +106,9 @@ impl<P: Plant> Runner<P> {
     /// `params` is the node's parameter table as it starts.
     pub fn new(plant: P, params: &ParamTable) -> Runner<P> {
         let (p, paused, sim) = params.with(read);
-        Runner { plant, p, paused, sim, s: core::State::default(), msgs: StateMsgs::default(), gen: params.generation(), next_ns: monotonic_ns(), warned: false }
+        // Checked when the table was built (config::check); read-only.
+        let order = params.with(config::joint_order).unwrap_or([0, 1, 2, 3, 4, 5]);
+        Runner { plant, p, paused, sim, s: core::State::default(), msgs: StateMsgs::in_order(order), gen: params.generation(), next_ns: monotonic_ns(), warned: false }
     }
 
     /// The command slot, latency statistics from the end of `latency_warmup` on.
@@ -308,6 +319,45 @@ mod tests {
         assert_eq!(d.announce(&mut cmds), 1_000_000, "one 1 ms step, simulated stamps");
         assert_eq!((d.s.cycles, d.s.holding, cmds.stale_dropped), (1, false, 1));
         assert_eq!(cmds.expect_stamp_ns, Some(1_000_000));
+    }
+
+    #[test]
+    fn joint_order_publishes_the_joints_by_name_in_that_order() {
+        let (mut a, ta) = runner(&[]);
+        let (mut b, tb) = runner(&["joint_order:=[joint3, joint6, joint1, joint5, joint2, joint4]"]);
+        let tau = [1.5, -2.0, 2.5, 0.5, -0.25, 0.125];
+        for (d, t) in [(&mut a, &ta), (&mut b, &tb)] {
+            let mut cmds = d.commands(t);
+            receive(&mut cmds, &effort_msg(&tau, None));
+            for _ in 0..20 {
+                d.step(&cmds.view());
+            }
+            d.announce(&mut cmds);
+        }
+        let js = &b.msgs.js;
+        assert_eq!(js.name, ["joint3", "joint6", "joint1", "joint5", "joint2", "joint4"]);
+        for (i, n) in js.name.iter().enumerate() {
+            let j = msgs::JOINT_NAMES.iter().position(|x| x == n).unwrap();
+            // The same plant state, slot by name; the applied torque is the command's joint j.
+            assert_eq!((js.position[i], js.velocity[i], js.effort[i]), (a.msgs.js.position[j], a.msgs.js.velocity[j], a.msgs.js.effort[j]), "{n}");
+            assert_eq!(js.effort[i], tau[j], "{n}");
+        }
+        assert!(a.msgs.js.velocity.iter().any(|v| v.abs() > 1e-4), "the arm did not move");
+    }
+
+    #[test]
+    fn a_joint_order_that_is_not_each_joint_once_is_refused() {
+        let setup = |v: &str| {
+            let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+            let args = RosArgs::with_params([format!("urdf:={root}/urdf/jk5.urdf"), format!("friction_file:={root}/params/friction_jk5.yaml"), format!("joint_order:={v}")]).unwrap();
+            Setup::from_args(&args).err().map(|e| e.to_string()).unwrap_or_default()
+        };
+        let e = setup("[joint1, joint2, joint3, joint4, joint5, wrist]");
+        assert!(e.contains("joint_order[5] = 'wrist'") && e.contains("joint1, joint2"), "{e}");
+        let e = setup("[joint1, joint2, joint3, joint4, joint5, joint1]");
+        assert!(e.contains("names 'joint1' twice (elements 0 and 5)"), "{e}");
+        let e = setup("[joint1, joint2]");
+        assert!(e.contains("joint_order") && e.contains("6 elements"), "{e}");
     }
 
     #[test]

@@ -7,9 +7,9 @@
 
 use std::time::Duration;
 
-use naic_controller::{runner::Runner, setup::{Setup, NODE}};
+use naic_controller::{runner::{ReferenceSubs, Runner}, setup::{Setup, NODE}};
 use naic_ros::{
-    msgs::{self, Float64MultiArray, JointState, NaicParams, PoseStamped, WrenchStamped},
+    msgs::{self, Float64MultiArray, JointState, NaicParams, WrenchStamped},
     node::{QOS_PUB, QOS_SUB},
     wait::{take_newest, take_until, Waiter},
     RosArgs, RosError, RosNode,
@@ -32,15 +32,7 @@ fn run() -> Result<(), RosError> {
     let mut js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let w_sub = node.subscription::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_SUB)?;
     // The reference topics: the real-robot setting (scenario 'none') only.
-    let (tp_sub, dw_sub) = if r.p.reference.is_none() {
-        (
-            Some(node.subscription::<PoseStamped>("naic/target_pose", msgs::POSE_STAMPED, QOS_SUB)?),
-            Some(node.subscription::<WrenchStamped>("naic/desired_wrench", msgs::WRENCH_STAMPED, QOS_SUB)?),
-        )
-    } else {
-        log::info!("following the scenario's reference: /naic/target_pose and /naic/desired_wrench are not subscribed (scenario:=none follows them)");
-        (None, None)
-    };
+    let refs = ReferenceSubs::new(&mut node, &r)?;
     let effort_pub = node.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB)?;
     let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, QOS_PUB)?;
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
@@ -54,9 +46,9 @@ fn run() -> Result<(), RosError> {
         while let Ok(Some((w, _))) = w_sub.take() {
             r.wrench(&w);
         }
-        // Reference samples, newest of each topic (the stage keeps only the last target).
-        let (tp, dw) = (tp_sub.as_ref().and_then(take_newest), dw_sub.as_ref().and_then(take_newest));
-        r.reference(tp.as_ref(), dw.as_ref());
+        if let Some(refs) = &refs {
+            refs.feed(&mut r);
+        }
         // Newest joint state only; older samples in the queue are skipped.
         let Some(js) = take_newest(&js_sub) else { continue };
         let out = r.joint_states(&js, |until| {

@@ -14,8 +14,10 @@ use naic_core::pipeline::controller::{ControllerParams, Workspace};
 use naic_ros::{
     alloc_check,
     msgs::{self, Float64MultiArray, JointState, NaicParams, PoseStamped, WrenchStamped},
+    node::QOS_SUB,
     time::{time_from_ns, wall_ns},
-    ParamTable,
+    wait::take_newest,
+    ParamTable, RosError, RosNode,
 };
 
 use crate::{
@@ -113,6 +115,36 @@ impl Runner {
             fill_report(&mut self.report, r);
         }
         Published { effort: out.effort.map(|_| &self.effort), report: out.report.map(|_| &self.report) }
+    }
+}
+
+/// The reference topics' subscriptions (`/naic/target_pose`, `/naic/desired_wrench`):
+/// the real-robot setting (`scenario: none`) only. The node process and `naic launch
+/// --composed` both feed the controller through this.
+pub struct ReferenceSubs {
+    target_pose: ros2_client::Subscription<PoseStamped>,
+    desired_wrench: ros2_client::Subscription<WrenchStamped>,
+}
+
+impl ReferenceSubs {
+    /// Subscribe on `node` when `r` follows the reference topics (`scenario: none`);
+    /// `None` (and a log line saying so) when it follows a scenario.
+    pub fn new(node: &mut RosNode, r: &Runner) -> Result<Option<ReferenceSubs>, RosError> {
+        if r.p.reference.is_some() {
+            log::info!("following the scenario's reference: /naic/target_pose and /naic/desired_wrench are not subscribed (scenario:=none follows them)");
+            return Ok(None);
+        }
+        Ok(Some(ReferenceSubs {
+            target_pose: node.subscription::<PoseStamped>("naic/target_pose", msgs::POSE_STAMPED, QOS_SUB)?,
+            desired_wrench: node.subscription::<WrenchStamped>("naic/desired_wrench", msgs::WRENCH_STAMPED, QOS_SUB)?,
+        }))
+    }
+
+    /// The newest sample of each topic into [`Runner::reference`] (the stage keeps only the
+    /// last target).
+    pub fn feed(&self, r: &mut Runner) {
+        let (tp, dw) = (take_newest(&self.target_pose), take_newest(&self.desired_wrench));
+        r.reference(tp.as_ref(), dw.as_ref());
     }
 }
 

@@ -11,6 +11,8 @@ pub enum AnyMessage {
     Float64MultiArray(naic_msgs::Float64MultiArray),
     NaicParams(naic_msgs::NaicParams),
     Clock(naic_msgs::Clock),
+    /// `/naic/target_pose`, the controller's position reference.
+    PoseStamped(naic_msgs::PoseStamped),
 }
 
 #[derive(Clone, Copy)]
@@ -20,6 +22,7 @@ enum Kind {
     Fa,
     Np,
     Ck,
+    Ps,
     Unknown,
 }
 
@@ -32,6 +35,7 @@ impl Kind {
             t if t == Float64MultiArray::type_name() => Kind::Fa,
             t if t == NaicParams::type_name() => Kind::Np,
             t if t == Clock::type_name() => Kind::Ck,
+            t if t == PoseStamped::type_name() => Kind::Ps,
             _ => Kind::Unknown,
         }
     }
@@ -44,6 +48,7 @@ impl Kind {
             Kind::Fa => Float64MultiArray::from_cdr(data).map(AnyMessage::Float64MultiArray),
             Kind::Np => NaicParams::from_cdr(data).map(AnyMessage::NaicParams),
             Kind::Ck => Clock::from_cdr(data).map(AnyMessage::Clock),
+            Kind::Ps => PoseStamped::from_cdr(data).map(AnyMessage::PoseStamped),
             Kind::Unknown => return None,
         })
     }
@@ -61,7 +66,7 @@ pub struct AnyStamped {
 
 impl Bag {
     /// Streams, in one pass over the file, every message of a known type (JointState,
-    /// WrenchStamped, Float64MultiArray, NaicParams, Clock) with log time in `range`, decoded,
+    /// WrenchStamped, Float64MultiArray, NaicParams, Clock, PoseStamped) with log time in `range`, decoded,
     /// in file order. Messages of other types are left out (read them raw with
     /// [`Bag::for_each_message`]); undecodable ones are skipped and reported in [`Bag::damage`].
     pub fn for_each_decoded(&self, range: impl RangeBounds<u64>, mut f: impl FnMut(AnyStamped)) {
