@@ -56,6 +56,8 @@ pub enum Col {
     Drift,
     Rotor,
     Visc2,
+    /// The rigid-body torque (`torque_scale`).
+    Scale,
     /// The joint's share of the cross-fitted base-parameter correction (`inertial_parameters`).
     Inertial,
     /// Contact spring `u·δ₊ⁿ` (n = 1 nominal).
@@ -172,6 +174,7 @@ impl Structure {
                 Effect::Drift => c.push(Col::Drift),
                 Effect::RotorInertia => c.push(Col::Rotor),
                 Effect::ViscousNonlinearity => c.push(Col::Visc2),
+                Effect::TorqueScale => c.push(Col::Scale),
                 Effect::InertialParameters => c.push(Col::Inertial),
                 Effect::FrictionAsymmetry | Effect::Stribeck => {}
                 Effect::ContactNonlinearity | Effect::ContactDamping | Effect::FtBias | Effect::ToolGravity => {}
@@ -246,6 +249,8 @@ pub struct JointSamples {
     pub a: Vec<f64>,
     pub dtau: Vec<f64>,
     pub payload: Vec<f64>,
+    /// Rigid-body torque of the URDF (time series) [N·m].
+    pub tau_rb: Vec<f64>,
     pub fold: Vec<u8>,
     /// Samples per independent observation (filter window / analysis step), ≥ 1.
     pub corr_len: f64,
@@ -311,6 +316,7 @@ impl JointSamples {
             Col::Drift => s * self.tn[i],
             Col::Rotor => self.a[i],
             Col::Visc2 => s * v * v,
+            Col::Scale => self.tau_rb[i],
             Col::Inertial => self.inertial[i],
             Col::Spring => {
                 let d = st.h - self.cz[i];
@@ -344,6 +350,7 @@ impl JointSamples {
             (&mut self.a, &o.a),
             (&mut self.dtau, &o.dtau),
             (&mut self.payload, &o.payload),
+            (&mut self.tau_rb, &o.tau_rb),
             (&mut self.cu, &o.cu),
             (&mut self.cz, &o.cz),
             (&mut self.crate_, &o.crate_),
@@ -375,6 +382,7 @@ impl JointSamples {
             a: pick(&self.a),
             dtau: pick(&self.dtau),
             payload: pick(&self.payload),
+            tau_rb: pick(&self.tau_rb),
             fold: self.fold.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect(),
             corr_len: self.corr_len,
             time_series: self.time_series,

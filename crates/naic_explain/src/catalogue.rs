@@ -19,6 +19,7 @@
 //! | `drift` | `s·(t − t_mid)/T` | change of the Coulomb level over the session [N·m] |
 //! | `rotor_inertia` | `q̈_j` (engineer's check: unmodelled motor/gear inertia) | I_a [kg·m²] |
 //! | `viscous_nonlinearity` | `s·q̇²` (engineer's check: non-Newtonian lubricant) | f_v2 [N·m·s²/rad²] |
+//! | `torque_scale` | `τ_rb,j` (the rigid-body torque: measured = k·(τ_rb + friction), so y = (k − 1)·τ_rb + k·friction, the friction columns absorbing k) | k = 1 + coefficient |
 //! | `inertial_parameters` | `Y_B,j(q, q̇, q̈) δβ`: the joint's share of a base-parameter correction δβ fitted on **all joints together** and cross-fitted per fold (see [`crate::inertial`]) | δβ (shared); per joint the column's scale (≈ 1) |
 //!
 //!
@@ -51,13 +52,14 @@ pub enum Effect {
     RotorInertia,
     ViscousNonlinearity,
     InertialParameters,
+    TorqueScale,
     ContactNonlinearity,
     ContactDamping,
     FtBias,
     ToolGravity,
 }
 
-pub const ALL_EFFECTS: [Effect; 14] = [
+pub const ALL_EFFECTS: [Effect; 15] = [
     Effect::FrictionAsymmetry,
     Effect::Stribeck,
     Effect::PositionRipple,
@@ -68,6 +70,7 @@ pub const ALL_EFFECTS: [Effect; 14] = [
     Effect::RotorInertia,
     Effect::ViscousNonlinearity,
     Effect::InertialParameters,
+    Effect::TorqueScale,
     Effect::ContactNonlinearity,
     Effect::ContactDamping,
     Effect::FtBias,
@@ -87,6 +90,7 @@ impl Effect {
             Effect::RotorInertia => "rotor_inertia",
             Effect::ViscousNonlinearity => "viscous_nonlinearity",
             Effect::InertialParameters => "inertial_parameters",
+            Effect::TorqueScale => "torque_scale",
             Effect::ContactNonlinearity => "contact_nonlinearity",
             Effect::ContactDamping => "contact_damping",
             Effect::FtBias => "ft_bias",
@@ -138,6 +142,7 @@ impl Effect {
             Effect::RotorInertia => "unmodelled motor/gear inertia (torque proportional to joint acceleration)",
             Effect::ViscousNonlinearity => "viscous friction that grows faster than linearly with speed",
             Effect::InertialParameters => "the link inertials (masses, centres of mass, inertias) differ from the URDF: the rigid body's base parameters, refitted on all joints together, explain the residual",
+            Effect::TorqueScale => "the measured torque is the model torque times a gain k ≠ 1 (a drive's current-to-torque constant or a torque sensor's calibration)",
             Effect::ContactNonlinearity => "a contact force that is not linear in the penetration (power law k·δⁿ, the elastic part of Hunt–Crossley)",
             Effect::ContactDamping => "a contact damping force c·δ̇ that the nominal linear spring lacks",
             Effect::FtBias => "a constant bias of the F/T sensor axis (not tared, or drifted since the tare)",

@@ -197,6 +197,7 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
                 js.a.push(p.a[i][j]);
                 js.dtau.push(p.dtau[i][j]);
                 js.payload.push(p.payload[i][j]);
+                js.tau_rb.push(p.tau_rb[i][j]);
                 js.fold.push(fold_of(p.t[i]));
             }
             js
