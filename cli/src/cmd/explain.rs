@@ -61,7 +61,8 @@ pub struct ExplainArgs {
     /// Robot model for the rigid-body part.
     #[arg(long, default_value = "urdf/jk5.urdf")]
     urdf: PathBuf,
-    /// Comma-separated effects to consider [default: the whole catalogue].
+    /// Comma-separated effects to consider; `+name,…` adds to the default [default: the whole
+    /// catalogue but position_torque, which is opt-in: `--effects +position_torque`].
     #[arg(long)]
     effects: Option<String>,
     /// Write seeded synthetic data to this CSV instead of analysing.
@@ -161,7 +162,16 @@ pub fn run(a: ExplainArgs) -> CliResult {
         None => opts.auto_window = true,
     }
     if let Some(e) = &a.effects {
-        opts.analysis.effects = parse_effects(e)?;
+        match e.trim().strip_prefix('+') {
+            Some(extra) => {
+                for x in parse_effects(&extra.replace(",+", ","))? {
+                    if !opts.analysis.effects.contains(&x) {
+                        opts.analysis.effects.push(x);
+                    }
+                }
+            }
+            None => opts.analysis.effects = parse_effects(e)?,
+        }
     }
     let progress = progress_printer(a.quiet);
     let ex = naic_explain::explain_files(&a.measured, &a.validate, &opts, &progress).map_err(err)?;

@@ -26,7 +26,7 @@
 //! Forward selection: the most gaining significant candidate is added to the joint's
 //! model, the rest are re-scored against the extended model, until none is significant.
 
-use crate::catalogue::{k_grid, n_exp_grid, q_s_grid, Effect, ALL_EFFECTS};
+use crate::catalogue::{k_grid, k_pos_grid, n_exp_grid, q_s_grid, Effect};
 use nalgebra::{DMatrix, DVector};
 use std::collections::BTreeSet;
 
@@ -51,6 +51,9 @@ pub enum Col {
     Offset,
     RipSin,
     RipCos,
+    /// `position_torque`: `sin(k' q)`, `cos(k' q)`.
+    PosSin,
+    PosCos,
     Payload,
     Delay,
     Drift,
@@ -76,6 +79,8 @@ pub enum ScanParam {
     QsPos,
     QsNeg,
     K,
+    /// `position_torque` wave number k'.
+    KPos,
     /// Surface height h [m] (contact).
     H,
     /// Contact exponent n.
@@ -102,6 +107,8 @@ pub struct Structure {
     pub q_s_pos: f64,
     pub q_s_neg: f64,
     pub k: f64,
+    /// `position_torque` wave number k' [rad⁻¹].
+    pub k_pos: f64,
     /// Contact structures: the spring is `u·(h − z)₊ⁿ`.
     pub contact: bool,
     /// Contact: the target sees the contact force (has the spring column).
@@ -112,7 +119,7 @@ pub struct Structure {
 
 impl Structure {
     pub fn nominal() -> Self {
-        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, contact: false, coupled: false, h: 0.0, n_exp: 1.0 }
+        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, k_pos: 5.0, contact: false, coupled: false, h: 0.0, n_exp: 1.0 }
     }
     /// The nominal structure of a target and the shape parameters its calibration scans
     /// (joints: none; contact axes: the surface height).
@@ -131,7 +138,7 @@ impl Structure {
             return self.coupled as usize * (1 + self.has(Effect::ContactNonlinearity) as usize);
         }
         let strib = if self.has(Effect::Stribeck) { 1 + self.has(Effect::FrictionAsymmetry) as usize } else { 0 };
-        strib + self.has(Effect::PositionRipple) as usize
+        strib + self.has(Effect::PositionRipple) as usize + self.has(Effect::PositionTorque) as usize
     }
     pub fn has(&self, e: Effect) -> bool {
         self.effects.contains(&e)
@@ -175,6 +182,10 @@ impl Structure {
                 Effect::RotorInertia => c.push(Col::Rotor),
                 Effect::ViscousNonlinearity => c.push(Col::Visc2),
                 Effect::TorqueScale => c.push(Col::Scale),
+                Effect::PositionTorque => {
+                    c.push(Col::PosSin);
+                    c.push(Col::PosCos)
+                }
                 Effect::InertialParameters => c.push(Col::Inertial),
                 Effect::FrictionAsymmetry | Effect::Stribeck => {}
                 Effect::ContactNonlinearity | Effect::ContactDamping | Effect::FtBias | Effect::ToolGravity => {}
@@ -187,6 +198,7 @@ impl Structure {
             ScanParam::Qs | ScanParam::QsPos => self.q_s_pos,
             ScanParam::QsNeg => self.q_s_neg,
             ScanParam::K => self.k,
+            ScanParam::KPos => self.k_pos,
             ScanParam::H => self.h,
             ScanParam::NExp => self.n_exp,
         }
@@ -200,6 +212,7 @@ impl Structure {
             ScanParam::QsPos => self.q_s_pos = v,
             ScanParam::QsNeg => self.q_s_neg = v,
             ScanParam::K => self.k = v,
+            ScanParam::KPos => self.k_pos = v,
             ScanParam::H => self.h = v,
             ScanParam::NExp => self.n_exp = v,
         }
@@ -225,6 +238,7 @@ impl Structure {
             Effect::Stribeck => vec![ScanParam::Qs],
             Effect::FrictionAsymmetry if s.has(Effect::Stribeck) => vec![ScanParam::QsPos, ScanParam::QsNeg],
             Effect::PositionRipple => vec![ScanParam::K],
+            Effect::PositionTorque => vec![ScanParam::KPos],
             _ => vec![],
         };
         (s, scan)
@@ -311,6 +325,8 @@ impl JointSamples {
             Col::Offset => 1.0,
             Col::RipSin => s * (st.k * self.q[i]).sin(),
             Col::RipCos => s * (st.k * self.q[i]).cos(),
+            Col::PosSin => (st.k_pos * self.q[i]).sin(),
+            Col::PosCos => (st.k_pos * self.q[i]).cos(),
             Col::Payload => self.payload[i],
             Col::Delay => -self.dtau[i],
             Col::Drift => s * self.tn[i],
@@ -502,7 +518,7 @@ pub struct AnalysisOptions {
 
 impl Default for AnalysisOptions {
     fn default() -> Self {
-        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: ALL_EFFECTS.to_vec() }
+        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: crate::catalogue::default_effects() }
     }
 }
 
@@ -636,6 +652,7 @@ fn depends_on(c: Col, sp: ScanParam) -> bool {
             | (Col::Strib(Dir::Pos), ScanParam::QsPos)
             | (Col::Strib(Dir::Neg), ScanParam::QsNeg)
             | (Col::RipSin | Col::RipCos, ScanParam::K)
+            | (Col::PosSin | Col::PosCos, ScanParam::KPos)
             | (Col::Spring | Col::CDamp, ScanParam::H)
             | (Col::Spring, ScanParam::NExp)
     )
@@ -653,6 +670,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
     let grid_of = |sp: ScanParam| -> Vec<f64> {
         match sp {
             ScanParam::K => k_grid(),
+            ScanParam::KPos => k_pos_grid(),
             ScanParam::H => js.h_grid.clone(),
             ScanParam::NExp => n_exp_grid(),
             _ => q_s_grid(),

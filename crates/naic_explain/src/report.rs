@@ -68,6 +68,12 @@ pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(Strin
             push("k_per_rad", st.k);
             push("phase_rad", b.atan2(a));
         }
+        Effect::PositionTorque => {
+            let (a, b) = (c(Col::PosSin), c(Col::PosCos));
+            push("amplitude_nm", a.hypot(b));
+            push("k_per_rad", st.k_pos);
+            push("phase_rad", b.atan2(a));
+        }
         Effect::Payload => push("mass_kg", c(Col::Payload)),
         Effect::TorqueOffset => push("offset_nm", c(Col::Offset)),
         Effect::Delay => push("delay_s", c(Col::Delay)),

@@ -93,10 +93,16 @@ def missing_features(naic_bin, case):
     return miss
 
 
-def run_explain(naic_bin, csv, urdf, out, tip="tip"):
+# opt-in catalogue entries (not in naic explain's default set): every case runs with them added
+OPT_IN = "+position_torque"
+
+
+def run_explain(naic_bin, csv, urdf, out, tip="tip", effects=OPT_IN):
     args = [str(naic_bin), "explain", "--quiet", "--measured", str(csv), "--out", str(out), "--urdf", str(urdf)]
     if tip != "tip":
         args += ["--tip", tip]
+    if effects:
+        args += ["--effects", effects]
     r = subprocess.run(args, capture_output=True, text=True)
     if r.returncode != 0:
         raise AssertionError(f"naic explain failed (exit {r.returncode}) on {csv}:\n{r.stderr[-2000:]}")
