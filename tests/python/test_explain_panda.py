@@ -73,9 +73,7 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
     # and 7, not on 6, where no finding passes (README)
     sig = [f for f in rep["findings"] if f["significant"]]
     assert sig[0]["effect"] == "inertial_parameters" and "joint2" in sig[0]["targets"], [(f["effect"], f["targets"]) for f in sig]
-    # 10 of 10 folds before `torque_scale` joined the catalogue; it now takes joint 7 (k ≈ 0.02,
-    # docs/explain.md) and the all-joint stage wins 8 of 10, the rule's minimum
-    assert rep["inertial_parameters"]["significant"] and rep["inertial_parameters"]["folds_won"] >= 8
+    assert rep["inertial_parameters"]["significant"] and rep["inertial_parameters"]["folds_won"] == 10
     assert np.all(ext[[0, 1, 2, 3, 4, 6]] < pub[[0, 1, 2, 3, 4, 6]]), (ext, pub)
     assert ext[5] > pub[5]
     # joint 2, the worst: within 5 % of the classical baseline (0.63 → 0.19 N·m)

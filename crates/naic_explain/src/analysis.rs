@@ -933,6 +933,9 @@ pub struct JointResult {
     pub rejected: Vec<Candidate>,
 }
 
+/// Largest |k − 1| a `torque_scale` finding may have (a gain error, not a missing torque).
+pub const TORQUE_SCALE_MAX_ERROR: f64 = 0.5;
+
 /// Scores one candidate against the current model.
 pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &AnalysisOptions) -> Candidate {
     let (st, scan) = cur.full_structure.with(e);
@@ -946,7 +949,10 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
     } else {
         0.0
     };
-    let significant = gain >= o.min_gain && fold_wins >= o.min_fold_wins && delta_bic < 0.0;
+    // a drive gain is a gain: k = 1 + coefficient outside 0.5–1.5 is the column absorbing a
+    // wrong rigid-body torque (on the real Panda joint 7 it gave k = 0.025), not a scale error
+    let plausible = e != Effect::TorqueScale || ev.coef(Col::Scale).is_some_and(|c| c.abs() <= TORQUE_SCALE_MAX_ERROR);
+    let significant = gain >= o.min_gain && fold_wins >= o.min_fold_wins && delta_bic < 0.0 && plausible;
     Candidate { effect: e, eval: ev, before_ssr: cur.heldout_ssr, gain, fold_wins, delta_bic, significant }
 }
 
