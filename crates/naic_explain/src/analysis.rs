@@ -26,7 +26,7 @@
 //! Forward selection: the most gaining significant candidate is added to the joint's
 //! model, the rest are re-scored against the extended model, until none is significant.
 
-use crate::catalogue::{k_grid, n_exp_grid, q_s_grid, Effect, ALL_EFFECTS};
+use crate::catalogue::{k_grid, k_pos_grid, n_exp_grid, q_s_grid, Effect};
 use nalgebra::{DMatrix, DVector};
 use std::collections::BTreeSet;
 
@@ -51,11 +51,16 @@ pub enum Col {
     Offset,
     RipSin,
     RipCos,
+    /// `position_torque`: `sin(k' q)`, `cos(k' q)`.
+    PosSin,
+    PosCos,
     Payload,
     Delay,
     Drift,
     Rotor,
     Visc2,
+    /// The rigid-body torque (`torque_scale`).
+    Scale,
     /// The joint's share of the cross-fitted base-parameter correction (`inertial_parameters`).
     Inertial,
     /// Contact spring `u·δ₊ⁿ` (n = 1 nominal).
@@ -74,6 +79,8 @@ pub enum ScanParam {
     QsPos,
     QsNeg,
     K,
+    /// `position_torque` wave number k'.
+    KPos,
     /// Surface height h [m] (contact).
     H,
     /// Contact exponent n.
@@ -100,6 +107,8 @@ pub struct Structure {
     pub q_s_pos: f64,
     pub q_s_neg: f64,
     pub k: f64,
+    /// `position_torque` wave number k' [rad⁻¹].
+    pub k_pos: f64,
     /// Contact structures: the spring is `u·(h − z)₊ⁿ`.
     pub contact: bool,
     /// Contact: the target sees the contact force (has the spring column).
@@ -110,7 +119,7 @@ pub struct Structure {
 
 impl Structure {
     pub fn nominal() -> Self {
-        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, contact: false, coupled: false, h: 0.0, n_exp: 1.0 }
+        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, k_pos: 5.0, contact: false, coupled: false, h: 0.0, n_exp: 1.0 }
     }
     /// The nominal structure of a target and the shape parameters its calibration scans
     /// (joints: none; contact axes: the surface height).
@@ -129,7 +138,7 @@ impl Structure {
             return self.coupled as usize * (1 + self.has(Effect::ContactNonlinearity) as usize);
         }
         let strib = if self.has(Effect::Stribeck) { 1 + self.has(Effect::FrictionAsymmetry) as usize } else { 0 };
-        strib + self.has(Effect::PositionRipple) as usize
+        strib + self.has(Effect::PositionRipple) as usize + self.has(Effect::PositionTorque) as usize
     }
     pub fn has(&self, e: Effect) -> bool {
         self.effects.contains(&e)
@@ -172,6 +181,11 @@ impl Structure {
                 Effect::Drift => c.push(Col::Drift),
                 Effect::RotorInertia => c.push(Col::Rotor),
                 Effect::ViscousNonlinearity => c.push(Col::Visc2),
+                Effect::TorqueScale => c.push(Col::Scale),
+                Effect::PositionTorque => {
+                    c.push(Col::PosSin);
+                    c.push(Col::PosCos)
+                }
                 Effect::InertialParameters => c.push(Col::Inertial),
                 Effect::FrictionAsymmetry | Effect::Stribeck => {}
                 Effect::ContactNonlinearity | Effect::ContactDamping | Effect::FtBias | Effect::ToolGravity => {}
@@ -184,6 +198,7 @@ impl Structure {
             ScanParam::Qs | ScanParam::QsPos => self.q_s_pos,
             ScanParam::QsNeg => self.q_s_neg,
             ScanParam::K => self.k,
+            ScanParam::KPos => self.k_pos,
             ScanParam::H => self.h,
             ScanParam::NExp => self.n_exp,
         }
@@ -197,6 +212,7 @@ impl Structure {
             ScanParam::QsPos => self.q_s_pos = v,
             ScanParam::QsNeg => self.q_s_neg = v,
             ScanParam::K => self.k = v,
+            ScanParam::KPos => self.k_pos = v,
             ScanParam::H => self.h = v,
             ScanParam::NExp => self.n_exp = v,
         }
@@ -222,6 +238,7 @@ impl Structure {
             Effect::Stribeck => vec![ScanParam::Qs],
             Effect::FrictionAsymmetry if s.has(Effect::Stribeck) => vec![ScanParam::QsPos, ScanParam::QsNeg],
             Effect::PositionRipple => vec![ScanParam::K],
+            Effect::PositionTorque => vec![ScanParam::KPos],
             _ => vec![],
         };
         (s, scan)
@@ -246,6 +263,8 @@ pub struct JointSamples {
     pub a: Vec<f64>,
     pub dtau: Vec<f64>,
     pub payload: Vec<f64>,
+    /// Rigid-body torque of the URDF (time series) [N·m].
+    pub tau_rb: Vec<f64>,
     pub fold: Vec<u8>,
     /// Samples per independent observation (filter window / analysis step), ≥ 1.
     pub corr_len: f64,
@@ -306,11 +325,14 @@ impl JointSamples {
             Col::Offset => 1.0,
             Col::RipSin => s * (st.k * self.q[i]).sin(),
             Col::RipCos => s * (st.k * self.q[i]).cos(),
+            Col::PosSin => (st.k_pos * self.q[i]).sin(),
+            Col::PosCos => (st.k_pos * self.q[i]).cos(),
             Col::Payload => self.payload[i],
             Col::Delay => -self.dtau[i],
             Col::Drift => s * self.tn[i],
             Col::Rotor => self.a[i],
             Col::Visc2 => s * v * v,
+            Col::Scale => self.tau_rb[i],
             Col::Inertial => self.inertial[i],
             Col::Spring => {
                 let d = st.h - self.cz[i];
@@ -344,6 +366,7 @@ impl JointSamples {
             (&mut self.a, &o.a),
             (&mut self.dtau, &o.dtau),
             (&mut self.payload, &o.payload),
+            (&mut self.tau_rb, &o.tau_rb),
             (&mut self.cu, &o.cu),
             (&mut self.cz, &o.cz),
             (&mut self.crate_, &o.crate_),
@@ -375,6 +398,7 @@ impl JointSamples {
             a: pick(&self.a),
             dtau: pick(&self.dtau),
             payload: pick(&self.payload),
+            tau_rb: pick(&self.tau_rb),
             fold: self.fold.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect(),
             corr_len: self.corr_len,
             time_series: self.time_series,
@@ -494,7 +518,7 @@ pub struct AnalysisOptions {
 
 impl Default for AnalysisOptions {
     fn default() -> Self {
-        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: ALL_EFFECTS.to_vec() }
+        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: crate::catalogue::default_effects() }
     }
 }
 
@@ -628,6 +652,7 @@ fn depends_on(c: Col, sp: ScanParam) -> bool {
             | (Col::Strib(Dir::Pos), ScanParam::QsPos)
             | (Col::Strib(Dir::Neg), ScanParam::QsNeg)
             | (Col::RipSin | Col::RipCos, ScanParam::K)
+            | (Col::PosSin | Col::PosCos, ScanParam::KPos)
             | (Col::Spring | Col::CDamp, ScanParam::H)
             | (Col::Spring, ScanParam::NExp)
     )
@@ -645,6 +670,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
     let grid_of = |sp: ScanParam| -> Vec<f64> {
         match sp {
             ScanParam::K => k_grid(),
+            ScanParam::KPos => k_pos_grid(),
             ScanParam::H => js.h_grid.clone(),
             ScanParam::NExp => n_exp_grid(),
             _ => q_s_grid(),
@@ -907,6 +933,9 @@ pub struct JointResult {
     pub rejected: Vec<Candidate>,
 }
 
+/// Largest |k − 1| a `torque_scale` finding may have (a gain error, not a missing torque).
+pub const TORQUE_SCALE_MAX_ERROR: f64 = 0.5;
+
 /// Scores one candidate against the current model.
 pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &AnalysisOptions) -> Candidate {
     let (st, scan) = cur.full_structure.with(e);
@@ -920,7 +949,10 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
     } else {
         0.0
     };
-    let significant = gain >= o.min_gain && fold_wins >= o.min_fold_wins && delta_bic < 0.0;
+    // a drive gain is a gain: k = 1 + coefficient outside 0.5–1.5 is the column absorbing a
+    // wrong rigid-body torque (on the real Panda joint 7 it gave k = 0.025), not a scale error
+    let plausible = e != Effect::TorqueScale || ev.coef(Col::Scale).is_some_and(|c| c.abs() <= TORQUE_SCALE_MAX_ERROR);
+    let significant = gain >= o.min_gain && fold_wins >= o.min_fold_wins && delta_bic < 0.0 && plausible;
     Candidate { effect: e, eval: ev, before_ssr: cur.heldout_ssr, gain, fold_wins, delta_bic, significant }
 }
 

@@ -85,6 +85,9 @@ pub struct ExplainOptions {
     pub threads: usize,
     /// Also fit the classical baseline ([`baseline`]) on time series.
     pub baseline: bool,
+    /// Choose the filter window from the fit runs ([`prepare::choose_window`]) instead of
+    /// `prepare.window_s` (time series; the CLI's default when `--window` is not given).
+    pub auto_window: bool,
 }
 
 impl Default for ExplainOptions {
@@ -100,6 +103,7 @@ impl Default for ExplainOptions {
             block_s: 2.0,
             baseline: true,
             threads: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(8),
+            auto_window: false,
         }
     }
 }
@@ -193,6 +197,7 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
                 js.a.push(p.a[i][j]);
                 js.dtau.push(p.dtau[i][j]);
                 js.payload.push(p.payload[i][j]);
+                js.tau_rb.push(p.tau_rb[i][j]);
                 js.fold.push(fold_of(p.t[i]));
             }
             js
@@ -401,6 +406,21 @@ pub fn explain_runs(
     let (params, nominal_source) = load_nominal(opts)?;
     let shapes = nominal_shapes(params.as_ref(), nj);
     let share = if validate.is_empty() { 0.3 } else { 0.2 };
+    let window_choice = if opts.auto_window {
+        progress(0.0, "choosing the filter window");
+        let min_len = (4.0 * prepare::WINDOW_LADDER_START_S).max(0.5);
+        let mut segs = Vec::new();
+        for run in fit {
+            segs.extend(resample::uniform_segments(run.name, run.ts, min_len)?.0);
+        }
+        Some(prepare::choose_window(&segs, opts.prepare.order))
+    } else {
+        None
+    };
+    let chosen = window_choice
+        .as_ref()
+        .map(|c| ExplainOptions { prepare: PrepareOptions { window_s: c.window_s, ..opts.prepare.clone() }, ..opts.clone() });
+    let opts = chosen.as_ref().unwrap_or(opts);
     let (mut prep, mut sampling, segs) =
         prepare_runs(fit, &model, tip, opts, &urdf_joints, &mut |f, w| progress(share * f, w))?;
     let val_prep = if validate.is_empty() {
@@ -530,6 +550,7 @@ pub fn explain_runs(
             prep.window_samples,
             prep.window_samples as f64 * prep.dt_raw * 1e3
         )),
+        ("filter window".into(), window_choice.as_ref().map_or_else(|| format!("{:.3} s given", opts.prepare.window_s), |c| c.describe())),
         ("analysis rate".into(), format!("{:.1} Hz (every {} raw samples, raw dt {:.4} ms)", 1.0 / prep.dt(), prep.stride, prep.dt_raw * 1e3)),
     ];
     for (n, s) in &sampling {

@@ -2,7 +2,7 @@
 //!
 //! Velocity and acceleration are estimated from the joint positions by a
 //! **Savitzky–Golay** filter (local cubic least-squares fit over a centred window,
-//! default 51 ms; its first and second derivatives at the window centre). The
+//! 51 ms or chosen from the data by [`choose_window`]; its first and second derivatives at the window centre). The
 //! measured torque is smoothed by the same filter, so torque and motion carry the
 //! same (zero) phase and the same bandwidth. The measured `dq` column is not used
 //! (drive velocities are often filtered with an unknown lag).
@@ -287,4 +287,155 @@ pub fn prepare(
     }
     progress(1.0);
     Ok(p)
+}
+
+/// Shortest window of the ladder tried by [`choose_window`] [s] (the former fixed default).
+pub const WINDOW_LADDER_START_S: f64 = 0.051;
+/// Windows tried: `WINDOW_LADDER_START_S · √2^k`, k = 0 … `WINDOW_LADDER_STEPS` − 1 (51 … 408 ms).
+pub const WINDOW_LADDER_STEPS: usize = 7;
+/// A window is long enough when lengthening it by √2 changes the q̈ estimate by at most
+/// this share of its RMS (all joints pooled).
+pub const WINDOW_CHANGE_MAX: f64 = 0.10;
+/// At most this many instants are used to compare two windows.
+const WINDOW_INSTANTS: usize = 20_000;
+
+/// The filter window chosen from the data ([`choose_window`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WindowChoice {
+    /// The window [s].
+    pub window_s: f64,
+    /// Each step tried: (window, √2 × window, RMS of the change of q̈ over the RMS of q̈).
+    pub steps: Vec<(f64, f64, f64)>,
+    /// No window of the ladder met the rule; the longest was taken.
+    pub capped: bool,
+}
+
+impl WindowChoice {
+    /// One line for the report's method table.
+    pub fn describe(&self) -> String {
+        let steps: Vec<String> = self.steps.iter().map(|(a, b, r)| format!("{:.0}→{:.0} ms: {:.1} %", a * 1e3, b * 1e3, 100.0 * r)).collect();
+        format!(
+            "{:.3} s chosen from the data: the shortest window of 51 ms·√2ᵏ whose q̈ estimate changes by ≤ {:.0} % (RMS, all joints) \
+             when the window is made √2 longer{} ({})",
+            self.window_s,
+            100.0 * WINDOW_CHANGE_MAX,
+            if self.capped { "; none did, the longest was taken" } else { "" },
+            steps.join(", ")
+        )
+    }
+}
+
+/// Half-width in samples of the Savitzky–Golay window `window_s` at `dt` (as [`prepare`] uses it).
+fn half_width(window_s: f64, dt: f64, order: usize) -> usize {
+    (((window_s / dt) / 2.0).round() as usize).max(order.div_ceil(2) + 1)
+}
+
+/// Chooses the Savitzky–Golay window from the data (uniform segments, e.g. from
+/// [`crate::resample::uniform_segments`]). Lengthening the window removes noise from the
+/// acceleration estimate and, beyond the signal's bandwidth, signal too. On clean encoder data
+/// the change is small from the start; on data whose q is noisy (a jittery clock resampled, a
+/// coarse encoder) it is large until the noise is averaged out. The rule takes the shortest
+/// window `w` of the ladder at which q̈(w) and q̈(√2 w) differ by at most
+/// [`WINDOW_CHANGE_MAX`] of the RMS of q̈(√2 w) (pooled over joints, at up to 20 000
+/// instants spread over the segments): the noise left in q̈ is then about that share of it.
+pub fn choose_window(segs: &[TimeSeries], order: usize) -> WindowChoice {
+    let ladder: Vec<f64> = (0..WINDOW_LADDER_STEPS).map(|k| WINDOW_LADDER_START_S * 2f64.powf(k as f64 / 2.0)).collect();
+    let mut steps = Vec::new();
+    for k in 0..ladder.len() - 1 {
+        let (w0, w1) = (ladder[k], ladder[k + 1]);
+        let usable: usize = segs
+            .iter()
+            .map(|s| {
+                let h = half_width(w1, s.dt(), order);
+                s.len().saturating_sub(2 * h + 1)
+            })
+            .sum();
+        if usable == 0 {
+            break; // the data are too short for this window and any longer one
+        }
+        let stride = usable.div_ceil(WINDOW_INSTANTS).max(1);
+        let (mut diff2, mut sig2, mut count) = (0.0, 0.0, 0usize);
+        for s in segs {
+            let dt = s.dt();
+            let (h0, h1) = (half_width(w0, dt, order), half_width(w1, dt, order));
+            if s.len() <= 2 * h1 + 1 {
+                continue;
+            }
+            let c0 = &savgol_coefficients(h0, order, dt)[2];
+            let c1 = &savgol_coefficients(h1, order, dt)[2];
+            for i in (h1..s.len() - h1).step_by(stride) {
+                for j in 0..s.nj() {
+                    let a0: f64 = (i - h0..=i + h0).zip(c0).map(|(r, c)| c * s.q[r][j]).sum();
+                    let a1: f64 = (i - h1..=i + h1).zip(c1).map(|(r, c)| c * s.q[r][j]).sum();
+                    diff2 += (a0 - a1) * (a0 - a1);
+                    sig2 += a1 * a1;
+                    count += 1;
+                }
+            }
+        }
+        if count == 0 || sig2 / (count as f64) < 1e-12 {
+            break; // no acceleration (RMS below 1 µrad/s²): nothing to choose from
+        }
+        let r = (diff2 / sig2).sqrt();
+        steps.push((w0, w1, r));
+        if r <= WINDOW_CHANGE_MAX {
+            return WindowChoice { window_s: w0, steps, capped: false };
+        }
+    }
+    let capped = steps.last().is_some_and(|s| s.2 > WINDOW_CHANGE_MAX);
+    let window_s = if capped { steps.last().map_or(WINDOW_LADDER_START_S, |s| s.1) } else { WINDOW_LADDER_START_S };
+    WindowChoice { window_s, steps, capped }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 30 s at 1 kHz of two joints moving as sines (0.2 and 0.35 Hz, q̈ ≈ 1–2 rad/s² as the Panda's), positions
+    /// quantised to 2²⁰ counts per turn, plus white noise of σ `noise` rad.
+    fn series(noise: f64) -> TimeSeries {
+        let step = 2.0 * std::f64::consts::PI / f64::from(1u32 << 20);
+        let mut ts = TimeSeries::default();
+        let mut state = 12345u64;
+        let mut gauss = || {
+            // Box–Muller on a 64-bit LCG: reproducible, no dependency for a unit test
+            let mut u = || {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos()
+        };
+        for k in 0..30_000 {
+            let t = k as f64 * 1e-3;
+            let q1 = 0.5 * (1.3 * t).sin();
+            let q2 = 0.4 * (2.2 * t + 1.0).sin();
+            let mut q = [q1, q2];
+            for x in &mut q {
+                *x = (*x / step).round() * step + noise * gauss();
+            }
+            ts.t.push(t);
+            ts.q.push(q);
+            ts.dq.push([0.0, 0.0]);
+            ts.tau.push([0.0, 0.0]);
+        }
+        ts
+    }
+
+    #[test]
+    fn window_is_the_shortest_on_clean_data_and_longer_on_noisy_positions() {
+        let clean = choose_window(&[series(0.0)], 5);
+        assert_eq!(clean.window_s, WINDOW_LADDER_START_S, "{clean:?}");
+        assert!(!clean.capped && clean.steps.len() == 1 && clean.steps[0].2 < WINDOW_CHANGE_MAX);
+        // σ 0.1 mrad of position noise (a 0.2 ms clock error at 0.5 rad/s) needs a longer window
+        let noisy = choose_window(&[series(1e-4)], 5);
+        assert!(noisy.window_s > 0.1 && !noisy.capped, "{noisy:?}");
+        let last = noisy.steps.last().expect("steps");
+        assert!(last.2 <= WINDOW_CHANGE_MAX && noisy.steps[..noisy.steps.len() - 1].iter().all(|s| s.2 > WINDOW_CHANGE_MAX));
+        // no motion at all: nothing to choose from, the shortest window
+        let mut still = series(0.0);
+        for i in 0..still.len() {
+            still.q[i].fill(0.3);
+        }
+        assert_eq!(choose_window(&[still], 5).window_s, WINDOW_LADDER_START_S);
+    }
 }

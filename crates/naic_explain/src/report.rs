@@ -68,6 +68,12 @@ pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(Strin
             push("k_per_rad", st.k);
             push("phase_rad", b.atan2(a));
         }
+        Effect::PositionTorque => {
+            let (a, b) = (c(Col::PosSin), c(Col::PosCos));
+            push("amplitude_nm", a.hypot(b));
+            push("k_per_rad", st.k_pos);
+            push("phase_rad", b.atan2(a));
+        }
         Effect::Payload => push("mass_kg", c(Col::Payload)),
         Effect::TorqueOffset => push("offset_nm", c(Col::Offset)),
         Effect::Delay => push("delay_s", c(Col::Delay)),
@@ -80,6 +86,8 @@ pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(Strin
         }
         Effect::RotorInertia => push("inertia_kgm2", c(Col::Rotor)),
         Effect::ViscousNonlinearity => push("f_v2", c(Col::Visc2)),
+        // measured = k·model: the rigid-body column's coefficient is k − 1
+        Effect::TorqueScale => push("scale", 1.0 + c(Col::Scale)),
         // the shared correction is in report.json `inertial_parameters`; per joint, the scale
         // the joint's fit gives its cross-fitted column (≈ 1 when the correction fits it)
         Effect::InertialParameters => push("correction_scale", c(Col::Inertial)),

@@ -181,7 +181,9 @@ def _draw_effect(case, arm, rng, fc, tr):
         tr.visc2[j] = rng.uniform(2.0, 5.0) * fc[j]
         return [j + 1], {jk(j): {"f_v2": tr.visc2[j]}}, {}
     if e == "torque_scale":
-        j = any_j
+        # a drive gain on a joint that carries rigid-body torque (on the wrist joints it is
+        # ~0.1 N·m, and a gain on the friction alone is a friction level, not a scale)
+        j = int(rng.choice(big))
         eps = rng.choice([-1.0, 1.0]) * rng.uniform(0.05, 0.15)
         tr.scale[j] = 1.0 + eps
         return [j + 1], {jk(j): {"scale": 1.0 + eps}}, {}
@@ -269,6 +271,9 @@ def generate(case, workdir, arrays=False):
     tau = tau * tr.scale + tr.offset
     rb_nominal = rb if tr.model is None else _rnea(arm.model, q, dq, ddq)
     effect_tau = tau - (rb_nominal + nominal)
+    if case.effect == "torque_scale":
+        # what a scale can show: (k − 1)·τ_rb; (k − 1)·friction is a change of the friction levels
+        effect_tau = (tr.scale - 1.0) * rb
 
     ok = analysable(t, dq)
     rms = {f"joint{j + 1}": float(np.sqrt(np.mean(effect_tau[ok[:, j], j] ** 2))) if ok[:, j].any() else 0.0
