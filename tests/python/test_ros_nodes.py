@@ -236,9 +236,19 @@ def test_ros_rclpy_commands_joint_effort_and_driver_obeys(lone_driver):
     tau = [1.5, -2.0, 2.5, 0.5, -0.25, 0.125]
     msg = Float64MultiArray(data=tau)
     msg.layout.dim = [MultiArrayDimension(label="joints", size=6, stride=6)]
+    # Publish until the driver applies the command: a new rclpy writer is matched on the
+    # driver's side up to one Fast DDS heartbeat (3 s) after rclpy sees the match, and the
+    # commands sent before are dropped (docs/nodes.md, "A fresh client's first request").
+    def applied():
+        return bool(js) and js[-1].effort.tolist() == pytest.approx(tau, abs=1e-9)
+    t0 = time.time()
+    while not applied():
+        assert time.time() - t0 < 15, f"the driver never applied the command in 15 s: effort {list(js[-1].effort)}"
+        pub.publish(msg)
+        r.spin(0.005)
     q0 = list(js[-1].position)
     t0 = time.time()
-    while time.time() - t0 < 1.0:  # 1 s of commands at ~200 Hz (within the 20 ms timeout)
+    while time.time() - t0 < 1.0:  # 1 s more of commands at ~200 Hz (within the 20 ms timeout)
         pub.publish(msg)
         r.spin(0.005)
     # effort = the measured joint torque = what was commanded.
