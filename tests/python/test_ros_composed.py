@@ -16,6 +16,8 @@ from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
 from test_ros_nodes import _lockstep_trace  # noqa: E402
 
+HOLD = 2  # NaicParams.PHASE_HOLD
+
 
 @pytest.fixture(scope="module")
 def bins():
@@ -85,3 +87,36 @@ def test_ros_composed_refuses_bad_configurations_before_starting(bins, args, nee
                          text=True, timeout=60, env=ru.ros_env(ru.fresh_domain(195)))
     assert out.returncode == 2 and needle in out.stderr, out.stderr
     assert "started /" not in out.stderr, out.stderr
+
+
+@pytest.mark.parametrize("composed", [True, False], ids=["composed", "three-processes"])
+def test_ros_sensor_faults_hold_and_resume_in_either_mode(bins, composed):
+    """The simulated driver plays a failing sensor (`sensor_fault`, set at run time through
+    its parameter service) while the chain holds 10 N on `flat`: NaN force, a 5 kN force,
+    a wrench frozen at its last stamp and a NaN joint position each put the controller in
+    HOLD with the fault named in /naic/params, never a non-finite command on
+    /joint_effort_cmd, and force control resumes when the sensor is healthy again. In one
+    process the fault goes through the in-process path; in three, through DDS."""
+    domain = ru.fresh_domain(220 if composed else 225)
+    launch = ru.Proc([str(bins / "naic"), "launch", *(["--composed"] if composed else [])], ru.ros_env(domain))
+    res = ru.run_in_overlay([ru.ROOT / "tests/ros/sensor_fault_probe.py"], domain, ru.naic_msgs_env(), 180, stop=launch)
+    assert not res["errors"], res
+    assert "panicked" not in launch.output()
+    v = res["valid"]
+    assert v["n_params"] > 100 and v["faults_tail"] == [""] and HOLD not in v["phases_tail"], v
+    needles = {"nan_wrench": "not finite", "absurd_wrench": "beyond the plausible limit",
+               "stale_wrench": "no fresh wrench", "nan_joint": "not finite"}
+    counts = []
+    for fault, needle in needles.items():
+        p = res[fault]
+        assert p["n_params"] > 50 and p["n_cmds"] > 50, (fault, p)
+        assert p["phases_tail"] == [HOLD], (fault, p)
+        assert p["faults_tail"] and all(needle in f for f in p["faults_tail"]), (fault, p)
+        assert p["cmds_all_finite"], (fault, p)
+        r = res[fault + "_recovered"]
+        assert HOLD not in r["phases_tail"] and r["faults_tail"] == [""], (fault, r)
+        assert r["cmds_all_finite"], (fault, r)
+        counts.append(r["fault_count_end"])
+    # Each fault is one more event.
+    assert counts == sorted(counts) and len(set(counts)) == 4, counts
+    assert res["bad_value"] and "nan_wrench" in res["bad_value"], res["bad_value"]

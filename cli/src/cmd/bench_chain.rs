@@ -5,7 +5,9 @@
 //! compensation → driver; the stamp travels in the command's dimension label), plus the
 //! missed cycles (the command for the previous state had not arrived by the next tick).
 //! First the Rust nodes, then the same topology in rclpy (`tests/ros/rclpy_chain.py`), in
-//! the same run, each on its own loopback-only DDS domain. Prints one JSON object.
+//! the same run, each on its own loopback-only DDS domain. With `--composed`, also the three
+//! nodes in one process (`naic launch --composed`, the same cores, the same report) on a
+//! third domain. Prints one JSON object.
 
 use std::{
     path::{Path, PathBuf},
@@ -38,7 +40,12 @@ pub struct ChainArgs {
     /// pinned: on one CPU it cannot keep up with 1 kHz (median 9.5 ms), so unpinned is its best.
     #[arg(long, allow_negative_numbers = true)]
     pub cpu: Option<i64>,
-    /// ROS_DOMAIN_ID of the Rust chain (the rclpy chain uses the next one).
+    /// Also run the three nodes in one process (`naic launch --composed`) with the same
+    /// priority and CPU, after the three processes.
+    #[arg(long)]
+    pub composed: bool,
+    /// ROS_DOMAIN_ID of the Rust chain (the rclpy chain uses the next one, the composed run
+    /// the one after).
     #[arg(long, default_value_t = 211)]
     pub domain: u16,
 }
@@ -88,6 +95,42 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
     wait(a.duration + WARMUP, &mut procs)?;
     stop_all(&mut procs, Duration::from_secs(5));
     read_report(&report)
+}
+
+/// The three nodes in one process: `naic launch --composed` with the driver's latency
+/// report, as [`rust_chain`] runs them.
+fn composed_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> {
+    let report = dir.join("composed_chain.json");
+    let _ = std::fs::remove_file(&report);
+    let exe = std::env::current_exe().map_err(|e| CliError::failure(format!("cannot locate naic itself: {e}")))?;
+    let d = "jk5_sim_driver";
+    let mut args: Vec<String> = vec!["launch".into(), "--composed".into(), "--duration".into(), format!("{}", a.duration + WARMUP)];
+    let mut set = |kv: String| args.extend(["-p".to_string(), format!("{d}:{kv}")]);
+    set(format!("realtime_priority:={}", a.realtime_priority));
+    if let Some(cpu) = a.cpu {
+        set(format!("cpu_affinity:={cpu}"));
+    }
+    set(format!("latency_report:={}", report.display()));
+    set(format!("latency_warmup:={WARMUP}"));
+    let mut p = vec![spawn_node("composed", &exe, &args, &env(a.domain + 2))?];
+    let t0 = Instant::now();
+    let status = loop {
+        if let Ok(Some(st)) = p[0].child.try_wait() {
+            break Some(st);
+        }
+        if launch::stop_requested() || t0.elapsed().as_secs_f64() > a.duration + WARMUP + 30.0 {
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    match status {
+        Some(st) if st.success() => read_report(&report),
+        Some(st) => Err(CliError::failure(format!("naic launch --composed failed ({st})"))),
+        None => {
+            stop_all(&mut p, Duration::from_secs(5));
+            Err(CliError::failure("naic launch --composed did not finish"))
+        }
+    }
 }
 
 fn wait(seconds: f64, procs: &mut [launch::NodeProcess]) -> CliResult {
@@ -173,8 +216,8 @@ pub fn run(a: ChainArgs) -> CliResult {
     if let Some(cpu) = a.cpu.filter(|&c| c < -1 || c >= ncpu) {
         return Err(CliError::usage(format!("--cpu {cpu}: this machine has CPUs 0..={} (-1: no pinning)", ncpu - 1)));
     }
-    if a.domain > 231 {
-        return Err(CliError::usage(format!("--domain {}: use 0..=231 (the rclpy chain takes the next id)", a.domain)));
+    if a.domain > 230 {
+        return Err(CliError::usage(format!("--domain {}: use 0..=230 (the rclpy chain and the composed run take the next ids)", a.domain)));
     }
     if !Path::new("params").is_dir() {
         return Err(CliError::usage("params/ not found: run naic bench chain from the repository root"));
@@ -190,7 +233,13 @@ pub fn run(a: ChainArgs) -> CliResult {
         eprintln!("naic bench chain: rclpy chain, {} s (+{WARMUP} s warm-up)", a.duration);
         rclpy_chain(&a, &dir)?
     };
-    let ratio = match (rust["median_us"].as_f64(), rclpy["median_us"].as_f64()) {
+    let composed = if a.composed {
+        eprintln!("naic bench chain: composed (one process), {} s (+{WARMUP} s warm-up)", a.duration);
+        composed_chain(&a, &dir)?
+    } else {
+        serde_json::Value::Null
+    };
+    let ratio = |x: &serde_json::Value, y: &serde_json::Value| match (x["median_us"].as_f64(), y["median_us"].as_f64()) {
         (Some(r), Some(p)) if p > 0.0 => serde_json::json!(r / p),
         _ => serde_json::Value::Null,
     };
@@ -200,8 +249,10 @@ pub fn run(a: ChainArgs) -> CliResult {
         "rust": rust,
         "rust_realtime_priority": a.realtime_priority,
         "rust_cpu_affinity": a.cpu.map_or("params/".to_string(), |c| c.to_string()),
+        "median_ratio_rust_over_rclpy": ratio(&rust, &rclpy),
+        "composed": composed,
+        "median_ratio_composed_over_rust": ratio(&composed, &rust),
         "rclpy": rclpy,
-        "median_ratio_rust_over_rclpy": ratio,
         "machine": machine(),
         "git": Command::new("git").args(["rev-parse", "--short", "HEAD"]).output().ok()
             .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string()),

@@ -31,9 +31,11 @@ use jk5_sim_driver::{
     setup as drv_setup,
 };
 use naic_controller::{runner as ctl, setup as ctl_setup};
+use naic_msgs::CopyFrom;
 use naic_ros::{
     context::{create_context, DdsSettings},
-    msgs::{self, Float64MultiArray, NaicParams},
+    handoff::Handoff,
+    msgs::{self, Clock, Float64MultiArray, JointState, NaicParams, WrenchStamped},
     node::{apply_scheduling, QOS_PUB},
     time::wall_ns,
     ParamTable, RosArgs, RosError, RosNode,
@@ -47,6 +49,41 @@ use super::{
 /// A node's start-up error as the launch's (the node named, its exit code kept).
 fn node_err(node: &str) -> impl Fn(RosError) -> CliError + '_ {
     move |e| CliError::with_code(e.exit_code().max(1), format!("{node}: {e}"))
+}
+
+/// What observers get each cycle, handed to the publisher thread (`has_*`: the message
+/// was produced this cycle).
+#[derive(Clone, Default)]
+struct Observed {
+    js: JointState,
+    w: WrenchStamped,
+    clock: Clock,
+    effort: Float64MultiArray,
+    has_effort: bool,
+    report: NaicParams,
+    has_report: bool,
+    cmd: Float64MultiArray,
+    has_cmd: bool,
+}
+
+impl CopyFrom for Observed {
+    fn copy_from(&mut self, o: &Self) {
+        self.js.copy_from(&o.js);
+        self.w.copy_from(&o.w);
+        self.clock.copy_from(&o.clock);
+        self.effort.copy_from(&o.effort);
+        self.report.copy_from(&o.report);
+        self.cmd.copy_from(&o.cmd);
+        (self.has_effort, self.has_report, self.has_cmd) = (o.has_effort, o.has_report, o.has_cmd);
+    }
+}
+
+/// `src` into `dst` if there is one; whether there was.
+fn copy_opt<M: CopyFrom>(dst: &mut M, src: Option<&M>) -> bool {
+    if let Some(m) = src {
+        dst.copy_from(m);
+    }
+    src.is_some()
 }
 
 /// Deadline statistics of the real-time loop (what a 1 kHz arm sees).
@@ -75,10 +112,12 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     let c = ctl_setup::Setup::from_args(&c_args).map_err(node_err(cname))?;
     let f = fc_setup::Setup::from_args(&f_args).map_err(node_err(fname))?;
     naic_ros::log::init("naic_composed", d_args.log_level.as_deref());
-    // The process's scheduling is the driver's (the 1 kHz loop), set before any thread.
-    ParamTable::new(d.specs(), None, &d_args.overrides(dname).map_err(node_err(dname))?)
-        .map_err(|e| CliError::usage(format!("{dname}: {e}")))?
-        .with(apply_scheduling);
+    // The loop thread's scheduling is the driver's (`realtime_priority`, `cpu_affinity`).
+    // It is set on this thread only, after the DDS threads and the publisher thread exist:
+    // in one process nothing on DDS is on the control path, so they run with normal
+    // scheduling and never delay the loop.
+    let scheduling = ParamTable::new(d.specs(), None, &d_args.overrides(dname).map_err(node_err(dname))?)
+        .map_err(|e| CliError::usage(format!("{dname}: {e}")))?;
     naic_ros::install_signal_handlers();
     let context = DdsSettings::from_env().and_then(|s| create_context(&s)).map_err(node_err("naic launch --composed"))?;
     let mut dn = RosNode::in_context(d_args, dname, d.specs(), Some(d.check()), &context).map_err(node_err(dname))?;
@@ -95,6 +134,25 @@ pub fn run(a: &LaunchArgs) -> CliResult {
 
     // The three nodes' loop bodies.
     let mut dr = drv::Runner::new(d.plant, &dn.params);
+    // Everything observers see goes out from a publisher thread (publish order: wrench,
+    // joint states, clock, effort, report, command, as the node processes publish them).
+    let mut seen = Observed { js: dr.msgs.js.clone(), ..Default::default() };
+    let observers = Handoff::spawn("naic-publish", seen.clone(), move |o: &Observed| {
+        let _ = w_pub.publish(o.w.clone());
+        let _ = js_pub.publish(o.js.clone());
+        let _ = clock_pub.publish(o.clock.clone());
+        if o.has_effort {
+            let _ = effort_pub.publish(o.effort.clone());
+        }
+        if o.has_report {
+            let _ = params_pub.publish(o.report.clone());
+        }
+        if o.has_cmd {
+            let _ = cmd_pub.publish(o.cmd.clone());
+        }
+    })
+    .map_err(|e| CliError::failure(format!("naic launch --composed: cannot start the publisher thread: {e}")))?;
+    scheduling.with(apply_scheduling);
     let mut cmds = dr.commands(&dn.params);
     let fr = fc::Runner::new(&f, &fnode.params).map_err(|e| CliError::usage(format!("{fname}: {e}")));
     let (mut cr, mut fr) = (ctl::Runner::new(c, &cn.params), fr?);
@@ -126,18 +184,18 @@ pub fn run(a: &LaunchArgs) -> CliResult {
         if let Some(m) = cmd {
             drv::receive(&mut cmds, m);
         }
-        // Then everything on DDS for observers (by value: one clone each).
-        let _ = w_pub.publish(w.clone());
-        let _ = js_pub.publish(js.clone());
-        let _ = clock_pub.publish(dr.msgs.clock.clone());
-        if let Some(m) = out.effort {
-            let _ = effort_pub.publish(m.clone());
-        }
-        if let Some(m) = out.report {
-            let _ = params_pub.publish(m.clone());
-        }
-        if let Some(m) = cmd {
-            let _ = cmd_pub.publish(m.clone());
+        // Then everything to the publisher thread for observers: in real time without
+        // waiting (newest wins, losses counted), in lockstep every state.
+        seen.js.copy_from(js);
+        seen.w.copy_from(w);
+        seen.clock.copy_from(&dr.msgs.clock);
+        seen.has_effort = copy_opt(&mut seen.effort, out.effort);
+        seen.has_report = copy_opt(&mut seen.report, out.report);
+        seen.has_cmd = copy_opt(&mut seen.cmd, cmd);
+        if dr.p.lockstep {
+            observers.offer_every(&seen);
+        } else {
+            observers.offer(&seen);
         }
         let timed = !dr.p.lockstep && !dr.sim && wall_ns() >= cmds.record_after_ns;
         let end = monotonic_ns();
@@ -166,10 +224,16 @@ pub fn run(a: &LaunchArgs) -> CliResult {
         dr.step(&cmds.view());
     }
 
+    let dropped = observers.dropped();
+    drop(observers); // what is still in the slot goes out
+    if dropped > 0 {
+        log::warn!("{dropped} cycles' messages were not published to observers (the publisher thread was behind; the control path was not affected)");
+    }
     log::info!("stopping: controller {} cycles, friction_compensation {} commands", cr.s.cycles, fr.s.published);
     let q = |h: &Histogram, f: f64| h.quantile_ns(f).map_or(f64::NAN, |ns| ns / 1e3);
     let extra = serde_json::json!({
         "mode": "composed",
+        "observer_cycles_dropped": dropped,
         "deadline_overruns": dl.overruns,
         "wake_late_p99_us": q(&dl.wake, 0.99),
         "wake_late_max_us": dl.wake.max_ns().map_or(f64::NAN, |ns| ns as f64 / 1e3),

@@ -21,6 +21,7 @@
 pub mod alloc_check;
 pub mod args;
 pub mod context;
+pub mod handoff;
 pub mod log;
 pub mod msgs;
 pub mod node;

@@ -7,10 +7,12 @@
 //! hash ([`type_hash`], `RIHS01_…`).
 
 pub mod cdr;
+mod copy;
 mod describe;
 mod types;
 
 pub use cdr::{CdrDecode, CdrEncode, CdrError};
+pub use copy::CopyFrom;
 pub use describe::{schema_text, type_description_json, type_hash, FieldInfo, FieldType, TypeInfo};
 pub use types::*;
 

@@ -19,6 +19,12 @@ macro_rules! ros_message {
             $( $(#[$fmeta])* pub $field: $ty, )*
         }
 
+        impl crate::CopyFrom for $name {
+            fn copy_from(&mut self, _src: &Self) {
+                $( crate::CopyFrom::copy_from(&mut self.$field, &_src.$field); )*
+            }
+        }
+
         impl FieldType for $name {
             const TYPE_ID: u8 = 1; // FIELD_TYPE_NESTED_TYPE
             const NESTED: Option<fn() -> &'static TypeInfo> = Some(<$name as RosMessage>::type_info);

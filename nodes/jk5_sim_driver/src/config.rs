@@ -8,7 +8,7 @@ use naic_ros::{
     ParamSpec, ParamView, ParameterValue,
 };
 
-use crate::{core, latency, sim_plant::PLANT_NAME};
+use crate::{core, latency, runner::SensorFault, sim_plant::PLANT_NAME};
 
 pub fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
     vec![
@@ -49,6 +49,12 @@ pub fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
         )
         .read_only(),
         joint_order_spec(),
+        ParamSpec::choice(
+            "sensor_fault",
+            "none",
+            SensorFault::NAMES,
+            "Test hook, settable while running: corrupt the published measurements as a failing sensor would (nan_wrench, absurd_wrench: 5 kN on z, stale_wrench: /wrench frozen at its last value and stamp, nan_joint); none: the true measurements",
+        ),
         ParamSpec::string("plant", PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
         ParamSpec::double("latency_warmup", 2.0, 0.0, 3600.0, "Chain-latency statistics ignore the first seconds after start").read_only(),
         ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),

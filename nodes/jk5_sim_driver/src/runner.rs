@@ -29,6 +29,38 @@ use crate::{
     setup::NODE,
 };
 
+/// A failing sensor, played by the driver (`sensor_fault`): what the controller's sense
+/// stage must catch (`naic_core::pipeline::sense`) whichever way the messages travel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SensorFault {
+    #[default]
+    None,
+    /// `/wrench` force z is NaN.
+    NanWrench,
+    /// `/wrench` force z is 5 kN, beyond any plausible reading of the ATI mini45.
+    AbsurdWrench,
+    /// `/wrench` keeps its last value and stamp (a sensor that stopped updating).
+    StaleWrench,
+    /// `/joint_states` position of joint 2 is NaN.
+    NanJoint,
+}
+
+impl SensorFault {
+    pub const NAMES: &'static [&'static str] = &["none", "nan_wrench", "absurd_wrench", "stale_wrench", "nan_joint"];
+
+    /// The value of the `sensor_fault` parameter (checked against [`SensorFault::NAMES`]
+    /// when it was set).
+    pub fn from_param(v: &str) -> SensorFault {
+        match v {
+            "nan_wrench" => SensorFault::NanWrench,
+            "absurd_wrench" => SensorFault::AbsurdWrench,
+            "stale_wrench" => SensorFault::StaleWrench,
+            "nan_joint" => SensorFault::NanJoint,
+            _ => SensorFault::None,
+        }
+    }
+}
+
 /// `/joint_states`, `/wrench` and `/clock`, preallocated and rewritten in place each cycle.
 pub struct StateMsgs {
     pub js: JointState,
@@ -56,19 +88,30 @@ impl StateMsgs {
         }
     }
 
-    /// The plant's state into the messages; returns the stamp used [ns] (simulated time
-    /// if `sim_stamps`, else the wall clock). `/clock` is always simulated time.
-    pub fn fill(&mut self, plant: &impl Plant, sim_stamps: bool) -> i64 {
+    /// The plant's state into the messages, as a sensor with `fault` would report it;
+    /// returns the stamp used [ns] (simulated time if `sim_stamps`, else the wall clock).
+    /// `/clock` is always simulated time.
+    pub fn fill(&mut self, plant: &impl Plant, sim_stamps: bool, fault: SensorFault) -> i64 {
         let stamp_ns = if sim_stamps { sim_stamp_ns(plant) } else { wall_ns() };
         let (q, v, t) = plant.joints();
         self.js.header.stamp = time_from_ns(stamp_ns);
         for (i, &j) in self.order.iter().enumerate() {
             (self.js.position[i], self.js.velocity[i], self.js.effort[i]) = (q[j], v[j], t[j]);
+            if fault == SensorFault::NanJoint && j == 1 {
+                self.js.position[i] = f64::NAN;
+            }
         }
-        let w = plant.wrench();
-        self.w.header.stamp = time_from_ns(stamp_ns);
-        (self.w.wrench.force.x, self.w.wrench.force.y, self.w.wrench.force.z) = (w[0], w[1], w[2]);
-        (self.w.wrench.torque.x, self.w.wrench.torque.y, self.w.wrench.torque.z) = (w[3], w[4], w[5]);
+        if fault != SensorFault::StaleWrench {
+            let w = plant.wrench();
+            self.w.header.stamp = time_from_ns(stamp_ns);
+            (self.w.wrench.force.x, self.w.wrench.force.y, self.w.wrench.force.z) = (w[0], w[1], w[2]);
+            (self.w.wrench.torque.x, self.w.wrench.torque.y, self.w.wrench.torque.z) = (w[3], w[4], w[5]);
+            match fault {
+                SensorFault::NanWrench => self.w.wrench.force.z = f64::NAN,
+                SensorFault::AbsurdWrench => self.w.wrench.force.z = 5000.0,
+                _ => {}
+            }
+        }
         self.clock.clock = time_from_ns(sim_stamp_ns(plant));
         stamp_ns
     }
@@ -92,6 +135,8 @@ pub struct Runner<P: Plant> {
     pub paused: bool,
     /// Stamps are simulated time ([`sim_stamps`]).
     pub sim: bool,
+    /// The `sensor_fault` parameter.
+    pub fault: SensorFault,
     pub s: core::State,
     /// The state messages, as of the last [`Runner::announce`].
     pub msgs: StateMsgs,
@@ -105,10 +150,10 @@ pub struct Runner<P: Plant> {
 impl<P: Plant> Runner<P> {
     /// `params` is the node's parameter table as it starts.
     pub fn new(plant: P, params: &ParamTable) -> Runner<P> {
-        let (p, paused, sim) = params.with(read);
+        let (p, paused, sim, fault) = params.with(read);
         // Checked when the table was built (config::check); read-only.
         let order = params.with(config::joint_order).unwrap_or([0, 1, 2, 3, 4, 5]);
-        Runner { plant, p, paused, sim, s: core::State::default(), msgs: StateMsgs::in_order(order), gen: params.generation(), next_ns: monotonic_ns(), warned: false }
+        Runner { plant, p, paused, sim, fault, s: core::State::default(), msgs: StateMsgs::in_order(order), gen: params.generation(), next_ns: monotonic_ns(), warned: false }
     }
 
     /// The command slot, latency statistics from the end of `latency_warmup` on.
@@ -122,7 +167,12 @@ impl<P: Plant> Runner<P> {
     pub fn reload(&mut self, params: &ParamTable, cmds: &mut Commands) {
         if params.generation() != self.gen {
             self.gen = params.generation();
-            (self.p, self.paused, self.sim) = params.with(read);
+            let fault;
+            (self.p, self.paused, self.sim, fault) = params.with(read);
+            if fault != self.fault {
+                log::warn!("sensor_fault: {fault:?} (test hook: the published measurements are corrupted as a failing sensor would)");
+                self.fault = fault;
+            }
             cmds.sim_stamps = self.sim;
         }
     }
@@ -137,7 +187,7 @@ impl<P: Plant> Runner<P> {
     /// command for it may advance the simulation) before the shell publishes it, so its
     /// command is never early. Returns the stamp [ns].
     pub fn announce(&mut self, cmds: &mut Commands) -> i64 {
-        let stamp = self.msgs.fill(&self.plant, self.sim);
+        let stamp = self.msgs.fill(&self.plant, self.sim, self.fault);
         cmds.expect(self.p.lockstep.then(|| sim_stamp_ns(&self.plant)));
         self.s.last_published_stamp = Some(stamp);
         stamp
@@ -192,8 +242,8 @@ impl<P: Plant> Runner<P> {
     }
 }
 
-fn read(v: &ParamView) -> (core::Params, bool, bool) {
-    (config::core_params(v), v.bool("paused"), sim_stamps(v))
+fn read(v: &ParamView) -> (core::Params, bool, bool, SensorFault) {
+    (config::core_params(v), v.bool("paused"), sim_stamps(v), SensorFault::from_param(v.str("sensor_fault")))
 }
 
 /// Take one `/joint_effort_cmd` (the core's [`core::receive`]), logging a refusal.
@@ -358,6 +408,48 @@ mod tests {
         assert!(e.contains("names 'joint1' twice (elements 0 and 5)"), "{e}");
         let e = setup("[joint1, joint2]");
         assert!(e.contains("joint_order") && e.contains("6 elements"), "{e}");
+    }
+
+    #[test]
+    fn sensor_fault_corrupts_what_is_published_until_it_is_cleared() {
+        let (mut d, table) = runner(&["lockstep:=true"]);
+        let mut cmds = d.commands(&table);
+        let set = |v: &str| table.set_atomically(&[("sensor_fault".to_string(), ParameterValue::String(v.into()))]).unwrap();
+        let step = |d: &mut Runner<SimPlant>, cmds: &mut Commands| {
+            d.reload(&table, cmds);
+            let stamp = d.announce(cmds);
+            receive(cmds, &effort_msg(&[0.0; 6], Some(stamp)));
+            assert!(cmds.take_ready());
+            d.step(&cmds.view());
+            stamp
+        };
+        step(&mut d, &mut cmds);
+        let fz = |d: &Runner<SimPlant>| d.msgs.w.wrench.force.z;
+        assert!(fz(&d).is_finite() && d.msgs.js.position.iter().all(|q| q.is_finite()));
+        set("nan_wrench");
+        step(&mut d, &mut cmds);
+        assert!(fz(&d).is_nan() && d.msgs.w.wrench.force.x.is_finite());
+        set("absurd_wrench");
+        step(&mut d, &mut cmds);
+        assert_eq!(fz(&d), 5000.0);
+        set("nan_joint");
+        step(&mut d, &mut cmds);
+        assert!(d.msgs.js.position[1].is_nan() && fz(&d).is_finite());
+        assert_eq!(d.msgs.js.position.iter().filter(|q| q.is_nan()).count(), 1);
+        set("stale_wrench");
+        let frozen = step(&mut d, &mut cmds);
+        let w = d.msgs.w.clone();
+        let later = step(&mut d, &mut cmds);
+        assert!(later > frozen, "the joint states go on");
+        assert_eq!(d.msgs.w, w, "the wrench keeps its value and stamp");
+        assert!(d.msgs.w.header.stamp.to_nanos() < frozen);
+        set("none");
+        let now = step(&mut d, &mut cmds);
+        assert_eq!(d.msgs.w.header.stamp.to_nanos(), now);
+        assert!(fz(&d).is_finite() && d.msgs.js.position.iter().all(|q| q.is_finite()));
+        // A value that is not a fault is refused when it is set, naming the choices.
+        let e = table.set_atomically(&[("sensor_fault".to_string(), ParameterValue::String("smoke".into()))]).unwrap_err();
+        assert!(e.to_string().contains("nan_wrench"), "{e}");
     }
 
     #[test]

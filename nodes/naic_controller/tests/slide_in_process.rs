@@ -103,7 +103,7 @@ impl Chain {
     /// One lockstep step: the reference samples (taken before the state, as the shell
     /// does), the state, controller, friction compensation, the plant. The report.
     fn step(&mut self, target: Option<&PoseStamped>, wrench: Option<&WrenchStamped>) -> Option<ctl::Report> {
-        let stamp = self.state.fill(&self.plant, true);
+        let stamp = self.state.fill(&self.plant, true, jk5_sim_driver::runner::SensorFault::None);
         self.cmds.expect(Some(stamp));
         self.ds.last_published_stamp = Some(stamp);
         let (cp, ws) = (&self.cp, &mut self.ws);
