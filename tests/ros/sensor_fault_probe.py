@@ -19,6 +19,9 @@ from std_msgs.msg import Float64MultiArray
 import rostest_util as ru  # this directory: observer_priority
 
 FAULTS = ["nan_wrench", "absurd_wrench", "stale_wrench", "nan_joint"]
+import os
+if os.environ.get("PROBE_FAULTS"):
+    FAULTS = os.environ["PROBE_FAULTS"].split(",")
 
 
 def main():

@@ -126,6 +126,8 @@ struct Answer {
 struct WrenchIn {
     w: [f64; 6],
     stamp_ns: i64,
+    /// Arrival of the first sample with this stamp: a sensor driver that keeps sending its
+    /// last sample (frozen stamp) is stale by the wall clock too.
     rx_ns: i64,
 }
 
@@ -232,7 +234,12 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
     let mut out = Outbox::default();
     if let Some(w) = inbox.wrench {
         let (f, t) = (&w.wrench.force, &w.wrench.torque);
-        s.wrench = Some(WrenchIn { w: [f.x, f.y, f.z, t.x, t.y, t.z], stamp_ns: w.header.stamp.to_nanos(), rx_ns: now_ns });
+        let stamp_ns = w.header.stamp.to_nanos();
+        let rx_ns = match s.wrench {
+            Some(prev) if prev.stamp_ns == stamp_ns => prev.rx_ns,
+            _ => now_ns,
+        };
+        s.wrench = Some(WrenchIn { w: [f.x, f.y, f.z, t.x, t.y, t.z], stamp_ns, rx_ns });
     }
     if inbox.target_pose.is_some() || inbox.desired_wrench.is_some() {
         take_reference_samples(p, &mut s, inbox, now_ns, &mut out);

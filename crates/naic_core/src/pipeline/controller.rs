@@ -308,11 +308,12 @@ fn hold(
     let sp = &p.sense;
     let q_ok = (0..6).all(|i| m.q[i] >= sp.q_min[i] - sp.q_margin && m.q[i] <= sp.q_max[i] + sp.q_margin);
     let q = if q_ok { Some(m.q) } else { s.last_q };
-    let dq_ok = (0..6).all(|i| m.dq[i].abs() <= sp.dq_max[i]);
     let mut tau = [0.0; 6];
     if let Some(q) = q {
-        // Damping only at a plausible q̇, capped per joint for stability at the period λ.
-        let dq = if dq_ok { m.dq } else { [0.0; 6] };
+        // Damping at q̇ clamped to its plausible range (a finite reading beyond it may be a
+        // real spin, which must be damped, not left to run: seen on the JK5's joint 4 after
+        // a hold), none at a non-finite q̇; capped per joint for stability at the period λ.
+        let dq: [f64; 6] = std::array::from_fn(|i| if m.dq[i].is_finite() { m.dq[i].clamp(-sp.dq_max[i], sp.dq_max[i]) } else { 0.0 });
         tau = super::hold::torque(&c.model, &mut ws.data, &q, &dq, &p.hold_damping, p.control.force_law.lambda);
     }
     let next = ControllerState {

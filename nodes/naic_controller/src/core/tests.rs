@@ -153,6 +153,25 @@ fn wall_time_judges_staleness_by_arrival() {
 }
 
 #[test]
+fn a_wrench_sent_again_with_its_old_stamp_goes_stale_by_the_wall_clock() {
+    // A sensor driver that keeps republishing its last sample (frozen stamp): arriving
+    // every millisecond does not make it fresh.
+    let p = params(TimeBase::Wall);
+    let mut s = State::new(&p);
+    let frozen = wrench(3 * MS, 1.0);
+    for k in 0..20 {
+        (s, _) = run(&p, &s, Inbox { wrench: Some(&frozen), ..Default::default() }, (100 + k) * MS);
+    }
+    let (s, o) = run(&p, &s, Inbox { joint_states: Some(&js(50 * MS, ORDER)), ..Default::default() }, 120 * MS);
+    let f = o.report.unwrap().fault;
+    assert!(matches!(f, Some(FaultReport::Sensor(Fault::Stale { signal: Signal::Wrench, age })) if (age - 0.020).abs() < 1e-9), "{f:?}");
+    // A new stamp is fresh again at once.
+    let (s, _) = run(&p, &s, Inbox { wrench: Some(&wrench(4 * MS, 1.0)), ..Default::default() }, 121 * MS);
+    let (_, o) = run(&p, &s, Inbox { joint_states: Some(&js(51 * MS, ORDER)), ..Default::default() }, 121 * MS);
+    assert_eq!(o.report.unwrap().fault, None);
+}
+
+#[test]
 fn another_joint_order_gives_the_same_cycle() {
     let p = params(TimeBase::Wall);
     let go = |order| {
