@@ -5,9 +5,7 @@ rclpy slides the tool 10 cm at 10 mm/s with 5 → 10 → 5 N through /naic/targe
 Skips, naming the missing topics (rclpy graph API), while naic_controller does not
 subscribe the reference topics.
 """
-import json
 import os
-import subprocess
 import sys
 
 import pytest
@@ -18,7 +16,6 @@ import rostest_util as ru  # noqa: E402
 pytest.importorskip("rclpy")
 pytest.importorskip("pinocchio")
 
-EXAMPLE = ru.ROOT / "examples" / "slide_with_force_profile.py"
 TOPICS = ("/naic/target_pose", "/naic/desired_wrench")
 
 
@@ -42,32 +39,19 @@ def test_example_slides_with_the_force_profile(tmp_path):
         if missing:
             pytest.skip(f"naic_controller does not subscribe {', '.join(missing)} yet (issue #16: the "
                         "reference topics are wired into the controller node after the node-cores rewrite)")
-        env = ru.with_naic_msgs(ru.ros_env(domain))
-        out = subprocess.run([sys.executable, str(EXAMPLE), "--out", str(tmp_path), "--use-sim-time",
-                              "--naic", str(bins / "naic"), "--timeout", "400"],
-                             env=env, cwd=ru.ROOT, capture_output=True, text=True, timeout=600)
-    finally:
-        rc = launch.stop(timeout=15)
-    if out.returncode != 0 and "naic_controller does not subscribe" in out.stderr:
-        # This test's own rclpy participant saw both subscriptions above; the example's, which
-        # joins later, did not within 30 s: the known RustDDS <-> Fast DDS discovery failure
-        # (endpoints announced right after the node's participant was created never reach a
-        # participant that joins later; issue 13, tests/ros/discovery_probe.py, docs/nodes.md).
-        pytest.xfail("discovery: the example's rclpy participant never learned naic_controller's "
-                     "reference subscriptions (known RustDDS/Fast DDS failure): " + out.stderr.strip()[-300:])
-    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-3000:]
-    assert rc == 0, launch.output()[-3000:]
-    s = json.loads(out.stdout.strip().splitlines()[-1])
+    except BaseException:
+        launch.stop(timeout=15)
+        raise
+    # This test's own rclpy participant saw both subscriptions above; the example's joins
+    # later (the discovery rule in run_slide_example).
+    s = ru.run_slide_example(bins, launch, domain, tmp_path, 400)
     # 1 kHz of /naic/params for 10 s of sliding. Behind the lockstep chain (faster than real
     # time) on a loaded machine naic record can fall behind the publishers' history and lose
     # messages (6041 and 6558 of about 10 000 in two loaded runs, docs/bags.md); it must then
-    # say so. A short bag without that report is data lost silently: a failure. Checked first:
-    # what follows reads the bag, and a bag with messages missing cannot show the profile.
-    if s["slide_samples"] <= 9000:
-        lost = s["recorder_lost"].get("/naic/params", 0)
-        assert lost > 0, f"the bag has {s['slide_samples']} sliding samples of ~10 000 but naic record reported no loss: {s}"
-        pytest.xfail(f"naic record lost {lost} /naic/params messages behind the lockstep chain "
-                     f"({s['slide_samples']} sliding samples in the bag; known limitation, docs/bags.md)")
+    # say so. Checked first: what follows reads the bag, and a bag with messages missing
+    # cannot show the profile.
+    ru.xfail_if_recorder_lost(s, "/naic/params", s["slide_samples"] <= 9000,
+                              f"the bag has {s['slide_samples']} sliding samples of ~10 000")
     # 10 cm at 10 mm/s: 10 s of sliding, 1 kHz of /naic/params in the bag, in contact throughout.
     assert s["slide_duration_s"] == pytest.approx(10.0, abs=0.1), s
     assert s["phases_in_contact"] == s["slide_samples"], s

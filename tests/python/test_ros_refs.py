@@ -50,12 +50,7 @@ ROS2_CONTROL_PROBE = textwrap.dedent("""
     out = {}
 
     def spin_until(cond, timeout):
-        t0 = time.time()
-        while time.time() - t0 < timeout:
-            rclpy.spin_once(n, timeout_sec=0.02)
-            if cond():
-                return True
-        return cond()
+        return rostest_util.spin_node_until(n, cond, timeout)
 
     stamp = lambda h: h.stamp.sec * 1_000_000_000 + h.stamp.nanosec
     params, states, cmds, default_cmds = {}, {}, {}, [0]
@@ -205,19 +200,10 @@ def test_ros_refs_composed_follows_the_reference_topics(bins, tmp_path):
             assert ok, f"the composed naic_controller does not subscribe the reference topics: {launch.output()[-3000:]}"
         finally:
             r.close()
-        env = ru.with_naic_msgs(ru.ros_env(domain))
-        out = subprocess.run([sys.executable, str(ru.ROOT / "examples/slide_with_force_profile.py"), "--out", str(tmp_path),
-                              "--use-sim-time", "--naic", str(bins / "naic"), "--timeout", "300",
-                              "--length", str(length), "--speed", str(speed)],
-                             env=env, cwd=ru.ROOT, capture_output=True, text=True, timeout=420)
-    finally:
-        rc = launch.stop(timeout=15)
-    if out.returncode != 0 and "naic_controller does not subscribe" in out.stderr:
-        pytest.xfail("discovery: the example's rclpy participant never learned naic_controller's "
-                     "reference subscriptions (known RustDDS/Fast DDS failure, issue 13): " + out.stderr.strip()[-300:])
-    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-3000:]
-    assert rc == 0, launch.output()[-3000:]
-    s = json.loads(out.stdout.strip().splitlines()[-1])
+    except BaseException:
+        launch.stop(timeout=15)
+        raise
+    s = ru.run_slide_example(bins, launch, domain, tmp_path, 300, "--length", length, "--speed", speed)
     assert s["slide_duration_s"] == pytest.approx(length / speed, abs=0.1), s
 
     def rows(name):
@@ -250,11 +236,9 @@ def test_ros_refs_composed_follows_the_reference_topics(bins, tmp_path):
         dev.append((p[0] - tx, p[1] - ty))
         covered.append(p[0])
     travel = max(covered) - min(covered) if covered else 0.0
-    if travel < 0.5 * length:
-        lost = s["recorder_lost"].get("/joint_states", 0)
-        assert lost > 0, (f"the bag covers {travel * 1e3:.1f} mm of the {length * 1e3:.0f} mm slide and naic record "
-                          f"reported no loss (its tail ends at {t_last:.3f} s, the targets at {targets[-1][0]:.3f} s): {s}")
-        pytest.xfail(f"naic record lost {lost} /joint_states messages: the bag covers {travel * 1e3:.1f} mm of the slide")
+    ru.xfail_if_recorder_lost(s, "/joint_states", travel < 0.5 * length,
+                              f"the bag covers {travel * 1e3:.1f} mm of the {length * 1e3:.0f} mm slide (its tail ends at "
+                              f"{t_last:.3f} s, the targets at {targets[-1][0]:.3f} s)")
     worst_x = max(abs(d[0]) for d in dev)
     worst_y = max(abs(d[1]) for d in dev)
     # 10 mm/s: the tip within 5 mm of the target along x (it lags ~0.3 mm and runs up to
@@ -263,11 +247,8 @@ def test_ros_refs_composed_follows_the_reference_topics(bins, tmp_path):
     # 1 kHz of /naic/params while sliding, read from the bag. A recorder behind the chain on a
     # loaded machine loses messages; it must then say so (docs/bags.md), and the bag's
     # checks cannot be made.
-    if s["slide_samples"] <= 0.9 * 1000 * length / speed:
-        lost = s["recorder_lost"].get("/naic/params", 0)
-        assert lost > 0, f"the bag has {s['slide_samples']} sliding samples but naic record reported no loss: {s}"
-        pytest.xfail(f"naic record lost {lost} /naic/params messages ({s['slide_samples']} sliding samples in the bag; "
-                     "known limitation, docs/bags.md)")
+    ru.xfail_if_recorder_lost(s, "/naic/params", s["slide_samples"] <= 0.9 * 1000 * length / speed,
+                              f"the bag has {s['slide_samples']} sliding samples")
     assert s["phases_in_contact"] == s["slide_samples"], s
     assert s["desired_forces_seen"] == [5.0, 10.0], s
     assert not s["faults"], s

@@ -18,6 +18,8 @@ from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
+import rostest_util as ru  # this directory
+
 NODES = {"jk5_sim_driver", "naic_controller", "friction_compensation"}
 
 
@@ -33,12 +35,7 @@ def main():
     out = {"discovered_after_s": None, "nodes": []}
 
     def spin_until(cond, timeout):
-        t0 = time.time()
-        while time.time() - t0 < timeout:
-            rclpy.spin_once(n, timeout_sec=0.02)
-            if cond():
-                return True
-        return cond()
+        return ru.spin_node_until(n, cond, timeout)
 
     names = lambda: {x for x, _ in n.get_node_names_and_namespaces()}  # noqa: E731
     if spin_until(lambda: NODES <= names(), 30):

@@ -262,3 +262,56 @@ class RclpyDomain:
         self.ex.shutdown()
         self.node.destroy_node()
         self.ctx.try_shutdown()
+
+
+SLIDE_EXAMPLE = ROOT / "examples" / "slide_with_force_profile.py"
+
+
+def run_slide_example(bins, launch, domain, out_dir, timeout, *args):
+    """Run examples/slide_with_force_profile.py (`--use-sim-time`, extra `args`) against the
+    chain `launch` (a Proc on `domain`), then stop the chain. Applies the known-failure rule
+    of the RustDDS <-> Fast DDS discovery loss (issue 13, docs/nodes.md): the example's own
+    rclpy participant, which joins after the nodes, never learned naic_controller's reference
+    subscriptions -> xfail with its message. Otherwise asserts that the example and the
+    chain exited cleanly and returns the example's JSON summary."""
+    import json
+    import pytest
+    env = with_naic_msgs(ros_env(domain))
+    try:
+        out = subprocess.run([sys.executable, str(SLIDE_EXAMPLE), "--out", str(out_dir), "--use-sim-time",
+                              "--naic", str(bins / "naic"), "--timeout", str(timeout), *map(str, args)],
+                             env=env, cwd=ROOT, capture_output=True, text=True, timeout=timeout + 120)
+    finally:
+        rc = launch.stop(timeout=15)
+    if out.returncode != 0 and "naic_controller does not subscribe" in out.stderr:
+        pytest.xfail("discovery: the example's rclpy participant never learned naic_controller's "
+                     "reference subscriptions (known RustDDS/Fast DDS failure, issue 13): " + out.stderr.strip()[-300:])
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-3000:]
+    assert rc == 0, launch.output()[-3000:]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def xfail_if_recorder_lost(summary, topic, short, what):
+    """A bag that is `short` (the caller's check on what it holds) must come with naic
+    record's own loss report for `topic` (then: xfail, the known limitation of recording
+    behind the lockstep chain, docs/bags.md); a short bag without one is data lost silently,
+    a failure. `what` says what is short, for the messages."""
+    import pytest
+    if not short:
+        return
+    lost = summary["recorder_lost"].get(topic, 0)
+    assert lost > 0, f"{what}, and naic record reported no loss of {topic}: {summary}"
+    pytest.xfail(f"naic record lost {lost} {topic} messages behind the lockstep chain ({what}; known limitation, "
+                 "docs/bags.md)")
+
+
+def spin_node_until(node, cond, timeout, step=0.02):
+    """Spin an rclpy `node` in the global context until `cond()` holds or `timeout` s pass;
+    returns `cond()` (for rclpy scripts that have one node and no executor)."""
+    import rclpy
+    t0 = time.time()
+    while time.time() - t0 < timeout:
+        rclpy.spin_once(node, timeout_sec=step)
+        if cond():
+            return True
+    return cond()

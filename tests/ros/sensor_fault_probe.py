@@ -7,8 +7,8 @@ Needs naic_msgs on PYTHONPATH/LD_LIBRARY_PATH (tests/ros/build_naic_msgs.sh --en
 """
 import json
 import math
+import os
 import sys
-import time
 
 import rclpy
 from naic_msgs.msg import NaicParams
@@ -18,10 +18,9 @@ from std_msgs.msg import Float64MultiArray
 
 import rostest_util as ru  # this directory: observer_priority
 
-FAULTS = ["nan_wrench", "absurd_wrench", "stale_wrench", "nan_joint"]
-import os
-if os.environ.get("PROBE_FAULTS"):
-    FAULTS = os.environ["PROBE_FAULTS"].split(",")
+# PROBE_FAULTS=a,b,... runs another sequence (e.g. one fault four times, to tell a fault's
+# own effect from that of repeated holds).
+FAULTS = os.environ.get("PROBE_FAULTS", "nan_wrench,absurd_wrench,stale_wrench,nan_joint").split(",")
 
 
 def main():
@@ -33,10 +32,7 @@ def main():
     ru.observer_priority()
 
     def spin(seconds, until=lambda: False):
-        t0 = time.time()
-        while time.time() - t0 < seconds and not until():
-            rclpy.spin_once(n, timeout_sec=0.01)
-        return until()
+        return ru.spin_node_until(n, until, seconds, step=0.01)
 
     out = {"errors": []}
     driver = AsyncParameterClient(n, "jk5_sim_driver")
