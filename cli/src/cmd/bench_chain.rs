@@ -40,6 +40,10 @@ pub struct ChainArgs {
     /// pinned: on one CPU it cannot keep up with 1 kHz (median 9.5 ms), so unpinned is its best.
     #[arg(long, allow_negative_numbers = true)]
     pub cpu: Option<i64>,
+    /// QoS of the chain's data topics on the Rust nodes: reliable (the default), or
+    /// sensor_data (ROS's sensor-data profile: best effort, keep last 5).
+    #[arg(long, default_value = "reliable", value_parser = ["reliable", "sensor_data"])]
+    pub qos: String,
     /// Also run the three nodes in one process (`naic launch --composed`) with the same
     /// priority and CPU, after the three processes.
     #[arg(long)]
@@ -72,6 +76,7 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
     for node in launch::NODES {
         let mut args = vec!["--ros-args".to_string(), "--params-file".into(), format!("params/{node}.yaml")];
         args.extend(["-p".into(), format!("realtime_priority:={}", a.realtime_priority)]);
+        args.extend(["-p".into(), format!("data_qos:={}", a.qos)]);
         if let Some(cpu) = a.cpu {
             args.extend(["-p".into(), format!("cpu_affinity:={cpu}")]);
         }
@@ -248,6 +253,7 @@ pub fn run(a: ChainArgs) -> CliResult {
         "what": "latency /joint_states stamp -> matching /joint_effort_cmd at the driver, 3 processes, 1 kHz",
         "rust": rust,
         "rust_realtime_priority": a.realtime_priority,
+        "rust_data_qos": a.qos,
         "rust_cpu_affinity": a.cpu.map_or("params/".to_string(), |c| c.to_string()),
         "median_ratio_rust_over_rclpy": ratio(&rust, &rclpy),
         "composed": composed,

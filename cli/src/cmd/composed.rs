@@ -36,7 +36,7 @@ use naic_ros::{
     context::{create_context, DdsSettings},
     handoff::Handoff,
     msgs::{self, Clock, Float64MultiArray, JointState, NaicParams, WrenchStamped},
-    node::{apply_scheduling, QOS_PUB},
+    node::{apply_scheduling, data_qos, QOS_PUB},
     time::wall_ns,
     ParamTable, RosArgs, RosError, RosNode,
 };
@@ -124,12 +124,14 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     let mut cn = RosNode::in_context(c_args, cname, c.specs(), Some(c.check()), &context).map_err(node_err(cname))?;
     let mut fnode = RosNode::in_context(f_args, fname, f.specs(), Some(f.check()), &context).map_err(node_err(fname))?;
     let dds = |e: RosError| CliError::failure(format!("naic launch --composed: {e}"));
-    let js_pub = dn.publisher("joint_states", msgs::JOINT_STATE, QOS_PUB).map_err(dds)?;
-    let w_pub = dn.publisher("wrench", msgs::WRENCH_STAMPED, QOS_PUB).map_err(dds)?;
+    // The data topics with each node's `data_qos`, as the node processes publish them.
+    let (d_qos, c_qos, f_qos) = (dn.params.with(data_qos).0, cn.params.with(data_qos).0, fnode.params.with(data_qos).0);
+    let js_pub = dn.publisher("joint_states", msgs::JOINT_STATE, d_qos).map_err(dds)?;
+    let w_pub = dn.publisher("wrench", msgs::WRENCH_STAMPED, d_qos).map_err(dds)?;
     let clock_pub = dn.publisher("/clock", msgs::CLOCK, QOS_PUB).map_err(dds)?;
-    let effort_pub = cn.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB).map_err(dds)?;
+    let effort_pub = cn.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, c_qos).map_err(dds)?;
     let params_pub = cn.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, QOS_PUB).map_err(dds)?;
-    let cmd_pub = fnode.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB).map_err(dds)?;
+    let cmd_pub = fnode.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, f_qos).map_err(dds)?;
     eprintln!("naic launch: composed {dname}, {fname}, {cname} in one process (pid {})", std::process::id());
 
     // The three nodes' loop bodies.

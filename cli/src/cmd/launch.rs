@@ -70,6 +70,10 @@ pub struct LaunchArgs {
     /// every topic still on DDS): see docs/nodes.md, "One process or three".
     #[arg(long)]
     pub composed: bool,
+    /// QoS of the chain's data topics on all three nodes (their `data_qos` parameter):
+    /// reliable, or sensor_data (ROS's sensor-data profile, best effort).
+    #[arg(long, value_parser = ["reliable", "sensor_data"])]
+    pub qos: Option<String>,
 }
 
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -275,6 +279,9 @@ pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliEr
     }
     if a.lockstep {
         args.extend(["-p".into(), "use_sim_time:=true".into()]);
+    }
+    if let Some(q) = &a.qos {
+        args.extend(["-p".into(), format!("data_qos:={q}")]);
     }
     for p in &a.params {
         let Some((n, rest)) = p.split_once(':') else {

@@ -49,6 +49,22 @@ pub const QOS_SUB_RELIABLE: QosProfile = QosProfile::publisher_default()
     .reliability(Reliability::Reliable { when_full: WhenFull::Fail })
     .history(History::KeepLast { depth: 10 });
 
+/// ROS's sensor-data profile (`rmw_qos_profile_sensor_data`): best effort, keep last 5.
+pub const QOS_SENSOR_DATA: QosProfile =
+    QosProfile::publisher_default().reliability(Reliability::BestEffort).history(History::KeepLast { depth: 5 });
+
+/// The QoS of the chain's data topics from the node's `data_qos` parameter: (publishers,
+/// the driver's command subscription). Reliable: [`QOS_PUB`] and [`QOS_SUB_RELIABLE`];
+/// `sensor_data`: [`QOS_SENSOR_DATA`] for both (a reliable reader does not match a
+/// best-effort writer). The other subscriptions are best effort either way ([`QOS_SUB`]).
+pub fn data_qos(p: &crate::ParamView) -> (QosProfile, QosProfile) {
+    if p.str("data_qos") == "sensor_data" {
+        (QOS_SENSOR_DATA, QOS_SENSOR_DATA)
+    } else {
+        (QOS_PUB, QOS_SUB_RELIABLE)
+    }
+}
+
 /// A node: DDS context + ros2-client node + parameter table + parameter services.
 pub struct RosNode {
     pub args: RosArgs,

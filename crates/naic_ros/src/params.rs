@@ -359,6 +359,17 @@ impl ParamTable {
                 .read_only(),
             );
         }
+        if !specs.iter().any(|s| s.name == "data_qos") {
+            specs.push(
+                ParamSpec::choice(
+                    "data_qos",
+                    "reliable",
+                    &["reliable", "sensor_data"],
+                    "QoS of the chain's data topics (/joint_states, /wrench, /naic/effort, /joint_effort_cmd): reliable (what default rclpy subscribers and naic record match), or ROS's sensor-data profile (best effort, keep last 5: a late sample is dropped, not re-sent; observers need a best-effort subscription, and lockstep waits command_timeout for a lost command); the same value on every node of a chain",
+                )
+                .read_only(),
+            );
+        }
         for (i, s) in specs.iter().enumerate() {
             if specs[..i].iter().any(|o| o.name == s.name) {
                 return Err(format!("parameter '{}' declared twice", s.name));

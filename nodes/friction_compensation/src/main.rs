@@ -12,7 +12,7 @@ use std::time::Duration;
 use friction_compensation::{runner::Runner, setup::{Setup, NODE}};
 use naic_ros::{
     msgs::{self, Float64MultiArray, JointState},
-    node::{QOS_PUB, QOS_SUB},
+    node::{data_qos, QOS_SUB},
     wait::{take_newest, take_until, Waiter},
     RosArgs, RosError, RosNode,
 };
@@ -33,7 +33,7 @@ fn run() -> Result<(), RosError> {
     let mut r = Runner::new(&setup, &node.params).map_err(RosError::Param)?;
     let mut cmd_sub = node.subscription::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     let js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
-    let cmd_pub = node.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_PUB)?;
+    let cmd_pub = node.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, node.params.with(data_qos).0)?;
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut cmd_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 

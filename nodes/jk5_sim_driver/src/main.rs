@@ -15,7 +15,7 @@ use jk5_sim_driver::{
 };
 use naic_ros::{
     msgs::{self, Clock, Float64MultiArray, JointState, WrenchStamped},
-    node::{Pub, QOS_PUB, QOS_SUB_RELIABLE},
+    node::{data_qos, Pub, QOS_PUB},
     wait::spawn_receiver,
     RosArgs, RosError, RosNode,
 };
@@ -49,12 +49,13 @@ fn run() -> Result<(), RosError> {
     let setup = Setup::from_args(&args)?; // files first, before any DDS participant exists
     let mut node = RosNode::new(args, NODE, setup.specs(), Some(setup.check()))?;
     let mut d = Runner::new(setup.plant, &node.params);
+    let (data_pub, data_sub) = node.params.with(data_qos);
     let out = StatePub(
-        node.publisher("wrench", msgs::WRENCH_STAMPED, QOS_PUB)?,
-        node.publisher("joint_states", msgs::JOINT_STATE, QOS_PUB)?,
+        node.publisher("wrench", msgs::WRENCH_STAMPED, data_pub)?,
+        node.publisher("joint_states", msgs::JOINT_STATE, data_pub)?,
         node.publisher("/clock", msgs::CLOCK, QOS_PUB)?,
     );
-    let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB_RELIABLE)?;
+    let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, data_sub)?;
     let shared = Arc::new(SharedCommands::new(d.commands(&node.params)));
     // Receive thread: wakes on each command, checks it, stamps its arrival.
     let rx = Arc::clone(&shared);

@@ -1,0 +1,49 @@
+"""`data_qos: sensor_data` (issue 15, part 2): the chain's data topics with ROS's sensor-data
+profile (best effort), in real time, three processes, checked with real rclpy: a
+best-effort rclpy subscriber (rclpy's qos_profile_sensor_data) gets the data, a default
+reliable one cannot match and gets nothing (so the profile really changed), and the chain
+still closes: the driver applies the chain's commands (a latency sample for over 90 % of its cycles).
+"""
+import json
+import os
+import sys
+
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "ros"))
+import rostest_util as ru  # noqa: E402
+
+pytest.importorskip("rclpy")
+
+
+@pytest.mark.parametrize("composed", [False, True], ids=["three-processes", "composed"])
+def test_ros_sensor_data_qos_closes_the_chain_and_is_best_effort_for_observers(tmp_path, composed):
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+    bins = ru.build_nodes()
+    domain = ru.fresh_domain(160 if composed else 165)
+    report = tmp_path / "latency.json"
+    launch = ru.Proc([str(bins / "naic"), "launch", *(["--composed"] if composed else []), "--qos", "sensor_data",
+                      "-p", f"jk5_sim_driver:latency_report:={report}", "-p", "jk5_sim_driver:latency_warmup:=0.0"],
+                     ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "naic_qos_test")
+    try:
+        best, reliable, cmds = [], [], []
+        r.node.create_subscription(JointState, "/joint_states", best.append, qos_profile_sensor_data)
+        r.node.create_subscription(JointState, "/joint_states", reliable.append, 10)
+        r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd", cmds.append, qos_profile_sensor_data)
+        assert r.spin_until(lambda: len(best) > 2000 and len(cmds) > 2000, 40), (len(best), len(cmds), launch.output()[-3000:])
+        # The publishers offer best effort: a reliable reader is incompatible and gets nothing.
+        assert not reliable, f"a reliable subscriber received {len(reliable)} samples: the publisher is not best effort"
+        infos = r.node.get_publishers_info_by_topic("/joint_states")
+        assert infos and all(i.qos_profile.reliability.name == "BEST_EFFORT" for i in infos), infos
+        assert launch.alive()
+    finally:
+        r.close()
+        rc = launch.stop(timeout=15)
+    assert rc == 0, launch.output()[-3000:]
+    rep = json.loads(report.read_text())
+    # The driver took the chain's commands (best effort end to end): hardly a cycle held.
+    assert rep["cycles"] > 2000 and rep["samples"] > 0.9 * rep["cycles"], rep
+    assert rep["rejected_commands"] == 0, rep
