@@ -136,6 +136,27 @@ pub struct Explained {
     pub inertial: Option<inertial::InertialFit>,
     /// The robot model file the data were analysed with.
     pub urdf: PathBuf,
+    /// Wall time of each stage of the analysis [s], in order (time series; `naic explain
+    /// --bench` prints them).
+    pub timings: Vec<(String, f64)>,
+}
+
+/// Wall-clock laps of the analysis stages (see [`Explained::timings`]).
+struct Laps {
+    last: std::time::Instant,
+    v: Vec<(String, f64)>,
+}
+
+impl Laps {
+    fn new() -> Self {
+        Self { last: std::time::Instant::now(), v: Vec::new() }
+    }
+    /// Ends the stage `name` (it began where the previous one ended).
+    fn lap(&mut self, name: &str) {
+        let now = std::time::Instant::now();
+        self.v.push((name.to_string(), (now - self.last).as_secs_f64()));
+        self.last = now;
+    }
 }
 
 /// Nominal Stribeck shape per joint from a params file (symmetrised by averaging the directions).
@@ -397,6 +418,7 @@ pub fn explain_runs(
     opts: &ExplainOptions,
     progress: &(dyn Fn(f64, &str) + Sync),
 ) -> Result<Explained, ExplainError> {
+    let mut laps = Laps::new();
     let model = Model::from_urdf_file(&opts.urdf).map_err(|e| ExplainError::model(format!("{}: {e}", opts.urdf.display())))?;
     let urdf_joints = model.joint_names().collect::<Vec<_>>().join(", ");
     let (tip, tip_note) = tip_frame(&model, &opts.urdf, opts.tip_frame.as_deref())?;
@@ -413,7 +435,9 @@ pub fn explain_runs(
         for run in fit {
             segs.extend(resample::uniform_segments(run.name, run.ts, min_len)?.0);
         }
-        Some(prepare::choose_window(&segs, opts.prepare.order))
+        let c = prepare::choose_window(&segs, opts.prepare.order);
+        laps.lap("choosing the filter window");
+        Some(c)
     } else {
         None
     };
@@ -430,6 +454,7 @@ pub fn explain_runs(
         sampling.extend(vs.into_iter().map(|(n, s)| (format!("{n} (validation)"), s)));
         Some(vp)
     };
+    laps.lap("prepare: resampling check, Savitzky–Golay filter, rigid-body torque and regressors");
     // contact data: analyse the sensor axes first, then take the measured contact wrench
     // (sensor errors found removed) out of the joint residual
     let mut axes: Vec<JointSamples> = Vec::new();
@@ -483,6 +508,9 @@ pub fn explain_runs(
             tip_name, com.x, com.y, com.z
         ));
     }
+    if !axes.is_empty() {
+        laps.lap("contact: sensor axes");
+    }
     let mut joints = joint_samples_from_series(&prep, opts.block_s, opts.analysis.folds);
     for js in &joints {
         if js.len() < 50 {
@@ -510,8 +538,10 @@ pub fn explain_runs(
     } else {
         (None, vec![])
     };
+    laps.lap("joint samples and folds; baseline (base parameters + friction)");
     let p0 = if axes.is_empty() { 0.3 } else { 0.5 };
     let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
+    laps.lap("catalogue: forward selection per joint (cross-validated)");
     // the link inertials: one correction shared by every joint, scored on all joints together
     // after the per-joint catalogue; when significant, each joint gets its cross-fitted column
     // and the per-joint selection runs again with it as a candidate (crate::inertial)
@@ -533,6 +563,9 @@ pub fn explain_runs(
     } else {
         None
     };
+    if inertial.is_some() {
+        laps.lap("inertial_parameters: all joints (and the selection again when significant)");
+    }
     joints.extend(axes);
     results.extend(axis_results);
     let mut notes = Vec::new();
@@ -585,6 +618,10 @@ pub fn explain_runs(
         baseline_names,
         inertial,
         urdf: opts.urdf.clone(),
+        timings: {
+            laps.lap("method notes");
+            laps.v
+        },
     })
 }
 
@@ -715,6 +752,7 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
         baseline_names: vec![],
         inertial: None,
         urdf: opts.urdf.clone(),
+        timings: vec![],
     })
 }
 
