@@ -369,14 +369,15 @@ pub fn tip_frame(model: &Model, urdf: &Path, tip: Option<&str>) -> Result<(naic_
 
 /// Prepares every run: split at gaps, resampled where the clock jitters, filtered and
 /// evaluated ([`prepare::prepare`]); the segments are appended in order.
-fn prepare_runs(
-    runs: &[Run],
+fn prepare_runs<'r>(
+    runs: &[Run<'r>],
     model: &Model,
     tip: naic_core::model::FrameId,
     opts: &ExplainOptions,
     urdf_joints: &str,
+    laps: &mut Laps,
     progress: &mut dyn FnMut(f64, &str),
-) -> Result<(Prepared, Vec<(String, resample::Sampling)>, Vec<input::TimeSeries>), ExplainError> {
+) -> Result<(Prepared, Vec<(String, resample::Sampling)>, Vec<std::borrow::Cow<'r, input::TimeSeries>>), ExplainError> {
     let mut prep = Prepared::default();
     let mut sampling = Vec::new();
     let mut segments_all = Vec::new();
@@ -393,6 +394,7 @@ fn prepare_runs(
             )));
         }
         let (segs, s) = resample::uniform_segments(run.name, run.ts, min_len)?;
+        laps.lap("prepare: clock check, gaps, resampling (resample::uniform_segments)");
         let ns = segs.len();
         for (k, seg) in segs.iter().enumerate() {
             let f0 = (r as f64 + k as f64 / ns as f64) / runs.len() as f64;
@@ -401,6 +403,7 @@ fn prepare_runs(
             })
             .map_err(|e| ExplainError::input(format!("{}: {e}", run.name)))?;
             prep.append(p);
+            laps.lap("prepare: Savitzky–Golay filter, rigid-body torque and regressors at the analysis instants");
         }
         sampling.push((run.name.to_string(), s));
         segments_all.extend(segs);
@@ -446,15 +449,14 @@ pub fn explain_runs(
         .map(|c| ExplainOptions { prepare: PrepareOptions { window_s: c.window_s, ..opts.prepare.clone() }, ..opts.clone() });
     let opts = chosen.as_ref().unwrap_or(opts);
     let (mut prep, mut sampling, segs) =
-        prepare_runs(fit, &model, tip, opts, &urdf_joints, &mut |f, w| progress(share * f, w))?;
+        prepare_runs(fit, &model, tip, opts, &urdf_joints, &mut laps, &mut |f, w| progress(share * f, w))?;
     let val_prep = if validate.is_empty() {
         None
     } else {
-        let (vp, vs, _) = prepare_runs(validate, &model, tip, opts, &urdf_joints, &mut |f, w| progress(0.2 + 0.1 * f, w))?;
+        let (vp, vs, _) = prepare_runs(validate, &model, tip, opts, &urdf_joints, &mut laps, &mut |f, w| progress(0.2 + 0.1 * f, w))?;
         sampling.extend(vs.into_iter().map(|(n, s)| (format!("{n} (validation)"), s)));
         Some(vp)
     };
-    laps.lap("prepare: resampling check, Savitzky–Golay filter, rigid-body torque and regressors");
     // contact data: analyse the sensor axes first, then take the measured contact wrench
     // (sensor errors found removed) out of the joint residual
     let mut axes: Vec<JointSamples> = Vec::new();
@@ -512,6 +514,7 @@ pub fn explain_runs(
         laps.lap("contact: sensor axes");
     }
     let mut joints = joint_samples_from_series(&prep, opts.block_s, opts.analysis.folds);
+    laps.lap("joint samples and folds");
     for js in &joints {
         if js.len() < 50 {
             return Err(ExplainError::input(format!(
@@ -538,7 +541,7 @@ pub fn explain_runs(
     } else {
         (None, vec![])
     };
-    laps.lap("joint samples and folds; baseline (base parameters + friction)");
+    laps.lap("baseline: base parameters + viscous/Coulomb/offset friction (least squares)");
     let p0 = if axes.is_empty() { 0.3 } else { 0.5 };
     let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
     laps.lap("catalogue: forward selection per joint (cross-validated)");
