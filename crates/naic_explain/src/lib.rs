@@ -532,19 +532,45 @@ pub fn explain_runs(
         }
     }
     // the classical identification on the same samples and folds (not for contact data:
-    // its measured torques carry the contact wrench)
-    let (baseline, baseline_names) = if axes.is_empty() && opts.baseline {
-        progress(0.3, "baseline: base-parameter least squares + viscous/Coulomb/offset friction");
+    // its measured torques carry the contact wrench); it needs nothing of the catalogue, so
+    // with more than one thread it runs on its own thread beside the per-joint selection
+    // (same results: each is deterministic on its own)
+    let run_baseline = axes.is_empty() && opts.baseline;
+    let fit_baseline = || {
+        let t = std::time::Instant::now();
         let b = baseline::fit(&model, &prep, val_prep.as_ref(), &time_fold(&prep, opts.block_s, opts.analysis.folds), opts.analysis.folds);
-        let names = b.base_columns.iter().map(|&c| baseline::Baseline::column_name(&model, c)).collect();
-        (Some(b), names)
-    } else {
-        (None, vec![])
+        let names: Vec<String> = b.base_columns.iter().map(|&c| baseline::Baseline::column_name(&model, c)).collect();
+        (b, names, t.elapsed().as_secs_f64())
     };
-    laps.lap("baseline: base parameters + viscous/Coulomb/offset friction (least squares)");
+    if run_baseline {
+        progress(0.3, "baseline: base-parameter least squares + viscous/Coulomb/offset friction");
+    }
     let p0 = if axes.is_empty() { 0.3 } else { 0.5 };
-    let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
-    laps.lap("catalogue: forward selection per joint (cross-validated)");
+    let catalogue = || analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
+    let (base_fit, mut results) = if run_baseline && opts.threads > 1 {
+        std::thread::scope(|sc| {
+            let b = sc.spawn(fit_baseline);
+            let r = catalogue();
+            (Some(b.join().unwrap_or_else(|e| std::panic::resume_unwind(e))), r)
+        })
+    } else {
+        let b = run_baseline.then(fit_baseline);
+        (b, catalogue())
+    };
+    let baseline_s = base_fit.as_ref().map(|b| b.2);
+    let (baseline, baseline_names) = match base_fit {
+        Some((b, names, _)) => (Some(b), names),
+        None => (None, vec![]),
+    };
+    if run_baseline && opts.threads > 1 {
+        laps.lap("catalogue: forward selection per joint (cross-validated), with the baseline on a thread beside it");
+    } else {
+        laps.lap("baseline and catalogue: forward selection per joint (cross-validated)");
+    }
+    if let Some(s) = baseline_s {
+        // not a lap: the baseline's own wall time, inside the stage above
+        laps.v.push(("  of which the baseline (base parameters + viscous/Coulomb/offset friction), its own time".into(), s));
+    }
     // the link inertials: one correction shared by every joint, scored on all joints together
     // after the per-joint catalogue; when significant, each joint gets its cross-fitted column
     // and the per-joint selection runs again with it as a candidate (crate::inertial)
