@@ -12,8 +12,12 @@
 //! * `naic explain --closed-loop [--out DIR]` — force tracking (`flat`, `stiffness-step`)
 //!   with symmetric vs extended friction compensation against the simulator's true
 //!   per-direction friction (see `naic_explain::closed_loop`).
-//! * `naic explain --bench [--minutes M] [--json]` — time the analysis of M minutes
-//!   (default 60) of 1 kHz six-joint data, with progress on stderr (`--out DIR` also writes its report).
+//! * `naic explain --bench [--urdf PATH [--tip FRAME]] [--minutes M] [--json]` — time the
+//!   analysis of M minutes (default 60) of generated 1 kHz data with the arm's own joint
+//!   count (six for the default JK5, seven for `urdf/panda.urdf`), with progress and the
+//!   time per stage on stderr, against one RNEA per sample and numpy's least-squares
+//!   friction fit (`bench/reference/explain_numpy_bench.py`) measured in the same run
+//!   (`--out DIR` also writes its report).
 use super::{CliError, CliResult};
 use naic_core::model::Model;
 use naic_explain::catalogue::Effect;
@@ -269,7 +273,15 @@ fn load_model(a: &ExplainArgs) -> Result<Model, CliError> {
 fn run_generate(a: &ExplainArgs, out: &PathBuf) -> CliResult {
     let model = load_model(a)?;
     let effects = parse_effects(&a.hide)?;
-    let g = generate(&model, &GenSpec { contact: a.contact, ..GenSpec::new(a.seed, &effects) });
+    if (a.contact || effects.iter().any(|e| e.is_contact())) && model.nv() != naic_explain::generate::NJ {
+        return Err(CliError::usage(format!(
+            "--urdf {}: contact data is scripted for the JK5's {} joints (urdf/jk5.urdf); this model has {}",
+            a.urdf.display(),
+            naic_explain::generate::NJ,
+            model.nv()
+        )));
+    }
+    let g = generate(&model, &GenSpec { contact: a.contact, tip: a.tip.clone(), ..GenSpec::new(a.seed, &effects) });
     std::fs::write(out, input::write_timeseries_csv(&g.ts)).map_err(|e| CliError::failure(format!("{}: {e}", out.display())))?;
     println!("wrote {} ({} samples, torque noise σ = {:.3} N·m)", out.display(), g.ts.len(), g.noise_tau);
     for inj in &g.injected {
@@ -285,22 +297,21 @@ fn run_bench(a: &ExplainArgs) -> CliResult {
         return Err(CliError::usage("--minutes must be > 0"));
     }
     let model = load_model(a)?;
+    let nj = model.nv();
+    // the tool frame the analysis will use (a clear error for a wrong --tip before generating)
+    naic_explain::tip_frame(&model, &a.urdf, a.tip.as_deref()).map_err(err)?;
     let progress = progress_printer(a.quiet);
     let t0 = Instant::now();
-    let mut spec = GenSpec::new(a.seed, &[Effect::FrictionAsymmetry, Effect::TorqueOffset]);
-    // one excitation period is ~100 s; repeat it to reach the length asked for
-    let period = {
-        let g = GenSpec { repeats: 1, ..spec.clone() };
-        let one = (6.0 * 4.0 * 2.0 * (2.0 * 0.15 + g.cruise_s + 0.4)) + g.multi_s;
-        one
-    };
-    spec.repeats = ((a.minutes * 60.0) / period).ceil().max(1.0) as usize;
-    progress(0.0, "generating data");
+    let mut spec = GenSpec { tip: a.tip.clone(), ..GenSpec::new(a.seed, &[Effect::FrictionAsymmetry, Effect::TorqueOffset]) };
+    // one excitation period is ~100 s (six joints) to ~115 s (seven); repeat it to reach the length asked for
+    spec.repeats = spec.repeats_for(nj, a.minutes * 60.0);
+    progress(0.0, &format!("generating {} × {:.1} s of {nj}-joint data", spec.repeats, naic_explain::generate::excitation_period_s(nj, &spec)));
     let g = generate(&model, &spec);
     let gen_s = t0.elapsed().as_secs_f64();
-    let opts = ExplainOptions { urdf: a.urdf.clone(), ..Default::default() };
+    let opts = ExplainOptions { urdf: a.urdf.clone(), tip_frame: a.tip.clone(), ..Default::default() };
     let t1 = Instant::now();
     let ex = naic_explain::explain_series("bench", input::Kind::TimeSeries, &g.ts, &opts, &progress).map_err(err)?;
+    let series_s = t1.elapsed().as_secs_f64();
     let fs = report::findings(&ex);
     let analyse_s = t1.elapsed().as_secs_f64();
     if let Some(out) = &a.out {
@@ -309,39 +320,153 @@ fn run_bench(a: &ExplainArgs) -> CliResult {
     if !a.quiet {
         eprintln!();
     }
-    // Reference measured in the same run: one RNEA(q, dq, 0) per raw sample, the least
-    // work any model-based analysis of every sample must do.
-    let t2 = Instant::now();
-    let mut data = naic_core::model::Data6::try_new(&model).map_err(|e| CliError::failure(e.to_string()))?;
-    let zero = nalgebra::SVector::<f64, 6>::zeros();
-    let mut acc = 0.0;
-    for i in 0..g.ts.len() {
-        let q = nalgebra::SVector::<f64, 6>::from_column_slice(&g.ts.q[i]);
-        let v = nalgebra::SVector::<f64, 6>::from_column_slice(&g.ts.dq[i]);
-        acc += naic_core::dynamics::rnea(&model, &mut data, &q, &v, &zero)[1];
+    let mut stages: Vec<(String, f64)> = ex.timings.clone();
+    stages.push(("findings (report::findings)".into(), analyse_s - series_s));
+    if !a.quiet {
+        for (name, s) in &stages {
+            eprintln!("  {s:7.3} s  {name}");
+        }
     }
-    let reference_s = t2.elapsed().as_secs_f64();
-    std::hint::black_box(acc);
-    let hours = g.ts.len() as f64 * 1e-3 / 3600.0;
+    // Reference 1, measured in the same run: one RNEA(q, dq, 0) per raw sample, the least
+    // work any model-based analysis of every sample must do (single thread).
+    if !a.quiet {
+        eprintln!("reference: one RNEA per sample ({} samples, {nj} joints)", g.ts.len());
+    }
+    let reference_s = rnea_every_sample(&model, &g.ts);
+    // Reference 2: numpy's least squares of per-joint viscous + Coulomb + offset friction on
+    // as many samples and joints (bench/reference/explain_numpy_bench.py).
+    let numpy = numpy_reference(g.ts.len(), nj, a.seed, a.quiet);
+    let hours = g.ts.len() as f64 * spec.dt / 3600.0;
     let found: Vec<&str> = fs.iter().filter(|f| f.significant).map(|f| f.effect.name()).collect();
-    let v = serde_json::json!({
+    let hidden: Vec<serde_json::Value> = g
+        .injected
+        .iter()
+        .map(|inj| {
+            let found = fs.iter().find(|f| f.significant && f.effect == inj.effect);
+            serde_json::json!({
+                "effect": inj.effect.name(),
+                "joints": inj.joints,
+                "truth": inj.params.iter().map(|(j, k, v)| serde_json::json!({"joint": j, "param": k, "value": v})).collect::<Vec<_>>(),
+                "found_on": found.map(|f| f.targets.clone()),
+                "estimate": found.map(|f| {
+                    f.params
+                        .iter()
+                        .flat_map(|(j, ps)| ps.iter().map(move |(k, v)| serde_json::json!({"joint": j, "param": k, "value": v})))
+                        .collect::<Vec<_>>()
+                }),
+            })
+        })
+        .collect();
+    let mut v = serde_json::json!({
         "benchmark": "explain",
+        "urdf": a.urdf.display().to_string(),
+        "joints": nj,
         "samples": g.ts.len(),
         "hours_of_1khz_data": hours,
         "generate_s": gen_s,
         "analyse_s": analyse_s,
         "analyse_s_per_hour": analyse_s / hours,
+        "stages_s": stages.iter().map(|(n, s)| serde_json::json!({"stage": n, "s": s})).collect::<Vec<_>>(),
         "threads": opts.threads,
         "reference_rnea_every_sample_s": reference_s,
         "ratio_analyse_to_reference": analyse_s / reference_s,
         "found": found,
+        "hidden": hidden,
+        "load_average_1min": load_average(),
     });
+    match &numpy {
+        Ok(r) => {
+            v["reference_numpy_lstsq_s"] = serde_json::json!(r["lstsq_s"]);
+            if let Some(s) = r["lstsq_s"].as_f64() {
+                v["ratio_analyse_to_numpy_lstsq"] = serde_json::json!(analyse_s / s);
+            }
+            v["numpy_reference"] = r.clone();
+        }
+        Err(why) => v["numpy_reference_skipped"] = serde_json::json!(why),
+    }
     if a.json {
         println!("{v}");
     } else {
-        println!("{} samples ({hours:.3} h at 1 kHz): analysed in {analyse_s:.2} s ({:.2} s per hour of data), generation {gen_s:.2} s; reference (one RNEA per sample) {reference_s:.2} s, ratio {:.1}; found {found:?}", g.ts.len(), analyse_s / hours, analyse_s / reference_s);
+        let np = match &numpy {
+            Ok(r) => format!("; numpy lstsq friction fit {:.2} s, ratio {:.1}", r["lstsq_s"].as_f64().unwrap_or(f64::NAN), v["ratio_analyse_to_numpy_lstsq"].as_f64().unwrap_or(f64::NAN)),
+            Err(why) => format!("; numpy reference skipped: {why}"),
+        };
+        println!(
+            "{} samples of {nj} joints ({hours:.3} h at 1 kHz): analysed in {analyse_s:.2} s ({:.2} s per hour of data), generation {gen_s:.2} s; reference (one RNEA per sample) {reference_s:.2} s, ratio {:.1}{np}; found {found:?}",
+            g.ts.len(),
+            analyse_s / hours,
+            analyse_s / reference_s
+        );
     }
     Ok(())
+}
+
+/// Seconds for one `rnea(q, q̇, 0)` per raw sample of `ts` (the joint-space vectors sized
+/// at compile time for six and seven joints, as the controllers' fast path; dynamic otherwise).
+fn rnea_every_sample(model: &Model, ts: &input::TimeSeries) -> f64 {
+    fn run<D: nalgebra::Dim>(model: &Model, ts: &input::TimeSeries, dim: D) -> f64
+    where
+        nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D>
+            + nalgebra::allocator::Allocator<D, D>
+            + nalgebra::allocator::Allocator<nalgebra::U6, D>,
+    {
+        let Ok(mut data) = naic_core::model::Data::<D>::try_new(model) else { return f64::NAN };
+        let mut q = nalgebra::OVector::<f64, D>::zeros_generic(dim, nalgebra::U1);
+        let mut v = q.clone();
+        let zero = q.clone();
+        let t = Instant::now();
+        let mut acc = 0.0;
+        for i in 0..ts.len() {
+            q.as_mut_slice().copy_from_slice(&ts.q[i]);
+            v.as_mut_slice().copy_from_slice(&ts.dq[i]);
+            acc += naic_core::dynamics::rnea(model, &mut data, &q, &v, &zero)[1];
+        }
+        let s = t.elapsed().as_secs_f64();
+        std::hint::black_box(acc);
+        s
+    }
+    match model.nv() {
+        6 => run(model, ts, nalgebra::U6),
+        7 => run(model, ts, nalgebra::U7),
+        n => run(model, ts, nalgebra::Dyn(n)),
+    }
+}
+
+/// Runs `bench/reference/explain_numpy_bench.py --samples N --joints J` with $NAIC_PYTHON
+/// (else $NAIC_VENV/bin/python, else python3); its last stdout line is JSON. Err: why it
+/// was skipped (no Python, no numpy, failed).
+fn numpy_reference(samples: usize, joints: usize, seed: u64, quiet: bool) -> Result<serde_json::Value, String> {
+    let script = super::sim::default_path("bench/reference/explain_numpy_bench.py");
+    if !script.exists() {
+        return Err(format!("{} not found (run from the repository)", script.display()));
+    }
+    let py = super::sim::python();
+    if !quiet {
+        eprintln!("reference: numpy least squares ({py} {})", script.display());
+    }
+    let o = std::process::Command::new(&py)
+        .arg(&script)
+        .args(["--samples", &samples.to_string(), "--joints", &joints.to_string(), "--seed", &seed.to_string()])
+        .stderr(if quiet { std::process::Stdio::piped() } else { std::process::Stdio::inherit() })
+        .output()
+        .map_err(|e| format!("cannot run {py} (set NAIC_PYTHON or NAIC_VENV): {e}"))?;
+    let text = String::from_utf8_lossy(&o.stdout);
+    let last = text.lines().last().unwrap_or("");
+    let v: serde_json::Value = serde_json::from_str(last).map_err(|e| {
+        format!("{py} {}: exit {:?}, no JSON on stdout ({e}): {}", script.display(), o.status.code(), String::from_utf8_lossy(&o.stderr).trim())
+    })?;
+    if let Some(why) = v["skipped"].as_str() {
+        return Err(why.to_string());
+    }
+    if !o.status.success() {
+        return Err(format!("{py} {} failed: {}", script.display(), String::from_utf8_lossy(&o.stderr).trim()));
+    }
+    Ok(v)
+}
+
+/// The 1-minute load average (`/proc/loadavg`), to say how busy the machine was.
+fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
 }
 
 fn run_closed_loop(a: &ExplainArgs) -> CliResult {

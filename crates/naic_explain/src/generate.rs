@@ -1,22 +1,25 @@
 //! Seeded synthetic "measured" data with hidden effects (for the tests and the benchmark).
 //!
-//! Truth model: rigid body of `urdf/jk5.urdf` (inverse dynamics along a known smooth
-//! trajectory), symmetric Coulomb + viscous friction per joint in the simulator's smooth
+//! Truth model: rigid body of the given URDF (`urdf/jk5.urdf` for the tests; any serial
+//! arm, the joint count N comes from the model) by inverse dynamics along a known smooth
+//! trajectory, symmetric Coulomb + viscous friction per joint in the simulator's smooth
 //! form (`tanh(q̇/v_s)`, v_s = 1 mrad/s; levels drawn from the seed), plus the injected
 //! effects, plus measurement errors: white torque noise (σ drawn from the seed),
 //! encoder quantisation of q (2²⁰ counts per turn), white noise on the drive velocity.
 //!
 //! Excitation: each joint in turn moves back and forth at stepped speeds with rests in
-//! between (cosine velocity ramps), then all joints move together (sum of sines).
+//! between (cosine velocity ramps), then all joints move together (sum of sines); one
+//! period lasts [`excitation_period_s`] (101.6 s for six joints, 115.2 s for seven).
+//! Contact data ([`generate_contact`]) is scripted for the JK5's six joints only.
 
 use crate::catalogue::Effect;
-use crate::input::TimeSeries;
+use crate::input::{Rows, TimeSeries};
 
-/// The generator drives the six joints of the JK5 (`urdf/jk5.urdf`).
+/// The contact generator drives the six joints of the JK5 (`urdf/jk5.urdf`).
 pub const NJ: usize = 6;
-use nalgebra::{SVector, Vector3};
+use nalgebra::{DVector, SVector, Vector3};
 use naic_core::dynamics::{frame_jacobian, frame_jdot_qdot, rnea};
-use naic_core::model::{Data6, Model};
+use naic_core::model::{Data, Data6, Model};
 
 /// Small deterministic RNG (SplitMix64 + Box–Muller).
 #[derive(Clone, Debug)]
@@ -83,11 +86,18 @@ pub struct GenSpec {
     pub multi_s: f64,
     /// Contact data (wrench columns; see [`generate_contact`]) even with no contact effect hidden.
     pub contact: bool,
+    /// Tool frame a hidden payload sits on [default: the frame `tip`, else the model's last frame].
+    pub tip: Option<String>,
 }
 
 impl GenSpec {
     pub fn new(seed: u64, effects: &[Effect]) -> Self {
-        Self { seed, effects: effects.to_vec(), dt: 1e-3, repeats: 1, cruise_s: 1.0, multi_s: 20.0, contact: false }
+        Self { seed, effects: effects.to_vec(), dt: 1e-3, repeats: 1, cruise_s: 1.0, multi_s: 20.0, contact: false, tip: None }
+    }
+    /// The number of repeats of the excitation that makes at least `seconds` of data for
+    /// an arm of `nj` joints (at least one).
+    pub fn repeats_for(&self, nj: usize, seconds: f64) -> usize {
+        (seconds / excitation_period_s(nj, self)).ceil().max(1.0) as usize
     }
 }
 
@@ -97,31 +107,50 @@ pub struct Generated {
     pub ts: TimeSeries,
     pub injected: Vec<Injected>,
     /// True base friction per joint: (f_c, f_v).
-    pub base: [(f64, f64); NJ],
+    pub base: Vec<(f64, f64)>,
     pub noise_tau: f64,
 }
 
-/// Home posture: arm bent, wrist away from singularities.
+/// Home posture of the JK5: arm bent, wrist away from singularities.
 pub const HOME: [f64; NJ] = [0.2, 0.6, -1.1, 0.5, 0.9, 0.1];
 const SPEEDS: [f64; 4] = [0.01, 0.04, 0.12, 0.35];
 const RAMP: f64 = 0.15;
 const REST: f64 = 0.4;
 
+/// The rest posture the excitation moves about: [`HOME`] for a six-joint arm whose limits
+/// contain it (the JK5's, the tests' data), else the middle of each joint's position limits
+/// (0 for a joint without finite limits; the Panda: 0, 0, 0, −1.571, 0, 1.868, 0).
+pub fn home(model: &Model) -> Vec<f64> {
+    let (lo, hi) = (model.lower_limits(), model.upper_limits());
+    if model.nv() == NJ && HOME.iter().zip(lo.iter().zip(&hi)).all(|(h, (l, u))| l <= h && h <= u) {
+        return HOME.to_vec();
+    }
+    lo.iter().zip(&hi).map(|(l, u)| if l.is_finite() && u.is_finite() { 0.5 * (l + u) } else { 0.0 }).collect()
+}
+
+/// Length of one excitation period [s] for an arm of `nj` joints: `nj` single-joint phases
+/// of 4 speeds × 2 directions × (2 ramps + cruise + rest), then the multi-joint phase.
+pub fn excitation_period_s(nj: usize, spec: &GenSpec) -> f64 {
+    nj as f64 * SPEEDS.len() as f64 * 2.0 * (2.0 * RAMP + spec.cruise_s + REST) + spec.multi_s
+}
+
 /// Joint trajectory (q, q̇, q̈) at time t of one excitation period.
 struct Excitation {
+    home: Vec<f64>,
     single_len: f64,
     per_joint: f64,
     multi: f64,
     cruise: f64,
     /// Multi-joint sines: per joint (amplitude, frequency Hz, phase) × 3.
-    sines: [[(f64, f64, f64); 3]; NJ],
+    sines: Vec<[(f64, f64, f64); 3]>,
 }
 
 impl Excitation {
-    fn new(cruise: f64, multi: f64, rng: &mut Rng) -> Self {
+    fn new(home: Vec<f64>, cruise: f64, multi: f64, rng: &mut Rng) -> Self {
+        let nj = home.len();
         let seg = 2.0 * RAMP + cruise + REST;
         let per_joint = SPEEDS.len() as f64 * 2.0 * seg;
-        let mut sines = [[(0.0, 0.0, 0.0); 3]; NJ];
+        let mut sines = vec![[(0.0, 0.0, 0.0); 3]; nj];
         for s in sines.iter_mut() {
             for (k, x) in s.iter_mut().enumerate() {
                 let f = [0.11, 0.23, 0.41][k] * rng.range(0.85, 1.15);
@@ -130,7 +159,7 @@ impl Excitation {
                 *x = (a, f, rng.range(0.0, 6.283));
             }
         }
-        Self { single_len: NJ as f64 * per_joint, per_joint, multi, cruise, sines }
+        Self { home, single_len: nj as f64 * per_joint, per_joint, multi, cruise, sines }
     }
     fn period(&self) -> f64 {
         self.single_len + self.multi
@@ -152,20 +181,22 @@ impl Excitation {
             (v * (RAMP + c), 0.0, 0.0)
         }
     }
-    fn at(&self, t: f64) -> ([f64; NJ], [f64; NJ], [f64; NJ]) {
-        let mut q = HOME;
-        let mut dq = [0.0; NJ];
-        let mut ddq = [0.0; NJ];
+    /// (q, q̇, q̈) at `t` into the three slices (one value per joint).
+    fn at(&self, t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+        let nj = self.home.len();
+        q.copy_from_slice(&self.home);
+        dq.fill(0.0);
+        ddq.fill(0.0);
         let t = t % self.period();
         if t < self.single_len {
-            let j = ((t / self.per_joint) as usize).min(NJ - 1);
+            let j = ((t / self.per_joint) as usize).min(nj - 1);
             let tj = t - j as f64 * self.per_joint;
             let seg = 2.0 * RAMP + self.cruise + REST;
             let k = (tj / seg) as usize;
             let speed = SPEEDS[(k / 2).min(SPEEDS.len() - 1)];
             let tau = tj - k as f64 * seg;
             let (x, v, a) = if k % 2 == 0 { self.segment(tau, speed) } else { self.segment(tau, -speed) };
-            // odd segments start where the even one ended (back to HOME)
+            // odd segments start where the even one ended (back to home)
             let x0 = if k % 2 == 0 { 0.0 } else { speed * (RAMP + self.cruise) };
             q[j] += x0 + x;
             dq[j] = v;
@@ -174,14 +205,13 @@ impl Excitation {
             let tm = t - self.single_len;
             // fade in/out over 1 s so motion starts and ends at rest
             let env = fade(tm, self.multi);
-            for j in 0..NJ {
+            for j in 0..nj {
                 let (x, v, a) = faded_sines(&self.sines[j], tm, env);
                 q[j] += x;
                 dq[j] = v;
                 ddq[j] = a;
             }
         }
-        (q, dq, ddq)
     }
 }
 
@@ -211,31 +241,38 @@ fn fade(t: f64, len: f64) -> (f64, f64, f64) {
     }
 }
 
-/// Generates the data (see module docs). `model` is `urdf/jk5.urdf`. With
-/// `spec.contact` or any contact effect hidden, contact data ([`generate_contact`]).
+/// Generates the data (see module docs) for `model`'s joints (`urdf/jk5.urdf` in the
+/// tests; any serial arm). With `spec.contact` or any contact effect hidden, contact data
+/// ([`generate_contact`], six-joint JK5 only).
 pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
     if spec.contact || spec.effects.iter().any(|e| e.is_contact()) {
         return generate_contact(model, spec);
     }
+    let nj = model.nv();
     let mut rng = Rng::new(spec.seed);
-    let exc = Excitation::new(spec.cruise_s, spec.multi_s, &mut rng);
+    let exc = Excitation::new(home(model), spec.cruise_s, spec.multi_s, &mut rng);
     let n = ((exc.period() * spec.repeats as f64) / spec.dt).round() as usize;
     let noise_tau = rng.range(0.02, 0.08);
-    let mut base = [(0.0, 0.0); NJ];
+    let mut base = vec![(0.0, 0.0); nj];
     for (j, b) in base.iter_mut().enumerate() {
         let big = j < 3;
         *b = (if big { rng.range(2.0, 6.0) } else { rng.range(1.0, 3.0) }, rng.range(1.0, 5.0));
     }
-    let tip = model.frame_id("tip").or_else(|| model.frames().last().map(|_| naic_core::model::FrameId(model.frames().len() - 1)));
+    let tip = spec
+        .tip
+        .as_deref()
+        .and_then(|t| model.frame_id(t))
+        .or_else(|| model.frame_id("tip"))
+        .or_else(|| model.frames().last().map(|_| naic_core::model::FrameId(model.frames().len() - 1)));
     // draw the hidden effects
     let mut injected = Vec::new();
-    let mut asym = [0.0; NJ]; // f_c_neg − f_c_pos
-    let mut strib = [(0.0, 0.02); NJ];
-    let mut ripple = [(0.0, 1.0, 0.0); NJ];
-    let mut offset = [0.0; NJ];
-    let mut drift = [0.0; NJ];
-    let mut rotor = [0.0; NJ];
-    let mut visc2 = [0.0; NJ];
+    let mut asym = vec![0.0; nj]; // f_c_neg − f_c_pos
+    let mut strib = vec![(0.0, 0.02); nj];
+    let mut ripple = vec![(0.0, 1.0, 0.0); nj];
+    let mut offset = vec![0.0; nj];
+    let mut drift = vec![0.0; nj];
+    let mut rotor = vec![0.0; nj];
+    let mut visc2 = vec![0.0; nj];
     let mut payload = 0.0;
     let mut delay = 0.0;
     let mut used_joints: Vec<usize> = Vec::new();
@@ -248,7 +285,7 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
             }
         }
     };
-    let all: Vec<usize> = (0..NJ).collect();
+    let all: Vec<usize> = (0..nj).collect();
     for &e in &spec.effects {
         let mut inj = Injected { effect: e, joints: vec![], params: vec![] };
         match e {
@@ -280,10 +317,11 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
             }
             Effect::Payload => {
                 payload = rng.range(0.8, 2.0);
-                for j in [2, 3, 4, 5] {
+                // the joints whose torque a tool mass changes clearly (2..N−1; 2–5 on the JK5)
+                for j in 2..nj {
                     inj.joints.push(j);
                 }
-                for j in 1..=NJ {
+                for j in 1..=nj {
                     inj.params.push((j, "mass_kg".into(), payload));
                 }
             }
@@ -295,8 +333,8 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
             }
             Effect::Delay => {
                 delay = rng.range(0.006, 0.02);
-                inj.joints = (1..=NJ).collect();
-                for j in 1..=NJ {
+                inj.joints = (1..=nj).collect();
+                for j in 1..=nj {
                     inj.params.push((j, "delay_s".into(), delay));
                 }
             }
@@ -327,33 +365,33 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
         injected.push(inj);
     }
     let total_t = n as f64 * spec.dt;
-    let mut data = Data6::try_new(model).expect("generator needs a 6-joint model");
+    let mut data = Data::new(model);
     let g = Vector3::new(0.0, 0.0, -9.81);
-    let mut tau_true = Vec::with_capacity(n);
-    let mut ts = TimeSeries::default();
+    let mut tau_true = Rows::with_capacity(nj, n);
+    let mut ts = TimeSeries { t: Vec::with_capacity(n), q: Rows::with_capacity(nj, n), dq: Rows::with_capacity(nj, n), ..Default::default() };
     let quant = 2.0 * std::f64::consts::PI / (1u64 << 20) as f64;
     let v_s = 1e-3;
+    let (mut qv, mut vv, mut av) = (DVector::zeros(nj), DVector::zeros(nj), DVector::zeros(nj));
+    let mut tau = vec![0.0; nj];
+    let mut enc = (vec![0.0; nj], vec![0.0; nj]);
     for i in 0..n {
         let t = i as f64 * spec.dt;
-        let (q, dq, ddq) = exc.at(t);
-        let qv = SVector::<f64, 6>::from(q);
-        let vv = SVector::<f64, 6>::from(dq);
-        let av = SVector::<f64, 6>::from(ddq);
-        let mut tau: [f64; NJ] = (*rnea(model, &mut data, &qv, &vv, &av)).into();
+        exc.at(t, qv.as_mut_slice(), vv.as_mut_slice(), av.as_mut_slice());
+        tau.copy_from_slice(rnea(model, &mut data, &qv, &vv, &av).as_slice());
         if payload != 0.0 {
             if let Some(tip) = tip {
                 let jdqd = frame_jdot_qdot(model, &mut data, &qv, &vv, tip);
-                let jac = *frame_jacobian(model, &mut data, &qv, tip);
+                let jac = frame_jacobian(model, &mut data, &qv, tip);
                 let jl = jac.fixed_rows::<3>(0);
-                let acc = jl * av + Vector3::new(jdqd[0], jdqd[1], jdqd[2]);
-                let extra = jl.transpose() * (payload * (acc - g));
-                for j in 0..NJ {
-                    tau[j] += extra[j];
+                let acc = jl * &av + Vector3::new(jdqd[0], jdqd[1], jdqd[2]);
+                let f = payload * (acc - g);
+                for j in 0..nj {
+                    tau[j] += jl.column(j).dot(&f);
                 }
             }
         }
-        for j in 0..NJ {
-            let v = dq[j];
+        for j in 0..nj {
+            let v = vv[j];
             let s = (v / v_s).tanh();
             let (fc, fv) = base[j];
             let mut f_c = fc + drift[j] * (t / total_t - 0.5);
@@ -363,29 +401,28 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
             let (fs, qs) = strib[j];
             let x = v / qs;
             let (ra, rk, rph) = ripple[j];
-            let fric = s * (f_c + fs * (-x * x).exp() + ra * (rk * q[j] + rph).sin()) + fv * v + visc2[j] * s * v * v;
-            tau[j] += fric + offset[j] + rotor[j] * ddq[j];
+            let fric = s * (f_c + fs * (-x * x).exp() + ra * (rk * qv[j] + rph).sin()) + fv * v + visc2[j] * s * v * v;
+            tau[j] += fric + offset[j] + rotor[j] * av[j];
         }
-        tau_true.push(tau);
-        push_encoder_sample(&mut ts, t, &q, &dq, quant, &mut rng);
+        tau_true.push(&tau);
+        push_encoder_sample(&mut ts, t, qv.as_slice(), vv.as_slice(), quant, &mut rng, &mut enc);
     }
     // torque channel: delayed by `delay` (linear interpolation), plus noise
+    ts.tau = Rows::with_capacity(nj, n);
     for i in 0..n {
         let ts_ = i as f64 - delay / spec.dt;
         let k = ts_.floor().max(0.0) as usize;
         let fr = (ts_ - ts_.floor()).clamp(0.0, 1.0);
-        let a = tau_true[k.min(n - 1)];
-        let b = tau_true[(k + 1).min(n - 1)];
-        let mut tau = [0.0; NJ];
-        for j in 0..NJ {
+        let a = &tau_true[k.min(n - 1)];
+        let b = &tau_true[(k + 1).min(n - 1)];
+        for j in 0..nj {
             let val = if ts_ < 0.0 { a[j] } else { a[j] * (1.0 - fr) + b[j] * fr };
             tau[j] = val + noise_tau * rng.normal();
         }
-        ts.tau.push(tau);
+        ts.tau.push(&tau);
     }
     Generated { ts, injected, base, noise_tau }
 }
-
 
 /// Tool mass [kg] and centre of mass along the sensor z axis [m] of `urdf/jk5.urdf`'s
 /// `ft_sensor` link (the generator's nominal tool; the analysis reads them from the URDF).
@@ -572,9 +609,10 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
     };
     let tip = model.frame_id("tip").expect("contact data needs the `tip` frame");
     let sframe = model.frame_id("ft_sensor").expect("contact data needs the `ft_sensor` frame");
-    let mut data = Data6::try_new(model).expect("generator needs a 6-joint model");
+    let mut data = Data6::try_new(model).expect("the contact generator needs the JK5's six joints");
     let quant = 2.0 * std::f64::consts::PI / (1u64 << 20) as f64;
     let mut ts = TimeSeries::default();
+    let mut enc = (vec![0.0; NJ], vec![0.0; NJ]);
     let mut wrench = Vec::with_capacity(n);
     let g = Vector3::new(0.0, 0.0, -9.81);
     for i in 0..n {
@@ -610,23 +648,22 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
             let (fc, fv) = base[j];
             tau[j] += fc * (v / 1e-3).tanh() + fv * v - ext[j] + extra[j] + noise_tau * rng.normal();
         }
-        push_encoder_sample(&mut ts, t, &q, &dq, quant, &mut rng);
+        push_encoder_sample(&mut ts, t, &q, &dq, quant, &mut rng, &mut enc);
         ts.tau.push(tau);
     }
     ts.wrench = Some(wrench);
-    Generated { ts, injected, base, noise_tau }
+    Generated { ts, injected, base: base.to_vec(), noise_tau }
 }
 
 /// One row of the motion channels as an encoder reports them: positions quantised to
-/// `quant`, velocities with 1 mrad/s white noise.
-fn push_encoder_sample(ts: &mut TimeSeries, t: f64, q: &[f64; NJ], dq: &[f64; NJ], quant: f64, rng: &mut Rng) {
-    let mut qm = [0.0; NJ];
-    let mut dqm = [0.0; NJ];
-    for j in 0..NJ {
+/// `quant`, velocities with 1 mrad/s white noise (`buf`: two rows of scratch space).
+fn push_encoder_sample(ts: &mut TimeSeries, t: f64, q: &[f64], dq: &[f64], quant: f64, rng: &mut Rng, buf: &mut (Vec<f64>, Vec<f64>)) {
+    let (qm, dqm) = buf;
+    for j in 0..q.len() {
         qm[j] = (q[j] / quant).round() * quant;
         dqm[j] = dq[j] + 1e-3 * rng.normal();
     }
     ts.t.push(t);
-    ts.q.push(qm);
-    ts.dq.push(dqm);
+    ts.q.push(&qm[..]);
+    ts.dq.push(&dqm[..]);
 }

@@ -69,10 +69,10 @@ impl InertialFit {
     }
 }
 
-/// The instants of joint j's samples, in [`crate::joint_samples_from_series`] order (fit
-/// instants, then validation instants).
-fn sample_instants<'p>(fit: &'p Prepared, val: Option<&'p Prepared>, j: usize) -> impl Iterator<Item = (&'p Prepared, usize)> + 'p {
-    let one = move |p: &'p Prepared| (0..p.len()).filter(move |&i| p.keep[i][j]).map(move |i| (p, i));
+/// Every analysis instant in [`crate::joint_samples_from_series`] order (fit instants, then
+/// validation instants); joint j's samples are those with `keep[i][j]`, in this order.
+fn all_instants<'p>(fit: &'p Prepared, val: Option<&'p Prepared>) -> impl Iterator<Item = (&'p Prepared, usize)> + 'p {
+    let one = move |p: &'p Prepared| (0..p.len()).map(move |i| (p, i));
     one(fit).chain(val.into_iter().flat_map(one))
 }
 
@@ -113,20 +113,31 @@ pub fn fit(
     let own: Vec<Vec<crate::analysis::Col>> =
         results.iter().map(|res| res.final_eval.columns.iter().copied().filter(|c| *c != crate::analysis::Col::Inertial).collect()).collect();
     let mut grams: Vec<Vec<DMatrix<f64>>> = own.iter().map(|c| vec![DMatrix::zeros(r + c.len() + 1, r + c.len() + 1); kf + 1]).collect();
-    // one pass per joint over its instants (the regressor is cheap next to the Gram updates)
-    for j in 0..nj {
-        let js = &joints[j];
-        let st = &results[j].final_eval.full_structure;
-        let sh = shapes.get(j).copied().unwrap_or_default();
-        let pj = own[j].len();
-        let mut x = vec![0.0; r + pj + 1];
-        for (k, (p, i)) in sample_instants(fit, val, j).enumerate() {
-            let y = joint_torque_regressor(model, &mut rd, &p.q[i], &p.v[i], &p.a[i]);
+    // one pass over the instants: the regressor (all joints' rows) once per instant, each
+    // joint's row into that joint's Gram when the instant is one of its samples (k[j]
+    // counts them in JointSamples order)
+    let mut xs: Vec<Vec<f64>> = own.iter().map(|c| vec![0.0; r + c.len() + 1]).collect();
+    let mut ks = vec![0usize; nj];
+    let sts: Vec<_> = results.iter().map(|res| &res.final_eval.full_structure).collect();
+    let shs: Vec<NominalShape> = (0..nj).map(|j| shapes.get(j).copied().unwrap_or_default()).collect();
+    for (p, i) in all_instants(fit, val) {
+        if !p.keep[i].iter().any(|&k| k) {
+            continue;
+        }
+        let y = joint_torque_regressor(model, &mut rd, &p.q[i], &p.v[i], &p.a[i]);
+        for j in 0..nj {
+            if !p.keep[i][j] {
+                continue;
+            }
+            let (js, x) = (&joints[j], &mut xs[j]);
+            let k = ks[j];
+            ks[j] += 1;
+            let pj = own[j].len();
             for (a, &c) in cols.iter().enumerate() {
                 x[a] = y[(j, c)];
             }
             for (a, c) in own[j].iter().enumerate() {
-                x[r + a] = js.col(*c, st, &sh, k);
+                x[r + a] = js.col(*c, sts[j], &shs[j], k);
             }
             x[r + pj] = js.y[k];
             let f = if js.fold[k] == VALIDATION_FOLD { kf } else { js.fold[k] as usize };
@@ -140,6 +151,8 @@ pub fn fit(
                 }
             }
         }
+    }
+    for j in 0..nj {
         for g in &mut grams[j] {
             for a in 0..g.nrows() {
                 for b in 0..a {
@@ -220,10 +233,19 @@ pub fn fit(
     let mut corrections = vec![Vec::new(); nj];
     if significant {
         for j in 0..nj {
-            let js = &joints[j];
-            corrections[j].reserve(js.len());
-            for (k, (p, i)) in sample_instants(fit, val, j).enumerate() {
-                let y = joint_torque_regressor(model, &mut rd, &p.q[i], &p.v[i], &p.a[i]);
+            corrections[j].reserve(joints[j].len());
+        }
+        for (p, i) in all_instants(fit, val) {
+            if !p.keep[i].iter().any(|&k| k) {
+                continue;
+            }
+            let y = joint_torque_regressor(model, &mut rd, &p.q[i], &p.v[i], &p.a[i]);
+            for j in 0..nj {
+                if !p.keep[i][j] {
+                    continue;
+                }
+                let js = &joints[j];
+                let k = corrections[j].len();
                 let d = if js.fold[k] == VALIDATION_FOLD { &delta } else { &fold_delta[js.fold[k] as usize] };
                 corrections[j].push(cols.iter().zip(d).map(|(&c, dv)| y[(j, c)] * dv).sum());
             }

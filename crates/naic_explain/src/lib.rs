@@ -136,6 +136,27 @@ pub struct Explained {
     pub inertial: Option<inertial::InertialFit>,
     /// The robot model file the data were analysed with.
     pub urdf: PathBuf,
+    /// Wall time of each stage of the analysis [s], in order (time series; `naic explain
+    /// --bench` prints them).
+    pub timings: Vec<(String, f64)>,
+}
+
+/// Wall-clock laps of the analysis stages (see [`Explained::timings`]).
+struct Laps {
+    last: std::time::Instant,
+    v: Vec<(String, f64)>,
+}
+
+impl Laps {
+    fn new() -> Self {
+        Self { last: std::time::Instant::now(), v: Vec::new() }
+    }
+    /// Ends the stage `name` (it began where the previous one ended).
+    fn lap(&mut self, name: &str) {
+        let now = std::time::Instant::now();
+        self.v.push((name.to_string(), (now - self.last).as_secs_f64()));
+        self.last = now;
+    }
 }
 
 /// Nominal Stribeck shape per joint from a params file (symmetrised by averaging the directions).
@@ -348,14 +369,15 @@ pub fn tip_frame(model: &Model, urdf: &Path, tip: Option<&str>) -> Result<(naic_
 
 /// Prepares every run: split at gaps, resampled where the clock jitters, filtered and
 /// evaluated ([`prepare::prepare`]); the segments are appended in order.
-fn prepare_runs(
-    runs: &[Run],
+fn prepare_runs<'r>(
+    runs: &[Run<'r>],
     model: &Model,
     tip: naic_core::model::FrameId,
     opts: &ExplainOptions,
     urdf_joints: &str,
+    laps: &mut Laps,
     progress: &mut dyn FnMut(f64, &str),
-) -> Result<(Prepared, Vec<(String, resample::Sampling)>, Vec<input::TimeSeries>), ExplainError> {
+) -> Result<(Prepared, Vec<(String, resample::Sampling)>, Vec<std::borrow::Cow<'r, input::TimeSeries>>), ExplainError> {
     let mut prep = Prepared::default();
     let mut sampling = Vec::new();
     let mut segments_all = Vec::new();
@@ -372,6 +394,7 @@ fn prepare_runs(
             )));
         }
         let (segs, s) = resample::uniform_segments(run.name, run.ts, min_len)?;
+        laps.lap("prepare: clock check, gaps, resampling (resample::uniform_segments)");
         let ns = segs.len();
         for (k, seg) in segs.iter().enumerate() {
             let f0 = (r as f64 + k as f64 / ns as f64) / runs.len() as f64;
@@ -380,6 +403,7 @@ fn prepare_runs(
             })
             .map_err(|e| ExplainError::input(format!("{}: {e}", run.name)))?;
             prep.append(p);
+            laps.lap("prepare: Savitzky–Golay filter, rigid-body torque and regressors at the analysis instants");
         }
         sampling.push((run.name.to_string(), s));
         segments_all.extend(segs);
@@ -397,6 +421,7 @@ pub fn explain_runs(
     opts: &ExplainOptions,
     progress: &(dyn Fn(f64, &str) + Sync),
 ) -> Result<Explained, ExplainError> {
+    let mut laps = Laps::new();
     let model = Model::from_urdf_file(&opts.urdf).map_err(|e| ExplainError::model(format!("{}: {e}", opts.urdf.display())))?;
     let urdf_joints = model.joint_names().collect::<Vec<_>>().join(", ");
     let (tip, tip_note) = tip_frame(&model, &opts.urdf, opts.tip_frame.as_deref())?;
@@ -413,7 +438,9 @@ pub fn explain_runs(
         for run in fit {
             segs.extend(resample::uniform_segments(run.name, run.ts, min_len)?.0);
         }
-        Some(prepare::choose_window(&segs, opts.prepare.order))
+        let c = prepare::choose_window(&segs, opts.prepare.order);
+        laps.lap("choosing the filter window");
+        Some(c)
     } else {
         None
     };
@@ -422,11 +449,11 @@ pub fn explain_runs(
         .map(|c| ExplainOptions { prepare: PrepareOptions { window_s: c.window_s, ..opts.prepare.clone() }, ..opts.clone() });
     let opts = chosen.as_ref().unwrap_or(opts);
     let (mut prep, mut sampling, segs) =
-        prepare_runs(fit, &model, tip, opts, &urdf_joints, &mut |f, w| progress(share * f, w))?;
+        prepare_runs(fit, &model, tip, opts, &urdf_joints, &mut laps, &mut |f, w| progress(share * f, w))?;
     let val_prep = if validate.is_empty() {
         None
     } else {
-        let (vp, vs, _) = prepare_runs(validate, &model, tip, opts, &urdf_joints, &mut |f, w| progress(0.2 + 0.1 * f, w))?;
+        let (vp, vs, _) = prepare_runs(validate, &model, tip, opts, &urdf_joints, &mut laps, &mut |f, w| progress(0.2 + 0.1 * f, w))?;
         sampling.extend(vs.into_iter().map(|(n, s)| (format!("{n} (validation)"), s)));
         Some(vp)
     };
@@ -483,7 +510,11 @@ pub fn explain_runs(
             tip_name, com.x, com.y, com.z
         ));
     }
+    if !axes.is_empty() {
+        laps.lap("contact: sensor axes");
+    }
     let mut joints = joint_samples_from_series(&prep, opts.block_s, opts.analysis.folds);
+    laps.lap("joint samples and folds");
     for js in &joints {
         if js.len() < 50 {
             return Err(ExplainError::input(format!(
@@ -501,17 +532,45 @@ pub fn explain_runs(
         }
     }
     // the classical identification on the same samples and folds (not for contact data:
-    // its measured torques carry the contact wrench)
-    let (baseline, baseline_names) = if axes.is_empty() && opts.baseline {
-        progress(0.3, "baseline: base-parameter least squares + viscous/Coulomb/offset friction");
+    // its measured torques carry the contact wrench); it needs nothing of the catalogue, so
+    // with more than one thread it runs on its own thread beside the per-joint selection
+    // (same results: each is deterministic on its own)
+    let run_baseline = axes.is_empty() && opts.baseline;
+    let fit_baseline = || {
+        let t = std::time::Instant::now();
         let b = baseline::fit(&model, &prep, val_prep.as_ref(), &time_fold(&prep, opts.block_s, opts.analysis.folds), opts.analysis.folds);
-        let names = b.base_columns.iter().map(|&c| baseline::Baseline::column_name(&model, c)).collect();
-        (Some(b), names)
-    } else {
-        (None, vec![])
+        let names: Vec<String> = b.base_columns.iter().map(|&c| baseline::Baseline::column_name(&model, c)).collect();
+        (b, names, t.elapsed().as_secs_f64())
     };
+    if run_baseline {
+        progress(0.3, "baseline: base-parameter least squares + viscous/Coulomb/offset friction");
+    }
     let p0 = if axes.is_empty() { 0.3 } else { 0.5 };
-    let mut results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
+    let catalogue = || analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(p0 + (1.0 - p0) * f, w));
+    let (base_fit, mut results) = if run_baseline && opts.threads > 1 {
+        std::thread::scope(|sc| {
+            let b = sc.spawn(fit_baseline);
+            let r = catalogue();
+            (Some(b.join().unwrap_or_else(|e| std::panic::resume_unwind(e))), r)
+        })
+    } else {
+        let b = run_baseline.then(fit_baseline);
+        (b, catalogue())
+    };
+    let baseline_s = base_fit.as_ref().map(|b| b.2);
+    let (baseline, baseline_names) = match base_fit {
+        Some((b, names, _)) => (Some(b), names),
+        None => (None, vec![]),
+    };
+    if run_baseline && opts.threads > 1 {
+        laps.lap("catalogue: forward selection per joint (cross-validated), with the baseline on a thread beside it");
+    } else {
+        laps.lap("baseline and catalogue: forward selection per joint (cross-validated)");
+    }
+    if let Some(s) = baseline_s {
+        // not a lap: the baseline's own wall time, inside the stage above
+        laps.v.push(("  of which the baseline (base parameters + viscous/Coulomb/offset friction), its own time".into(), s));
+    }
     // the link inertials: one correction shared by every joint, scored on all joints together
     // after the per-joint catalogue; when significant, each joint gets its cross-fitted column
     // and the per-joint selection runs again with it as a candidate (crate::inertial)
@@ -533,6 +592,9 @@ pub fn explain_runs(
     } else {
         None
     };
+    if inertial.is_some() {
+        laps.lap("inertial_parameters: all joints (and the selection again when significant)");
+    }
     joints.extend(axes);
     results.extend(axis_results);
     let mut notes = Vec::new();
@@ -585,6 +647,10 @@ pub fn explain_runs(
         baseline_names,
         inertial,
         urdf: opts.urdf.clone(),
+        timings: {
+            laps.lap("method notes");
+            laps.v
+        },
     })
 }
 
@@ -715,6 +781,7 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
         baseline_names: vec![],
         inertial: None,
         urdf: opts.urdf.clone(),
+        timings: vec![],
     })
 }
 

@@ -338,7 +338,7 @@ fn half_width(window_s: f64, dt: f64, order: usize) -> usize {
 /// window `w` of the ladder at which q̈(w) and q̈(√2 w) differ by at most
 /// [`WINDOW_CHANGE_MAX`] of the RMS of q̈(√2 w) (pooled over joints, at up to 20 000
 /// instants spread over the segments): the noise left in q̈ is then about that share of it.
-pub fn choose_window(segs: &[TimeSeries], order: usize) -> WindowChoice {
+pub fn choose_window<S: std::borrow::Borrow<TimeSeries>>(segs: &[S], order: usize) -> WindowChoice {
     let ladder: Vec<f64> = (0..WINDOW_LADDER_STEPS).map(|k| WINDOW_LADDER_START_S * 2f64.powf(k as f64 / 2.0)).collect();
     let mut steps = Vec::new();
     for k in 0..ladder.len() - 1 {
@@ -346,6 +346,7 @@ pub fn choose_window(segs: &[TimeSeries], order: usize) -> WindowChoice {
         let usable: usize = segs
             .iter()
             .map(|s| {
+                let s = s.borrow();
                 let h = half_width(w1, s.dt(), order);
                 s.len().saturating_sub(2 * h + 1)
             })
@@ -356,6 +357,7 @@ pub fn choose_window(segs: &[TimeSeries], order: usize) -> WindowChoice {
         let stride = usable.div_ceil(WINDOW_INSTANTS).max(1);
         let (mut diff2, mut sig2, mut count) = (0.0, 0.0, 0usize);
         for s in segs {
+            let s = s.borrow();
             let dt = s.dt();
             let (h0, h1) = (half_width(w0, dt, order), half_width(w1, dt, order));
             if s.len() <= 2 * h1 + 1 {

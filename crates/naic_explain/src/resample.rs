@@ -16,6 +16,7 @@
 
 use crate::input::{Rows, TimeSeries};
 use crate::ExplainError;
+use std::borrow::Cow;
 
 /// A step longer than this many median steps is a gap.
 pub const GAP_FACTOR: f64 = 20.0;
@@ -79,26 +80,42 @@ impl Sampling {
     }
 }
 
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+/// Rank of quantile `q` among `n` sorted values.
+fn rank(n: usize, q: f64) -> usize {
+    ((n - 1) as f64 * q).round() as usize
+}
+
+/// The 5 %, 50 % and 95 % quantiles of `x` (the values at those ranks of `x` sorted), by
+/// selection in O(n) instead of a sort (an hour at 1 kHz has 3.6 M steps).
+fn quantiles_05_50_95(x: &[f64]) -> (f64, f64, f64) {
+    let mut v = x.to_vec();
+    let n = v.len();
+    let (i05, i50, i95) = (rank(n, 0.05), rank(n, 0.5), rank(n, 0.95));
+    let (lo, med, hi) = v.select_nth_unstable_by(i50, f64::total_cmp);
+    let med = *med;
+    // ranks below the median are in `lo` (same rank), above it in `hi` (rank − i50 − 1)
+    let p05 = if i05 < i50 { *lo.select_nth_unstable_by(i05, f64::total_cmp).1 } else { med };
+    let p95 = if i95 > i50 { *hi.select_nth_unstable_by(i95 - i50 - 1, f64::total_cmp).1 } else { med };
+    (p05, med, p95)
 }
 
 /// Splits `ts` at gaps and resamples non-uniform parts (see the module docs). Segments
 /// shorter than `min_len_s` are dropped; if none is left that is an input error naming
-/// the gaps.
-pub fn uniform_segments(name: &str, ts: &TimeSeries, min_len_s: f64) -> Result<(Vec<TimeSeries>, Sampling), ExplainError> {
+/// the gaps. A recording that is one uniform segment is borrowed, not copied.
+pub fn uniform_segments<'a>(name: &str, ts: &'a TimeSeries, min_len_s: f64) -> Result<(Vec<Cow<'a, TimeSeries>>, Sampling), ExplainError> {
     let n = ts.len();
+    if n < 2 {
+        return Err(ExplainError::input(format!("{name}: {n} sample(s); a time series needs many more (record longer)")));
+    }
     let steps: Vec<f64> = ts.t.windows(2).map(|w| w[1] - w[0]).collect();
-    let mut sorted = steps.clone();
-    sorted.sort_by(f64::total_cmp);
-    let med = quantile(&sorted, 0.5);
+    let (p05, med, p95) = quantiles_05_50_95(&steps);
     let mut s = Sampling {
         median_dt: med,
         mean_dt: (ts.t[n - 1] - ts.t[0]) / (n - 1) as f64,
-        min_dt: sorted[0],
-        max_dt: sorted[sorted.len() - 1],
-        p05_dt: quantile(&sorted, 0.05),
-        p95_dt: quantile(&sorted, 0.95),
+        min_dt: steps.iter().copied().fold(f64::INFINITY, f64::min),
+        max_dt: steps.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        p05_dt: p05,
+        p95_dt: p95,
         long_steps: steps.iter().filter(|&&d| d > 2.0 * med && d <= GAP_FACTOR * med).count(),
         ..Default::default()
     };
@@ -120,7 +137,13 @@ pub fn uniform_segments(name: &str, ts: &TimeSeries, min_len_s: f64) -> Result<(
             continue;
         }
         let uniform = steps[a..b - 1].iter().all(|&d| (d - med).abs() <= UNIFORM_TOL * med);
-        let seg = if uniform { slice(ts, a, b) } else { resample(ts, a, b, med) };
+        let seg = if uniform && a == 0 && b == n {
+            Cow::Borrowed(ts)
+        } else if uniform {
+            Cow::Owned(slice(ts, a, b))
+        } else {
+            Cow::Owned(resample(ts, a, b, med))
+        };
         s.resampled |= !uniform;
         s.segments.push((t0, t1, b - a));
         out.push(seg);
@@ -258,6 +281,18 @@ mod tests {
         }
         let steps: Vec<f64> = g.t.windows(2).map(|w| w[1] - w[0]).collect();
         assert!(steps.iter().all(|d| (d - s.median_dt).abs() < 1e-12));
+    }
+
+    #[test]
+    fn selected_quantiles_are_those_of_the_sorted_steps() {
+        let mut r = crate::generate::Rng::new(4);
+        for n in [1usize, 2, 3, 20, 21, 1000, 1001] {
+            let x: Vec<f64> = (0..n).map(|_| r.range(0.5e-3, 2e-3)).collect();
+            let mut sorted = x.clone();
+            sorted.sort_by(f64::total_cmp);
+            let q = |p: f64| sorted[rank(n, p)];
+            assert_eq!(quantiles_05_50_95(&x), (q(0.05), q(0.5), q(0.95)), "n = {n}");
+        }
     }
 
     #[test]
