@@ -126,7 +126,7 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     let dds = |e: RosError| CliError::failure(format!("naic launch --composed: {e}"));
     // The data topics with each node's `data_qos`, as the node processes publish them.
     let (d_qos, c_qos, f_qos) = (dn.params.with(data_qos).0, cn.params.with(data_qos).0, fnode.params.with(data_qos).0);
-    let js_pub = dn.publisher("joint_states", msgs::JOINT_STATE, d_qos).map_err(dds)?;
+    let js_pub = dn.publisher("joint_states", msgs::JOINT_STATE, d_qos.clone()).map_err(dds)?;
     let w_pub = dn.publisher("wrench", msgs::WRENCH_STAMPED, d_qos).map_err(dds)?;
     let clock_pub = dn.publisher("/clock", msgs::CLOCK, QOS_PUB).map_err(dds)?;
     let effort_pub = cn.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, c_qos).map_err(dds)?;

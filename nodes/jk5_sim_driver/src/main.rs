@@ -51,7 +51,7 @@ fn run() -> Result<(), RosError> {
     let mut d = Runner::new(setup.plant, &node.params);
     let (data_pub, data_sub) = node.params.with(data_qos);
     let out = StatePub(
-        node.publisher("wrench", msgs::WRENCH_STAMPED, data_pub)?,
+        node.publisher("wrench", msgs::WRENCH_STAMPED, data_pub.clone())?,
         node.publisher("joint_states", msgs::JOINT_STATE, data_pub)?,
         node.publisher("/clock", msgs::CLOCK, QOS_PUB)?,
     );
