@@ -575,6 +575,6 @@ mod tests {
         let d = t.specs()[1].descriptor();
         assert!(d.additional_constraints.contains("naic, aic, fixed"));
         let (names, _) = t.list(&[], 0);
-        assert_eq!(names.len(), 9); // 6 declared + use_sim_time, realtime_priority, cpu_affinity
+        assert_eq!(names.len(), 10); // 6 declared + use_sim_time, realtime_priority, cpu_affinity, data_qos
     }
 }
