@@ -78,6 +78,23 @@ fn all_instants<'p>(fit: &'p Prepared, val: Option<&'p Prepared>) -> impl Iterat
 
 /// Least squares with the base block regularised: θ. Weakly excited combinations of
 /// base parameters are held at the URDF's value instead of fitting noise.
+/// `f(j, Y)` for every kept (instant, joint) of the fit and validation samples, in their
+/// order, with the joint-torque regressor `Y` of the instant (built once per instant for all
+/// joints; row `j` is joint `j`'s).
+fn for_each_kept(model: &Model, rd: &mut RegressorData, fit: &Prepared, val: Option<&Prepared>, mut f: impl FnMut(usize, &DMatrix<f64>)) {
+    for (p, i) in all_instants(fit, val) {
+        if !p.keep[i].iter().any(|&k| k) {
+            continue;
+        }
+        let y = joint_torque_regressor(model, rd, &p.q[i], &p.v[i], &p.a[i]);
+        for (j, &kept) in p.keep[i].iter().enumerate() {
+            if kept {
+                f(j, y);
+            }
+        }
+    }
+}
+
 fn solve_reg(g: &DMatrix<f64>, p: usize, r: usize) -> Vec<f64> {
     let mut g2 = g.clone();
     for k in 0..r {
@@ -120,38 +137,29 @@ pub fn fit(
     let mut ks = vec![0usize; nj];
     let sts: Vec<_> = results.iter().map(|res| &res.final_eval.full_structure).collect();
     let shs: Vec<NominalShape> = (0..nj).map(|j| shapes.get(j).copied().unwrap_or_default()).collect();
-    for (p, i) in all_instants(fit, val) {
-        if !p.keep[i].iter().any(|&k| k) {
-            continue;
+    for_each_kept(model, &mut rd, fit, val, |j, y| {
+        let (js, x) = (&joints[j], &mut xs[j]);
+        let k = ks[j];
+        ks[j] += 1;
+        let pj = own[j].len();
+        for (a, &c) in cols.iter().enumerate() {
+            x[a] = y[(j, c)];
         }
-        let y = joint_torque_regressor(model, &mut rd, &p.q[i], &p.v[i], &p.a[i]);
-        for j in 0..nj {
-            if !p.keep[i][j] {
+        for (a, c) in own[j].iter().enumerate() {
+            x[r + a] = js.col(*c, sts[j], &shs[j], k);
+        }
+        x[r + pj] = js.y[k];
+        let f = if js.fold[k] == VALIDATION_FOLD { kf } else { js.fold[k] as usize };
+        let g = &mut grams[j][f];
+        for a in 0..x.len() {
+            if x[a] == 0.0 {
                 continue;
             }
-            let (js, x) = (&joints[j], &mut xs[j]);
-            let k = ks[j];
-            ks[j] += 1;
-            let pj = own[j].len();
-            for (a, &c) in cols.iter().enumerate() {
-                x[a] = y[(j, c)];
-            }
-            for (a, c) in own[j].iter().enumerate() {
-                x[r + a] = js.col(*c, sts[j], &shs[j], k);
-            }
-            x[r + pj] = js.y[k];
-            let f = if js.fold[k] == VALIDATION_FOLD { kf } else { js.fold[k] as usize };
-            let g = &mut grams[j][f];
-            for a in 0..x.len() {
-                if x[a] == 0.0 {
-                    continue;
-                }
-                for b in a..x.len() {
-                    g[(a, b)] += x[a] * x[b];
-                }
+            for b in a..x.len() {
+                g[(a, b)] += x[a] * x[b];
             }
         }
-    }
+    });
     for j in 0..nj {
         for g in &mut grams[j] {
             for a in 0..g.nrows() {
@@ -235,21 +243,12 @@ pub fn fit(
         for j in 0..nj {
             corrections[j].reserve(joints[j].len());
         }
-        for (p, i) in all_instants(fit, val) {
-            if !p.keep[i].iter().any(|&k| k) {
-                continue;
-            }
-            let y = joint_torque_regressor(model, &mut rd, &p.q[i], &p.v[i], &p.a[i]);
-            for j in 0..nj {
-                if !p.keep[i][j] {
-                    continue;
-                }
-                let js = &joints[j];
-                let k = corrections[j].len();
-                let d = if js.fold[k] == VALIDATION_FOLD { &delta } else { &fold_delta[js.fold[k] as usize] };
-                corrections[j].push(cols.iter().zip(d).map(|(&c, dv)| y[(j, c)] * dv).sum());
-            }
-        }
+        for_each_kept(model, &mut rd, fit, val, |j, y| {
+            let js = &joints[j];
+            let k = corrections[j].len();
+            let d = if js.fold[k] == VALIDATION_FOLD { &delta } else { &fold_delta[js.fold[k] as usize] };
+            corrections[j].push(cols.iter().zip(d).map(|(&c, dv)| y[(j, c)] * dv).sum());
+        });
     }
     InertialFit { base_columns: cols, names, urdf_beta, delta, joint_gain, gain, fold_wins, folds: kf, delta_bic: bic, significant, corrections }
 }
