@@ -22,7 +22,8 @@ TOPICS = ("/naic/target_pose", "/naic/desired_wrench")
 def test_example_slides_with_the_force_profile(tmp_path):
     bins = ru.build_nodes()
     domain = ru.fresh_domain(70)
-    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "naic_controller:scenario:=none"],
+    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "--real-time-factor", "1", "-p",
+                      "naic_controller:scenario:=none"],
                      ru.ros_env(domain))
     try:
         r = ru.RclpyDomain(domain, "naic_example_graph")

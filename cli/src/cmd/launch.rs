@@ -62,6 +62,11 @@ pub struct LaunchArgs {
     /// Run the driver in lockstep with the controller (simulated time, as fast as the chain allows).
     #[arg(long)]
     pub lockstep: bool,
+    /// With --lockstep: simulated time runs at most this many times wall time (1: real
+    /// time), so slower participants such as an rclpy script keep up (the driver's
+    /// `real_time_factor`; default: as fast as the chain allows).
+    #[arg(long, requires = "lockstep", value_parser = parse_real_time_factor)]
+    pub real_time_factor: Option<f64>,
     /// Extra parameter for one node: NODE:NAME:=VALUE (repeatable), e.g.
     /// naic_controller:desired_force:=15.0
     #[arg(long = "param", short = 'p')]
@@ -264,6 +269,14 @@ fn launch_params(a: &LaunchArgs) -> Result<BTreeMap<String, NodeLaunch>, CliErro
     Ok(map)
 }
 
+/// `--real-time-factor`: a finite number in (0, 1000] (the driver parameter's range).
+fn parse_real_time_factor(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(f) if f > 0.0 && f <= 1000.0 => Ok(f),
+        _ => Err(format!("'{s}' is not a real-time factor: give a number in (0, 1000], e.g. 1.0 for real time")),
+    }
+}
+
 /// Command-line arguments of `node`: its params file, the launch overrides.
 pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliError> {
     let file = a.params_dir.join(format!("{node}.yaml"));
@@ -276,6 +289,9 @@ pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliEr
     let mut args = vec!["--ros-args".to_string(), "--params-file".to_string(), file.display().to_string()];
     if a.lockstep && node == DRIVER {
         args.extend(["-p".into(), "lockstep:=true".into()]);
+        if let Some(f) = a.real_time_factor {
+            args.extend(["-p".into(), format!("real_time_factor:={f:?}")]);
+        }
     }
     if a.lockstep {
         args.extend(["-p".into(), "use_sim_time:=true".into()]);
@@ -588,6 +604,20 @@ mod tests {
         assert!(e.message.contains("respawn is not supported"), "{}", e.message);
         let e = parse_launch_file("friction_compensation: {respawn_delay: -1}\n", f).unwrap_err();
         assert!(e.message.contains("respawn_delay"), "{}", e.message);
+    }
+
+    #[test]
+    fn real_time_factor_goes_to_the_driver_and_is_checked() {
+        let params = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../params"));
+        let a = LaunchArgs { params_dir: params, lockstep: true, real_time_factor: Some(1.0), ..Default::default() };
+        let driver = node_args(DRIVER, &a).unwrap();
+        assert!(driver.windows(2).any(|w| w == ["-p", "real_time_factor:=1.0"]), "{driver:?}");
+        for n in NODES.iter().filter(|n| **n != DRIVER) {
+            assert!(!node_args(n, &a).unwrap().iter().any(|x| x.contains("real_time_factor")), "{n}");
+        }
+        assert!(parse_real_time_factor("0").unwrap_err().contains("(0, 1000]"));
+        assert!(parse_real_time_factor("nan").is_err() && parse_real_time_factor("x").is_err());
+        assert_eq!(parse_real_time_factor("2.5"), Ok(2.5));
     }
 
     #[test]

@@ -28,6 +28,13 @@ pub fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
             false,
             "Advance one simulator step per /joint_effort_cmd received (deterministic, faster than real time); stamps become simulated time",
         ),
+        ParamSpec::double(
+            "real_time_factor",
+            0.0,
+            0.0,
+            1000.0,
+            "Lockstep only: simulated time runs at most this many times wall time (1: real time, as Gazebo's real_time_factor), so slower participants (an rclpy script, a recorder) keep up; 0: as fast as the chain allows",
+        ),
         ParamSpec::boolean(
             "paused",
             false,
@@ -125,6 +132,7 @@ pub fn core_params(p: &ParamView) -> core::Params {
     core::Params {
         lockstep: p.bool("lockstep"),
         rate: p.f64("rate"),
+        real_time_factor: p.f64("real_time_factor"),
         command_timeout_ns: (p.f64("command_timeout") * 1e9) as i64,
         hold_damping: p.f64("hold_damping"),
         effort_limit: std::array::from_fn(|i| p.f64s("effort_limit")[i]),

@@ -28,6 +28,10 @@ pub struct Params {
     pub lockstep: bool,
     /// Simulation and publishing rate [Hz].
     pub rate: f64,
+    /// Lockstep: simulated time runs at most this many times wall time (0: as fast as the
+    /// chain allows). Pacing is the shell's ([`crate::runner::Runner::pace`]); the step
+    /// does not read it.
+    pub real_time_factor: f64,
     /// Hold when no valid command arrived for this long [ns] (real time).
     pub command_timeout_ns: i64,
     /// Joint damping of the hold [N m s/rad].
@@ -276,7 +280,7 @@ mod tests {
     }
 
     fn params(lockstep: bool) -> Params {
-        Params { lockstep, rate: 1000.0, command_timeout_ns: 20 * MS, hold_damping: 5.0, effort_limit: [100.0; 6] }
+        Params { lockstep, rate: 1000.0, real_time_factor: 0.0, command_timeout_ns: 20 * MS, hold_damping: 5.0, effort_limit: [100.0; 6] }
     }
 
     fn run(p: &Params, s: &State, c: &Command, now: i64, plant: &mut Probe) -> (State, Outbox) {

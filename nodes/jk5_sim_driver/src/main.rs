@@ -79,6 +79,9 @@ fn run() -> Result<(), RosError> {
                 out.announce(&mut d, &shared);
                 continue;
             }
+            if d.paced_lockstep() {
+                d.pace(); // no faster than real_time_factor × wall time
+            }
         } else {
             d.pace();
         }

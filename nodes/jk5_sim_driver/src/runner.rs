@@ -216,15 +216,31 @@ impl<P: Plant> Runner<P> {
         (1e9 / self.p.rate) as i64
     }
 
+    /// The wall time one step takes at least when paced [ns]: the period, divided by
+    /// `real_time_factor` in lockstep.
+    pub fn wall_period_ns(&self) -> i64 {
+        if self.paced_lockstep() {
+            (self.period_ns() as f64 / self.p.real_time_factor).round().max(1.0) as i64
+        } else {
+            self.period_ns()
+        }
+    }
+
     /// The current period's deadline [ns, CLOCK_MONOTONIC].
     pub fn deadline_ns(&self) -> i64 {
         self.next_ns
     }
 
+    /// Lockstep with a `real_time_factor`: the chain would run faster than it allows.
+    pub fn paced_lockstep(&self) -> bool {
+        self.p.lockstep && self.p.real_time_factor > 0.0
+    }
+
     /// Real time: sleep until the next period's deadline (absolute, so the rate does not
-    /// drift); returns it [ns, CLOCK_MONOTONIC].
+    /// drift); returns it [ns, CLOCK_MONOTONIC]. In lockstep with a `real_time_factor` the
+    /// period is the simulated one divided by it.
     pub fn pace(&mut self) -> i64 {
-        let period_ns = self.period_ns();
+        let period_ns = self.wall_period_ns();
         self.next_ns += period_ns;
         let now = monotonic_ns();
         if now > self.next_ns + 10 * period_ns {
@@ -349,6 +365,23 @@ mod tests {
         let setup = Setup::from_args(&args).unwrap();
         let table = ParamTable::new(setup.specs(), Some(setup.check()), &args.overrides(NODE).unwrap()).unwrap();
         (Runner::new(setup.plant, &table), table)
+    }
+
+    #[test]
+    fn real_time_factor_paces_lockstep_only() {
+        // Lockstep at 1 kHz, no factor: not paced (as fast as the chain allows).
+        let (d, _) = runner(&["lockstep:=true"]);
+        assert!(!d.paced_lockstep());
+        // Factor 2: each step takes at least 0.5 ms of wall time; 0.5: 2 ms.
+        let (d, _) = runner(&["lockstep:=true", "real_time_factor:=2.0"]);
+        assert!(d.paced_lockstep());
+        assert_eq!(d.wall_period_ns(), 500_000);
+        let (d, _) = runner(&["lockstep:=true", "real_time_factor:=0.5"]);
+        assert_eq!(d.wall_period_ns(), 2_000_000);
+        // Real time ignores it: one period per step.
+        let (d, _) = runner(&["real_time_factor:=2.0"]);
+        assert!(!d.paced_lockstep());
+        assert_eq!(d.wall_period_ns(), 1_000_000);
     }
 
     #[test]
