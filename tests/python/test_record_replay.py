@@ -1,7 +1,7 @@
 """Issue 5 check: record a run, replay it, record the replay: the same messages (every value
-equal, none missing) at the bag's pace (the timing error itself is `naic bench record`'s). DDS stays on this machine: a private
-network namespace when we may create one (root), else loopback-only discovery; always on a
-test-private ROS_DOMAIN_ID."""
+equal, none missing) at the bag's pace (the timing error itself is `naic bench record`'s).
+DDS stays on this machine: a private network namespace when we may create one (root), else
+loopback-only discovery; always on a test-private ROS_DOMAIN_ID."""
 import math
 import os
 import pathlib
