@@ -25,8 +25,9 @@
 //! stale), the output is `τ = G(q) − D_hold q̇` at the last valid state
 //! (gravity compensation plus joint damping, capped per joint for stability at
 //! the control period: [`super::hold`]; no force command), the phase is
-//! `Hold`, and the fault is reported; the next valid cycle resumes in free
-//! space and re-detects contact.
+//! `Hold`, the force law forgets what it learned ([`ControlState::hold`]), and
+//! the fault is reported; the next valid cycle resumes in free space and
+//! re-detects contact.
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3, Vector6};
 
@@ -319,11 +320,11 @@ fn hold(
     let next = ControllerState {
         fault: Some(fault),
         fault_count: s.fault_count + u32::from(s.fault.is_none()),
-        control: ControlState { phase: Phase::Hold, ..s.control },
+        control: s.control.hold(&p.control),
         last_q: q,
         ..*s
     };
-    let law = &s.control.law;
+    let law = &next.control.law;
     let status = Status {
         mode: p.control.force_law.mode,
         phase: Phase::Hold,

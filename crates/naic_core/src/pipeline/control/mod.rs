@@ -221,6 +221,20 @@ impl ControlState {
         Self { retract_left: 0, retract_hold: None, phase: Phase::Free, below_exit: 0, ..*self }
     }
 
+    /// The state a safe hold leaves (every held cycle): phase `Hold`, and the force law
+    /// starts again from its configured weights (NAIC's `m_d`, `b_d`, `σ`, eq 10–15; the
+    /// scheduled law's estimator and integral); a force-limit retraction, in progress or
+    /// latched, is kept. What was learned before the fault is not carried into the next
+    /// contact: the hold let the tool leave the surface, and NAIC's weights, which drift
+    /// with every contact transient (m_d down, σ up), had reached m_d = 0.05 kg and
+    /// σ = 0.22 after two holds on `flat`, where the re-contact limit-cycles at 25 Hz and
+    /// spins joint 4 past its 6.28 rad/s limit (`nodes/naic_controller/tests/faults_in_process.rs`).
+    pub fn hold(&self, p: &ControlParams) -> Self {
+        let fresh = Self::new(p);
+        let sched = ScheduledState { k_known: self.sched.k_known, ..fresh.sched };
+        Self { phase: Phase::Hold, below_exit: 0, law: fresh.law, sched, ..*self }
+    }
+
     /// A force-limit retraction is in progress or latched.
     pub fn retracting(&self) -> bool {
         self.retract_left > 0 || self.retract_hold.is_some()
