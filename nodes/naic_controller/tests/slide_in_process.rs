@@ -23,7 +23,9 @@ struct Sample {
     f_d: f64,
     f: f64,
     phase: Phase,
+    /// Tip and reference position along the slide [m].
     x: f64,
+    x_ref: f64,
 }
 
 /// The example's profile: 1 s still, approach at 20 mm/s until contact (5 N), the target
@@ -53,7 +55,7 @@ fn slide(c: &mut Chain, settle: f64) -> Vec<Sample> {
             let r = c.step(due.then_some(&tp), due.then_some(&dw));
             if let Some(r) = r {
                 let st = r.status;
-                out.push(Sample { t: now as f64 * 1e-9, f_d: st.f_d, f: st.f_ext, phase: st.phase, x: st.tip_position.x });
+                out.push(Sample { t: now as f64 * 1e-9, f_d: st.f_d, f: st.f_ext, phase: st.phase, x: st.tip_position.x, x_ref: r.reference.position[0] });
             }
             if end(now, r.as_ref()) {
                 return out;
@@ -101,40 +103,42 @@ fn write_csv(name: &str, s: &[Sample]) {
 }
 
 /// The controller settings the example sets (examples/slide_with_force_profile.py
-/// `CONTROLLER_PARAMS`): the force reference at 5 N/s (the default 100 N/s makes each
-/// 5 N step a step for the force loop, which overshoots it by 2.2 N), and half the
-/// impedance mass on the force axis (a force loop twice as stiff against the joint
-/// friction's torque bursts when the slide starts).
-const EXAMPLE_PARAMS: [&str; 2] = ["max_force_rate:=5.0", "m_d:=[1.0,1.0,0.5,1.0,1.0,1.0]"];
+/// `CONTROLLER_PARAMS`): the stiffness-scheduled force law, and the force reference at
+/// 5 N/s (the default 100 N/s makes each 5 N step a step for the force loop).
+const EXAMPLE_PARAMS: [&str; 2] = ["mode:=scheduled", "max_force_rate:=5.0"];
 
 #[test]
 fn the_example_profile_tracks_force_in_process() {
     // The slide starting at a few moments (how long the example settles first): the joint
     // friction's breakaway at the slide start differs with the state the arm is in.
     for settle in [1.9, 2.0, 2.2] {
-        let mut a = vec!["mode:=naic"];
-        a.extend(EXAMPLE_PARAMS);
-        let mut c = Chain::new(&a);
+        let mut c = Chain::new(&EXAMPLE_PARAMS);
         let s = slide(&mut c, settle);
-        write_csv(&format!("naic_settle_{settle}"), &s);
+        write_csv(&format!("slide_settle_{settle}"), &s);
         let (max, rms, worst) = summary(&s);
         let t0 = s[0].t;
-        // After the first second of the slide (the breakaway of the joints).
-        let (max_after, _, _) = summary(&s[s.iter().position(|x| x.t >= t0 + 1.0).unwrap()..]);
+        let lead = s.iter().fold(0.0f64, |m, x| m.max((x.x - x.x_ref).abs()));
+        let (first, last) = (s[0], s[s.len() - 1]);
         eprintln!(
-            "settle {settle} s: {} cycles, max |e_f| {max:.3} N at {:.3} s into the slide (f_d {:.2} N), after the first second {max_after:.3} N, rms {rms:.3} N",
+            "settle {settle} s: {} cycles, max |e_f| {max:.3} N at {:.3} s into the slide (f_d {:.2} N), rms {rms:.3} N; tip {:.1} mm along the slide, largest |x - x_ref| {:.1} mm",
             s.len(),
             s[worst].t - t0,
-            s[worst].f_d
+            s[worst].f_d,
+            (last.x - first.x) * 1e3,
+            lead * 1e3
         );
         // 10 cm at 10 mm/s, 1 kHz, in contact all the way, through 5 -> 10 -> 5 N.
         assert_eq!(s.len(), 10_001);
         assert!(s.iter().all(|x| x.phase == Phase::Contact));
-        assert!((s[s.len() - 1].x - s[0].x - 0.1).abs() < 0.003, "slid {} m", s[s.len() - 1].x - s[0].x);
-        assert!(s.iter().any(|x| x.f_d == 10.0) && s[s.len() - 1].f_d == 5.0);
-        // Issue #16's goal (|e_f| <= 0.5 N while sliding) holds after the first second; the
-        // slide's start reaches 0.3-0.7 N (docs/nodes.md, "The rclpy example").
-        assert!(max_after <= 0.5, "settle {settle}: {max_after} N after the first second");
-        assert!(max <= 1.0 && rms <= 0.1, "settle {settle}: max {max} N, rms {rms} N");
+        // The reference stage follows the 50 Hz targets two intervals behind: 0.4 mm at 10 mm/s.
+        assert!((last.x_ref - first.x_ref - 0.0996).abs() < 1e-4, "the reference moved {} m", last.x_ref - first.x_ref);
+        // The tip follows the reference within 5 mm along the slide (the DDS test's bound;
+        // measured 3.3-3.6 mm, ahead of the reference at the end: the contact impedance on
+        // x is 100 N/m, so 0.35 N of tangential force).
+        assert!(lead < 0.005, "settle {settle}: the tip was {lead} m from the reference");
+        assert!(s.iter().any(|x| x.f_d == 10.0) && last.f_d == 5.0);
+        // Issue #16's goal: |e_f| <= 0.5 N while sliding (measured 0.26-0.27 N for these
+        // starts, 0.26-0.47 N over eleven starts between 1.8 and 2.3 s; docs/nodes.md).
+        assert!(max <= 0.5 && rms <= 0.1, "settle {settle}: max {max} N, rms {rms} N");
     }
 }
