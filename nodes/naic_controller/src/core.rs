@@ -23,14 +23,17 @@ use naic_ros::{
     msgs::{JointState, PoseStamped, WrenchStamped, JOINT_NAMES},
     replay::Replay,
     throttle::Throttle,
-    timebase::TimeBase,
+    timebase::{TimeBase, FIRST_PAIR_TIMEOUT_NS},
 };
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
 use crate::reference::ScenarioReference;
 
 /// Lockstep: how long a joint state waits for the wrench of its stamp [ns] (wall clock).
-pub const PAIR_TIMEOUT_NS: i64 = 5_000_000;
+/// The wait only costs time when the wrench never comes; giving up too early makes the
+/// run depend on the machine's load (a cycle then runs on the previous wrench).
+/// Before any wrench has arrived: [`naic_ros::timebase::FIRST_PAIR_TIMEOUT_NS`].
+pub const PAIR_TIMEOUT_NS: i64 = 50_000_000;
 
 /// The node's settings besides the controller's own parameters (from the ROS parameters).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -258,7 +261,9 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
         if let Layout::Missing(i) = layout {
             out.events.missing_joint = Some(JOINT_NAMES[i]);
         }
-        s.pending = Some(Pending { joints, until_ns: now_ns.saturating_add(PAIR_TIMEOUT_NS) });
+        let wait = if s.wrench.is_some() { PAIR_TIMEOUT_NS } else { FIRST_PAIR_TIMEOUT_NS };
+        // (In wall-clock time nothing waits: see below.)
+        s.pending = Some(Pending { joints, until_ns: now_ns.saturating_add(wait) });
     }
     let Some(pd) = s.pending else { return (s, out) };
     let js_stamp = pd.joints.stamp_ns;
