@@ -21,3 +21,4 @@ pub mod dynamics;
 pub mod friction;
 pub mod model;
 pub mod pipeline;
+pub mod rng;
