@@ -41,10 +41,12 @@
 
 pub mod estimator;
 pub mod learning;
+pub mod predictor;
 pub mod schedule;
 
 use estimator::{Estimate, EstimatorParams, EstimatorState};
 use learning::{Learning, LearningParams};
+use predictor::History;
 use schedule::{Gains, ScheduleParams};
 
 /// Approach near an expected surface.
@@ -126,6 +128,9 @@ pub struct ScheduledState {
     /// A stiffness known to the owner instead of the estimate (the simulator's
     /// `oracle` benchmark sets the true k_e here every cycle); `None`: the estimate.
     pub k_known: Option<f64>,
+    /// The accelerations along n commanded in the last cycles, in contact and out of it
+    /// (the predictor's input; the owner pushes the free-space ones with [`Self::commanded`]).
+    pub history: History,
 }
 
 impl ScheduledState {
@@ -138,7 +143,16 @@ impl ScheduledState {
             learning: Learning::default(),
             integral: 0.0,
             k_known: None,
+            history: History::default(),
         }
+    }
+
+    /// Remember the acceleration along n commanded this cycle outside contact (free space,
+    /// approach, retraction): the predictor needs the commands before the contact too.
+    pub fn commanded(&self, a_n: f64) -> Self {
+        let mut s = *self;
+        s.history.push(a_n);
+        s
     }
 
     /// A new contact at position `x` with force `f`: the estimator restarts (keeping its
@@ -159,14 +173,20 @@ pub struct ScheduledInputs {
     pub e_dot: f64,
     pub f_ext: f64,
     pub f_d: f64,
+    /// `ẍ_d` along n [m/s²].
+    pub xdd_d: f64,
 }
 
 /// The report of one cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct ScheduledOutputs {
-    /// Acceleration error to impose `ë` [m/s²].
+    /// Acceleration error to impose `ë` [m/s²] (with the contact-feedforward correction
+    /// `−(f̂ − f_ext)/D` of the predictor).
     pub e_ddot: f64,
+    /// `f_ext − f_d` as measured [N].
     pub e_f: f64,
+    /// The predicted present force `f̂` [N] (`f_ext` with the predictor off).
+    pub f_hat: f64,
     pub estimate: Estimate,
     pub gains: Gains,
     /// Learning step applied (normalised), its eq-15 bound, clipped, projected.
@@ -189,21 +209,34 @@ pub fn step(
     let mut next = *s;
     let (est, e) = estimator::step(&p.estimator, &s.est, u.x, u.x_dot, u.f_ext);
     next.est = est;
+    let sp = &p.schedule;
     let k_sched = s.k_known.unwrap_or(e.k_e + 2.0 * e.k_std);
-    let g = schedule::schedule(&p.schedule, k_sched, period);
-    let (learning, w, rep) = learning::step(&p.learning, &p.schedule, period, &s.learning, &g, e_f, u.e_dot, s.integral);
+    let g = schedule::schedule(sp, k_sched, period);
+    // The present state from the delayed measurements and the commands since (predictor.rs).
+    let (n_x, n_v) = sp.horizons();
+    let pred = predictor::predict(&s.history, period, n_x, n_v, u.x_dot);
+    let k_pred = s.k_known.unwrap_or(e.k_e).clamp(sp.k_min, sp.k_max);
+    let f_hat = if n_x > 0 { (u.f_ext + k_pred * pred.dx).max(0.0) } else { u.f_ext };
+    let (e_f_hat, e_dot_hat) = (f_hat - u.f_d, u.e_dot - pred.dv);
+    let (learning, w, rep) = learning::step(&p.learning, sp, period, &s.learning, &g, e_f_hat, e_dot_hat, s.integral);
     next.learning = learning;
     next.gains = Gains { m_d: w[0], b_d: w[1], sigma: w[2], ..g };
     let gains = next.gains;
-    let e_ddot = (e_f - gains.b_d * u.e_dot - s.integral) / gains.m_d;
+    let e_ddot = (e_f_hat - gains.b_d * e_dot_hat - s.integral) / gains.m_d;
+    let e_ddot = if e_ddot.is_finite() { e_ddot } else { 0.0 };
     next.learning.edd_prev = e_ddot;
+    next.history.push(u.xdd_d - e_ddot);
+    // The integral works on the measured error (slow; no model in it).
     let band = p.integral_band_n.max(p.integral_band_fraction * u.f_d.abs());
     if e_f.abs() <= band && !e.jump {
         next.integral = (s.integral - gains.sigma * e_f).clamp(-integral_limit_n, integral_limit_n);
     }
+    // The contact-force feedforward of eq 6 uses the delayed f_ext: correct it to f̂.
+    let ff = if n_x > 0 { (f_hat - u.f_ext) / sp.apparent_mass } else { 0.0 };
     let out = ScheduledOutputs {
-        e_ddot: if e_ddot.is_finite() { e_ddot } else { 0.0 },
+        e_ddot: e_ddot - ff,
         e_f,
+        f_hat,
         estimate: e,
         gains,
         gamma: rep.gamma,
@@ -228,14 +261,15 @@ pub fn approach_accel(a: &ApproachParams, surface_n: f64, x: f64, x_dot: f64, a_
 mod tests {
     use super::*;
 
-    /// The law on a 1-D plant with a loop delay of `d` cycles (measurement → torque) and
+    /// The law on a 1-D plant with a loop delay of `d` cycles (measurement → torque), the
+    /// measured velocity another 2 cycles older (the sense stage's 5-sample median), and
     /// the arm's apparent mass D = 6.4 kg behind the computed-torque loop, as in the
     /// schedule's derivation; the surface at x = 0 with stiffness `k(t)`.
     fn plant_1d(p: &ScheduledParams, d: usize, k_of: impl Fn(f64) -> f64, f_d: f64, secs: f64) -> (Vec<f64>, Vec<ScheduledOutputs>) {
         let (dt, sub, big_d) = (1e-3, 20, 6.4);
         let (mut x, mut v): (f64, f64) = (-2e-4, 0.02);
         let mut s = ScheduledState::new(p, dt);
-        let mut hist = vec![(x, v, 0.0); d + 1];
+        let mut hist = vec![(x, v, 0.0); d + 3];
         let (mut fs, mut outs) = (vec![], vec![]);
         let mut contact = false;
         for k in 0..(secs / dt) as usize {
@@ -243,17 +277,20 @@ mod tests {
             let f = k_of(t) * x.max(0.0);
             hist.rotate_right(1);
             hist[0] = (x, v, f);
-            let (xm, vm, fm) = hist[d];
+            let (xm, _, fm) = hist[d];
+            let vm = hist[d + 2].1;
             let mut force = 0.0;
             if fm > 1.0 || contact {
                 if !contact {
                     s = s.rearm(p, xm, fm);
                     contact = true;
                 }
-                let (n, o) = step(p, dt, 50.0, &s, &ScheduledInputs { x: xm, x_dot: vm, e_dot: -vm, f_ext: fm, f_d });
+                let (n, o) = step(p, dt, 50.0, &s, &ScheduledInputs { x: xm, x_dot: vm, e_dot: -vm, f_ext: fm, f_d, xdd_d: 0.0 });
                 s = n;
                 force = big_d * -o.e_ddot + fm; // D V + the contact feedforward
                 outs.push(o);
+            } else {
+                s = s.commanded(0.0);
             }
             for _ in 0..sub {
                 let ft = k_of(t) * x.max(0.0);
