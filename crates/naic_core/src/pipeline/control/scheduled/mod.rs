@@ -46,7 +46,7 @@ pub mod schedule;
 
 use estimator::{Estimate, EstimatorParams, EstimatorState};
 use learning::{Learning, LearningParams};
-use predictor::History;
+use predictor::{History, Observer};
 use schedule::{Gains, ScheduleParams};
 
 /// Approach near an expected surface.
@@ -79,6 +79,9 @@ pub struct ScheduledParams {
     pub integral_band_n: f64,
     pub integral_band_fraction: f64,
     pub approach: ApproachParams,
+    /// Bandwidth ω_o of the velocity observer [rad/s] ([`predictor::Observer`]); 0: the
+    /// measured velocity as it is.
+    pub observer_bandwidth: f64,
 }
 
 impl Default for ScheduledParams {
@@ -87,9 +90,10 @@ impl Default for ScheduledParams {
             schedule: ScheduleParams::default(),
             estimator: EstimatorParams::default(),
             learning: LearningParams::default(),
-            integral_band_n: 1.0,
-            integral_band_fraction: 0.2,
+            integral_band_n: 0.5,
+            integral_band_fraction: 0.0,
             approach: ApproachParams::default(),
+            observer_bandwidth: 0.0,
         }
     }
 }
@@ -131,6 +135,8 @@ pub struct ScheduledState {
     /// The accelerations along n commanded in the last cycles, in contact and out of it
     /// (the predictor's input; the owner pushes the free-space ones with [`Self::commanded`]).
     pub history: History,
+    /// The velocity observer along n (restarted at every contact).
+    pub observer: Observer,
 }
 
 impl ScheduledState {
@@ -144,6 +150,7 @@ impl ScheduledState {
             integral: 0.0,
             k_known: None,
             history: History::default(),
+            observer: Observer::default(),
         }
     }
 
@@ -158,7 +165,13 @@ impl ScheduledState {
     /// A new contact at position `x` with force `f`: the estimator restarts (keeping its
     /// jump count), the integral is cleared, the learned corrections are kept.
     pub fn rearm(&self, p: &ScheduledParams, x: f64, f: f64) -> Self {
-        Self { est: estimator::start(&p.estimator, self.est.jumps, x, f), integral: 0.0, learning: self.learning.rearm(), ..*self }
+        Self {
+            est: estimator::start(&p.estimator, self.est.jumps, x, f),
+            integral: 0.0,
+            learning: self.learning.rearm(),
+            observer: Observer::default(),
+            ..*self
+        }
     }
 }
 
@@ -214,7 +227,10 @@ pub fn step(
     let g = schedule::schedule(sp, k_sched, period);
     // The present state from the delayed measurements and the commands since (predictor.rs).
     let (n_x, n_v) = sp.horizons();
-    let pred = predictor::predict(&s.history, period, n_x, n_v, u.x_dot);
+    next.observer = s.observer.step(&s.history, period, n_v, u.x_dot, p.observer_bandwidth);
+    let ob = next.observer;
+    let pred = predictor::predict(&s.history, period, n_x, n_v, ob.v, ob.w);
+    let pred = predictor::Prediction { dv: ob.v + pred.dv - u.x_dot, ..pred };
     let k_pred = s.k_known.unwrap_or(e.k_e).clamp(sp.k_min, sp.k_max);
     let f_hat = if n_x > 0 { (u.f_ext + k_pred * pred.dx).max(0.0) } else { u.f_ext };
     let (e_f_hat, e_dot_hat) = (f_hat - u.f_d, u.e_dot - pred.dv);

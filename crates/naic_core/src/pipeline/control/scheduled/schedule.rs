@@ -86,7 +86,7 @@ pub struct ScheduleParams {
 impl Default for ScheduleParams {
     fn default() -> Self {
         Self {
-            m_d_min: 0.25,
+            m_d_min: 0.1,
             zeta: 1.0,
             delay_cycles: 2.0,
             alpha: 0.7,
@@ -255,10 +255,10 @@ mod tests {
         assert!((p.velocity_delay(1e-3) - 1.5e-3).abs() < 1e-15);
         assert!((ScheduleParams { prediction: 0.0, ..p }.velocity_delay(1e-3) - 4.5e-3).abs() < 1e-15);
         let g = schedule(&p, 20_000.0, 1e-3);
-        assert!((g.m_d - 0.25f64.max(20_000.0 * (2.0 * 1.5e-3 / 0.7f64).powi(2))).abs() < 1e-12, "{g:?}");
+        assert!((g.m_d - 0.1f64.max(20_000.0 * (2.0 * 1.5e-3 / 0.7f64).powi(2))).abs() < 1e-12, "{g:?}");
         let g = schedule(&p, 1000.0, 1e-3);
-        assert_eq!(g.m_d, 0.25);
-        assert!((g.b_d - 2.0 * (1000.0f64 * 0.25).sqrt()).abs() < 1e-9);
+        assert_eq!(g.m_d, 0.1);
+        assert!((g.b_d - 2.0 * (1000.0f64 * 0.1).sqrt()).abs() < 1e-9);
         let g = schedule(&p, 50_000.0, 1e-3);
         assert!(g.m_d > 0.9 && g.b_d > g.b_floor && g.b_d <= g.b_max * (1.0 + 1e-12), "{g:?}");
         // the paper's b_d = 40 is below the floor of its own m_d = 1 on acrylic
