@@ -395,7 +395,17 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
     } else if scheduled {
         // Approach: limit the speed along n near the expected surface.
         let a = &p.force_law.scheduled.approach;
-        let a_n = scheduled::approach_accel(a, a.expected_surface.map_or(f64::NAN, |z| sign * z), sign * u.p[ax], sign * u.x_dot[ax], sign * out.v[ax], imp.b_d[ax] / imp.m_d[ax]);
+        let (a_n, e) = scheduled::approach_accel(
+            a,
+            a.expected_surface.map_or(f64::NAN, |z| sign * z),
+            sign * u.p[ax],
+            sign * u.x_dot[ax],
+            sign * out.v[ax],
+            imp.b_d[ax] / imp.m_d[ax],
+            next.sched.approach_integral,
+            p.force_law.lambda,
+        );
+        next.sched.approach_integral = e;
         out.v[ax] = sign * a_n;
     }
     if scheduled {
