@@ -8,9 +8,15 @@
 //! ```text
 //! (x, ẋ, f_ext) ─▶ estimator (RLS on f = k_e (x − x_e), anti-windup, jump detector) ─▶ k̂_e ± σ_k
 //! k̂_e + 2σ_k   ─▶ schedule (m_d, b_d ≥ delay floor, σ < bound)                    ─▶ gains
-//! gains, e_f    ─▶ learning (per-weight NLMS, eq-15 bound on the normalised step) ─▶ m_d, b_d, σ
-//!               ─▶ law: ë = (e_f − b_d ė − I) / m_d,  I ← I + σ (f_d − f_ext)
+//! ẋ, f_ext, past commands ─▶ predictor (observer, Smith predictor)                  ─▶ v̂, f̂ (now)
+//! gains, ê_f    ─▶ learning (per-weight NLMS, eq-15 bound on the normalised step) ─▶ m_d, b_d, σ
+//!               ─▶ law: ë = (f̂ − f_d − b_d ê̇ − I) / m_d,  I ← I + σ (f_d − f_ext)
+//!               ─▶ output ë − (f̂ − f_ext)/D (the contact feedforward of eq 6 corrected to f̂)
 //! ```
+//!
+//! Outside this file, in scheduled mode the control stage also bounds every other axis'
+//! `b/m` by the loop delay ([`schedule::axis_masses`]) and servoes the approach speed near
+//! an expected surface ([`approach_accel`]).
 //!
 //! # Signs
 //!
@@ -24,10 +30,12 @@
 //! # Integral anti-windup
 //!
 //! `I` integrates only while `|e_f| ≤ max(integral_band_n, integral_band_fraction·|f_d|)`
-//! (conditional integration: the large errors of the contact transient and of
-//! stiffness jumps are the proportional path's job, integrating them is what
-//! makes AIC overshoot) and is clamped to `|I| ≤ integral_limit_n` (the
-//! contact-force limit) as for AIC.
+//! (0.5 N by default; conditional integration: the large errors of the contact transient
+//! and of stiffness jumps are the proportional path's job, integrating them is what
+//! makes AIC overshoot — with a band of max(1 N, 20 % f_d) the last 2–4 N of every rise
+//! were integrated and overshot 5–8 %) and is clamped to `|I| ≤ integral_limit_n` (the
+//! contact-force limit) as for AIC. It works on the measured error (no model in it). A
+//! steady error larger than the band (a large model error) is not removed.
 //!
 //! # The contact transition
 //!
@@ -89,14 +97,6 @@ pub struct ScheduledParams {
     pub observer_max: f64,
 }
 
-impl ScheduledParams {
-    /// The observer bandwidth for damping `b_d` [rad/s]; 0 (off: the raw measurement) when
-    /// the noise budget allows more than `observer_max`.
-    pub fn observer_bandwidth(&self, b_d: f64, period: f64) -> f64 {
-        let w = 2.0 * (self.force_noise_budget / (b_d * self.velocity_noise)).powi(2) / period;
-        if w.is_finite() && w > 0.0 && w < self.observer_max { w } else { 0.0 }
-    }
-}
 
 impl Default for ScheduledParams {
     fn default() -> Self {
@@ -115,6 +115,13 @@ impl Default for ScheduledParams {
 }
 
 impl ScheduledParams {
+    /// The observer bandwidth for damping `b_d` [rad/s]; 0 (off: the raw measurement) when
+    /// the noise budget allows more than `observer_max`.
+    pub fn observer_bandwidth(&self, b_d: f64, period: f64) -> f64 {
+        let w = 2.0 * (self.force_noise_budget / (b_d * self.velocity_noise)).powi(2) / period;
+        if w.is_finite() && w > 0.0 && w < self.observer_max { w } else { 0.0 }
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         self.schedule.validate()?;
         self.estimator.validate()?;

@@ -12,8 +12,8 @@
 //!
 //! # The model
 //!
-//! The computed-torque loop realises the commanded acceleration along `n` (`D ẍ = D a
-//! + Δ` with the contact force fed forward, see below), so the change of the state over
+//! The computed-torque loop realises the commanded acceleration along `n`
+//! (`D ẍ = D a + Δ` with the contact force fed forward, see below), so the change of the state over
 //! the last cycles is known from the commands `a_j` (`a_1` applied over the last period,
 //! zero-order hold):
 //!
@@ -110,7 +110,7 @@ impl Observer {
     /// One cycle with the measured velocity `v_m` (of `n_v` cycles ago); `omega` ≤ 0 or
     /// non-finite passes the measurement through (`v̄ = v_m`, `w̄ = 0`).
     pub fn step(&self, h: &History, period: f64, n_v: usize, v_m: f64, omega: f64) -> Self {
-        if !(omega > 0.0 && omega.is_finite()) || !self.started || !v_m.is_finite() {
+        if !(omega > 0.0 && omega.is_finite() && self.started && v_m.is_finite()) {
             return Self { v: if v_m.is_finite() { v_m } else { self.v }, w: 0.0, started: true };
         }
         let p = (-omega * period).exp();

@@ -29,9 +29,16 @@
 //!    a good margin only for `(b_d/m_d) τ_v ≤ α` (α < π/2 is the stability
 //!    limit; α = 0.7 keeps the phase margin ≈ 50°). With near-critical damping
 //!    `b_d = 2ζ√(k_e m_d)` this is `2ζ ω_n τ_v ≤ α`, a lower bound on the mass:
-//!    `m_d ≥ k_e (2ζτ_v/α)²`. On soft surfaces `m_d_min` (0.25 kg, for speed) wins;
-//!    on acrylic (d = 2) the mass grows to ≈ 8 kg (ω_n = 78 rad/s) — a light virtual
-//!    mass on a hard surface with a delayed loop is what makes it chatter.
+//!    `m_d ≥ k_e (2ζτ_v/α)²`. On soft surfaces `m_d_min` (0.1 kg) wins; on acrylic the
+//!    mass grows to ≈ 0.9 kg with the predictor (residual τ_v = 1.5 ms, ω_n ≈ 230 rad/s)
+//!    and to ≈ 8 kg without it (τ_v = 4.5 ms at d = 2, ω_n = 78 rad/s) — a light virtual
+//!    mass on a hard surface with a delayed loop is what makes it chatter. The lightest
+//!    mass matters beyond speed: a disturbance force Δ on the arm (friction, model
+//!    error) reaches the contact force as `(m_d / D) Δ`.
+//!
+//!    All delays in these bounds are the residual delays the predictor leaves
+//!    ([`ScheduleParams::delay`], [`ScheduleParams::velocity_delay`]); the predictor is
+//!    designed for `delay_cycles`.
 //!    With `m_d` from this bound, `b_d / m_d = 2ζ ω_n ≤ α/τ` holds, and the
 //!    delay floor is below the critical damping whenever `4ζ²/α > 1`
 //!    (checked by [`ScheduleParams::validate`]).
