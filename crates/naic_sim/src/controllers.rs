@@ -119,6 +119,10 @@ impl PipelineController {
         c.contact.exit_n = settings.contact_exit_n;
         c.force_limit.limit_n = settings.force_limit_n;
         c.force_law.integral_limit_n = settings.force_limit_n;
+        if mode == Mode::Scheduled {
+            // The task's expected surface (acrylic, two-material): the approach slows down near it.
+            c.force_law.scheduled.approach.expected_surface = scenario.expected_surface;
+        }
         let mut effort = [0.0; 6];
         for (e, j) in effort.iter_mut().zip(model.joints()) {
             *e = j.limits.effort;

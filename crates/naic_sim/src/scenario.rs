@@ -118,6 +118,10 @@ pub struct Scenario {
     pub impedance: ImpedanceSettings,
     /// RNG seed of the plant (noise, sensor bias).
     pub seed: u64,
+    /// Where the task expects the surface: its coordinate along the force axis' base-frame
+    /// axis [m] (z for the presets), given to the scheduled law's approach speed limit
+    /// (`approach.expected_surface`); `None`: no expectation. Only the scheduled law reads it.
+    pub expected_surface: Option<f64>,
     /// What the paper reports for this scenario (for the README comparison).
     pub paper_notes: String,
 }
@@ -308,6 +312,7 @@ pub fn preset(name: &str, model: &Model) -> Result<Scenario, String> {
         r_d: r0,
         impedance: PAPER_IMPEDANCE,
         seed: 1,
+        expected_surface: None,
         paper_notes: String::new(),
     };
     let s = match name {
@@ -320,6 +325,8 @@ pub fn preset(name: &str, model: &Model) -> Result<Scenario, String> {
         "acrylic" => Scenario {
             description: "§4.1 approach onto acrylic (k_e = 50 000 N/m, b_e = 50 N·s/m, our choice) at z = 0.08 m, f_d = 10 N".into(),
             env: Environment::horizontal(0.08, MaterialMap::Uniform(acrylic())),
+            // issue 12: "a configurable approach speed near an expected surface"
+            expected_surface: Some(0.08),
             paper_notes: "not in the paper: the hard surface of §5.2.2 with the §4.1 approach and target (issue 12)".into(),
             ..base
         },
@@ -381,6 +388,7 @@ pub fn preset(name: &str, model: &Model) -> Result<Scenario, String> {
                     duration,
                     q0,
                     env: Environment::horizontal(surface, MaterialMap::SplitX { x_boundary, high_x: acrylic(), low_x: foam() }),
+                    expected_surface: Some(surface),
                     f_d_steps: vec![(0.0, f_d)],
                     ramp: Ramp { from: Vector3::new(start.x, y, z_d), to: Vector3::new(start.x - 0.06, y, z_d), t0: 5.0, t1: 8.0 },
                     paper_notes: "Fig 8: contact with acrylic at 3.327 s with an impact, converged to −3 N before 4.756 s; a force jump when moving onto the foam, then tracks".into(),

@@ -294,6 +294,17 @@ fn eq6(imp: &ImpedanceParams, k: &[f64; 6], u: &TaskInputs) -> Vector6<f64> {
 /// One cycle of the control stage (contact detection + eq 6/8 per axis).
 /// Pure: `(params, state, inputs) -> (state, outputs)`.
 pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
+    let (mut next, out) = step_phases(p, s, u);
+    if p.force_law.mode == Mode::Scheduled && (next.phase != Phase::Contact || out.retracting) {
+        // The scheduled law's predictor remembers every command along n; in contact the
+        // law pushes its own (without the feedforward correction).
+        let ax = p.force_axis.axis;
+        next.sched = next.sched.commanded(p.force_axis.sign * out.v[ax]);
+    }
+    (next, out)
+}
+
+fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
     let ax = p.force_axis.axis;
     let sign = p.force_axis.sign;
     let f_ext = sign * u.f_e[ax];
@@ -305,7 +316,15 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
         next.retract_hold = None;
         next.phase = Phase::Free;
     }
-    let imp = &p.impedance;
+    let bounded;
+    let imp = if p.force_law.mode == Mode::Scheduled {
+        // The scheduled law bounds every axis' damping-to-mass ratio by the loop delay.
+        let sp = &p.force_law.scheduled.schedule;
+        bounded = ImpedanceParams { m_d: scheduled::schedule::axis_masses(sp, &p.impedance.m_d, &p.impedance.b_d, p.force_law.lambda), ..p.impedance };
+        &bounded
+    } else {
+        &p.impedance
+    };
     if next.retract_left > 0 {
         next.retract_left -= 1;
         next.phase = Phase::Free;
@@ -362,7 +381,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     if contact && scheduled {
         let fl = &p.force_law;
         let inputs =
-            ScheduledInputs { x: sign * u.p[ax], x_dot: sign * u.x_dot[ax], e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d };
+            ScheduledInputs { x: sign * u.p[ax], x_dot: sign * u.x_dot[ax], e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d, xdd_d: sign * u.a_d[ax] };
         let (sched, r) = scheduled::step(&fl.scheduled, fl.lambda, fl.integral_limit_n, &next.sched, &inputs);
         next.sched = sched;
         let g = &sched.gains;
@@ -390,7 +409,17 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     } else if scheduled {
         // Approach: limit the speed along n near the expected surface.
         let a = &p.force_law.scheduled.approach;
-        let a_n = scheduled::approach_accel(a, a.expected_surface.map_or(f64::NAN, |z| sign * z), sign * u.p[ax], sign * u.x_dot[ax], sign * out.v[ax], imp.b_d[ax] / imp.m_d[ax]);
+        let (a_n, e) = scheduled::approach_accel(
+            a,
+            a.expected_surface.map_or(f64::NAN, |z| sign * z),
+            sign * u.p[ax],
+            sign * u.x_dot[ax],
+            sign * out.v[ax],
+            imp.b_d[ax] / imp.m_d[ax],
+            next.sched.approach_integral,
+            p.force_law.lambda,
+        );
+        next.sched.approach_integral = e;
         out.v[ax] = sign * a_n;
     }
     if scheduled {

@@ -181,7 +181,9 @@ mod tests {
         // moves each weight by a similar fraction of its own size.
         let sp = ScheduleParams::default();
         let lp = LearningParams { learning_rate: 0.05, max_relative: 0.9, ..Default::default() };
-        let g = schedule(&sp, 2000.0, 1e-3);
+        // a stiffness where m_d is above m_d_min (free to move both ways)
+        let g = schedule(&sp, 30_000.0, 1e-3);
+        assert!(g.m_d > sp.m_d_min * 1.5, "{g:?}");
         let mut s = Learning::default();
         for k in 0..50 {
             let t = k as f64 * 1e-3;
