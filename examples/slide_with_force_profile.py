@@ -52,7 +52,7 @@ TOPICS = ("/naic/target_pose", "/naic/desired_wrench")
 # - mode: scheduled, naic's stiffness-scheduled force law (docs/controller.md). With the
 #   paper's laws the joints breaking away in their Stribeck friction range at the start of
 #   the slide reached the contact force as 0.3-0.7 N bursts (NAIC); the scheduled law's
-#   integral and damping hold the error at 0.26-0.47 N over eleven slide starts in process.
+#   integral and damping hold the error at 0.26-0.30 N over eleven slide starts in process.
 # - max_force_rate: the force reference moves at 5 N/s. At the default 100 N/s each 5 N step
 #   reaches the force loop as a step (50 ms).
 CONTROLLER_PARAMS = {"mode": "scheduled", "max_force_rate": 5.0}
