@@ -164,10 +164,10 @@ pub fn check(base: ControllerParams) -> SetCheck {
         controller_params(p, &base)?;
         let (ct, fl, fd) = (p.f64("contact_threshold"), p.f64("force_limit"), p.f64("desired_force"));
         if ct >= fl {
-            return Err(format!("contact_threshold ({ct} N) must be below force_limit ({fl} N)"));
+            return Err(format!("contact_threshold ({ct} N) must be below force_limit ({fl} N)").into());
         }
         if fd >= fl {
-            return Err(format!("desired_force ({fd} N) must be below force_limit ({fl} N)"));
+            return Err(format!("desired_force ({fd} N) must be below force_limit ({fl} N)").into());
         }
         reference_params(p).validate()?;
         Ok(())
@@ -207,11 +207,11 @@ mod tests {
     fn bad_values_are_rejected_with_reasons() {
         let (t, b) = table();
         let set = |n: &str, v: V| t.set_atomically(&[(n.to_string(), v)]);
-        assert!(set("learning_rate", V::Double(-0.1)).unwrap_err().contains("outside its range"));
-        assert!(set("mode", V::String("pid".into())).unwrap_err().contains("naic, aic, fixed"));
-        assert!(set("desired_force", V::Double(60.0)).unwrap_err().contains("below force_limit"));
+        assert!(set("learning_rate", V::Double(-0.1)).unwrap_err().to_string().contains("outside its range"));
+        assert!(set("mode", V::String("pid".into())).unwrap_err().to_string().contains("naic, aic, fixed"));
+        assert!(set("desired_force", V::Double(60.0)).unwrap_err().to_string().contains("below force_limit"));
         // The core's own bound: b_d on the force axis must lie in the NAIC weight bounds.
-        let e = set("b_d", V::DoubleArray(vec![500.0, 500.0, 0.5, 500.0, 500.0, 500.0])).unwrap_err();
+        let e = set("b_d", V::DoubleArray(vec![500.0, 500.0, 0.5, 500.0, 500.0, 500.0])).unwrap_err().to_string();
         assert!(e.contains("b_d"), "{e}");
         set("force_axis", V::String("x".into())).unwrap();
         set("mode", V::String("aic".into())).unwrap();
