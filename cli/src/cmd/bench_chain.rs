@@ -48,6 +48,11 @@ pub struct ChainArgs {
     /// priority and CPU, after the three processes.
     #[arg(long)]
     pub composed: bool,
+    /// Also measure the machine's floor right after the chains: `cyclictest` (rt-tests, if
+    /// installed) for the same duration, at the same priority, on the same CPU: how often a
+    /// lone SCHED_FIFO thread woke up late. The honest reference for the missed cycles.
+    #[arg(long)]
+    pub floor: bool,
     /// ROS_DOMAIN_ID of the Rust chain (the rclpy chain uses the next one, the composed run
     /// the one after).
     #[arg(long, default_value_t = 211)]
@@ -98,7 +103,12 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
         }
     }
     wait(a.duration + WARMUP, &mut procs)?;
-    stop_all(&mut procs, Duration::from_secs(5));
+    // The driver first (it writes the report as it exits). Stopped last, as `naic launch`
+    // stops the chain, it counted every cycle between the controller's exit and its own as
+    // missed: 140-180 of them per run, half of what this bench used to report.
+    let (driver, others) = procs.split_at_mut(1);
+    stop_all(driver, Duration::from_secs(5));
+    stop_all(others, Duration::from_secs(5));
     read_report(&report)
 }
 
@@ -203,6 +213,79 @@ fn rclpy_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError>
     }
 }
 
+/// The floor: `cyclictest -m -p P -i 1000 -D S -a CPU`, one SCHED_FIFO thread waking every
+/// millisecond and nothing else. Late wake-ups are counted over thresholds, and converted to
+/// the cycles a chain whose median is `chain_median_us` would have missed: a wake-up L late
+/// leaves the chain `1000 - L` µs, and cyclictest skips the periods it slept through, so a
+/// wake-up later than the chain's budget costs ⌈(L - budget) / 1 ms⌉ cycles.
+fn floor(a: &ChainArgs, dir: &Path, chain_median_us: f64) -> Result<serde_json::Value, CliError> {
+    let hist = dir.join("cyclictest.hist");
+    let mut args = vec!["-m".to_string(), "-q".into(), "-i".into(), "1000".into(), "-D".into(), format!("{}", a.duration.ceil() as u64)];
+    args.extend(["-h".into(), "20000".into(), format!("--histfile={}", hist.display())]);
+    if a.realtime_priority > 0 {
+        args.extend(["-p".into(), a.realtime_priority.to_string()]);
+    }
+    match a.cpu.unwrap_or(1) {
+        -1 => {}
+        cpu => args.extend(["-a".into(), cpu.to_string()]),
+    }
+    let st = Command::new("cyclictest")
+        .args(&args)
+        .stdout(std::process::Stdio::null())
+        .status()
+        .map_err(|e| CliError::failure(format!("--floor needs cyclictest (rt-tests): {e}")))?;
+    if !st.success() {
+        return Err(CliError::failure(format!("cyclictest {} failed ({st})", args.join(" "))));
+    }
+    let text = std::fs::read_to_string(&hist).map_err(|e| CliError::failure(format!("no cyclictest histogram: {e}")))?;
+    let header = |key: &str| -> Option<u64> {
+        text.lines().find(|l| l.starts_with(key)).and_then(|l| l[key.len()..].split_whitespace().next()).and_then(|v| v.parse().ok())
+    };
+    let buckets: Vec<(u64, u64)> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .filter_map(|l| {
+            let mut f = l.split_whitespace().map(|x| x.parse::<u64>());
+            match (f.next(), f.next()) {
+                (Some(Ok(us)), Some(Ok(n))) => Some((us, n)),
+                _ => None,
+            }
+        })
+        .collect();
+    let overflows = header("# Histogram Overflows:").unwrap_or(0);
+    let max_us = header("# Max Latencies:").unwrap_or(0);
+    let n: u64 = buckets.iter().map(|b| b.1).sum::<u64>() + overflows;
+    let over = |us: u64| buckets.iter().filter(|b| b.0 > us).map(|b| b.1).sum::<u64>() + overflows;
+    let budget_us = (1000.0 - chain_median_us).max(0.0);
+    let cost = |l: f64| ((l - budget_us) / 1000.0).ceil().max(0.0) as u64;
+    let equivalent: u64 = buckets.iter().filter(|b| b.0 as f64 > budget_us).map(|b| b.1 * cost(b.0 as f64)).sum::<u64>()
+        + overflows * cost(max_us as f64); // beyond 20 ms: counted at the maximum (an upper bound)
+    let quantile = |f: f64| {
+        let rank = (f * n as f64).ceil() as u64;
+        let mut acc = 0;
+        for &(us, c) in &buckets {
+            acc += c;
+            if acc >= rank {
+                return us;
+            }
+        }
+        max_us
+    };
+    Ok(serde_json::json!({
+        "command": format!("cyclictest {}", args.join(" ")),
+        "wakeups": n,
+        "median_us": quantile(0.5),
+        "p99_us": quantile(0.99),
+        "p9999_us": quantile(0.9999),
+        "max_us": max_us,
+        "late_over_500us": over(500),
+        "late_over_1ms": over(1000),
+        "chain_budget_us": budget_us,
+        "equivalent_missed_cycles": equivalent,
+        "equivalent_missed_percent": if n > 0 { 100.0 * equivalent as f64 / n as f64 } else { f64::NAN },
+    }))
+}
+
 fn machine() -> serde_json::Value {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
@@ -244,6 +327,12 @@ pub fn run(a: ChainArgs) -> CliResult {
     } else {
         serde_json::Value::Null
     };
+    let floor = if a.floor {
+        eprintln!("naic bench chain: floor (cyclictest), {} s", a.duration.ceil());
+        floor(&a, &dir, rust["median_us"].as_f64().unwrap_or(0.0))?
+    } else {
+        serde_json::Value::Null
+    };
     let ratio = |x: &serde_json::Value, y: &serde_json::Value| match (x["median_us"].as_f64(), y["median_us"].as_f64()) {
         (Some(r), Some(p)) if p > 0.0 => serde_json::json!(r / p),
         _ => serde_json::Value::Null,
@@ -259,6 +348,11 @@ pub fn run(a: ChainArgs) -> CliResult {
         "composed": composed,
         "median_ratio_composed_over_rust": ratio(&composed, &rust),
         "rclpy": rclpy,
+        "floor": floor,
+        "missed_over_floor": match (rust["missed_cycles"].as_f64(), floor["equivalent_missed_cycles"].as_f64()) {
+            (Some(m), Some(f)) if f > 0.0 => serde_json::json!(m / f),
+            _ => serde_json::Value::Null,
+        },
         "machine": machine(),
         "git": Command::new("git").args(["rev-parse", "--short", "HEAD"]).output().ok()
             .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string()),

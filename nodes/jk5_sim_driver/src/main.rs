@@ -9,7 +9,7 @@
 use std::sync::Arc;
 
 use jk5_sim_driver::{
-    runner::{Runner, SharedCommands},
+    runner::{monotonic_ns, MissMarker, Runner, SharedCommands, WakeStats},
     setup::{Setup, NODE},
     sim_plant::SimPlant,
 };
@@ -45,6 +45,7 @@ fn main() {
 
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
+    let marker = MissMarker::from_env();
     let args = RosArgs::parse(std::env::args().skip(1))?;
     let setup = Setup::from_args(&args)?; // files first, before any DDS participant exists
     let mut node = RosNode::new(args, NODE, setup.specs(), Some(setup.check()))?;
@@ -61,6 +62,8 @@ fn run() -> Result<(), RosError> {
     let rx = Arc::clone(&shared);
     spawn_receiver("cmd-rx", cmd_sub, move |m| rx.receive(&m)).map_err(|e| RosError::Node(format!("cannot start the receive thread: {e}")))?;
 
+    let mut wake = WakeStats::default();
+    let record_after_ns = shared.lock().record_after_ns;
     while !naic_ros::shutdown_requested() {
         d.reload(&node.params, &mut shared.lock());
         if d.paused {
@@ -83,13 +86,23 @@ fn run() -> Result<(), RosError> {
                 d.pace(); // no faster than real_time_factor × wall time
             }
         } else {
-            d.pace();
+            let deadline = d.pace();
+            let timed = !d.sim && naic_ros::time::wall_ns() >= record_after_ns;
+            wake.woke(deadline, monotonic_ns(), d.period_ns(), timed);
         }
         d.reload(&node.params, &mut shared.lock());
         let cmd = shared.lock().view();
+        let missed = d.s.missed;
         d.step(&cmd);
+        if !d.p.lockstep {
+            wake.stepped(d.s.missed > missed);
+            if d.s.missed > missed {
+                marker.miss(d.s.missed);
+            }
+        }
         out.announce(&mut d, &shared);
     }
-    d.finish(&shared.lock(), &node.params, serde_json::json!({}));
+    let extra = if d.p.lockstep { serde_json::json!({}) } else { wake.report() };
+    d.finish(&shared.lock(), &node.params, extra);
     Ok(())
 }
