@@ -48,9 +48,11 @@ pub struct ChainArgs {
     /// priority and CPU, after the three processes.
     #[arg(long)]
     pub composed: bool,
-    /// Also measure the machine's floor right after the chains: `cyclictest` (rt-tests, if
-    /// installed) for the same duration, at the same priority, on the same CPU: how often a
-    /// lone SCHED_FIFO thread woke up late. The honest reference for the missed cycles.
+    /// Also measure the machine's floor right after the chains, each for the same duration, at
+    /// the same priority, on the same CPU: `cyclictest` (rt-tests, if installed; how often a
+    /// lone SCHED_FIFO thread woke up late), and a 1 kHz loop in this process that does the
+    /// chain's median latency in fixed CPU work after each wake-up (how often that work ended
+    /// after the next deadline). The honest references for the missed cycles.
     #[arg(long)]
     pub floor: bool,
     /// ROS_DOMAIN_ID of the Rust chain (the rclpy chain uses the next one, the composed run
@@ -286,6 +288,97 @@ fn floor(a: &ChainArgs, dir: &Path, chain_median_us: f64) -> Result<serde_json::
     }))
 }
 
+/// The floor for a job with work: a SCHED_FIFO thread (the chain's priority and CPU) that
+/// wakes every 1 ms (absolute deadlines, overdue periods run back to back, as the driver's
+/// loop) and then does `work_us` of fixed CPU work (an iteration count calibrated before, on
+/// the fastest of 30 tries). A cycle whose work ends after the next deadline is an overrun:
+/// what a chain that needs `work_us` per cycle would miss on this CPU, with no DDS. The work's
+/// wall time shows when the CPU itself ran slow (the same iterations taking many times longer).
+fn work_floor(a: &ChainArgs, work_us: f64) -> Result<serde_json::Value, CliError> {
+    use std::hint::black_box;
+    fn spin(n: u64) -> u64 {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for i in 0..n {
+            x = black_box(x.rotate_left(7) ^ i).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        }
+        x
+    }
+    let (prio, cpu, seconds) = (a.realtime_priority as i32, a.cpu.unwrap_or(1), a.duration);
+    let t = std::thread::spawn(move || -> Result<serde_json::Value, String> {
+        // SAFETY: scheduling calls for the calling thread with valid arguments.
+        unsafe {
+            if cpu >= 0 {
+                let mut set: libc::cpu_set_t = std::mem::zeroed();
+                libc::CPU_SET(cpu as usize, &mut set);
+                if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
+                    return Err(format!("cannot pin to CPU {cpu}: {}", std::io::Error::last_os_error()));
+                }
+            }
+            if prio > 0 && libc::sched_setscheduler(0, libc::SCHED_FIFO, &libc::sched_param { sched_priority: prio }) != 0 {
+                return Err(format!("cannot use SCHED_FIFO {prio}: {}", std::io::Error::last_os_error()));
+            }
+        }
+        let calib = 20_000u64;
+        let best = (0..30)
+            .map(|_| {
+                let t0 = Instant::now();
+                black_box(spin(calib));
+                t0.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min);
+        let iters = (work_us * 1e-6 / best * calib as f64).round().max(1.0) as u64;
+        let now_ns = || {
+            let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+            // SAFETY: valid pointer to a timespec.
+            unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+            ts.tv_sec as i64 * 1_000_000_000 + ts.tv_nsec as i64
+        };
+        let period = 1_000_000i64;
+        let (mut wake, mut work) = (Vec::with_capacity(seconds as usize * 1000 + 16), Vec::with_capacity(seconds as usize * 1000 + 16));
+        let (mut overruns, mut episodes, mut in_episode) = (0u64, 0u64, false);
+        let start = now_ns();
+        let mut next = start;
+        while next - start < (seconds * 1e9) as i64 {
+            next += period;
+            if now_ns() > next + 10 * period {
+                next = now_ns(); // fell far behind: resynchronise, as the driver does
+            }
+            let ts = libc::timespec { tv_sec: (next / 1_000_000_000) as libc::time_t, tv_nsec: (next % 1_000_000_000) as libc::c_long };
+            // SAFETY: absolute sleep on CLOCK_MONOTONIC with a valid timespec.
+            unsafe { libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut()) };
+            let woke = now_ns();
+            black_box(spin(iters));
+            let end = now_ns();
+            wake.push(woke - next);
+            work.push(end - woke);
+            let over = end > next + period;
+            overruns += over as u64;
+            episodes += (over && !in_episode) as u64;
+            in_episode = over;
+        }
+        let q = |v: &mut Vec<i64>, f: f64| {
+            v.sort_unstable();
+            v[((v.len() - 1) as f64 * f).round() as usize] as f64 / 1e3
+        };
+        let n = wake.len();
+        Ok(serde_json::json!({
+            "what": format!("1 kHz SCHED_FIFO {prio} loop on CPU {cpu}, {work_us:.0} us of fixed work per cycle, overruns = work ended after the next deadline"),
+            "cycles": n,
+            "work_iterations": iters,
+            "overruns": overruns,
+            "overrun_percent": 100.0 * overruns as f64 / n.max(1) as f64,
+            "overrun_episodes": episodes,
+            "wake_late_p99_us": q(&mut wake, 0.99),
+            "wake_late_max_us": q(&mut wake, 1.0),
+            "work_median_us": q(&mut work, 0.5),
+            "work_p99_us": q(&mut work, 0.99),
+            "work_p9999_us": q(&mut work, 0.9999),
+            "work_max_us": q(&mut work, 1.0),
+        }))
+    });
+    t.join().map_err(|_| CliError::failure("the floor loop panicked"))?.map_err(CliError::failure)
+}
+
 fn machine() -> serde_json::Value {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
@@ -333,6 +426,13 @@ pub fn run(a: ChainArgs) -> CliResult {
     } else {
         serde_json::Value::Null
     };
+    let work_floor = if a.floor {
+        let w = rust["median_us"].as_f64().unwrap_or(0.0);
+        eprintln!("naic bench chain: floor with {w:.0} us of work per cycle, {} s", a.duration);
+        work_floor(&a, w)?
+    } else {
+        serde_json::Value::Null
+    };
     let ratio = |x: &serde_json::Value, y: &serde_json::Value| match (x["median_us"].as_f64(), y["median_us"].as_f64()) {
         (Some(r), Some(p)) if p > 0.0 => serde_json::json!(r / p),
         _ => serde_json::Value::Null,
@@ -349,6 +449,7 @@ pub fn run(a: ChainArgs) -> CliResult {
         "median_ratio_composed_over_rust": ratio(&composed, &rust),
         "rclpy": rclpy,
         "floor": floor,
+        "work_floor": work_floor,
         "missed_over_floor": match (rust["missed_cycles"].as_f64(), floor["equivalent_missed_cycles"].as_f64()) {
             (Some(m), Some(f)) if f > 0.0 => serde_json::json!(m / f),
             _ => serde_json::Value::Null,
