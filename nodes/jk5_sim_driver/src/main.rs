@@ -15,7 +15,7 @@ use jk5_sim_driver::{
 };
 use naic_ros::{
     msgs::{self, Clock, Float64MultiArray, JointState, WrenchStamped},
-    node::{data_qos, Pub, QOS_PUB},
+    node::{data_qos, Pub, QOS_PUB, QOS_SUB},
     wait::spawn_receiver,
     RosArgs, RosError, RosNode,
 };
@@ -56,7 +56,14 @@ fn run() -> Result<(), RosError> {
         node.publisher("joint_states", msgs::JOINT_STATE, data_pub)?,
         node.publisher("/clock", msgs::CLOCK, QOS_PUB)?,
     );
-    let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, data_sub)?;
+    // The command subscription is reliable only in lockstep (every command counts there).
+    // In real time a late command is worthless, and a reliable reader would cost the chain:
+    // friction_compensation's writer would keep every command until the driver acknowledged
+    // it and drop them in one go every 6 s (RustDDS's cache cleaning: a 0.7-1.1 ms stall of
+    // its event loop, a missed cycle each time), the driver would acknowledge every command,
+    // and one lost packet would hold the newer commands back until it was repaired.
+    let cmd_qos = if d.p.lockstep { data_sub } else { QOS_SUB };
+    let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, cmd_qos)?;
     let shared = Arc::new(SharedCommands::new(d.commands(&node.params)));
     // Receive thread: wakes on each command, checks it, stamps its arrival.
     let rx = Arc::clone(&shared);
