@@ -7,7 +7,10 @@
 //! First the Rust nodes, then the same topology in rclpy (`tests/ros/rclpy_chain.py`), in
 //! the same run, each on its own loopback-only DDS domain. With `--composed`, also the three
 //! nodes in one process (`naic launch --composed`, the same cores, the same report) on a
-//! third domain. Prints one JSON object.
+//! third domain. With `--floor`, then the machine's floor on the same CPU and priority:
+//! `cyclictest` and a 1 kHz loop doing the chain's median latency in CPU work per cycle. The
+//! driver's report splits the missed cycles into those with a late wake-up of the driver
+//! itself and those with the driver on time. Prints one JSON object.
 
 use std::{
     path::{Path, PathBuf},
