@@ -15,8 +15,10 @@
 //! ```
 //!
 //! Outside this file, in scheduled mode the control stage also bounds every other axis'
-//! `b/m` by the loop delay ([`schedule::axis_masses`]) and servoes the approach speed near
-//! an expected surface ([`approach_accel`]).
+//! `b/m` by the loop delay ([`schedule::axis_masses`]) and, out of contact, runs the force
+//! axis as a PI velocity servo toward the reference, slower near an expected surface
+//! ([`approach_accel`]); its integral primes the observer's `w̄`, which is fed forward in
+//! contact (`ë + w̄` in the output below).
 //!
 //! # Signs
 //!
@@ -40,12 +42,12 @@
 //! # The contact transition
 //!
 //! At first contact the force rises by `k_e v₀ (d + ½) T` before the controller
-//! can react at all (0.04 m/s onto acrylic with d = 2: 5 N). The law cannot
-//! undo that; the approach can: with `approach.expected_surface` set (the
-//! coordinate of the surface on the force axis, base frame), the free-space
-//! motion along `n` within `approach.band` of it is a PI velocity servo to
-//! `approach.speed` ([`approach_accel`]). On acrylic at 5 mm/s the impact is
-//! 50 000 · 0.005 · 2.5e-3 = 0.6 N at d = 2.
+//! can react at all (0.037 m/s onto acrylic with d = 2: 4.6 N). The law cannot
+//! undo that; the approach can: the free-space motion along `n` is a PI velocity
+//! servo ([`approach_accel`]) limited to `approach.max_speed`, and with
+//! `approach.expected_surface` set (the coordinate of the surface on the force axis,
+//! base frame) to `approach.speed` within `approach.band` of it. On acrylic at 5 mm/s
+//! the impact is 50 000 · 0.005 · 2.5e-3 = 0.6 N at d = 2.
 
 pub mod estimator;
 pub mod learning;
