@@ -407,15 +407,24 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         out.k_d = 0.0;
         out.law = report;
     } else if scheduled {
-        // Approach: limit the speed along n near the expected surface.
+        // Free space: a PI velocity servo along n toward the reference (robust to a model
+        // error), slower near an expected surface (`scheduled::approach_accel`).
         let a = &p.force_law.scheduled.approach;
+        let free = scheduled::ApproachAxis {
+            m: imp.m_d[ax],
+            b: imp.b_d[ax],
+            k: imp.k_free[ax],
+            e: sign * u.e[ax],
+            v_d: sign * (u.e_dot[ax] + u.x_dot[ax]),
+            a_d: sign * u.a_d[ax],
+        };
         let (a_n, e) = scheduled::approach_accel(
             a,
             a.expected_surface.map_or(f64::NAN, |z| sign * z),
             sign * u.p[ax],
             sign * u.x_dot[ax],
+            free,
             sign * out.v[ax],
-            imp.b_d[ax] / imp.m_d[ax],
             next.sched.approach_integral,
             p.force_law.lambda,
         );
