@@ -3,15 +3,14 @@
 //! feedforward with the identified model → actuation guard), configured with
 //! a scenario's settings. Nothing of the control law lives here.
 
-use crate::plant::Measurements;
-use crate::runner::{ControlReport, Controller as SimController};
-use crate::scenario::{ReferenceSample, Scenario};
+use crate::runner::Controller as SimController;
+use crate::scenario::Scenario;
 use naic_core::friction::FrictionModel;
 use naic_core::model::Model;
 use naic_core::pipeline::actuate::ActuateParams;
 use naic_core::pipeline::control::force_law::Mode;
 use naic_core::pipeline::control::{ForceAxis, ImpedanceParams};
-use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Workspace};
+use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Status, Workspace};
 use naic_core::pipeline::estimate::ToolParams;
 use naic_core::pipeline::{self, param_change, Pipeline, PipelineState};
 use naic_core::pipeline::sense::RawMeasurements;
@@ -73,7 +72,7 @@ pub struct PipelineController {
     /// The scheduled law is given the true stiffness (the `oracle` benchmark).
     oracle: bool,
     /// The last `delay + 1` measurements, newest first.
-    delayed: [Option<Measurements>; MAX_DELAY_CYCLES + 1],
+    delayed: [Option<RawMeasurements>; MAX_DELAY_CYCLES + 1],
     delay: usize,
 }
 
@@ -187,27 +186,13 @@ impl SimController for PipelineController {
         }
     }
 
-    fn step(&mut self, m: &Measurements, r: &ReferenceSample) -> ControlReport {
+    fn step(&mut self, m: &RawMeasurements, r: &Reference) -> ([f64; 6], Status) {
         // The loop delay: the controller works on the measurement of `delay` periods ago.
         self.delayed.rotate_right(1);
         self.delayed[0] = Some(*m);
         let m = &self.delayed[..=self.delay].iter().rev().find_map(|x| *x).unwrap_or(*m);
-        let raw = RawMeasurements { t: m.t, q: m.q, dq: m.dq, joints_stamp: m.t, wrench: m.wrench, wrench_stamp: m.t };
-        let reference = Reference { p_d: r.p_d, r_d: r.r_d, v_d: r.v_d, a_d: r.a_d, f_d: r.f_d };
-        let (state, out) = pipeline::step(&self.pipeline, &self.state, &raw, &reference, &mut self.ws);
+        let (state, out) = pipeline::step(&self.pipeline, &self.state, m, r, &mut self.ws);
         self.state = state;
-        let st = &out.control.status;
-        ControlReport {
-            tau: out.tau,
-            m_d: st.m_d,
-            b_d: st.b_d,
-            sigma: st.sigma,
-            gamma: st.gamma,
-            gamma_bound: st.gamma_bound,
-            f_ext: st.f_ext,
-            phase: st.phase as u8,
-            k_e_hat: st.k_e_hat,
-            k_e_confidence: st.k_e_confidence,
-        }
+        (out.tau, out.control.status)
     }
 }

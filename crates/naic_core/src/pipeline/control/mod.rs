@@ -175,8 +175,9 @@ impl ControlParams {
 }
 
 /// The phase of the two-phase controller (§3.1), plus the safe hold.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Phase {
+    #[default]
     Free = 0,
     Contact = 1,
     /// Measurements unusable: gravity compensation and joint damping only.
