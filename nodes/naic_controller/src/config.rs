@@ -94,7 +94,7 @@ fn vec3(v: &[f64]) -> Vector3<f64> {
 }
 
 /// `base` with the ROS parameters applied, validated by the core.
-pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<ControllerParams, String> {
+pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<ControllerParams, naic_ros::params::ParamError> {
     let mut c = *base;
     let axis = force_axis(p.str("force_axis"));
     let mut k_contact = arr6(p.f64s("k_d_contact"));
@@ -251,6 +251,6 @@ mod tests {
         let mut c = b;
         c.control.force_law.mode = Mode::Scheduled;
         c.control.force_law.scheduled.approach.max_speed = 0.0;
-        assert!(c.control.validate().unwrap_err().contains("max_speed"));
+        assert!(c.control.validate().unwrap_err().to_string().contains("max_speed"));
     }
 }

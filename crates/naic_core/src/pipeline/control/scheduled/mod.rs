@@ -147,37 +147,35 @@ impl ScheduledParams {
         if self.observer_settle > 0.0 { w.max(self.observer_max * (-age / self.observer_settle).exp()) } else { w }
     }
 
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         self.schedule.validate()?;
         self.estimator.validate()?;
         self.learning.validate()?;
         if !(self.integral_band_n >= 0.0 && self.integral_band_fraction >= 0.0) {
-            return Err(format!(
-                "scheduled integral band ({} N, {}·|f_d|) must be >= 0",
-                self.integral_band_n, self.integral_band_fraction
+            return Err(crate::pipeline::ConfigError::invalid(
+                "scheduled integral band",
+                format!("({} N, {}·|f_d|)", self.integral_band_n, self.integral_band_fraction),
+                "must be >= 0",
             ));
         }
         if !(self.velocity_noise > 0.0 && self.velocity_noise.is_finite() && self.force_noise_budget >= 0.0 && self.observer_max >= 0.0 && self.observer_settle >= 0.0 && self.observer_settle.is_finite()) {
-            return Err(format!(
-                "scheduled observer: velocity_noise = {} m/s must be > 0, force_noise_budget = {} N, observer_max = {} rad/s and observer_settle = {} s >= 0",
-                self.velocity_noise, self.force_noise_budget, self.observer_max, self.observer_settle
-            ));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled observer: velocity_noise", self.velocity_noise, format!("m/s must be > 0, force_noise_budget = {} N, observer_max = {} rad/s and observer_settle = {} s >= 0", self.force_noise_budget, self.observer_max, self.observer_settle)));
         }
         if !(0.0..=1.0).contains(&self.disturbance_feedforward) {
-            return Err(format!("scheduled disturbance_feedforward = {} must be in [0, 1]", self.disturbance_feedforward));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled disturbance_feedforward", self.disturbance_feedforward, "must be in [0, 1]"));
         }
         let a = &self.approach;
         if let Some(z) = a.expected_surface.filter(|z| !z.is_finite()) {
-            return Err(format!("approach.expected_surface = {z} must be finite (or none)"));
+            return Err(crate::pipeline::ConfigError::invalid("approach.expected_surface", z, "must be finite (or none)"));
         }
         if !(a.band >= 0.0 && a.band.is_finite() && a.speed > 0.0 && a.speed <= 0.5) {
-            return Err(format!("approach band = {} m must be >= 0 and speed = {} m/s in (0, 0.5]", a.band, a.speed));
+            return Err(crate::pipeline::ConfigError::invalid("approach band", a.band, format!("m must be >= 0 and speed = {} m/s in (0, 0.5]", a.speed)));
         }
         if !(a.max_speed > 0.0 && a.max_speed <= 0.5) {
-            return Err(format!("approach max_speed = {} m/s must be in (0, 0.5]", a.max_speed));
+            return Err(crate::pipeline::ConfigError::invalid("approach max_speed", a.max_speed, "m/s must be in (0, 0.5]"));
         }
         if !(a.integral_limit >= 0.0 && a.integral_limit.is_finite()) {
-            return Err(format!("approach integral_limit = {} m/s² must be finite and >= 0", a.integral_limit));
+            return Err(crate::pipeline::ConfigError::invalid("approach integral_limit", a.integral_limit, "m/s² must be finite and >= 0"));
         }
         Ok(())
     }
