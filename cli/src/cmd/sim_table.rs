@@ -15,7 +15,7 @@ use naic_core::model::Model;
 use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::runner::{self, RunResult, RunSummary};
 use naic_sim::scenario::{self, Scenario};
-use naic_sim::svg::{Figure, Panel, Series};
+use naic_plot::{Figure, Panel, Series};
 use nalgebra::Vector3;
 use std::fmt::Write as _;
 use std::path::Path;
