@@ -40,8 +40,7 @@ def test_ros_composed_serves_the_three_nodes_parameters(bins):
         assert "composed" in launch.output() and launch.alive()
         for node, name in [("naic_controller", "desired_force"), ("jk5_sim_driver", "hold_damping"),
                            ("friction_compensation", "torque_rate_limit")]:
-            c = AsyncParameterClient(r.node, node)
-            assert c.wait_for_services(20.0), node
+            c = ru.param_client(r.node, node, 20.0)
             names = r.wait(c.list_parameters([], 0)).result.names
             assert name in names, (node, names)
         c = AsyncParameterClient(r.node, "naic_controller")

@@ -366,3 +366,12 @@ fn too_few_points_and_unknown_joints_are_rejected() {
     let e = FrictionData::from_points("p", &[(1, f64::NAN, 1.0)]).unwrap_err().to_string();
     assert!(e.contains("velocity NaN is not finite"), "{e}");
 }
+
+#[test]
+fn csv_quoting_blank_lines_and_comments() {
+    let d = FrictionData::from_csv_str("q.csv", "# a comment\n\"joint\",\"velocity_rad_s\",\"torque_nm\"\n\n\"2\", -0.25 ,\"1.5\"\n   \n# another\n2,0.25,1.75\n")
+        .unwrap();
+    assert_eq!(d.samples.len(), 2);
+    assert_eq!((d.samples[0].joint, d.samples[0].qdot, d.samples[0].tau, d.samples[0].line), (2, -0.25, 1.5, 4));
+    assert_eq!(d.samples[1].line, 7);
+}

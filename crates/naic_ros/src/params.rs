@@ -318,6 +318,9 @@ pub enum ParamError {
     WrongLength { name: String, expected: usize, got: usize },
     #[error("parameter '{name}' must be a file path, got {got}")]
     NotAPath { name: String, got: String },
+    /// The core refused the parameter set (its field, value and rule).
+    #[error("{0}")]
+    Core(#[from] naic_core::pipeline::ConfigError),
     /// A node's rule across its parameters ([`SetCheck`]), in the node's words.
     #[error("{0}")]
     Rule(String),

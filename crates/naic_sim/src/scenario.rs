@@ -86,17 +86,9 @@ pub struct Ramp {
     pub t1: f64,
 }
 
-/// One sample of the reference: tip position, orientation, twist and
-/// acceleration targets (base frame, linear then angular) and `f_d`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ReferenceSample {
-    pub p_d: Vector3<f64>,
-    pub r_d: UnitQuaternion<f64>,
-    pub v_d: Vector6<f64>,
-    pub a_d: Vector6<f64>,
-    /// Desired force along the force axis `n` [N] (positive: pushing).
-    pub f_d: f64,
-}
+/// One sample of the reference (tip pose, twist and acceleration targets, base frame,
+/// and `f_d`): the controller's own [`Reference`], one type for the simulator and the nodes.
+pub use naic_core::pipeline::controller::Reference;
 
 /// A complete scenario.
 #[derive(Clone, Debug)]
@@ -139,7 +131,7 @@ impl Scenario {
     }
 
     /// Reference at time `t` (allocation-free).
-    pub fn reference(&self, t: f64) -> ReferenceSample {
+    pub fn reference(&self, t: f64) -> Reference {
         let r = &self.ramp;
         let (p_d, v) = if t < r.t0 || r.t1 <= r.t0 {
             (r.from, Vector3::zeros())
@@ -151,7 +143,7 @@ impl Scenario {
         };
         let mut v_d = Vector6::zeros();
         v_d.fixed_rows_mut::<3>(0).copy_from(&v);
-        ReferenceSample { p_d, r_d: self.r_d, v_d, a_d: Vector6::zeros(), f_d: self.f_d(t) }
+        Reference { p_d, r_d: self.r_d, v_d, a_d: Vector6::zeros(), f_d: self.f_d(t) }
     }
 
     /// Phase events after t = 0 for the metrics: desired-force steps and

@@ -19,15 +19,24 @@ use nalgebra::Vector3;
 
 /// One closed-loop run (seed 1) of `controller` on `scenario`.
 fn run(scenario: &str, controller: &str, delay: usize, mass_error: f64) -> RunSummary {
+    run_k(scenario, None, controller, delay, mass_error)
+}
+
+/// [`run`] with the surface stiffness overridden (`naic sim --stiffness`).
+fn run_k(scenario: &str, k_e: Option<f64>, controller: &str, delay: usize, mass_error: f64) -> RunSummary {
     let m = model();
     let s = scenario::preset(scenario, &m).unwrap();
+    let s = match k_e {
+        Some(k) => s.with_stiffness(k).unwrap(),
+        None => s,
+    };
     let tool = (0.424, Vector3::new(0.0, 0.0, 0.015));
     let plant = scenario::plant_for(&s, m.clone(), Some(friction()), tool).unwrap();
     let settings = LoopSettings { delay_cycles: delay, model_mass_error: mass_error, ..LoopSettings::default() };
     let mut c = PipelineController::by_name(controller, &s, &m, Some(friction()), tool, &settings).unwrap();
     let r = runner::run(&s, &plant, &mut c, &mut |_| {});
     let n = runner::summarize(&r);
-    eprintln!("{scenario} {controller} d={delay} F={mass_error}: {n:?}");
+    eprintln!("{scenario} k={k_e:?} {controller} d={delay} F={mass_error}: {n:?}");
     n
 }
 
@@ -92,10 +101,9 @@ fn acrylic_hard_surface() {
         // Goals met: peak ≤ 1.2 f_d = 12 N (10.14 / 10.18 N), no limit cycle (late peak-to-peak
         // 0.21 / 0.22 N ≤ 0.4 N). Every paper law limit-cycles here (peaks 54-276 N).
         assert!(n.peak_n <= 12.0 && n.late_p2p_n <= 0.4, "d = {d}: {n:?}");
-        // Goal within ±2 % ≤ 0.05 s after contact: met at d = 1 (0.042 s); missed at d = 2 by
-        // 3 ms (0.053 s): one more period before the law sees the contact, and the approach
-        // at 5 mm/s (the last 0.2 N of the rise takes ≈ 40 ms at this loop's bandwidth).
-        assert!(settle(&n) <= if d == 1 { 0.05 } else { 0.056 }, "d = {d}: {n:?}");
+        // Goal within ±2 % ≤ 0.05 s after contact: met (seed 1: 0.033 / 0.042 s; the
+        // observer's velocity gain decays from 300 rad/s after the impact).
+        assert!(settle(&n) <= 0.05, "d = {d}: {n:?}");
     }
 }
 
@@ -103,8 +111,8 @@ fn acrylic_hard_surface() {
 fn two_material_switch() {
     for d in [1, 2] {
         let n = run("two-material", "scheduled", d, 1.0);
-        // Goal ≤ 10 % at first contact (acrylic, f_d = 3 N, approach 5 mm/s): missed, 64 % (d = 1),
-        // 73 % (d = 2). The impact at 5 mm/s is 0.6 N (20 %); the rest is the tool at rest on
+        // Goal ≤ 10 % at first contact (acrylic, f_d = 3 N, approach 5 mm/s): missed, 66 % (d = 1),
+        // 69 % (d = 2). The impact at 5 mm/s is 0.6 N (20 %); the rest is the tool at rest on
         // acrylic: the velocity observer (needed against the encoder noise at b_d ≈ 430 N s/m)
         // lags the joints' stiction and the force swings at ≈ 12 Hz. Achieved: peak below
         // 5.5 N (AIC: 31 N).
@@ -113,7 +121,8 @@ fn two_material_switch() {
         // 3 N is ±0.06 N, one F/T resolution step; the true force (SD 0.016 N on the foam)
         // leaves it for single samples — with a noiseless sensor it is back in 0.25 s.
         // ≤ 10 % overshoot of the recovery: met (3.7 % / 2.6 %).
-        assert!(!n.later_settle_s.is_empty() && later_settle(&n, 0) <= 3.1, "d = {d}: {n:?}");
+        // (seed 1: 3.00 / 3.04 s.)
+        assert!(!n.later_settle_s.is_empty() && later_settle(&n, 0) <= 3.2, "d = {d}: {n:?}");
         assert!(n.later_recovery_overshoot_pct[0] <= 10.0, "d = {d}: {n:?}");
     }
 }
@@ -130,27 +139,59 @@ fn slope_steady_state() {
 
 #[test]
 fn model_mass_error() {
-    // Goal: every goal under a model mass error of 0.8 and 1.25.
-    let lo = run("flat", "scheduled", 1, 0.8);
-    // Met on flat at 0.8 (4.5 %, 0.081 s; step 2.9 %, 0.032 s) and foam at 0.8 (3.1 %, 0.135 s).
-    assert!(lo.contact_overshoot_pct <= 5.0 && settle(&lo) <= 0.15, "{lo:?}");
-    assert!(lo.later_overshoot_pct[0] <= 5.0 && later_settle(&lo, 0) <= 0.15, "{lo:?}");
-    let foam_lo = run("foam", "scheduled", 1, 0.8);
-    assert!(foam_lo.contact_overshoot_pct <= 5.0 && settle(&foam_lo) <= 0.20, "{foam_lo:?}");
-    // Missed at 1.25 on flat: no contact in 5 s. The free-space approach (the paper's
-    // k_d = 50 N/m on z, 1.5 N at the surface) stalls 6 mm above it against gravity
-    // over-compensated by 25 % and joint friction (the scenario sets no expected surface, so
-    // the approach servo is not used).
-    let hi = run("flat", "scheduled", 1, 1.25);
-    assert!(hi.contact_time_s.is_none(), "{hi:?}");
-    // Missed on acrylic at 0.8: peak 42.8 N, steady error +3.6 N (the approach holds 5 mm/s;
-    // the contact law with a 20 % light model on 50 000 N/m was not analysed further).
-    let ac = run("acrylic", "scheduled", 1, 0.8);
-    assert!(ac.peak_n < 45.0, "{ac:?}");
+    // Goal: every goal under a model mass error of 0.8 and 1.25 (the issue's delays; here d = 1).
+    // Before the approach servo, at 1.25 the free-space impedance stalled ≈ 6 mm above every
+    // surface but the slope (no contact in 5 s).
+    for f in [0.8, 1.25] {
+        let n = run("flat", "scheduled", 1, f);
+        // Met (seed 1: 0.8: 4.98 % [at the goal: no margin], 0.089 s, step 2.8 %, 0.032 s;
+        // 1.25: 0.5 %, 0.100 s, step 0.6 %, 0.040 s).
+        assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.15, "flat F = {f}: {n:?}");
+        assert!(n.later_overshoot_pct[0] <= 5.0 && later_settle(&n, 0) <= 0.15, "flat F = {f}: {n:?}");
+        let n = run("foam", "scheduled", 1, f);
+        // Met (3.1 %, 0.160 s; 0.6 %, 0.169 s).
+        assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.20, "foam F = {f}: {n:?}");
+        let n = run("stiffness-step", "scheduled", 1, f);
+        // Met (0.078 / 0.043 s; 0.061 / 0.042 s).
+        assert!(later_settle(&n, 0) <= 0.20 && later_settle(&n, 1) <= 0.20, "stiffness-step F = {f}: {n:?}");
+        let n = run("slope", "scheduled", 1, f);
+        assert!(n.ss_error_n.abs() <= 0.05 && n.contact_overshoot_pct <= 5.0, "slope F = {f}: {n:?}");
+        let n = run("acrylic", "scheduled", 1, f);
+        // Peak ≤ 12 N and no limit cycle: met (0.8 was 42.8 N with +3.6 N steady error before
+        // the disturbance feedforward).
+        assert!(n.peak_n <= 12.0 && n.late_p2p_n <= 0.4, "acrylic F = {f}: {n:?}");
+        // ±2 % ≤ 0.05 s: met at 1.25 (0.039 s); missed at 0.8: 0.097 s (4.3 % overshoot: the
+        // light model realises 0.8 of every commanded acceleration, the predictor's residual
+        // delay is then a lead and the loop rings once).
+        assert!(settle(&n) <= if f < 1.0 { 0.11 } else { 0.05 }, "acrylic F = {f}: {n:?}");
+    }
+}
+
+/// The stiffness sweep on flat (`--stiffness`, flat's approach: no expected surface, 37 mm/s at
+/// the surface), one parameter set.
+#[test]
+fn stiffness_sweep() {
+    for d in [1, 2] {
+        for k in [500.0, 1000.0, 2000.0, 5000.0, 20_000.0, 50_000.0] {
+            let n = run_k("flat", Some(k), "scheduled", d, 1.0);
+            assert!(n.contact_time_s.is_some(), "k = {k} d = {d}: {n:?}");
+            if k <= 5000.0 {
+                // Met up to 5000 N/m (seed 1: ≤ 1.4 %, 0.04-0.15 s).
+                assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.15, "k = {k} d = {d}: {n:?}");
+                assert!(n.later_overshoot_pct[0] <= 5.0 && later_settle(&n, 0) <= 0.15, "k = {k} d = {d}: {n:?}");
+            } else {
+                // Missed at 20 000 and 50 000 N/m: ±2 % settling 1.3-1.5 s (goal 0.15 s), contact
+                // overshoot up to 12 %: the joints' stick-slip while sliding moves the tip along n
+                // by tens of µm, k_e times that is ±0.2-1 N; without joint friction 20 000 N/m
+                // stays within ±2 % after 0.04 s. Achieved: the peak stays ≤ 1.2 f_d.
+                assert!(n.peak_n <= 1.2 * 20.0 && n.contact_overshoot_pct <= 15.0, "k = {k} d = {d}: {n:?}");
+            }
+        }
+    }
 }
 
 #[test]
-#[ignore = "issue 12 goals not all met (docs/controller.md 'Goals of issue 12'): acrylic settling at d = 2, two-material, model mass error 1.25 and acrylic at 0.8"]
+#[ignore = "issue 12 goals not all met (docs/controller.md 'Goals of issue 12'): two-material, acrylic settling at mass error 0.8, the stiffness sweep at 20 000 and 50 000 N/m"]
 fn issue_12_goals() {
     let mut missed = Vec::new();
     for d in [1, 2] {
@@ -182,8 +223,17 @@ fn issue_12_goals() {
     for m in [0.8, 1.25] {
         for sc in ["flat", "foam", "acrylic"] {
             let f = run(sc, "scheduled", 1, m);
-            if !(f.contact_time_s.is_some() && f.contact_overshoot_pct <= 5.0 && f.peak_n <= 1.2 * if sc == "flat" { 20.0 } else { 10.0 }) {
+            let t = if sc == "foam" { 0.20 } else if sc == "flat" { 0.15 } else { 0.05 };
+            if !(f.contact_time_s.is_some() && f.contact_overshoot_pct <= 5.0 && settle(&f) <= t && f.peak_n <= 1.2 * if sc == "flat" { 20.0 } else { 10.0 }) {
                 missed.push(format!("{sc} mass error {m}"));
+            }
+        }
+    }
+    for d in [1, 2] {
+        for k in [500.0, 1000.0, 2000.0, 5000.0, 20_000.0, 50_000.0] {
+            let f = run_k("flat", Some(k), "scheduled", d, 1.0);
+            if !(f.contact_overshoot_pct <= 5.0 && settle(&f) <= 0.15 && later_settle(&f, 0) <= 0.15) {
+                missed.push(format!("sweep {k} N/m d={d}"));
             }
         }
     }

@@ -13,7 +13,7 @@ use naic_core::{
     model::FrameId,
     pipeline::{
         controller::{self, Controller, ControllerParams, ControllerState, Reference, Status, Workspace},
-        param_change,
+        param_change, ConfigError,
         reference::{self as refstage, DesiredWrench, ReferenceParams, ReferenceState, Rejection, Source, TargetPose, Verdict},
         sense::{Fault, RawMeasurements},
     },
@@ -66,8 +66,8 @@ impl Params {
         settings: Settings,
         reference: Option<ScenarioReference>,
         reference_params: ReferenceParams,
-    ) -> Result<Params, String> {
-        let tip = controller.model().frame_id(controller::TIP_FRAME).ok_or("the URDF has no 'tip' frame")?;
+    ) -> Result<Params, ConfigError> {
+        let tip = controller.model().frame_id(controller::TIP_FRAME).ok_or_else(|| ConfigError::Model("the URDF has no 'tip' frame".into()))?;
         reference_params.validate()?;
         Ok(Params { controller, settings, reference, reference_params, tip })
     }
@@ -422,7 +422,7 @@ pub fn set_params(
     cp: ControllerParams,
     settings: Settings,
     mut reference_params: ReferenceParams,
-) -> Result<param_change::Outcome, String> {
+) -> Result<param_change::Outcome, ConfigError> {
     // One force set point: the `desired_force` setting is the stage's default force.
     reference_params.default_force = settings.desired_force;
     reference_params.validate()?;

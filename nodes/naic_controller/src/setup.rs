@@ -28,8 +28,8 @@ impl Setup {
         // Defaults: the core's paper settings on this model (learning rate: not in the paper).
         let base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
         let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides(NODE)?)?;
-        let bad_model = |e: String| RosError::param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
-        let cp = table.with(|p| config::controller_params(p, &base)).map_err(RosError::param)?;
+        let bad_model = |e: naic_core::pipeline::ConfigError| RosError::param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
+        let cp = table.with(|p| config::controller_params(p, &base))?;
         // The model first (its message names the URDF file), then the scenario.
         let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
         let reference = ScenarioReference::new(&table.with(|p| p.str("scenario").to_string()), &model).map_err(RosError::param)?;

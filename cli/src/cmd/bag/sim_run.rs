@@ -60,7 +60,7 @@ pub fn write_sim_run(
         let params = NaicParams {
             header: header("base_link"),
             mode: controller.to_string(),
-            phase: r.phase,
+            phase: r.phase as u8,
             force_axis,
             desired_force: r.f_d,
             measured_force: r.f_ext_est,
@@ -104,7 +104,7 @@ mod tests {
                 r.b_d = 50.0 + k as f64;
                 r.gamma = 1e-3;
                 r.gamma_bound = if k % 2 == 0 { f64::INFINITY } else { 5e-4 };
-                r.phase = 1;
+                r.phase = naic_core::pipeline::control::Phase::Contact;
                 r
             })
             .collect();

@@ -107,14 +107,30 @@ pub struct Observer {
 }
 
 impl Observer {
+    /// Not started, with a prior `w̄` (the disturbance the approach servo found) [m/s²].
+    pub fn primed(w: f64) -> Self {
+        Self { v: 0.0, w: if w.is_finite() { w } else { 0.0 }, started: false }
+    }
+
     /// One cycle with the measured velocity `v_m` (of `n_v` cycles ago); `omega` ≤ 0 or
     /// non-finite passes the measurement through (`v̄ = v_m`, `w̄ = 0`).
+    /// The first cycle after [`Self::primed`] starts `v̄` at `v_m` and keeps the prior `w̄`.
     pub fn step(&self, h: &History, period: f64, n_v: usize, v_m: f64, omega: f64) -> Self {
-        if !(omega > 0.0 && omega.is_finite() && self.started && v_m.is_finite()) {
+        self.step_fast(h, period, n_v, v_m, omega, omega)
+    }
+
+    /// [`Self::step`] with the velocity gain `L₁` from a higher bandwidth `omega_v ≥ omega`
+    /// (after an impact: the velocity re-synchronises fast while `w̄` keeps its slow gain).
+    pub fn step_fast(&self, h: &History, period: f64, n_v: usize, v_m: f64, omega: f64, omega_v: f64) -> Self {
+        if !(omega > 0.0 && omega.is_finite() && v_m.is_finite()) {
             return Self { v: if v_m.is_finite() { v_m } else { self.v }, w: 0.0, started: true };
         }
+        if !self.started {
+            return Self { v: v_m, w: self.w, started: true };
+        }
         let p = (-omega * period).exp();
-        let (l1, l2) = (1.0 - p * p, (1.0 - p) * (1.0 - p) / period);
+        let pv = (-omega_v.max(omega) * period).exp();
+        let (l1, l2) = (1.0 - pv * pv, (1.0 - p) * (1.0 - p) / period);
         let a = h.accel[n_v.min(HISTORY - 1)];
         let v_pred = self.v + period * (a + self.w);
         let eps = v_m - v_pred;

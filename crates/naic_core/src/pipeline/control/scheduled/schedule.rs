@@ -110,9 +110,9 @@ impl Default for ScheduleParams {
 }
 
 impl ScheduleParams {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         let pos = |name: &str, v: f64| {
-            if v > 0.0 && v.is_finite() { Ok(()) } else { Err(format!("scheduled.{name} = {v} must be a positive finite number")) }
+            if v > 0.0 && v.is_finite() { Ok(()) } else { Err(crate::pipeline::ConfigError::invalid(format!("scheduled.{name}"), v, "must be a positive finite number")) }
         };
         pos("m_d_min", self.m_d_min)?;
         pos("zeta", self.zeta)?;
@@ -121,39 +121,31 @@ impl ScheduleParams {
         pos("k_min", self.k_min)?;
         pos("k_max", self.k_max)?;
         if !(self.velocity_lag_cycles >= 0.0 && self.velocity_lag_cycles <= 20.0) {
-            return Err(format!("scheduled.velocity_lag_cycles = {} must be in [0, 20]", self.velocity_lag_cycles));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.velocity_lag_cycles", self.velocity_lag_cycles, "must be in [0, 20]"));
         }
         if !(self.delay_cycles >= 0.0 && self.delay_cycles <= 20.0) {
-            return Err(format!("scheduled.delay_cycles = {} must be in [0, 20] control periods", self.delay_cycles));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.delay_cycles", self.delay_cycles, "must be in [0, 20] control periods"));
         }
         if !(self.alpha < std::f64::consts::FRAC_PI_2) {
-            return Err(format!("scheduled.alpha = {} must be below π/2 (the delayed velocity loop's stability limit)", self.alpha));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.alpha", self.alpha, "must be below π/2 (the delayed velocity loop's stability limit)"));
         }
         if !(self.floor_margin >= 1.0 && self.floor_margin * self.alpha <= 4.0 * self.zeta * self.zeta) {
-            return Err(format!(
-                "scheduled.floor_margin = {} must be >= 1 and floor_margin·alpha <= 4ζ² (= {}) so that damping at the floor keeps (b_d/m_d)τ <= alpha",
-                self.floor_margin,
-                4.0 * self.zeta * self.zeta
-            ));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.floor_margin", self.floor_margin, format!("must be >= 1 and floor_margin·alpha <= 4ζ² (= {}) so that damping at the floor keeps (b_d/m_d)τ <= alpha", 4.0 * self.zeta * self.zeta)));
         }
         if !(self.sigma_fraction >= 0.0 && self.sigma_fraction < 1.0) {
-            return Err(format!("scheduled.sigma_fraction = {} must be in [0, 1) (fraction of the σ stability bound)", self.sigma_fraction));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.sigma_fraction", self.sigma_fraction, "must be in [0, 1) (fraction of the σ stability bound)"));
         }
         if !(self.integral_bandwidth >= 0.0 && self.integral_bandwidth.is_finite()) {
-            return Err(format!("scheduled.integral_bandwidth = {} must be finite and >= 0", self.integral_bandwidth));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.integral_bandwidth", self.integral_bandwidth, "must be finite and >= 0"));
         }
         if !(self.prediction >= 0.0 && self.prediction < 1.0) {
-            return Err(format!("scheduled.prediction = {} must be in [0, 1) (fraction of the delay the predictor cancels)", self.prediction));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.prediction", self.prediction, "must be in [0, 1) (fraction of the delay the predictor cancels)"));
         }
         if self.prediction > 0.0 && self.horizons().1 > super::predictor::HISTORY {
-            return Err(format!(
-                "scheduled: delay_cycles + velocity_lag_cycles = {} exceeds the predictor's history of {} cycles",
-                self.delay_cycles + self.velocity_lag_cycles,
-                super::predictor::HISTORY
-            ));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled: delay_cycles + velocity_lag_cycles", self.delay_cycles + self.velocity_lag_cycles, format!("exceeds the predictor's history of {} cycles", super::predictor::HISTORY)));
         }
         if !(self.k_min < self.k_max) {
-            return Err(format!("scheduled.k_min = {} must be below k_max = {}", self.k_min, self.k_max));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.k_min", self.k_min, format!("must be below k_max = {}", self.k_max)));
         }
         Ok(())
     }
@@ -328,9 +320,9 @@ mod tests {
     #[test]
     fn bad_settings_are_named() {
         let p = ScheduleParams { alpha: 2.0, ..Default::default() };
-        assert!(p.validate().unwrap_err().contains("alpha"));
+        assert!(p.validate().unwrap_err().to_string().contains("alpha"));
         let p = ScheduleParams { k_min: 1e6, ..Default::default() };
-        assert!(p.validate().unwrap_err().contains("k_min"));
+        assert!(p.validate().unwrap_err().to_string().contains("k_min"));
         assert!(ScheduleParams::default().validate().is_ok());
     }
 }
