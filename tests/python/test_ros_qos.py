@@ -51,3 +51,31 @@ def test_ros_sensor_data_qos_closes_the_chain_and_is_best_effort_for_observers(t
     # (clean-clone CI) 85-89 % of the cycles got their command (docs/nodes.md, QoS).
     assert rep["duration_s"] > 1.5 and rep["samples"] > 0.5 * 1000 * rep["duration_s"], rep
     assert rep["rejected_commands"] == 0, rep
+
+
+@pytest.mark.parametrize("lockstep", [False, True], ids=["real-time", "lockstep"])
+def test_ros_driver_command_subscription_is_best_effort_in_real_time(lockstep):
+    """The driver's `/joint_effort_cmd` reader with the default `data_qos: reliable`: best
+    effort in real time (a late command is worthless, and a reliable reader made
+    friction_compensation's writer stall 0.7-1.1 ms every 6 s cleaning its cache, a missed
+    cycle each time: BENCHMARKS.md), reliable in lockstep, where every command counts."""
+    bins = ru.build_nodes()
+    domain = ru.fresh_domain(170 if lockstep else 175)
+    drv = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file", "params/jk5_sim_driver.yaml",
+                   "-p", f"lockstep:={'true' if lockstep else 'false'}", "-p", "realtime_priority:=0"],
+                  ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "naic_cmd_qos_test")
+    try:
+        infos = []
+
+        def seen():
+            infos[:] = r.node.get_subscriptions_info_by_topic("/joint_effort_cmd")
+            return bool(infos)
+        assert r.spin_until(seen, 30), drv.output()[-3000:]
+        want = "RELIABLE" if lockstep else "BEST_EFFORT"
+        assert [i.qos_profile.reliability.name for i in infos] == [want], infos
+        assert drv.alive()
+    finally:
+        r.close()
+        rc = drv.stop(timeout=15)
+    assert rc == 0, drv.output()[-3000:]

@@ -7,7 +7,10 @@
 //! First the Rust nodes, then the same topology in rclpy (`tests/ros/rclpy_chain.py`), in
 //! the same run, each on its own loopback-only DDS domain. With `--composed`, also the three
 //! nodes in one process (`naic launch --composed`, the same cores, the same report) on a
-//! third domain. Prints one JSON object.
+//! third domain. With `--floor`, then the machine's floor on the same CPU and priority:
+//! `cyclictest` and a 1 kHz loop doing the chain's median latency in CPU work per cycle. The
+//! driver's report splits the missed cycles into those with a late wake-up of the driver
+//! itself and those with the driver on time. Prints one JSON object.
 
 use std::{
     path::{Path, PathBuf},
@@ -48,6 +51,13 @@ pub struct ChainArgs {
     /// priority and CPU, after the three processes.
     #[arg(long)]
     pub composed: bool,
+    /// Also measure the machine's floor right after the chains, each for the same duration, at
+    /// the same priority, on the same CPU: `cyclictest` (rt-tests, if installed; how often a
+    /// lone SCHED_FIFO thread woke up late), and a 1 kHz loop in this process that does the
+    /// chain's median latency in fixed CPU work after each wake-up (how often that work ended
+    /// after the next deadline). The honest references for the missed cycles.
+    #[arg(long)]
+    pub floor: bool,
     /// ROS_DOMAIN_ID of the Rust chain (the rclpy chain uses the next one, the composed run
     /// the one after).
     #[arg(long, default_value_t = 211)]
@@ -98,7 +108,12 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
         }
     }
     wait(a.duration + WARMUP, &mut procs)?;
-    stop_all(&mut procs, Duration::from_secs(5));
+    // The driver first (it writes the report as it exits). Stopped last, as `naic launch`
+    // stops the chain, it counted every cycle between the controller's exit and its own as
+    // missed: 140-180 of them per run, half of what this bench used to report.
+    let (driver, others) = procs.split_at_mut(1);
+    stop_all(driver, Duration::from_secs(5));
+    stop_all(others, Duration::from_secs(5));
     read_report(&report)
 }
 
@@ -203,6 +218,170 @@ fn rclpy_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError>
     }
 }
 
+/// The floor: `cyclictest -m -p P -i 1000 -D S -a CPU`, one SCHED_FIFO thread waking every
+/// millisecond and nothing else. Late wake-ups are counted over thresholds, and converted to
+/// the cycles a chain whose median is `chain_median_us` would have missed: a wake-up L late
+/// leaves the chain `1000 - L` µs, and cyclictest skips the periods it slept through, so a
+/// wake-up later than the chain's budget costs ⌈(L - budget) / 1 ms⌉ cycles.
+fn floor(a: &ChainArgs, dir: &Path, chain_median_us: f64) -> Result<serde_json::Value, CliError> {
+    let hist = dir.join("cyclictest.hist");
+    let mut args = vec!["-m".to_string(), "-q".into(), "-i".into(), "1000".into(), "-D".into(), format!("{}", a.duration.ceil() as u64)];
+    args.extend(["-h".into(), "20000".into(), format!("--histfile={}", hist.display())]);
+    if a.realtime_priority > 0 {
+        args.extend(["-p".into(), a.realtime_priority.to_string()]);
+    }
+    match a.cpu.unwrap_or(1) {
+        -1 => {}
+        cpu => args.extend(["-a".into(), cpu.to_string()]),
+    }
+    let st = Command::new("cyclictest")
+        .args(&args)
+        .stdout(std::process::Stdio::null())
+        .status()
+        .map_err(|e| CliError::failure(format!("--floor needs cyclictest (rt-tests): {e}")))?;
+    if !st.success() {
+        return Err(CliError::failure(format!("cyclictest {} failed ({st})", args.join(" "))));
+    }
+    let text = std::fs::read_to_string(&hist).map_err(|e| CliError::failure(format!("no cyclictest histogram: {e}")))?;
+    let header = |key: &str| -> Option<u64> {
+        text.lines().find(|l| l.starts_with(key)).and_then(|l| l[key.len()..].split_whitespace().next()).and_then(|v| v.parse().ok())
+    };
+    let buckets: Vec<(u64, u64)> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .filter_map(|l| {
+            let mut f = l.split_whitespace().map(|x| x.parse::<u64>());
+            match (f.next(), f.next()) {
+                (Some(Ok(us)), Some(Ok(n))) => Some((us, n)),
+                _ => None,
+            }
+        })
+        .collect();
+    let overflows = header("# Histogram Overflows:").unwrap_or(0);
+    let max_us = header("# Max Latencies:").unwrap_or(0);
+    let n: u64 = buckets.iter().map(|b| b.1).sum::<u64>() + overflows;
+    let over = |us: u64| buckets.iter().filter(|b| b.0 > us).map(|b| b.1).sum::<u64>() + overflows;
+    let budget_us = (1000.0 - chain_median_us).max(0.0);
+    let cost = |l: f64| ((l - budget_us) / 1000.0).ceil().max(0.0) as u64;
+    let equivalent: u64 = buckets.iter().filter(|b| b.0 as f64 > budget_us).map(|b| b.1 * cost(b.0 as f64)).sum::<u64>()
+        + overflows * cost(max_us as f64); // beyond 20 ms: counted at the maximum (an upper bound)
+    let quantile = |f: f64| {
+        let rank = (f * n as f64).ceil() as u64;
+        let mut acc = 0;
+        for &(us, c) in &buckets {
+            acc += c;
+            if acc >= rank {
+                return us;
+            }
+        }
+        max_us
+    };
+    Ok(serde_json::json!({
+        "command": format!("cyclictest {}", args.join(" ")),
+        "wakeups": n,
+        "median_us": quantile(0.5),
+        "p99_us": quantile(0.99),
+        "p9999_us": quantile(0.9999),
+        "max_us": max_us,
+        "late_over_500us": over(500),
+        "late_over_1ms": over(1000),
+        "chain_budget_us": budget_us,
+        "equivalent_missed_cycles": equivalent,
+        "equivalent_missed_percent": if n > 0 { 100.0 * equivalent as f64 / n as f64 } else { f64::NAN },
+    }))
+}
+
+/// The floor for a job with work: a SCHED_FIFO thread (the chain's priority and CPU) that
+/// wakes every 1 ms (absolute deadlines, overdue periods run back to back, as the driver's
+/// loop) and then does `work_us` of fixed CPU work (an iteration count calibrated before, on
+/// the fastest of 30 tries). A cycle whose work ends after the next deadline is an overrun:
+/// what a chain that needs `work_us` per cycle would miss on this CPU, with no DDS. The work's
+/// wall time shows when the CPU itself ran slow (the same iterations taking many times longer).
+fn work_floor(a: &ChainArgs, work_us: f64) -> Result<serde_json::Value, CliError> {
+    use std::hint::black_box;
+    fn spin(n: u64) -> u64 {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for i in 0..n {
+            x = black_box(x.rotate_left(7) ^ i).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        }
+        x
+    }
+    let (prio, cpu, seconds) = (a.realtime_priority as i32, a.cpu.unwrap_or(1), a.duration);
+    let t = std::thread::spawn(move || -> Result<serde_json::Value, String> {
+        // SAFETY: scheduling calls for the calling thread with valid arguments.
+        unsafe {
+            if cpu >= 0 {
+                let mut set: libc::cpu_set_t = std::mem::zeroed();
+                libc::CPU_SET(cpu as usize, &mut set);
+                if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
+                    return Err(format!("cannot pin to CPU {cpu}: {}", std::io::Error::last_os_error()));
+                }
+            }
+            if prio > 0 && libc::sched_setscheduler(0, libc::SCHED_FIFO, &libc::sched_param { sched_priority: prio }) != 0 {
+                return Err(format!("cannot use SCHED_FIFO {prio}: {}", std::io::Error::last_os_error()));
+            }
+        }
+        let calib = 20_000u64;
+        let best = (0..30)
+            .map(|_| {
+                let t0 = Instant::now();
+                black_box(spin(calib));
+                t0.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min);
+        let iters = (work_us * 1e-6 / best * calib as f64).round().max(1.0) as u64;
+        let now_ns = || {
+            let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+            // SAFETY: valid pointer to a timespec.
+            unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+            ts.tv_sec as i64 * 1_000_000_000 + ts.tv_nsec as i64
+        };
+        let period = 1_000_000i64;
+        let (mut wake, mut work) = (Vec::with_capacity(seconds as usize * 1000 + 16), Vec::with_capacity(seconds as usize * 1000 + 16));
+        let (mut overruns, mut episodes, mut in_episode) = (0u64, 0u64, false);
+        let start = now_ns();
+        let mut next = start;
+        while next - start < (seconds * 1e9) as i64 {
+            next += period;
+            if now_ns() > next + 10 * period {
+                next = now_ns(); // fell far behind: resynchronise, as the driver does
+            }
+            let ts = libc::timespec { tv_sec: (next / 1_000_000_000) as libc::time_t, tv_nsec: (next % 1_000_000_000) as libc::c_long };
+            // SAFETY: absolute sleep on CLOCK_MONOTONIC with a valid timespec.
+            unsafe { libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut()) };
+            let woke = now_ns();
+            black_box(spin(iters));
+            let end = now_ns();
+            wake.push(woke - next);
+            work.push(end - woke);
+            let over = end > next + period;
+            overruns += over as u64;
+            episodes += (over && !in_episode) as u64;
+            in_episode = over;
+        }
+        let q = |v: &mut Vec<i64>, f: f64| {
+            v.sort_unstable();
+            v[((v.len() - 1) as f64 * f).round() as usize] as f64 / 1e3
+        };
+        let n = wake.len();
+        Ok(serde_json::json!({
+            "what": format!("1 kHz SCHED_FIFO {prio} loop on CPU {cpu}, {work_us:.0} us of fixed work per cycle, overruns = work ended after the next deadline"),
+            "cycles": n,
+            "work_iterations": iters,
+            "overruns": overruns,
+            "overrun_percent": 100.0 * overruns as f64 / n.max(1) as f64,
+            "overrun_episodes": episodes,
+            "wake_late_p99_us": q(&mut wake, 0.99),
+            "wake_late_max_us": q(&mut wake, 1.0),
+            "work_median_us": q(&mut work, 0.5),
+            "work_p99_us": q(&mut work, 0.99),
+            "work_p9999_us": q(&mut work, 0.9999),
+            "work_max_us": q(&mut work, 1.0),
+        }))
+    });
+    t.join().map_err(|_| CliError::failure("the floor loop panicked"))?.map_err(CliError::failure)
+}
+
 fn machine() -> serde_json::Value {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
@@ -244,6 +423,19 @@ pub fn run(a: ChainArgs) -> CliResult {
     } else {
         serde_json::Value::Null
     };
+    let floor = if a.floor {
+        eprintln!("naic bench chain: floor (cyclictest), {} s", a.duration.ceil());
+        floor(&a, &dir, rust["median_us"].as_f64().unwrap_or(0.0))?
+    } else {
+        serde_json::Value::Null
+    };
+    let work_floor = if a.floor {
+        let w = rust["median_us"].as_f64().unwrap_or(0.0);
+        eprintln!("naic bench chain: floor with {w:.0} us of work per cycle, {} s", a.duration);
+        work_floor(&a, w)?
+    } else {
+        serde_json::Value::Null
+    };
     let ratio = |x: &serde_json::Value, y: &serde_json::Value| match (x["median_us"].as_f64(), y["median_us"].as_f64()) {
         (Some(r), Some(p)) if p > 0.0 => serde_json::json!(r / p),
         _ => serde_json::Value::Null,
@@ -259,6 +451,12 @@ pub fn run(a: ChainArgs) -> CliResult {
         "composed": composed,
         "median_ratio_composed_over_rust": ratio(&composed, &rust),
         "rclpy": rclpy,
+        "floor": floor,
+        "work_floor": work_floor,
+        "missed_over_floor": match (rust["missed_cycles"].as_f64(), floor["equivalent_missed_cycles"].as_f64()) {
+            (Some(m), Some(f)) if f > 0.0 => serde_json::json!(m / f),
+            _ => serde_json::Value::Null,
+        },
         "machine": machine(),
         "git": Command::new("git").args(["rev-parse", "--short", "HEAD"]).output().ok()
             .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string()),

@@ -39,6 +39,11 @@ impl Histogram {
         self.h.len()
     }
 
+    /// Recorded values above `ns` (at HdrHistogram's resolution, 0.8 %).
+    pub fn count_over(&self, ns: u64) -> u64 {
+        self.len() - self.h.count_between(0, ns)
+    }
+
     pub fn max_ns(&self) -> Option<u64> {
         (self.len() > 0).then_some(self.max)
     }

@@ -9,13 +9,13 @@
 use std::sync::Arc;
 
 use jk5_sim_driver::{
-    runner::{Runner, SharedCommands},
+    runner::{monotonic_ns, MissMarker, Runner, SharedCommands, WakeStats},
     setup::{Setup, NODE},
     sim_plant::SimPlant,
 };
 use naic_ros::{
     msgs::{self, Clock, Float64MultiArray, JointState, WrenchStamped},
-    node::{data_qos, Pub, QOS_PUB},
+    node::{data_qos, Pub, QOS_PUB, QOS_SUB},
     wait::spawn_receiver,
     RosArgs, RosError, RosNode,
 };
@@ -45,6 +45,7 @@ fn main() {
 
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
+    let marker = MissMarker::from_env();
     let args = RosArgs::parse(std::env::args().skip(1))?;
     let setup = Setup::from_args(&args)?; // files first, before any DDS participant exists
     let mut node = RosNode::new(args, NODE, setup.specs(), Some(setup.check()))?;
@@ -55,12 +56,21 @@ fn run() -> Result<(), RosError> {
         node.publisher("joint_states", msgs::JOINT_STATE, data_pub)?,
         node.publisher("/clock", msgs::CLOCK, QOS_PUB)?,
     );
-    let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, data_sub)?;
+    // The command subscription is reliable only in lockstep (every command counts there).
+    // In real time a late command is worthless, and a reliable reader would cost the chain:
+    // friction_compensation's writer would keep every command until the driver acknowledged
+    // it and drop them in one go every 6 s (RustDDS's cache cleaning: a 0.7-1.1 ms stall of
+    // its event loop, a missed cycle each time), the driver would acknowledge every command,
+    // and one lost packet would hold the newer commands back until it was repaired.
+    let cmd_qos = if d.p.lockstep { data_sub } else { QOS_SUB };
+    let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, cmd_qos)?;
     let shared = Arc::new(SharedCommands::new(d.commands(&node.params)));
     // Receive thread: wakes on each command, checks it, stamps its arrival.
     let rx = Arc::clone(&shared);
     spawn_receiver("cmd-rx", cmd_sub, move |m| rx.receive(&m)).map_err(|e| RosError::Node(format!("cannot start the receive thread: {e}")))?;
 
+    let mut wake = WakeStats::default();
+    let record_after_ns = shared.lock().record_after_ns;
     while !naic_ros::shutdown_requested() {
         d.reload(&node.params, &mut shared.lock());
         if d.paused {
@@ -83,13 +93,23 @@ fn run() -> Result<(), RosError> {
                 d.pace(); // no faster than real_time_factor × wall time
             }
         } else {
-            d.pace();
+            let deadline = d.pace();
+            let timed = !d.sim && naic_ros::time::wall_ns() >= record_after_ns;
+            wake.woke(deadline, monotonic_ns(), d.period_ns(), timed);
         }
         d.reload(&node.params, &mut shared.lock());
         let cmd = shared.lock().view();
+        let missed = d.s.missed;
         d.step(&cmd);
+        if !d.p.lockstep {
+            wake.stepped(d.s.missed > missed);
+            if d.s.missed > missed {
+                marker.miss(d.s.missed);
+            }
+        }
         out.announce(&mut d, &shared);
     }
-    d.finish(&shared.lock(), &node.params, serde_json::json!({}));
+    let extra = if d.p.lockstep { serde_json::json!({}) } else { wake.report() };
+    d.finish(&shared.lock(), &node.params, extra);
     Ok(())
 }

@@ -25,6 +25,7 @@ use naic_ros::{
 use crate::{
     config,
     core::{self, Commands, Hold},
+    latency::Histogram,
     plant::Plant,
     setup::NODE,
 };
@@ -298,6 +299,106 @@ impl SharedCommands {
     }
 }
 
+/// Real time, the three-process shell: when the driver woke after each deadline, and
+/// whether each missed cycle came with a late wake-up of the driver itself.
+///
+/// The driver's loop thread is a cyclictest thread inside the chain: a wake-up more than half
+/// a period late means the CPU was not available to its priority then (the kernel or the
+/// hypervisor ran something else, or the loop is catching up overdue periods back to back
+/// after such a stall, as [`Runner::pace`] does). A missed cycle whose own wake-up or the
+/// previous one was that late is counted in `missed_driver_late`; one where the driver woke on
+/// time both times in `missed_driver_on_time` (the chain took longer than the period while
+/// the driver's thread ran when due). Episodes are runs of consecutive missed cycles: one
+/// stall of n ms costs about n missed cycles. Allocation-free after construction.
+pub struct WakeStats {
+    /// Wake-up lateness after each deadline [ns].
+    pub wake: Histogram,
+    late: bool,
+    late_before: bool,
+    pub missed_driver_late: u64,
+    pub missed_driver_on_time: u64,
+    pub episodes: u64,
+    pub longest_episode: u64,
+    run: u64,
+}
+
+impl Default for WakeStats {
+    fn default() -> Self {
+        WakeStats { wake: Histogram::default(), late: false, late_before: false, missed_driver_late: 0, missed_driver_on_time: 0, episodes: 0, longest_episode: 0, run: 0 }
+    }
+}
+
+impl WakeStats {
+    /// The loop woke at `now_ns` for the deadline `deadline_ns` [ns, CLOCK_MONOTONIC] of a
+    /// period of `period_ns`; `timed`: after the warm-up (recorded).
+    pub fn woke(&mut self, deadline_ns: i64, now_ns: i64, period_ns: i64, timed: bool) {
+        self.late_before = self.late;
+        self.late = now_ns - deadline_ns > period_ns / 2;
+        if timed {
+            self.wake.record(now_ns - deadline_ns);
+        }
+    }
+
+    /// After the step: `missed` whether it counted a missed cycle (the core's count grew).
+    pub fn stepped(&mut self, missed: bool) {
+        if missed {
+            if self.late || self.late_before {
+                self.missed_driver_late += 1;
+            } else {
+                self.missed_driver_on_time += 1;
+            }
+            if self.run == 0 {
+                self.episodes += 1;
+            }
+            self.run += 1;
+            self.longest_episode = self.longest_episode.max(self.run);
+        } else {
+            self.run = 0;
+        }
+    }
+
+    /// The report's fields.
+    pub fn report(&self) -> serde_json::Value {
+        let q = |f: f64| self.wake.quantile_ns(f).map_or(f64::NAN, |ns| ns / 1e3);
+        serde_json::json!({
+            "wake_late_median_us": q(0.5),
+            "wake_late_p99_us": q(0.99),
+            "wake_late_p9999_us": q(0.9999),
+            "wake_late_max_us": self.wake.max_ns().map_or(f64::NAN, |ns| ns as f64 / 1e3),
+            "wakes_late_over_500us": self.wake.count_over(500_000),
+            "wakes_late_over_1ms": self.wake.count_over(1_000_000),
+            "missed_driver_late": self.missed_driver_late,
+            "missed_driver_on_time": self.missed_driver_on_time,
+            "miss_episodes": self.episodes,
+            "longest_miss_episode": self.longest_episode,
+        })
+    }
+}
+
+/// Diagnostics: with `NAIC_TRACE_MARKER=FILE` (a kernel trace's `trace_marker`, e.g.
+/// `/sys/kernel/tracing/trace_marker`), each missed cycle writes `naic missed N` there, so a
+/// scheduler trace shows what ran around it (BENCHMARKS.md, "Where the three-process misses
+/// come from"). Unset: nothing (one branch per missed cycle).
+pub struct MissMarker(Option<std::fs::File>);
+
+impl MissMarker {
+    pub fn from_env() -> MissMarker {
+        MissMarker(std::env::var_os("NAIC_TRACE_MARKER").and_then(|p| std::fs::OpenOptions::new().write(true).open(p).ok()))
+    }
+
+    /// Missed cycle number `n` (writes only when the marker file is open).
+    pub fn miss(&self, n: u64) {
+        if let Some(mut f) = self.0.as_ref() {
+            use std::io::Write;
+            let mut buf = [0u8; 40];
+            let mut w = &mut buf[..];
+            let _ = write!(w, "naic missed {n}");
+            let len = 40 - w.len();
+            let _ = f.write_all(&buf[..len]);
+        }
+    }
+}
+
 /// Log what one step reports.
 pub fn log_events(o: &core::Outbox, p: &core::Params, s: &core::State) {
     match o.events.hold {
@@ -365,6 +466,25 @@ mod tests {
         let setup = Setup::from_args(&args).unwrap();
         let table = ParamTable::new(setup.specs(), Some(setup.check()), &args.overrides(NODE).unwrap()).unwrap();
         (Runner::new(setup.plant, &table), table)
+    }
+
+    #[test]
+    fn wake_stats_tell_a_late_driver_from_a_late_chain() {
+        const MS: i64 = 1_000_000;
+        let mut w = WakeStats::default();
+        // (deadline, woke) in ms, missed: on time and answered; on time but the chain was
+        // late; a 3 ms stall, the two overdue periods caught up back to back, and the first
+        // cycle after them (its state went out late); on time again.
+        let cycles = [(1, 1, false), (2, 2, true), (3, 6, true), (4, 6, true), (5, 6, true), (6, 6, true), (7, 7, false)];
+        for (deadline, woke, missed) in cycles {
+            w.woke(deadline * MS, woke * MS + 20_000, MS, true);
+            w.stepped(missed);
+        }
+        assert_eq!((w.missed_driver_on_time, w.missed_driver_late), (1, 4));
+        assert_eq!((w.episodes, w.longest_episode), (1, 5));
+        assert_eq!(w.wake.count_over(MS as u64), 3, "woke 3.02, 2.02 and 1.02 ms late");
+        let r = w.report();
+        assert!((r["wake_late_max_us"].as_f64().unwrap() - 3020.0).abs() < 30.0, "{r}");
     }
 
     #[test]
