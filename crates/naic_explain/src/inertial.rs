@@ -148,7 +148,7 @@ pub fn fit(
         for (a, c) in own[j].iter().enumerate() {
             x[r + a] = js.col(*c, sts[j], &shs[j], k);
         }
-        x[r + pj] = js.y[k];
+        x[r + pj] = js.target(sts[j], k);
         let f = if js.fold[k] == VALIDATION_FOLD { kf } else { js.fold[k] as usize };
         let g = &mut grams[j][f];
         for a in 0..x.len() {
