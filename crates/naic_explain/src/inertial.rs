@@ -116,6 +116,7 @@ pub fn fit(
     results: &[JointResult],
     shapes: &[NominalShape],
     o: &AnalysisOptions,
+    nominal_only: bool,
 ) -> InertialFit {
     let nj = model.nv();
     let base = base_parameters(model, 30 * nj);
@@ -127,15 +128,26 @@ pub fn fit(
     let names: Vec<String> = cols.iter().map(|&c| crate::baseline::Baseline::column_name(model, c)).collect();
     let mut rd = RegressorData::new(model);
     // local layout per joint: [base (r), own columns (p_j), y]
-    let own: Vec<Vec<crate::analysis::Col>> =
-        results.iter().map(|res| res.final_eval.columns.iter().copied().filter(|c| *c != crate::analysis::Col::Inertial).collect()).collect();
+    use crate::analysis::{Col, Dir, Structure};
+    let nominal_cols = vec![Col::Coul(Dir::Both), Col::Visc(Dir::Both)];
+    let own: Vec<Vec<Col>> = results
+        .iter()
+        .map(|res| {
+            if nominal_only {
+                nominal_cols.clone()
+            } else {
+                res.final_eval.columns.iter().copied().filter(|c| *c != Col::Inertial).collect()
+            }
+        })
+        .collect();
+    let nominal_st = Structure::nominal();
     let mut grams: Vec<Vec<DMatrix<f64>>> = own.iter().map(|c| vec![DMatrix::zeros(r + c.len() + 1, r + c.len() + 1); kf + 1]).collect();
     // one pass over the instants: the regressor (all joints' rows) once per instant, each
     // joint's row into that joint's Gram when the instant is one of its samples (k[j]
     // counts them in JointSamples order)
     let mut xs: Vec<Vec<f64>> = own.iter().map(|c| vec![0.0; r + c.len() + 1]).collect();
     let mut ks = vec![0usize; nj];
-    let sts: Vec<_> = results.iter().map(|res| &res.final_eval.full_structure).collect();
+    let sts: Vec<_> = results.iter().map(|res| if nominal_only { &nominal_st } else { &res.final_eval.full_structure }).collect();
     let shs: Vec<NominalShape> = (0..nj).map(|j| shapes.get(j).copied().unwrap_or_default()).collect();
     for_each_kept(model, &mut rd, fit, val, |j, y| {
         let (js, x) = (&joints[j], &mut xs[j]);

@@ -617,7 +617,7 @@ pub fn explain_runs(
     // and the per-joint selection runs again with it as a candidate (crate::inertial)
     let inertial = if axes.is_empty() && opts.analysis.effects.contains(&catalogue::Effect::InertialParameters) {
         progress(0.95, "inertial_parameters: base parameters on all joints");
-        let fit = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis);
+        let fit = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis, true);
         if fit.significant {
             for (js, c) in joints.iter_mut().zip(&fit.corrections) {
                 js.inertial = c.clone();
@@ -625,7 +625,7 @@ pub fn explain_runs(
             results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(0.95 + 0.05 * f, w));
             // the estimate beside the effects that survived the second pass
             let mut fit = fit;
-            fit.delta = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis).delta;
+            fit.delta = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis, false).delta;
             Some(fit)
         } else {
             Some(fit)
