@@ -69,16 +69,15 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
     # (rigid body + Supp. Table I friction) on the same samples — met by the baseline
     assert np.all(base <= pub), (base, pub)
     # the catalogue on top of the published inertials: the link inertials are the main
-    # discrepancy (inertial_parameters first); better than the published model on joints 1–5
-    # and 7, not on 6, where no finding passes (README)
+    # discrepancy (inertial_parameters first, on every joint); better than the published model
+    # on every joint (README; before issue 14's second round joint 6 missed: 0.111 vs 0.091)
     sig = [f for f in rep["findings"] if f["significant"]]
     assert sig[0]["effect"] == "inertial_parameters" and "joint2" in sig[0]["targets"], [(f["effect"], f["targets"]) for f in sig]
     assert rep["inertial_parameters"]["significant"] and rep["inertial_parameters"]["folds_won"] == 10
-    assert np.all(ext[[0, 1, 2, 3, 4, 6]] < pub[[0, 1, 2, 3, 4, 6]]), (ext, pub)
-    assert ext[5] > pub[5]
-    # joint 2, the worst: within 5 % of the classical baseline (0.63 → 0.19 N·m)
+    assert np.all(ext < pub), (ext, pub)
+    # joint 2, the worst: within 5 % of the classical baseline (0.63 → 0.20 N·m; baseline 0.19)
     assert ext[1] < 1.05 * base[1], (ext, base)
-    assert rep["explained"]["all_joints"] > 0.7
+    assert rep["explained"]["all_joints"] > 0.75
 
 
 def test_panda_identified_friction_within_the_published_curve_and_its_scatter(naic_bin, root, shared, tmp_path):

@@ -533,7 +533,7 @@ impl JointSamples {
 /// fixed at one width leaves that difference as a narrow low-speed bump which `stribeck`
 /// (q_s at the bottom of its grid) took on noise-only data with the other law. The width is
 /// chosen per joint (time series) on the whole data by the nominal's SSR, 0–2 mrad/s (grid
-/// 0.25 mrad/s, then three halvings), before any candidate is scored: the nominal and every
+/// 0.25 mrad/s, then six halvings), before any candidate is scored: the nominal and every
 /// candidate use the same law, so the comparison between them stays fair.
 pub fn calibrate_coulomb_width(js: &mut JointSamples, sh: &NominalShape, folds: usize) {
     if !js.time_series || js.contact || js.is_empty() {
@@ -554,7 +554,10 @@ pub fn calibrate_coulomb_width(js: &mut JointSamples, sh: &NominalShape, folds: 
         }
     }
     let mut step = step0;
-    for _ in 0..3 {
+    // to 4 µrad/s: at 2 mrad/s a tanh of width 0.9 mrad/s changes by 0.17 % of the Coulomb level
+    // per 15 µrad/s of width (≈ 0.01 N·m on the JK5's joint 1), which `stribeck` took on
+    // noise-only data when the width was refined to 31 µrad/s only
+    for _ in 0..6 {
         step *= 0.5;
         let c = best.1;
         for w in [c - step, c + step] {

@@ -6,8 +6,10 @@
 //! an all-joint stage after the per-joint catalogue has run:
 //!
 //! 1. One least-squares fit on all joints together: the shared `Y_B δβ` plus, per joint,
-//!    the columns of that joint's final model (its shape parameters fixed at the whole-data
-//!    values), against the same per-joint columns without `Y_B`. Held out on the same
+//!    that joint's nominal friction columns (Coulomb with its calibrated width, viscous),
+//!    against the same per-joint columns without `Y_B`. (Each joint's first-pass final model
+//!    was used before: its effects had already absorbed part of a rigid-body error and
+//!    biased δβ.) Held out on the same
 //!    time-block folds. The stage is significant when the mean over joints of the held-out
 //!    gain is ≥ `min_gain`, the normalised held-out sum is lower in ≥ `min_fold_wins` folds,
 //!    and BIC with one noise level per joint, `Σ_j n_eff,j ln(SSR_j'/SSR_j) + r ln(Σ n_eff)`,

@@ -357,23 +357,20 @@ pub fn prepare(
             *x = jl.column(j).dot(&acc_g);
         }
         // accelerating through the low-speed knee of the friction law: left out like a creep.
-        // The speed across the filter window from the short fit's polynomial (its coefficients
-        // p_3 … on top of q̇ and q̈/2), at 9 points
+        // The speed across the filter window from the long fit's polynomial (`ph`, the one
+        // behind τ̇_rb), at 9 points: the short fit's own speed near its window's ends carries
+        // the encoder noise (0.4 mrad/s on a 2 mrad/s plateau) and left the slowest plateaus out
+        let half = h as f64 * dt;
         let mut knee = vec![false; nj];
         for (j, kn) in knee.iter_mut().enumerate() {
             let v0 = vv[j].abs();
-            if v0 <= opts.v_rest || v0 > KNEE_SCREEN * opts.v_knee + av[j].abs() * h as f64 * dt {
+            if v0 <= opts.v_rest || v0 > KNEE_SCREEN * opts.v_knee + av[j].abs() * half {
                 continue;
             }
-            let hi: Vec<f64> = poly_short.iter().skip(3).map(|c| (i - h..=i + h).zip(c).map(|(r, w)| w * ts.q[r][j]).sum()).collect();
             let (mut lo_v, mut hi_v) = (f64::INFINITY, f64::NEG_INFINITY);
             for m in 0..=8 {
-                let d = (m as f64 / 4.0 - 1.0) * h as f64 * dt;
-                let mut v = vv[j] + av[j] * d;
-                for (k, pk) in hi.iter().enumerate() {
-                    let e = (k + 3) as i32;
-                    v += f64::from(e) * pk * d.powi(e - 1);
-                }
+                let d = (m as f64 / 4.0 - 1.0) * half;
+                let v: f64 = ph.iter().enumerate().skip(1).map(|(k, pk)| k as f64 * pk[j] * d.powi(k as i32 - 1)).sum();
                 lo_v = lo_v.min(v.abs());
                 hi_v = hi_v.max(v.abs());
             }
