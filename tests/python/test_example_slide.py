@@ -1,9 +1,6 @@
 """examples/slide_with_force_profile.py against the node chain (lockstep, loopback only):
 rclpy slides the tool 10 cm at 10 mm/s with 5 → 10 → 5 N through /naic/target_pose and
 /naic/desired_wrench, records with `naic record` and draws with `naic plot`.
-
-Skips, naming the missing topics (rclpy graph API), while naic_controller does not
-subscribe the reference topics.
 """
 import os
 import sys
@@ -15,8 +12,6 @@ import rostest_util as ru  # noqa: E402
 
 pytest.importorskip("rclpy")
 pytest.importorskip("pinocchio")
-
-TOPICS = ("/naic/target_pose", "/naic/desired_wrench")
 
 
 def test_example_slides_with_the_force_profile(tmp_path):
@@ -30,21 +25,13 @@ def test_example_slides_with_the_force_profile(tmp_path):
         try:
             assert r.spin_until(lambda: "naic_controller" in {n for n, _ in r.node.get_node_names_and_namespaces()}, 30), \
                 launch.output()[-3000:]
-            r.spin(2.0)  # the controller's subscriptions are announced after its node
-
-            def subscribed(t):
-                return "naic_controller" in {i.node_name for i in r.node.get_subscriptions_info_by_topic(t)}
-            missing = [t for t in TOPICS if not subscribed(t)]
         finally:
             r.close()
-        if missing:
-            pytest.skip(f"naic_controller does not subscribe {', '.join(missing)} yet (issue #16: the "
-                        "reference topics are wired into the controller node after the node-cores rewrite)")
     except BaseException:
         launch.stop(timeout=15)
         raise
-    # This test's own rclpy participant saw both subscriptions above; the example's joins
-    # later (the discovery rule in run_slide_example).
+    # The example waits for naic_controller's reference subscriptions itself (and the
+    # discovery rule of run_slide_example applies to it).
     s = ru.run_slide_example(bins, launch, domain, tmp_path, 400)
     # 1 kHz of /naic/params for 10 s of sliding. Behind the lockstep chain (faster than real
     # time) on a loaded machine naic record can fall behind the publishers' history and lose
@@ -58,12 +45,10 @@ def test_example_slides_with_the_force_profile(tmp_path):
     assert s["phases_in_contact"] == s["slide_samples"], s
     assert s["desired_forces_seen"] == [5.0, 10.0], s
     assert not s["faults"], s
-    # Issue #16's goal, |e_f| <= 0.5 N while sliding, is not met: in process it holds after
-    # the slide's first second (the start, the joints breaking away in their Stribeck
-    # friction range, reaches 0.3-0.7 N: naic_controller/tests/slide_in_process.rs); over
-    # DDS the largest error measured was 0.55 N, RMS 0.09 N. What is achieved, with the gap
-    # stated in docs/nodes.md ("The rclpy example"):
-    assert s["max_abs_force_error_n"] <= 1.0, s
+    print(f"slide over DDS: max |e_f| {s['max_abs_force_error_n']:.3f} N, RMS {s['rms_force_error_n']:.3f} N, "
+          f"{s['slide_samples']} sliding samples")
+    # Issue #16's goal: |e_f| <= 0.5 N while sliding (the example runs the scheduled law).
+    assert s["max_abs_force_error_n"] <= 0.5, s
     assert s["rms_force_error_n"] <= 0.15, s
     # The bag is a real MCAP with the topics (read with the reference mcap reader), and the figure exists.
     from mcap.reader import make_reader

@@ -40,8 +40,7 @@ def test_ros_composed_serves_the_three_nodes_parameters(bins):
         assert "composed" in launch.output() and launch.alive()
         for node, name in [("naic_controller", "desired_force"), ("jk5_sim_driver", "hold_damping"),
                            ("friction_compensation", "torque_rate_limit")]:
-            c = AsyncParameterClient(r.node, node)
-            assert c.wait_for_services(20.0), node
+            c = ru.param_client(r.node, node, 20.0)
             names = r.wait(c.list_parameters([], 0)).result.names
             assert name in names, (node, names)
         c = AsyncParameterClient(r.node, "naic_controller")
@@ -106,7 +105,7 @@ def test_ros_sensor_faults_hold_and_resume_in_either_mode(bins, composed):
     assert v["n_params"] > 100 and v["faults_tail"] == [""] and HOLD not in v["phases_tail"], v
     needles = {"nan_wrench": "not finite", "absurd_wrench": "beyond the plausible limit",
                "stale_wrench": "no fresh wrench", "nan_joint": "not finite"}
-    counts, spins = [], []
+    counts = []
     for fault, needle in needles.items():
         p = res[fault]
         assert p["n_params"] > 50 and p["n_cmds"] > 50, (fault, p)
@@ -117,16 +116,14 @@ def test_ros_sensor_faults_hold_and_resume_in_either_mode(bins, composed):
         r = res[fault + "_recovered"]
         assert r["cmds_all_finite"], (fault, r)
         assert r["n_params"] > 100 and r["phases_tail"] != [HOLD], (fault, r)
+        # Resumed: in the second half of the 2 s no fault but staleness. A frozen or
+        # delayed stream on a loaded machine (a driver stall longer than wrench_timeout,
+        # 10 ms) is a real, brief hold; a joint spinning past its velocity limit or a press
+        # past force_limit after the resume (NAIC's drifted weights carried over the hold,
+        # fixed by ControlState::hold; nodes/naic_controller/tests/faults_in_process.rs) is not.
         late = [f for f in r["faults_tail"] if f]
-        # Known (docs/safety.md, "Known problem"): after holds, resuming force control can
-        # spin joint 4 past 6.28 rad/s, or press past force_limit, which latches the
-        # retraction until a parameter is set.
-        kind = next((k for k in ("joint velocity[3]", "above force_limit") if late and all(k in f for f in late)), None)
-        if kind:
-            spins.append((fault, late[:3]))
-        else:
-            assert HOLD not in r["phases_tail"] and not late, (fault, r)
+        assert all(f.startswith("no fresh") for f in late), (fault, late, r)
+        assert not [f for f in r["faults_all"] if "joint velocity" in f or "force_limit" in f], (fault, r)
+        assert r["hold_tail"] <= 0.05 * r["n_tail"], (fault, r)
         counts.append(r["fault_count_end"])
     assert res["bad_value"] and "nan_wrench" in res["bad_value"], res["bad_value"]
-    if spins:
-        pytest.xfail(f"resuming after a hold went wrong (known problem, docs/safety.md): {spins}")

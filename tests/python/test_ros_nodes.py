@@ -112,8 +112,7 @@ def test_ros_joint_states_and_wrench_at_published_rate(suite):
 
 def test_ros_parameters_list_get_describe_set(suite):
     r = suite["rclpy"]
-    c = AsyncParameterClient(r.node, "naic_controller")
-    assert c.wait_for_services(10.0)
+    c = ru.param_client(r.node, "naic_controller", 10.0)
     names = r.wait(c.list_parameters()).result.names
     for p in ["desired_force", "learning_rate", "mode", "m_d", "b_d", "k_d", "sigma", "force_axis",
               "contact_threshold", "force_limit", "wrench_timeout", "use_sim_time"]:
@@ -145,15 +144,13 @@ def test_ros_parameters_list_get_describe_set(suite):
     assert not res[0].successful and "not declared" in res[0].reason
     # Other nodes declare theirs.
     for node, p in (("jk5_sim_driver", "rate"), ("friction_compensation", "friction_file")):
-        c2 = AsyncParameterClient(r.node, node)
-        assert c2.wait_for_services(10.0)
+        c2 = ru.param_client(r.node, node, 10.0)
         assert p in r.wait(c2.list_parameters()).result.names
 
 
 def test_ros_invalid_learning_rate_rejected_with_reason(suite):
     r = suite["rclpy"]
-    c = AsyncParameterClient(r.node, "naic_controller")
-    assert c.wait_for_services(10.0)
+    c = ru.param_client(r.node, "naic_controller", 10.0)
     before = r.wait(c.get_parameters(["learning_rate"])).values[0].double_value
     for bad in (-0.5, float("nan"), "fast"):
         res = r.wait(c.set_parameters([Parameter("learning_rate", value=bad)])).results[0]
@@ -209,8 +206,7 @@ def test_ros_naic_params_received_by_rclpy_with_built_naic_msgs(suite):
     assert abs(m["stamp"] - time.time()) < 5
     # Put the defaults back for the other tests.
     r = suite["rclpy"]
-    c = AsyncParameterClient(r.node, "naic_controller")
-    assert c.wait_for_services(10.0)
+    c = ru.param_client(r.node, "naic_controller", 10.0)
     r.wait(c.set_parameters([Parameter("mode", value="naic"), Parameter("desired_force", value=10.0)]))
 
 
@@ -275,8 +271,7 @@ def test_ros_remap_node_name_and_namespace(bins):
     try:
         assert r.spin_until(lambda: ("drv2", "/robot1") in r.node.get_node_names_and_namespaces(), 20), p.output()
         assert r.spin_until(lambda: "/robot1/joint_states" in dict(r.node.get_topic_names_and_types()), 10)
-        c = AsyncParameterClient(r.node, "/robot1/drv2")
-        assert c.wait_for_services(10.0)
+        c = ru.param_client(r.node, "/robot1/drv2", 10.0)
         assert r.wait(c.get_parameters(["rate"])).values[0].double_value == 250.0
     finally:
         r.close()
@@ -463,8 +458,7 @@ def test_ros_lockstep_advances_simulated_time_per_command(bins):
         # Stamps are simulated time (from 0), not the wall clock, in 1 ms steps.
         s = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in js[-50:]]
         assert s[-1] < 1e6 and all(abs(round(x * 1000) - x * 1000) < 1e-6 for x in s), s[-5:]
-        c = AsyncParameterClient(r.node, "jk5_sim_driver")
-        assert c.wait_for_services(10.0)
+        c = ru.param_client(r.node, "jk5_sim_driver", 10.0)
         assert r.wait(c.get_parameters(["lockstep"])).values[0].bool_value is True
     finally:
         r.close()
@@ -531,8 +525,7 @@ def test_ros_lockstep_chain_equals_the_in_process_simulation(bins, tmp_path):
         qos = QoSProfile(depth=100000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
         r.node.create_subscription(JointState, "/joint_states", lambda m: got.__setitem__(
             (m.header.stamp.sec * 10**9 + m.header.stamp.nanosec) // 10**6, list(m.effort)), qos)
-        c = AsyncParameterClient(r.node, "jk5_sim_driver")
-        assert c.wait_for_services(30.0), launch.output()[-2000:]
+        c = ru.param_client(r.node, "jk5_sim_driver", 30.0)
         r.spin(1.5)  # let the driver's writer match this reader before time runs
         assert r.wait(c.set_parameters([Parameter("paused", value=False)])).results[0].successful
         assert r.spin_until(lambda: got and max(got) >= 2000, 90), launch.output()[-2000:]

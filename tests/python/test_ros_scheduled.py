@@ -108,5 +108,6 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
     # The law tracks the reported f_d: median |f_ext - f_d| below 0.5 N over the late samples.
     f_late = sorted(abs(s[3] - s[8]) for s in late)
     assert f_late and f_late[len(f_late) // 2] < 0.5, f_late[:: max(1, len(f_late) // 10)]
-    # The scheduled damping sits above the paper's b_d = 40 (delay floor / near critical).
-    assert min(s[6] for s in late) > 40.0
+    # The scheduled damping is near critical for k_e = 2000 N/m and m_d = 0.1 kg
+    # (2 sqrt(k m) = 28 N s/m; the delay floor at this stiffness is 2 N s/m).
+    assert min(s[6] for s in late) > 20.0

@@ -45,8 +45,7 @@ def test_first_request_of_a_new_participant_is_answered():
             r = ru.RclpyDomain(domain, f"fresh_client_{trial}")
             try:
                 for n in ru.NODES:
-                    c = AsyncParameterClient(r.node, n)
-                    assert c.wait_for_services(20.0), f"trial {trial}: {n} parameter services not found in 20 s"
+                    c = ru.param_client(r.node, n, 20.0)
                     t0 = time.time()
                     f = c.get_parameters([PARAM])
                     r.spin_until(f.done, 15.0)

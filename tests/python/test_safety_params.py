@@ -32,8 +32,7 @@ def nodes():
     clients = {}
     try:
         for n in ru.NODES:
-            c = AsyncParameterClient(r.node, n)
-            assert c.wait_for_services(20.0), f"{n} parameter services not found"
+            c = ru.param_client(r.node, n, 20.0)
             clients[n] = c
         yield r, clients
     finally:

@@ -222,6 +222,28 @@ def run_in_overlay(argv, domain, overlay, timeout, stop=None, pythonpath=()):
     return json.loads(lines[-1])
 
 
+def param_client(node, target, timeout=20.0):
+    """An rclpy AsyncParameterClient of `node` for the naic node `target`, once its parameter
+    services are matched. When they are not within `timeout` but `target` itself is in the
+    graph (its ros_discovery_info arrived) and its get_parameters service is not, this is
+    the known loss of a RustDDS node's first SEDP announcements inside Fast DDS (issue 13;
+    docs/nodes.md, "The 10 s failure, traced"): xfail naming it. Anything else fails."""
+    import pytest
+    from rclpy.parameter_client import AsyncParameterClient
+    c = AsyncParameterClient(node, target)
+    if c.wait_for_services(timeout):
+        return c
+    name = target.rsplit("/", 1)[-1]
+    ns = target.rsplit("/", 1)[0] or "/" if "/" in target else "/"
+    nodes = set(node.get_node_names_and_namespaces())
+    services = {s for s, _ in node.get_service_names_and_types_by_node(name, ns)} if (name, ns) in nodes else set()
+    want = f"{ns.rstrip('/')}/{name}/get_parameters"
+    if (name, ns) in nodes and want not in services:
+        pytest.xfail(f"{target}'s parameter services never reached this rclpy participant though the node is in its graph "
+                     f"(known RustDDS/Fast DDS discovery loss, issue 13; services seen: {sorted(services)[:4]})")
+    raise AssertionError(f"{target}'s parameter services not found in {timeout} s; nodes in the graph: {sorted(nodes)}")
+
+
 class RclpyDomain:
     """An rclpy context, node and executor on one domain (tests can use several domains).
     Its threads run at [`observer_priority`]."""

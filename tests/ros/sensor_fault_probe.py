@@ -59,6 +59,9 @@ def main():
             "cmds_all_finite": all(math.isfinite(x) for c in cmds for x in c),
             "phases_tail": sorted({m.phase for m in tail}),
             "faults_tail": sorted({m.fault for m in tail}),
+            "hold_tail": sum(m.phase == NaicParams.PHASE_HOLD for m in tail),
+            "n_tail": len(tail),
+            "faults_all": sorted({m.fault for m in params if m.fault}),
             "fault_count_end": params[-1].fault_count if params else None,
         }
 

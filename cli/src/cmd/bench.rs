@@ -11,6 +11,7 @@
 //! NAIC cycle of `naic_core::pipeline::controller::step` (see [`controller_step`]).
 use super::{CliError, CliResult};
 use naic_core::dynamics;
+use naic_core::rng::Rng;
 use naic_core::model::{Data, FrameId, Model};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, Dyn, OVector, U6};
@@ -72,18 +73,6 @@ pub fn run(c: BenchCmd) -> CliResult {
 
 const STATES: usize = 1000;
 
-/// Deterministic xorshift64* random numbers in [lo, hi) (no extra dependency).
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let x = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
-        lo + (hi - lo) * (x as f64 / (1u64 << 53) as f64)
-    }
-}
-
 struct Timings {
     rnea: f64,
     crba: f64,
@@ -118,7 +107,7 @@ fn bench<D: Dim>(model: &Model, mut data: Data<D>, frame: FrameId, batches: usiz
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U6, D>,
 {
-    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut rng = Rng::seed(0x9E37_79B9_7F4A_7C15);
     let lower = model.lower_limits();
     let upper = model.upper_limits();
     let gen = |f: &mut dyn FnMut(usize) -> f64| -> Vec<OVector<f64, D>> {
@@ -127,18 +116,18 @@ where
     let qs = gen(&mut |i| {
         let lo = if lower[i].is_finite() { lower[i] } else { -std::f64::consts::PI };
         let hi = if upper[i].is_finite() { upper[i] } else { std::f64::consts::PI };
-        rng.uniform(lo, hi)
+        rng.range(lo, hi)
     });
     let (vel, eff) = (model.velocity_limits(), model.effort_limits());
     let finite_or = |x: f64, d: f64| if x.is_finite() && x > 0.0 { x } else { d };
     let vs = gen(&mut |i| {
         let l = finite_or(vel[i], std::f64::consts::PI);
-        rng.uniform(-l, l)
+        rng.range(-l, l)
     });
-    let as_ = gen(&mut |_| rng.uniform(-10.0, 10.0));
+    let as_ = gen(&mut |_| rng.range(-10.0, 10.0));
     let taus = gen(&mut |i| {
         let l = finite_or(eff[i], 100.0);
-        rng.uniform(-l, l)
+        rng.range(-l, l)
     });
     let rnea = time_batches(batches, |k| {
         black_box(dynamics::rnea(model, &mut data, black_box(&qs[k]), &vs[k], &as_[k]));
@@ -185,11 +174,11 @@ fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
         let m = tool.tip.cross(&f);
         (weight + Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)).into()
     };
-    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    let mut rng = Rng::seed(0xD1B5_4A32_D192_ED03);
     let inputs: Vec<([f64; 6], [f64; 6], [f64; 6])> = (0..STATES)
         .map(|_| {
-            let q: [f64; 6] = std::array::from_fn(|i| q0[i] + rng.uniform(-0.2, 0.2));
-            let dq: [f64; 6] = std::array::from_fn(|_| rng.uniform(-0.3, 0.3));
+            let q: [f64; 6] = std::array::from_fn(|i| q0[i] + rng.range(-0.2, 0.2));
+            let dq: [f64; 6] = std::array::from_fn(|_| rng.range(-0.3, 0.3));
             (q, dq, reading(&mut data, &q, 10.0))
         })
         .collect();

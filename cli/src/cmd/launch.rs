@@ -615,7 +615,7 @@ mod tests {
         for n in NODES.iter().filter(|n| **n != DRIVER) {
             assert!(!node_args(n, &a).unwrap().iter().any(|x| x.contains("real_time_factor")), "{n}");
         }
-        assert!(parse_real_time_factor("0").unwrap_err().contains("(0, 1000]"));
+        assert!(parse_real_time_factor("0").unwrap_err().to_string().contains("(0, 1000]"));
         assert!(parse_real_time_factor("nan").is_err() && parse_real_time_factor("x").is_err());
         assert_eq!(parse_real_time_factor("2.5"), Ok(2.5));
     }

@@ -3,7 +3,7 @@
 //! simulator's SVG plotter.
 use super::{CliError, CliResult};
 use naic_bag::{Bag, RunData};
-use naic_sim::svg::{Figure, Panel, Series};
+use naic_plot::{Figure, Panel, Series};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

@@ -2,6 +2,7 @@
 
 use naic_bag::sample::{cycle, write_sample, T0_NS};
 use naic_bag::*;
+use naic_core::rng::Rng;
 use naic_msgs::*;
 use std::path::PathBuf;
 
@@ -102,25 +103,14 @@ fn not_mcap_is_a_clear_error() {
     assert!(e.contains("could not read"), "{e}");
 }
 
-/// Deterministic xorshift for seeded damage.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-}
-
 #[test]
 fn truncation_at_random_points_recovers_every_complete_chunk() {
     let p = tmp("cut_src.mcap");
     let cycles = 1000;
     let sizes = write_small_chunks(&p, cycles);
     let full = std::fs::read(&p).unwrap();
-    let mut rng = Rng(0x5eed_1234);
-    let mut cuts: Vec<usize> = (0..150).map(|_| (rng.next() as usize) % full.len()).collect();
+    let mut rng = Rng::seed(0x5eed_1234);
+    let mut cuts: Vec<usize> = (0..150).map(|_| (rng.next_u64() as usize) % full.len()).collect();
     cuts.extend([0, 1, 7, 8, 9, 20, full.len() - 1, full.len() - 8, full.len() - 9]);
     for cut in cuts {
         let r = Bag::from_bytes("cut.mcap", full[..cut].to_vec());
@@ -157,14 +147,14 @@ fn flipped_bytes_never_panic_and_keep_intact_chunks() {
     let cycles = 1000;
     let sizes = write_small_chunks(&p, cycles);
     let full = std::fs::read(&p).unwrap();
-    let mut rng = Rng(0xF11b_0042);
+    let mut rng = Rng::seed(0xF11b_0042);
     for trial in 0..200 {
         let mut d = full.clone();
-        let nflip = 1 + (rng.next() % 4) as usize;
+        let nflip = 1 + (rng.next_u64() % 4) as usize;
         let mut first = usize::MAX;
         for _ in 0..nflip {
-            let at = 8 + (rng.next() as usize) % (d.len() - 8);
-            d[at] ^= 1 << (rng.next() % 8);
+            let at = 8 + (rng.next_u64() as usize) % (d.len() - 8);
+            d[at] ^= 1 << (rng.next_u64() % 8);
             first = first.min(at);
         }
         let bag = match Bag::from_bytes("flip.mcap", d) {
@@ -240,12 +230,12 @@ fn periodic_flush_limits_loss_on_crash() {
 
 #[test]
 fn garbage_and_hostile_headers_never_panic() {
-    let mut rng = Rng(0xBAD_5EED);
+    let mut rng = Rng::seed(0xBAD_5EED);
     // Random bytes after the magic.
     for len in [8usize, 9, 17, 100, 1000, 20000] {
         for _ in 0..20 {
             let mut d = MAGIC.to_vec();
-            d.extend((0..len).map(|_| rng.next() as u8));
+            d.extend((0..len).map(|_| rng.next_u64() as u8));
             if let Ok(bag) = Bag::from_bytes("garbage.mcap", d) {
                 let _ = bag.messages::<JointState>("/joint_states", ..);
                 let _ = bag.decode_all(..);

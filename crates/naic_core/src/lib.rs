@@ -16,7 +16,9 @@
 //! * [`pipeline`] — the 1 kHz control path, one stage per folder, in the order
 //!   the data flows: `sense → estimate → control → feedforward → actuate`.
 
+pub mod alloc_count;
 pub mod dynamics;
 pub mod friction;
 pub mod model;
 pub mod pipeline;
+pub mod rng;

@@ -1,5 +1,5 @@
-//! No heap allocation per call: a counting global allocator (per thread, so
-//! the test harness's own threads don't count) around every dynamics call.
+//! No heap allocation per call: `naic_core::alloc_count`'s counting global allocator (per
+//! thread, so the test harness's own threads don't count) around every dynamics call.
 
 mod dynamics_common;
 
@@ -7,40 +7,19 @@ use dynamics_common::*;
 use naic_core::dynamics::{self, Damping};
 use naic_core::model::{Data, Data6, Model};
 use nalgebra::{DVector, SVector};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+use naic_core::alloc_count::{counted, CountingAlloc};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAlloc = CountingAlloc;
 
-fn allocations(f: impl FnOnce()) -> usize {
-    let before = ALLOCS.with(|c| c.get());
-    f();
-    ALLOCS.with(|c| c.get()) - before
+fn allocations(f: impl FnOnce()) -> u64 {
+    let ((), n) = counted(f);
+    n
+}
+
+#[test]
+fn the_counter_is_installed() {
+    assert!(allocations(|| drop(vec![0u8; 8])) >= 1, "no allocation counted: every check here would pass vacuously");
 }
 
 #[test]

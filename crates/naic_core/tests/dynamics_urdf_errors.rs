@@ -224,7 +224,7 @@ fn truncated_or_mangled_urdfs_never_panic() {
         cases.push(text[..i].to_string());
         cases.push(format!("{}{}", &text[..i], &text[(i + 7).min(text.len())..]));
     }
-    let mut rng = Rng(12);
+    let mut rng = Rng::seed(12);
     for _ in 0..300 {
         let mut bytes = text.clone().into_bytes();
         for _ in 0..3 {
@@ -248,4 +248,15 @@ fn truncated_or_mangled_urdfs_never_panic() {
         }
     }
     assert!(errors > cases.len() / 2, "most mangled files should be rejected ({errors} of {})", cases.len());
+}
+
+/// A non-ASCII character where a joint type's opening quote belongs (found by the fuzzer:
+/// `type=�fixed"` panicked slicing inside the character): an error naming the joint, no panic.
+#[test]
+fn a_multibyte_character_for_the_quote_is_an_error_not_a_panic() {
+    for quote in ["\u{FFFD}", "é", "€"] {
+        let xml = two_link(&inertial("1", "0.1", "0", "0.1", "0.1"), &format!(r#"<joint name="j2" type={quote}fixed{quote}><parent link="a"/><child link="b"/></joint>"#), "");
+        let r = std::panic::catch_unwind(|| Model::from_urdf_str(&xml));
+        assert!(matches!(r, Ok(Err(_))), "{quote}: {r:?}");
+    }
 }

@@ -334,3 +334,31 @@ proptest! {
         })?;
     }
 }
+
+/// A hold forgets what the force law learned (NAIC's weights drift with every contact
+/// transient; carried into the next contact they made the JK5's wrist limit-cycle) but
+/// keeps a force-limit latch, which only a parameter change opens.
+#[test]
+fn a_hold_restarts_the_force_law_and_keeps_a_force_limit_latch() {
+    let mut rig = Rig::new();
+    let fresh = rig.ctl.initial_state().control;
+    let mut learned = rig.s;
+    learned.control.phase = Phase::Contact;
+    learned.control.law.m_d = 0.05;
+    learned.control.law.sigma = 0.22;
+    learned.control.law.b_d = 55.0;
+    learned.control.law.phi = 0.3;
+    learned.control.retract_hold = Some(0.004);
+    assert_ne!(learned.control.law, fresh.law, "precondition: weights differ from the configured ones");
+    let mut m = rig.good();
+    m.wrench[2] = f64::NAN;
+    let (held, out) = controller::step(&rig.ctl, &learned, &m, &rig.reference, &mut rig.ws);
+    assert_eq!(out.status.phase, Phase::Hold);
+    assert_eq!(held.control.law, fresh.law, "the force law restarts from its configured weights");
+    assert_eq!((out.status.m_d, out.status.sigma), (fresh.law.m_d, fresh.law.sigma), "the report shows the weights in force");
+    assert_eq!(held.control.sched, fresh.sched);
+    assert_eq!(held.control.retract_hold, Some(0.004), "the force-limit latch survives the hold");
+    rig.t += DT;
+    let (s, out) = controller::step(&rig.ctl, &held, &rig.good(), &rig.reference, &mut rig.ws);
+    assert!(out.status.fault.is_none() && out.status.force_limited && s.control.retracting(), "still latched after the hold");
+}

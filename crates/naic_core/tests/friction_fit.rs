@@ -11,26 +11,16 @@
 use naic_core::friction::lm::{lm_box, LeastSquares, LmOptions};
 use naic_core::friction::stats::{student_t_cdf, student_t_quantile};
 use naic_core::friction::{fit, residual_stats, Ci95, Direction, FitForm, FitOptions, FrictionData, JointFriction, StribeckParams};
+use naic_core::rng::Rng;
 use nalgebra::{DMatrix, DVector};
 
-/// splitmix64 + Box–Muller: a small deterministic normal generator.
-struct Rng(u64);
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform(), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
+/// Seeds per coverage test, and the fewest of them whose 95 % interval must contain the true
+/// value: with nominal coverage the count is Binomial(40, 0.95), below 33 with probability
+/// 7·10⁻⁴. (10 seeds with "at least 7" was used before: it passed on the generator's former
+/// stream and failed on naic_core::rng's, at coverages of 93–98 % measured over 100 seeds,
+/// so the 10-seed check was a matter of which seeds were drawn.)
+const SEEDS: u64 = 40;
+const MIN_COVERED: usize = 33;
 
 /// Speeds like the JK5 wrist-joint experiment: 3..10 mrad/s, 15..50 mrad/s, 60..520 mrad/s, both ways.
 fn speeds() -> Vec<f64> {
@@ -50,13 +40,13 @@ fn speeds() -> Vec<f64> {
 }
 
 fn generate(joints: &[(usize, JointFriction)], sigma: f64, seed: u64) -> FrictionData {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::seed(seed);
     let mut pts = Vec::new();
     for &(j, law) in joints {
         for v in speeds() {
             // Velocity noise as well (segment means of a measured velocity).
-            let v_meas = v * (1.0 + 0.002 * rng.normal());
-            pts.push((j, v_meas, law.tau_f(v) + sigma * rng.normal()));
+            let v_meas = v * (1.0 + 0.002 * rng.gaussian());
+            pts.push((j, v_meas, law.tau_f(v) + sigma * rng.gaussian()));
         }
     }
     FrictionData::from_points("generated", &pts).unwrap()
@@ -124,7 +114,8 @@ fn coverage(
         }
     }
     // Not too wide either: the mean half-width should be ≈ 1.96 × the spread of the
-    // estimates over the seeds (10 seeds: the sample sd is good to ~±25 %; allow × 2).
+    // estimates over the seeds (40 seeds: the sample sd is within 0.67–1.36 of the true
+    // one with probability 0.998; allow × 2).
     for (i, e) in est.iter().enumerate() {
         if !calibrate.contains(&(i / n_par)) {
             continue;
@@ -150,9 +141,9 @@ fn per_direction_fit_recovers_parameters_within_their_95_percent_intervals() {
         (6, JointFriction::StribeckPerDirection { positive: J6P, negative: J6N }),
     ];
     let truth = [(4, 0, vals(&J4P)), (4, 1, vals(&J4N)), (6, 0, vals(&J6P)), (6, 1, vals(&J6N))];
-    let (counts, hit, all) = coverage(&joints, FitForm::PerDirection, &truth, 0.05, 10, &[0, 1, 2, 3]);
+    let (counts, hit, all) = coverage(&joints, FitForm::PerDirection, &truth, 0.05, SEEDS, &[0, 1, 2, 3]);
     for (i, c) in counts.iter().enumerate() {
-        assert!(*c >= 7, "parameter {} of branch {} covered in only {c}/10 seeds (counts {counts:?})", i % 4, i / 4);
+        assert!(*c >= MIN_COVERED, "parameter {} of branch {} covered in only {c}/{SEEDS} seeds (counts {counts:?})", i % 4, i / 4);
     }
     assert!(hit as f64 >= 0.85 * all as f64, "overall coverage {hit}/{all}");
 }
@@ -163,13 +154,16 @@ fn symmetric_fit_recovers_parameters_within_their_95_percent_intervals() {
     let q = StribeckParams { f_a: 0.55, f_b: 0.70, q_s: 0.05, f_v: 3.7 };
     let joints = [(1, JointFriction::Stribeck(p)), (2, JointFriction::Stribeck(q))];
     let truth = [(1, 0, vals(&p)), (2, 0, vals(&q))];
-    // Joint 2's Stribeck hump (f_b − f_a = 0.15 N·m = 3σ) is weak: in 2 of the 10 seeds the
-    // best fit is a different minimum (f_a ≈ 1.8, large q_s, smaller f_v) with a lower SSR than
-    // the truth, so its estimates are bimodal and only joint 1's interval widths are checked
-    // against the seed spread; coverage is checked for both.
-    let (counts, hit, all) = coverage(&joints, FitForm::Symmetric, &truth, 0.05, 10, &[0]);
+    // Joint 2's Stribeck hump (f_b − f_a = 0.15 N·m = 3σ) is weak: in about a fifth of the
+    // seeds the best fit is a different minimum (f_a ≈ 1.8, large q_s, smaller f_v) with a
+    // lower SSR than the truth, so its estimates are bimodal. Only joint 1's interval widths
+    // are checked against the seed spread, and joint 2's coverage is held to what that allows:
+    // 75–83 % measured over 100 seeds on its f_a, q_s and f_v; Binomial(40, 0.75) is below 21
+    // with probability 6·10⁻⁴.
+    let (counts, hit, all) = coverage(&joints, FitForm::Symmetric, &truth, 0.05, SEEDS, &[0]);
     for (i, c) in counts.iter().enumerate() {
-        assert!(*c >= 7, "parameter {} of joint {} covered in only {c}/10 seeds", i % 4, i / 4 + 1);
+        let min = if i < 4 { MIN_COVERED } else { 21 };
+        assert!(*c >= min, "parameter {} of joint {} covered in only {c}/{SEEDS} seeds", i % 4, i / 4 + 1);
     }
     assert!(hit as f64 >= 0.85 * all as f64, "overall coverage {hit}/{all}");
 }
@@ -178,8 +172,8 @@ fn symmetric_fit_recovers_parameters_within_their_95_percent_intervals() {
 fn coulomb_viscous_fit_recovers_parameters_within_their_95_percent_intervals() {
     let joints = [(3, JointFriction::CoulombViscous { f_c: 1.2, f_v: 3.4 })];
     let truth = [(3, 0, [1.2, 3.4, 0.0, 0.0])];
-    let (counts, hit, all) = coverage(&joints, FitForm::CoulombViscous, &truth, 0.05, 10, &[0]);
-    assert!(counts.iter().all(|c| *c >= 7), "{counts:?}");
+    let (counts, hit, all) = coverage(&joints, FitForm::CoulombViscous, &truth, 0.05, SEEDS, &[0]);
+    assert!(counts.iter().all(|c| *c >= MIN_COVERED), "{counts:?}");
     assert!(hit as f64 >= 0.85 * all as f64);
 }
 
@@ -206,8 +200,8 @@ fn active_bound_is_reported_and_excluded_from_the_intervals() {
     // Torque that falls with speed (negative viscous slope, like the J1+ row of the
     // authors' own fit): the constrained optimum has f_v on its bound 0.
     let law = |v: f64| v.signum() * (3.0 + 0.5 * (-(v / 0.05).powi(2)).exp()) - 1.0 * v;
-    let mut rng = Rng(7);
-    let pts: Vec<(usize, f64, f64)> = speeds().into_iter().map(|v| (2, v, law(v) + 0.02 * rng.normal())).collect();
+    let mut rng = Rng::seed(7);
+    let pts: Vec<(usize, f64, f64)> = speeds().into_iter().map(|v| (2, v, law(v) + 0.02 * rng.gaussian())).collect();
     let data = FrictionData::from_points("falling", &pts).unwrap();
     let rep = fit(&data, &FitOptions { form: FitForm::Symmetric, ..FitOptions::default() }).unwrap();
     let b = &rep.joints[0].branches[0];
@@ -226,9 +220,9 @@ fn active_bound_is_reported_and_excluded_from_the_intervals() {
 fn fit_is_never_worse_than_the_best_of_a_q_s_scan() {
     // Independent of the LM: a dense q_s scan with non-negative least squares for the
     // linear parameters (brute force). The LM optimum must not be worse.
-    let mut rng = Rng(99);
+    let mut rng = Rng::seed(99);
     let law = JointFriction::Stribeck(StribeckParams { f_a: 1.18, f_b: 1.38, q_s: 0.004, f_v: 3.47 });
-    let pts: Vec<(usize, f64, f64)> = speeds().into_iter().map(|v| (3, v, law.tau_f(v) + 0.05 * rng.normal())).collect();
+    let pts: Vec<(usize, f64, f64)> = speeds().into_iter().map(|v| (3, v, law.tau_f(v) + 0.05 * rng.gaussian())).collect();
     let data = FrictionData::from_points("small q_s", &pts).unwrap();
     let rep = fit(&data, &FitOptions { form: FitForm::Symmetric, ..FitOptions::default() }).unwrap();
     let b = &rep.joints[0].branches[0];
@@ -371,4 +365,13 @@ fn too_few_points_and_unknown_joints_are_rejected() {
     assert!(e.contains("joint 7 is not in few (it has joints 1)"), "{e}");
     let e = FrictionData::from_points("p", &[(1, f64::NAN, 1.0)]).unwrap_err().to_string();
     assert!(e.contains("velocity NaN is not finite"), "{e}");
+}
+
+#[test]
+fn csv_quoting_blank_lines_and_comments() {
+    let d = FrictionData::from_csv_str("q.csv", "# a comment\n\"joint\",\"velocity_rad_s\",\"torque_nm\"\n\n\"2\", -0.25 ,\"1.5\"\n   \n# another\n2,0.25,1.75\n")
+        .unwrap();
+    assert_eq!(d.samples.len(), 2);
+    assert_eq!((d.samples[0].joint, d.samples[0].qdot, d.samples[0].tau, d.samples[0].line), (2, -0.25, 1.5, 4));
+    assert_eq!(d.samples[1].line, 7);
 }

@@ -104,7 +104,7 @@ pub fn closed_loop(
         for (cname, comp) in &comps {
             progress(k / total, &format!("{name}: {cname}"));
             let mut c = PipelineController::new(Mode::Naic, &s, &model, comp.clone(), tool.0, tool.1, &LoopSettings::default())
-                .map_err(ExplainError::model)?;
+                .map_err(|e| ExplainError::model(e.to_string()))?;
             let r = runner::run(&s, &plant, &mut c, &mut |_| {});
             rows.push(Row { scenario: name.to_string(), compensation: cname.to_string(), rms_force_error: runner::contact_rms(&r.records) });
             k += 1.0;

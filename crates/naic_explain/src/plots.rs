@@ -1,4 +1,4 @@
-//! SVG plots of the report, drawn with `naic_sim::svg` (the project's one SVG writer):
+//! SVG plots of the report, drawn with `naic_plot` (the project's one SVG writer):
 //! residual vs velocity before/after for every joint (like the paper's Fig. 6, whose
 //! dots are the measured friction and lines the identified law: here the residual of
 //! the nominal and of the extended model, out-of-fold, averaged in velocity bins), and
@@ -9,7 +9,7 @@ use crate::analysis::{residuals, JointSamples};
 use crate::catalogue::Effect;
 use crate::report::Finding;
 use crate::Explained;
-use naic_sim::svg::{Figure, Panel, Series};
+use naic_plot::{Figure, Panel, Series};
 use serde_json::Value;
 
 const NOMINAL: &str = "#1f77b4";

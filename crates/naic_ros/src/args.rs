@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use ros2_client::ParameterValue;
 
-use crate::RosError;
+use crate::{params::ParamError, RosError};
 
 /// What the command line asked for.
 #[derive(Debug, Clone, Default)]
@@ -179,7 +179,7 @@ impl RosArgs {
         match self.peek(default_name, name)? {
             None => Ok(default.to_string()),
             Some(ParameterValue::String(s)) => Ok(s),
-            Some(v) => Err(RosError::Param(format!("parameter '{name}' must be a file path, got {v:?}"))),
+            Some(v) => Err(RosError::Param(ParamError::NotAPath { name: name.to_string(), got: format!("{v:?}") })),
         }
     }
 

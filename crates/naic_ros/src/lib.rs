@@ -40,41 +40,37 @@ pub use params::{ParamSpec, ParamTable, ParamView, Range};
 pub use ros2_client::ParameterValue;
 
 /// Everything that can go wrong setting up a node; the message names the input and the fix.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum RosError {
     /// `--help` was given: the text is the usage.
+    #[error("{0}")]
     Help(String),
     /// Bad command-line arguments.
+    #[error("bad arguments: {0}")]
     Args(String),
     /// Unreadable or malformed `--params-file`.
+    #[error("{0}")]
     ParamsFile(String),
     /// A parameter value from the command line or a file was rejected.
-    Param(String),
+    #[error("bad parameter: {0}")]
+    Param(#[from] params::ParamError),
     /// Bad ROS environment variable (e.g. `ROS_DOMAIN_ID=abc`).
+    #[error("bad environment: {0}")]
     Env(String),
     /// DDS participant/topic/service creation failed.
+    #[error("DDS: {0}")]
     Dds(String),
     /// Anything else a node reports at start-up (e.g. a model file it could not load).
+    #[error("{0}")]
     Node(String),
 }
 
-impl std::fmt::Display for RosError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            RosError::Help(s) => f.write_str(s),
-            RosError::Args(s) => write!(f, "bad arguments: {s}"),
-            RosError::ParamsFile(s) => f.write_str(s),
-            RosError::Param(s) => write!(f, "bad parameter: {s}"),
-            RosError::Env(s) => write!(f, "bad environment: {s}"),
-            RosError::Dds(s) => write!(f, "DDS: {s}"),
-            RosError::Node(s) => f.write_str(s),
-        }
-    }
-}
-
-impl std::error::Error for RosError {}
-
 impl RosError {
+    /// A parameter (or a file it names) refused by a node's own rule, in its words.
+    pub fn param(reason: impl Into<String>) -> Self {
+        RosError::Param(params::ParamError::Rule(reason.into()))
+    }
+
     /// Exit code: 0 for help, 2 for user input, 1 for failures.
     pub fn exit_code(&self) -> i32 {
         match self {

@@ -458,9 +458,9 @@ impl ParamServices {
                             self.publish_event(fqn, ch, false);
                             raw::SetParametersResult { successful: true, reason: String::new() }
                         }
-                        Err(reason) => {
-                            log::warn!("rejected set of {name}: {reason}");
-                            raw::SetParametersResult { successful: false, reason }
+                        Err(e) => {
+                            log::warn!("rejected set of {name}: {e}");
+                            raw::SetParametersResult { successful: false, reason: e.to_string() }
                         }
                     }
                 })
@@ -475,9 +475,9 @@ impl ParamServices {
                     self.publish_event(fqn, ch, false);
                     raw::SetParametersResult { successful: true, reason: String::new() }
                 }
-                Err(reason) => {
-                    log::warn!("rejected atomic set: {reason}");
-                    raw::SetParametersResult { successful: false, reason }
+                Err(e) => {
+                    log::warn!("rejected atomic set: {e}");
+                    raw::SetParametersResult { successful: false, reason: e.to_string() }
                 }
             };
             self.set_atomic.reply(id, rcl::SetParametersAtomicallyResponse { result });

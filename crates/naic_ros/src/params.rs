@@ -152,7 +152,7 @@ impl ParamSpec {
     }
 
     /// Check `value` against this declaration; returns the value to store (ints → doubles).
-    pub fn validate(&self, value: ParameterValue) -> Result<ParameterValue, String> {
+    pub fn validate(&self, value: ParameterValue) -> Result<ParameterValue, ParamError> {
         use ParameterValue as V;
         let name = &self.name;
         let fill = |x: f64| V::DoubleArray(vec![x; self.len.unwrap_or(1)]);
@@ -164,19 +164,20 @@ impl ParamSpec {
             (_, v) => v,
         };
         if value.to_parameter_type() != self.default.to_parameter_type() {
-            return Err(format!(
-                "parameter '{name}' has type {}, got {}",
-                type_name(&self.default),
-                type_name(&value)
-            ));
+            return Err(ParamError::WrongType {
+                name: name.clone(),
+                expected: type_name(&self.default),
+                got: type_name(&value),
+            });
         }
-        let in_float = |x: f64| -> Result<(), String> {
+        let out_of_range = |value: String, from: String, to: String| ParamError::OutOfRange { name: name.clone(), value, from, to };
+        let in_float = |x: f64| -> Result<(), ParamError> {
             if !x.is_finite() {
-                return Err(format!("parameter '{name}' must be finite, got {x}"));
+                return Err(ParamError::NotFinite { name: name.clone(), value: x });
             }
             if let Range::Float { from, to } = self.range {
                 if !(from..=to).contains(&x) {
-                    return Err(format!("parameter '{name}' = {x} is outside its range [{from}, {to}]"));
+                    return Err(out_of_range(x.to_string(), from.to_string(), to.to_string()));
                 }
             }
             Ok(())
@@ -191,16 +192,13 @@ impl ParamSpec {
             V::Integer(i) => {
                 if let Range::Int { from, to } = self.range {
                     if !(from..=to).contains(i) {
-                        return Err(format!("parameter '{name}' = {i} is outside its range [{from}, {to}]"));
+                        return Err(out_of_range(i.to_string(), from.to_string(), to.to_string()));
                     }
                 }
             }
             V::String(s) => {
                 if !self.choices.is_empty() && !self.choices.iter().any(|c| c == s) {
-                    return Err(format!(
-                        "parameter '{name}' = '{s}' is not one of: {}",
-                        self.choices.join(", ")
-                    ));
+                    return Err(ParamError::NotAChoice { name: name.clone(), value: s.clone(), choices: self.choices.join(", ") });
                 }
             }
             _ => {}
@@ -214,7 +212,7 @@ impl ParamSpec {
                 _ => n,
             };
             if got != n {
-                return Err(format!("parameter '{name}' needs exactly {n} elements, got {got}"));
+                return Err(ParamError::WrongLength { name: name.clone(), expected: n, got });
             }
         }
         Ok(value)
@@ -291,8 +289,52 @@ impl<'a> ParamView<'a> {
     }
 }
 
+/// Why a parameter value, declaration or set request was refused. The text (`Display`) is
+/// what a ROS client gets as `SetParametersResult.reason` and what a node prints at start-up:
+/// it names the parameter, the value and the rule.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    #[error("parameter '{name}' is not declared by this node")]
+    Undeclared { name: String },
+    #[error("unknown parameter '{name}'; this node declares: {declared}")]
+    Unknown { name: String, declared: String },
+    #[error("parameter '{name}' declared twice")]
+    DeclaredTwice { name: String },
+    #[error("default of {0}")]
+    BadDefault(Box<ParamError>),
+    #[error("parameter '{name}' cannot be undeclared")]
+    Unset { name: String },
+    #[error("parameter '{name}' is read-only")]
+    ReadOnly { name: String },
+    #[error("parameter '{name}' has type {expected}, got {got}")]
+    WrongType { name: String, expected: &'static str, got: &'static str },
+    #[error("parameter '{name}' must be finite, got {value}")]
+    NotFinite { name: String, value: f64 },
+    #[error("parameter '{name}' = {value} is outside its range [{from}, {to}]")]
+    OutOfRange { name: String, value: String, from: String, to: String },
+    #[error("parameter '{name}' = '{value}' is not one of: {choices}")]
+    NotAChoice { name: String, value: String, choices: String },
+    #[error("parameter '{name}' needs exactly {expected} elements, got {got}")]
+    WrongLength { name: String, expected: usize, got: usize },
+    #[error("parameter '{name}' must be a file path, got {got}")]
+    NotAPath { name: String, got: String },
+    /// The core refused the parameter set (its field, value and rule).
+    #[error("{0}")]
+    Core(#[from] naic_core::pipeline::ConfigError),
+    /// A node's rule across its parameters ([`SetCheck`]), in the node's words.
+    #[error("{0}")]
+    Rule(String),
+}
+
+impl From<String> for ParamError {
+    /// A node check's reason (the core's validation messages name the field and the rule).
+    fn from(reason: String) -> Self {
+        ParamError::Rule(reason)
+    }
+}
+
 /// A whole-set check run on every proposed change (cross-parameter rules).
-pub type SetCheck = Box<dyn Fn(&ParamView) -> Result<(), String> + Send + Sync>;
+pub type SetCheck = Box<dyn Fn(&ParamView) -> Result<(), ParamError> + Send + Sync>;
 
 /// Largest per-joint effort limit an `effort_limit` parameter may declare [N m] (the range
 /// of the parameter; also the value for a joint whose URDF gives none).
@@ -300,10 +342,10 @@ pub const EFFORT_CAP: f64 = 10_000.0;
 
 /// The nodes' per-joint `effort_limit` may tighten the URDF's `<limit effort>`, never
 /// loosen it: the message names the joint and both values.
-pub fn effort_limit_within(p: &ParamView, urdf_effort: &[f64; 6]) -> Result<(), String> {
+pub fn effort_limit_within(p: &ParamView, urdf_effort: &[f64; 6]) -> Result<(), ParamError> {
     let e = p.f64s("effort_limit");
     match (0..6).find(|&i| e[i] > urdf_effort[i]) {
-        Some(i) => Err(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], urdf_effort[i], i + 1)),
+        Some(i) => Err(ParamError::Rule(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], urdf_effort[i], i + 1))),
         None => Ok(()),
     }
 }
@@ -327,7 +369,7 @@ impl ParamTable {
         mut specs: Vec<ParamSpec>,
         check: Option<SetCheck>,
         overrides: &[(String, ParameterValue)],
-    ) -> Result<ParamTable, String> {
+    ) -> Result<ParamTable, ParamError> {
         if !specs.iter().any(|s| s.name == "use_sim_time") {
             specs.push(ParamSpec::boolean(
                 "use_sim_time",
@@ -372,18 +414,17 @@ impl ParamTable {
         }
         for (i, s) in specs.iter().enumerate() {
             if specs[..i].iter().any(|o| o.name == s.name) {
-                return Err(format!("parameter '{}' declared twice", s.name));
+                return Err(ParamError::DeclaredTwice { name: s.name.clone() });
             }
-            s.validate(s.default.clone())
-                .map_err(|e| format!("default of {e}"))?;
+            s.validate(s.default.clone()).map_err(|e| ParamError::BadDefault(Box::new(e)))?;
         }
         let mut values: Vec<ParameterValue> = specs.iter().map(|s| s.default.clone()).collect();
         for (name, v) in overrides {
             let Some(i) = specs.iter().position(|s| &s.name == name) else {
-                return Err(format!(
-                    "unknown parameter '{name}'; this node declares: {}",
-                    specs.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", ")
-                ));
+                return Err(ParamError::Unknown {
+                    name: name.clone(),
+                    declared: specs.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", "),
+                });
             };
             values[i] = specs[i].validate(v.clone())?;
         }
@@ -417,20 +458,20 @@ impl ParamTable {
     }
 
     /// Set several parameters all-or-nothing. Errors carry the reason for the caller.
-    pub fn set_atomically(&self, params: &[(String, ParameterValue)]) -> Result<Changes, String> {
+    pub fn set_atomically(&self, params: &[(String, ParameterValue)]) -> Result<Changes, ParamError> {
         let mut values = self.values.lock().unwrap_or_else(|p| p.into_inner());
         let mut proposed = values.clone();
         let mut changes = Changes::new();
         for (name, v) in params {
             let Some(i) = self.specs.iter().position(|s| &s.name == name) else {
-                return Err(format!("parameter '{name}' is not declared by this node"));
+                return Err(ParamError::Undeclared { name: name.clone() });
             };
             let spec = &self.specs[i];
             if matches!(v, ParameterValue::NotSet) {
-                return Err(format!("parameter '{name}' cannot be undeclared"));
+                return Err(ParamError::Unset { name: name.clone() });
             }
             if spec.read_only {
-                return Err(format!("parameter '{name}' is read-only"));
+                return Err(ParamError::ReadOnly { name: name.clone() });
             }
             let v = spec.validate(v.clone())?;
             proposed[i] = v.clone();
@@ -485,7 +526,7 @@ mod tests {
             ],
             Some(Box::new(|v: &ParamView| {
                 if v.f64("contact_threshold") >= v.f64("force_limit") {
-                    return Err("contact_threshold must be below force_limit".into());
+                    return Err(ParamError::Rule("contact_threshold must be below force_limit".into()));
                 }
                 Ok(())
             })),
@@ -509,7 +550,7 @@ mod tests {
     fn rejects_with_reasons_and_keeps_old_values() {
         let t = table();
         let g = t.generation();
-        let e = |p: (&str, V)| t.set_atomically(&[(p.0.to_string(), p.1)]).unwrap_err();
+        let e = |p: (&str, V)| t.set_atomically(&[(p.0.to_string(), p.1)]).unwrap_err().to_string();
         assert!(e(("learning_rate", V::Double(-1.0))).contains("outside its range [0, 1]"));
         assert!(e(("learning_rate", V::Double(f64::NAN))).contains("finite"));
         assert!(e(("learning_rate", V::String("x".into()))).contains("type double, got string"));
@@ -538,9 +579,9 @@ mod tests {
         t.set_atomically(&[("per_joint".into(), V::Integer(4))]).unwrap();
         assert_eq!(t.get("per_joint"), Some(V::DoubleArray(vec![4.0; 3])));
         // Still range-checked and finite.
-        assert!(t.set_atomically(&[("per_joint".into(), V::Double(11.0))]).unwrap_err().contains("outside"));
-        assert!(t.set_atomically(&[("per_joint".into(), V::Double(f64::NAN))]).unwrap_err().contains("finite"));
-        assert!(t.set_atomically(&[("strict".into(), V::Double(2.0))]).unwrap_err().contains("type double array, got double"));
+        assert!(t.set_atomically(&[("per_joint".into(), V::Double(11.0))]).unwrap_err().to_string().contains("outside"));
+        assert!(t.set_atomically(&[("per_joint".into(), V::Double(f64::NAN))]).unwrap_err().to_string().contains("finite"));
+        assert!(t.set_atomically(&[("strict".into(), V::Double(2.0))]).unwrap_err().to_string().contains("type double array, got double"));
         assert!(t.specs()[0].constraints().contains("one number for all"));
     }
 
@@ -559,8 +600,12 @@ mod tests {
     fn bad_overrides_fail_at_start() {
         let specs = || vec![ParamSpec::double("a", 1.0, 0.0, 2.0, "a")];
         let e = ParamTable::new(specs(), None, &[("b".into(), V::Double(1.0))]).err().unwrap();
+        assert!(matches!(&e, ParamError::Unknown { name, .. } if name == "b"), "{e:?}");
+        let e = e.to_string();
         assert!(e.contains("unknown parameter 'b'") && e.contains("declares: a"), "{e}");
         let e = ParamTable::new(specs(), None, &[("a".into(), V::Double(3.0))]).err().unwrap();
+        assert!(matches!(&e, ParamError::OutOfRange { name, value, .. } if name == "a" && value == "3"), "{e:?}");
+        let e = e.to_string();
         assert!(e.contains("outside"), "{e}");
     }
 

@@ -233,8 +233,8 @@ robot1:
 
     #[test]
     fn errors_name_the_problem() {
-        assert!(parse_for_node("a: [", "/a").unwrap_err().contains("invalid YAML"));
-        assert!(parse_for_node("- 1\n- 2", "/a").unwrap_err().contains("top level"));
+        assert!(parse_for_node("a: [", "/a").unwrap_err().to_string().contains("invalid YAML"));
+        assert!(parse_for_node("- 1\n- 2", "/a").unwrap_err().to_string().contains("top level"));
         let e = parse_for_node("a:\n  ros__parameters:\n    x: [1, foo]\n", "/a").unwrap_err();
         assert!(e.contains("parameter 'x'") && e.contains("one type"), "{e}");
         let e = parse_for_node("a:\n  ros__parameters:\n    x:\n", "/a").unwrap_err();

@@ -5,6 +5,13 @@
 //! may differ from ours); with simulated time its *stamp* is the time, and nothing depends
 //! on when it arrived, so machine load cannot change the result.
 
+/// Simulated time: how long [ns, wall clock] a sample waits for its partner of the same
+/// stamp (the controller's joint state for the wrench, friction_compensation's command for
+/// the joint state) before the *first* partner has ever arrived. Discovery may match one of
+/// the driver's writers seconds before the other (seen across hosts, under load); giving
+/// up then changes the first cycle, and with it the whole lockstep run.
+pub const FIRST_PAIR_TIMEOUT_NS: i64 = 10_000_000_000;
+
 /// Which clock the node's logic runs on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum TimeBase {

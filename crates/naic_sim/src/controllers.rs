@@ -3,17 +3,16 @@
 //! feedforward with the identified model → actuation guard), configured with
 //! a scenario's settings. Nothing of the control law lives here.
 
-use crate::plant::Measurements;
-use crate::runner::{ControlReport, Controller as SimController};
-use crate::scenario::{ReferenceSample, Scenario};
+use crate::runner::Controller as SimController;
+use crate::scenario::Scenario;
 use naic_core::friction::FrictionModel;
 use naic_core::model::Model;
 use naic_core::pipeline::actuate::ActuateParams;
 use naic_core::pipeline::control::force_law::Mode;
 use naic_core::pipeline::control::{ForceAxis, ImpedanceParams};
-use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Workspace};
+use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Status, Workspace};
 use naic_core::pipeline::estimate::ToolParams;
-use naic_core::pipeline::{self, param_change, Pipeline, PipelineState};
+use naic_core::pipeline::{self, param_change, ConfigError, Pipeline, PipelineState};
 use naic_core::pipeline::sense::RawMeasurements;
 use nalgebra::Vector3;
 
@@ -73,7 +72,7 @@ pub struct PipelineController {
     /// The scheduled law is given the true stiffness (the `oracle` benchmark).
     oracle: bool,
     /// The last `delay + 1` measurements, newest first.
-    delayed: [Option<Measurements>; MAX_DELAY_CYCLES + 1],
+    delayed: [Option<RawMeasurements>; MAX_DELAY_CYCLES + 1],
     delay: usize,
 }
 
@@ -88,19 +87,19 @@ impl PipelineController {
         tool_mass: f64,
         tool_com: Vector3<f64>,
         settings: &LoopSettings,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, ConfigError> {
         if settings.delay_cycles > MAX_DELAY_CYCLES {
-            return Err(format!("delay_cycles = {} must be at most {MAX_DELAY_CYCLES}", settings.delay_cycles));
+            return Err(ConfigError::invalid("delay_cycles", settings.delay_cycles, format!("must be at most {MAX_DELAY_CYCLES}")));
         }
         let f = settings.model_mass_error;
         if !(f > 0.0 && f.is_finite()) {
-            return Err(format!("model mass error = {f} must be a positive factor (1 = exact model)"));
+            return Err(ConfigError::invalid("model mass error", f, "must be a positive factor (1 = exact model)"));
         }
         let model = &if f == 1.0 { model.clone() } else { model.with_scaled_inertias(f) };
         let n = scenario.force_axis;
         let axis = (0..3).max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs())).unwrap_or(2);
         if (n.norm() - 1.0).abs() > 1e-9 || (n[axis].abs() - 1.0).abs() > 1e-9 {
-            return Err(format!("the force axis {n:?} must be ±x, ±y or ±z of the base frame"));
+            return Err(ConfigError::invalid("the force axis", format!("{n:?}"), "must be ±x, ±y or ±z of the base frame"));
         }
         // The paper's settings on this model, then what the scenario and the loop settings change.
         let gamma = if mode == Mode::Naic { settings.gamma } else { 0.0 };
@@ -119,6 +118,10 @@ impl PipelineController {
         c.contact.exit_n = settings.contact_exit_n;
         c.force_limit.limit_n = settings.force_limit_n;
         c.force_law.integral_limit_n = settings.force_limit_n;
+        if mode == Mode::Scheduled {
+            // The task's expected surface (acrylic, two-material): the approach slows down near it.
+            c.force_law.scheduled.approach.expected_surface = scenario.expected_surface;
+        }
         let mut effort = [0.0; 6];
         for (e, j) in effort.iter_mut().zip(model.joints()) {
             *e = j.limits.effort;
@@ -143,7 +146,7 @@ impl PipelineController {
         friction: Option<FrictionModel>,
         tool: (f64, Vector3<f64>),
         settings: &LoopSettings,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, ConfigError> {
         let oracle = name == "oracle";
         let mode = if oracle { Mode::Scheduled } else { Mode::parse(name)? };
         let mut c = Self::new(mode, scenario, model, friction, tool.0, tool.1, settings)?;
@@ -164,7 +167,7 @@ impl PipelineController {
     /// Change the parameters mid-run by the node's policy
     /// (`naic_core::pipeline::param_change`: the NAIC weights restart when the force law or
     /// impedance changed; any change ends a force-limit retraction). Not in the 1 kHz path.
-    pub fn set_params(&mut self, new: ControllerParams) -> Result<param_change::Outcome, String> {
+    pub fn set_params(&mut self, new: ControllerParams) -> Result<param_change::Outcome, ConfigError> {
         let (c, s, outcome) = param_change::apply(&self.pipeline.controller, &self.state.controller, new)?;
         self.pipeline.controller = c;
         self.state.controller = s;
@@ -183,27 +186,13 @@ impl SimController for PipelineController {
         }
     }
 
-    fn step(&mut self, m: &Measurements, r: &ReferenceSample) -> ControlReport {
+    fn step(&mut self, m: &RawMeasurements, r: &Reference) -> ([f64; 6], Status) {
         // The loop delay: the controller works on the measurement of `delay` periods ago.
         self.delayed.rotate_right(1);
         self.delayed[0] = Some(*m);
         let m = &self.delayed[..=self.delay].iter().rev().find_map(|x| *x).unwrap_or(*m);
-        let raw = RawMeasurements { t: m.t, q: m.q, dq: m.dq, joints_stamp: m.t, wrench: m.wrench, wrench_stamp: m.t };
-        let reference = Reference { p_d: r.p_d, r_d: r.r_d, v_d: r.v_d, a_d: r.a_d, f_d: r.f_d };
-        let (state, out) = pipeline::step(&self.pipeline, &self.state, &raw, &reference, &mut self.ws);
+        let (state, out) = pipeline::step(&self.pipeline, &self.state, m, r, &mut self.ws);
         self.state = state;
-        let st = &out.control.status;
-        ControlReport {
-            tau: out.tau,
-            m_d: st.m_d,
-            b_d: st.b_d,
-            sigma: st.sigma,
-            gamma: st.gamma,
-            gamma_bound: st.gamma_bound,
-            f_ext: st.f_ext,
-            phase: st.phase as u8,
-            k_e_hat: st.k_e_hat,
-            k_e_confidence: st.k_e_confidence,
-        }
+        (out.tau, out.control.status)
     }
 }

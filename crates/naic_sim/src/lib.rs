@@ -29,6 +29,5 @@ pub mod rng;
 pub mod runner;
 pub mod scenario;
 pub mod sensor;
-pub mod svg;
 #[doc(hidden)]
 pub mod test_support;

@@ -131,17 +131,10 @@ impl PlantWorkspace {
     }
 }
 
-/// What the controller may see (measured signals only).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Measurements {
-    pub t: f64,
-    /// Encoder positions (quantised) [rad].
-    pub q: [f64; NJ],
-    /// Drive velocities (noisy) [rad/s].
-    pub dq: [f64; NJ],
-    /// Raw F/T reading at `ft_sensor`, sensor frame, force then torque.
-    pub wrench: [f64; NJ],
-}
+/// What the controller may see (measured signals only): the controller's own
+/// [`RawMeasurements`] (encoder positions quantised [rad], drive velocities noisy [rad/s],
+/// the raw F/T reading at `ft_sensor`, sensor frame), stamped with the simulated time.
+pub use naic_core::pipeline::sense::RawMeasurements;
 
 /// Ground truth for logging and metrics (never fed to the controller).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -163,7 +156,7 @@ pub struct Truth {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Observation {
-    pub meas: Measurements,
+    pub meas: RawMeasurements,
     pub truth: Truth,
 }
 
@@ -356,7 +349,7 @@ fn observe_with_friction(
         UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(tip_se3.rot)),
     );
     let obs = Observation {
-        meas: Measurements { t: s.t, q: qm, dq: dqm, wrench },
+        meas: RawMeasurements { t: s.t, q: qm, dq: dqm, joints_stamp: s.t, wrench, wrench_stamp: s.t },
         truth: Truth {
             tip,
             tip_velocity: vel,

@@ -4,7 +4,7 @@
 
 use crate::runner::RunResult;
 use crate::scenario::Scenario;
-use crate::svg::{Figure, Panel, Series};
+use naic_plot::{Figure, Panel, Series};
 
 /// Line colour of a controller.
 pub fn color(name: &str) -> &'static str {

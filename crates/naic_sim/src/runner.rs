@@ -3,28 +3,10 @@
 //! period; then metrics, CSV and plots.
 
 use crate::metrics::{controller_metrics, ControllerMetrics, PhaseSpec, PhaseStart};
-use crate::plant::{self, Measurements, Observation, PlantParams, PlantState, PlantWorkspace};
-use crate::scenario::{ReferenceSample, Scenario};
-
-/// What a controller reports besides its torque (for logs and plots).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ControlReport {
-    pub tau: [f64; 6],
-    /// Impedance weights on the force axis (eq 10–15 weights for NAIC).
-    pub m_d: f64,
-    pub b_d: f64,
-    pub sigma: f64,
-    /// Learning rate applied and its eq-15 bound (NAIC).
-    pub gamma: f64,
-    pub gamma_bound: f64,
-    /// The controller's own estimate of f_ext along the force axis [N].
-    pub f_ext: f64,
-    /// 0 free, 1 contact, 2 hold (controller's phase).
-    pub phase: u8,
-    /// The scheduled law's stiffness estimate [N/m] and its confidence (0 otherwise).
-    pub k_e_hat: f64,
-    pub k_e_confidence: f64,
-}
+use crate::plant::{self, Observation, PlantParams, PlantState, PlantWorkspace, RawMeasurements};
+use crate::scenario::{Reference, Scenario};
+use naic_core::pipeline::control::Phase;
+use naic_core::pipeline::controller::Status;
 
 /// A force-tracking controller as the simulator drives it: measured signals
 /// and the reference in, torque out. Implementations keep their own state and
@@ -33,7 +15,8 @@ pub struct ControlReport {
 pub trait Controller {
     /// Name used in files and legends (`naic`, `aic`, `fixed`).
     fn name(&self) -> &str;
-    fn step(&mut self, meas: &Measurements, reference: &ReferenceSample) -> ControlReport;
+    /// The torque to the drives and the controller's report of this period.
+    fn step(&mut self, meas: &RawMeasurements, reference: &Reference) -> ([f64; 6], Status);
     /// The simulator's true stiffness under the tip before each step: only the
     /// `oracle` benchmark uses it (default: ignored).
     fn set_true_stiffness(&mut self, _k_e: f64) {}
@@ -66,7 +49,7 @@ pub struct Record {
     pub sigma: f64,
     pub gamma: f64,
     pub gamma_bound: f64,
-    pub phase: u8,
+    pub phase: Phase,
     pub saturated: bool,
     /// The scheduled law's stiffness estimate [N/m] and its confidence [0, 1] (0 otherwise).
     pub k_e_hat: f64,
@@ -85,7 +68,7 @@ pub struct RunResult {
     pub saturated: bool,
 }
 
-fn record(s: &Scenario, k: usize, obs: &Observation, rep: &ControlReport, reference: &ReferenceSample, ps: &PlantState, p: &PlantParams) -> Record {
+fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &Reference, ps: &PlantState, p: &PlantParams) -> Record {
     let tr = &obs.truth;
     let tip = tr.tip.translation.vector;
     Record {
@@ -131,14 +114,14 @@ pub fn run(s: &Scenario, p: &PlantParams, controller: &mut dyn Controller, progr
     for k in 0..=n {
         let reference = s.reference(k as f64 * s.dt);
         controller.set_true_stiffness(obs.truth.contact.k_e);
-        let rep = controller.step(&obs.meas, &reference);
+        let (tau, rep) = controller.step(&obs.meas, &reference);
         records.push(record(s, k, &obs, &rep, &reference, &state, p));
         limit_violation |= obs.truth.limit_violation;
         saturated |= obs.truth.saturated;
         if k == n {
             break;
         }
-        (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+        (state, obs) = plant::step(p, &state, &tau, &mut ws);
         if k % every == 0 {
             progress(k as f64 / n as f64);
         }
@@ -188,7 +171,7 @@ pub fn to_csv(records: &[Record]) -> String {
         let _ = writeln!(
             out,
             ",{:.6},{:.6},{:.6},{:.6e},{:.6e},{},{},{:.1},{:.4}",
-            r.m_d, r.b_d, r.sigma, r.gamma, r.gamma_bound, r.phase, r.saturated as u8, r.k_e_hat, r.k_e_confidence
+            r.m_d, r.b_d, r.sigma, r.gamma, r.gamma_bound, r.phase as u8, r.saturated as u8, r.k_e_hat, r.k_e_confidence
         );
     }
     out
@@ -223,8 +206,8 @@ pub fn bench_closed_loop<C: Controller + Clone>(
     let (mut state, mut obs) = plant::observe(p, &PlantState::at_rest(s.q0, s.seed), &mut ws, [0.0; 6], false);
     let k0 = (t_start / s.dt).round() as usize;
     for k in 0..k0 {
-        let rep = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
-        (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+        let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+        (state, obs) = plant::step(p, &state, &tau, &mut ws);
     }
     let (state0, obs0, c0) = (state, obs, c.clone());
     let median = |mut v: Vec<f64>| {
@@ -238,9 +221,9 @@ pub fn bench_closed_loop<C: Controller + Clone>(
         let (mut state, mut obs, mut c) = (state0, obs0, c0.clone());
         for k in k0..k0 + steps {
             meas.push(obs.meas);
-            let rep = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
-            taus.push(rep.tau);
-            (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+            let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+            taus.push(tau);
+            (state, obs) = plant::step(p, &state, &tau, &mut ws);
         }
     }
     let repeats = repeats.max(1);
@@ -250,8 +233,8 @@ pub fn bench_closed_loop<C: Controller + Clone>(
         let (mut state, mut obs, mut c) = (state0, obs0, c0.clone());
         let t0 = std::time::Instant::now();
         for k in k0..k0 + steps {
-            let rep = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
-            (state, obs) = plant::step(p, &state, &rep.tau, &mut ws);
+            let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+            (state, obs) = plant::step(p, &state, &tau, &mut ws);
         }
         closed.push(steps as f64 / t0.elapsed().as_secs_f64());
         last = std::hint::black_box(obs);

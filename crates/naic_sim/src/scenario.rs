@@ -86,17 +86,9 @@ pub struct Ramp {
     pub t1: f64,
 }
 
-/// One sample of the reference: tip position, orientation, twist and
-/// acceleration targets (base frame, linear then angular) and `f_d`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ReferenceSample {
-    pub p_d: Vector3<f64>,
-    pub r_d: UnitQuaternion<f64>,
-    pub v_d: Vector6<f64>,
-    pub a_d: Vector6<f64>,
-    /// Desired force along the force axis `n` [N] (positive: pushing).
-    pub f_d: f64,
-}
+/// One sample of the reference (tip pose, twist and acceleration targets, base frame,
+/// and `f_d`): the controller's own [`Reference`], one type for the simulator and the nodes.
+pub use naic_core::pipeline::controller::Reference;
 
 /// A complete scenario.
 #[derive(Clone, Debug)]
@@ -118,6 +110,10 @@ pub struct Scenario {
     pub impedance: ImpedanceSettings,
     /// RNG seed of the plant (noise, sensor bias).
     pub seed: u64,
+    /// Where the task expects the surface: its coordinate along the force axis' base-frame
+    /// axis [m] (z for the presets), given to the scheduled law's approach speed limit
+    /// (`approach.expected_surface`); `None`: no expectation. Only the scheduled law reads it.
+    pub expected_surface: Option<f64>,
     /// What the paper reports for this scenario (for the README comparison).
     pub paper_notes: String,
 }
@@ -135,7 +131,7 @@ impl Scenario {
     }
 
     /// Reference at time `t` (allocation-free).
-    pub fn reference(&self, t: f64) -> ReferenceSample {
+    pub fn reference(&self, t: f64) -> Reference {
         let r = &self.ramp;
         let (p_d, v) = if t < r.t0 || r.t1 <= r.t0 {
             (r.from, Vector3::zeros())
@@ -147,7 +143,7 @@ impl Scenario {
         };
         let mut v_d = Vector6::zeros();
         v_d.fixed_rows_mut::<3>(0).copy_from(&v);
-        ReferenceSample { p_d, r_d: self.r_d, v_d, a_d: Vector6::zeros(), f_d: self.f_d(t) }
+        Reference { p_d, r_d: self.r_d, v_d, a_d: Vector6::zeros(), f_d: self.f_d(t) }
     }
 
     /// Phase events after t = 0 for the metrics: desired-force steps and
@@ -308,6 +304,7 @@ pub fn preset(name: &str, model: &Model) -> Result<Scenario, String> {
         r_d: r0,
         impedance: PAPER_IMPEDANCE,
         seed: 1,
+        expected_surface: None,
         paper_notes: String::new(),
     };
     let s = match name {
@@ -320,6 +317,8 @@ pub fn preset(name: &str, model: &Model) -> Result<Scenario, String> {
         "acrylic" => Scenario {
             description: "§4.1 approach onto acrylic (k_e = 50 000 N/m, b_e = 50 N·s/m, our choice) at z = 0.08 m, f_d = 10 N".into(),
             env: Environment::horizontal(0.08, MaterialMap::Uniform(acrylic())),
+            // issue 12: "a configurable approach speed near an expected surface"
+            expected_surface: Some(0.08),
             paper_notes: "not in the paper: the hard surface of §5.2.2 with the §4.1 approach and target (issue 12)".into(),
             ..base
         },
@@ -381,6 +380,7 @@ pub fn preset(name: &str, model: &Model) -> Result<Scenario, String> {
                     duration,
                     q0,
                     env: Environment::horizontal(surface, MaterialMap::SplitX { x_boundary, high_x: acrylic(), low_x: foam() }),
+                    expected_surface: Some(surface),
                     f_d_steps: vec![(0.0, f_d)],
                     ramp: Ramp { from: Vector3::new(start.x, y, z_d), to: Vector3::new(start.x - 0.06, y, z_d), t0: 5.0, t1: 8.0 },
                     paper_notes: "Fig 8: contact with acrylic at 3.327 s with an impact, converged to −3 N before 4.756 s; a force jump when moving onto the foam, then tracks".into(),

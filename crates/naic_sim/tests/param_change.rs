@@ -11,9 +11,11 @@ use naic_core::pipeline::control::force_law::Mode;
 use naic_core::pipeline::controller::ControllerParams;
 use naic_core::pipeline::param_change::Outcome;
 use naic_sim::controllers::{LoopSettings, PipelineController};
-use naic_sim::plant::Measurements;
-use naic_sim::runner::{self, ControlReport, Controller};
-use naic_sim::scenario::{self, ReferenceSample};
+use naic_core::pipeline::control::Phase;
+use naic_core::pipeline::controller::Status;
+use naic_sim::plant::RawMeasurements;
+use naic_sim::runner::{self, Controller};
+use naic_sim::scenario::{self, Reference};
 use naic_sim::sensor::tool_from_urdf;
 
 const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
@@ -37,7 +39,7 @@ impl Controller for Scheduled {
     fn name(&self) -> &str {
         "scheduled"
     }
-    fn step(&mut self, m: &Measurements, r: &ReferenceSample) -> ControlReport {
+    fn step(&mut self, m: &RawMeasurements, r: &Reference) -> ([f64; 6], Status) {
         while self.plan.first().is_some_and(|(t, _)| m.t >= *t - 1e-9) {
             let (t, c) = self.plan.remove(0);
             let new = match c {
@@ -117,8 +119,8 @@ fn desired_force_mode_and_impedance_changed_mid_run_follow_the_node_policy() {
     let k = at(6.0);
     // (NAIC keeps learning: m_d moves by one update, it does not jump back to the parameter.)
     let m_d0 = p0.control.impedance.m_d[axis];
-    assert!((recs[k].m_d - recs[k - 1].m_d).abs() < 1e-3 && (recs[k].m_d - m_d0).abs() > 0.05 && recs[k].phase == 1,
-        "a new set point keeps the learned weights and the contact: m_d {} -> {} (parameter {m_d0}), phase {}", recs[k - 1].m_d, recs[k].m_d, recs[k].phase);
+    assert!((recs[k].m_d - recs[k - 1].m_d).abs() < 1e-3 && (recs[k].m_d - m_d0).abs() > 0.05 && recs[k].phase == Phase::Contact,
+        "a new set point keeps the learned weights and the contact: m_d {} -> {} (parameter {m_d0}), phase {:?}", recs[k - 1].m_d, recs[k].m_d, recs[k].phase);
     let (mean, med, p95, n) = stats(recs, 8.0, 11.0, 15.0);
     assert!(n > 2900 && (mean - 15.0).abs() < 0.5 && med < 1.0 && p95 < 3.0, "after 15 N: mean {mean}, median err {med}, p95 err {p95}");
 
@@ -131,7 +133,7 @@ fn desired_force_mode_and_impedance_changed_mid_run_follow_the_node_policy() {
     assert_ne!(recs[k - 1].m_d, recs[k].m_d, "NAIC had learned another m_d");
     // The restart is in free space; the tool is on the surface, so the same cycle
     // re-detects contact.
-    assert_eq!(recs[k].phase, 1, "contact re-detected at once");
+    assert_eq!(recs[k].phase, Phase::Contact, "contact re-detected at once");
     let (mean, med, _, _) = stats(recs, 12.5, 14.0, 15.0);
     assert!((mean - 15.0).abs() < 0.5 && med < 1.0, "AIC at 15 N: mean {mean}, median err {med}");
 

@@ -19,15 +19,24 @@ use nalgebra::Vector3;
 
 /// One closed-loop run (seed 1) of `controller` on `scenario`.
 fn run(scenario: &str, controller: &str, delay: usize, mass_error: f64) -> RunSummary {
+    run_k(scenario, None, controller, delay, mass_error)
+}
+
+/// [`run`] with the surface stiffness overridden (`naic sim --stiffness`).
+fn run_k(scenario: &str, k_e: Option<f64>, controller: &str, delay: usize, mass_error: f64) -> RunSummary {
     let m = model();
     let s = scenario::preset(scenario, &m).unwrap();
+    let s = match k_e {
+        Some(k) => s.with_stiffness(k).unwrap(),
+        None => s,
+    };
     let tool = (0.424, Vector3::new(0.0, 0.0, 0.015));
     let plant = scenario::plant_for(&s, m.clone(), Some(friction()), tool).unwrap();
     let settings = LoopSettings { delay_cycles: delay, model_mass_error: mass_error, ..LoopSettings::default() };
     let mut c = PipelineController::by_name(controller, &s, &m, Some(friction()), tool, &settings).unwrap();
     let r = runner::run(&s, &plant, &mut c, &mut |_| {});
     let n = runner::summarize(&r);
-    eprintln!("{scenario} {controller} d={delay} F={mass_error}: {n:?}");
+    eprintln!("{scenario} k={k_e:?} {controller} d={delay} F={mass_error}: {n:?}");
     n
 }
 
@@ -41,128 +50,148 @@ fn later_settle(n: &RunSummary, i: usize) -> f64 {
 
 #[test]
 fn flat_contact_overshoot_and_step() {
-    let d1 = run("flat", "scheduled", 1, 1.0);
-    // Goal ≤ 5 % at first contact: met at d = 1 (4.0 %).
-    assert!(d1.contact_overshoot_pct <= 5.0, "{d1:?}");
-    // Goal ±2 % settling ≤ 0.15 s after the step: missed by 6 ms (0.156 s).
-    assert!(later_settle(&d1, 0) <= 0.16, "{d1:?}");
-    // Goal ≤ 5 % at the 10 → 20 N step: missed, 7.7 % (the f_d step enters the law as a
-    // step; no rate limit or feed-forward yet).
-    assert!(d1.later_overshoot_pct[0] <= 8.0, "{d1:?}");
-    // Goal ±2 % settling ≤ 0.15 s after contact: missed, 1.17 s (the force wanders
-    // ±0.25 N while sliding: joint stick-slip against a ±0.2 N band). Achieved: the peak
-    // and the late peak-to-peak force.
-    assert!(settle(&d1) <= 1.25 && d1.late_p2p_n < 0.2, "{d1:?}");
-    let d2 = run("flat", "scheduled", 2, 1.0);
-    // Goal ≤ 5 %: missed at d = 2, 7.3 % (the schedule is designed for d = 2; the extra
-    // cycle of the impact k_e v₀ (d + ½) T is small at 2000 N/m, the loop's phase is not).
-    assert!(d2.contact_overshoot_pct <= 7.5, "{d2:?}");
-    // Goal ≤ 5 % at the step: missed, 10.0 %; settling after the step missed (1.13 s).
-    assert!(d2.later_overshoot_pct[0] <= 10.5, "{d2:?}");
-    assert!(d2.ss_error_n.abs() < 0.05, "{d2:?}");
+    for d in [1, 2] {
+        let n = run("flat", "scheduled", d, 1.0);
+        // Goals met at d = 1 and 2 (seed 1: contact 1.0 / 1.3 %, settling 0.062 / 0.063 s,
+        // step 0.6 / 1.2 %, settling after the step 0.035 / 0.033 s).
+        assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.15, "d = {d}: {n:?}");
+        assert!(n.later_overshoot_pct[0] <= 5.0 && later_settle(&n, 0) <= 0.15, "d = {d}: {n:?}");
+        assert!(n.ss_error_n.abs() < 0.05, "d = {d}: {n:?}");
+    }
 }
 
 #[test]
-fn flat_rms_against_aic() {
-    for d in [1, 2] {
-        let s = run("flat", "scheduled", d, 1.0);
-        let a = run("flat", "aic", d, 1.0);
-        let (s, a) = (s.rms_n.unwrap(), a.rms_n.unwrap());
-        // Goal ≥ 30 % below AIC: met at d = 2 (1.06 vs 1.65 N, −36 %), missed at d = 1
-        // (1.10 vs 1.43 N, −23 %): much of the RMS is the force rise at contact and at the
-        // step, set by the approach all laws share. Achieved: at least 20 % below.
-        let bound = if d == 2 { 0.7 } else { 0.8 };
-        assert!(s <= bound * a, "d = {d}: RMS scheduled {s} vs AIC {a}");
+fn flat_and_stiffness_step_rms_against_aic() {
+    for sc in ["flat", "stiffness-step"] {
+        for d in [1, 2] {
+            let s = run(sc, "scheduled", d, 1.0);
+            let a = run(sc, "aic", d, 1.0);
+            let (s, a) = (s.rms_n.unwrap(), a.rms_n.unwrap());
+            // Goal ≥ 30 % below AIC: met (seed 1, flat: 0.954 vs 1.427 N at d = 1, 0.934 vs
+            // 1.646 N at d = 2; stiffness-step: 1.240 vs 2.324, 1.227 vs 2.594).
+            assert!(s <= 0.7 * a, "{sc} d = {d}: RMS scheduled {s} vs AIC {a}");
+        }
     }
 }
 
 #[test]
 fn foam_contact() {
-    let d1 = run("foam", "scheduled", 1, 1.0);
-    // Goal ≤ 5 %: met at d = 1 (4.7 %).
-    assert!(d1.contact_overshoot_pct <= 5.0, "{d1:?}");
-    // Goal ±2 % settling ≤ 0.20 s: missed, 0.233 s.
-    assert!(settle(&d1) <= 0.25, "{d1:?}");
-    let d2 = run("foam", "scheduled", 2, 1.0);
-    // Goal ≤ 5 %: met at d = 2 (4.9 %); settling missed (6.3 s: the ±0.2 N band is left
-    // again and again, late peak-to-peak 0.55 N).
-    assert!(d2.contact_overshoot_pct <= 5.0, "{d2:?}");
-    assert!(d2.ss_error_n.abs() < 0.05 && d2.late_p2p_n <= 0.6, "{d2:?}");
+    for d in [1, 2] {
+        let n = run("foam", "scheduled", d, 1.0);
+        // Goals met (seed 1: 1.2 / 0.9 %, settling 0.115 / 0.116 s).
+        assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.20, "d = {d}: {n:?}");
+    }
 }
 
 #[test]
 fn stiffness_step_recovery() {
-    let d1 = run("stiffness-step", "scheduled", 1, 1.0);
-    assert_eq!(d1.later_settle_s.len(), 2, "two jumps: {d1:?}");
-    // Goal back within ±2 % ≤ 0.20 s after each jump: met after the 5000 → 2000 jump
-    // (0.154 s); missed after 2000 → 5000 (1.82 s: the recovery undershoots f_d by 13 %
-    // and creeps back).
-    assert!(later_settle(&d1, 1) <= 0.20, "{d1:?}");
-    assert!(later_settle(&d1, 0) <= 1.9, "{d1:?}");
-    let d2 = run("stiffness-step", "scheduled", 2, 1.0);
-    // d = 2: missed (never within ±2 % after the 2 s jump, 0.41 s after the 4 s jump).
-    assert!(later_settle(&d2, 1) <= 0.45, "{d2:?}");
-    assert!(d2.peak_n <= 26.0, "{d2:?}");
+    for d in [1, 2] {
+        let n = run("stiffness-step", "scheduled", d, 1.0);
+        assert_eq!(n.later_settle_s.len(), 2, "two jumps: {n:?}");
+        // Goal met: back within ±2 % ≤ 0.20 s after each jump (seed 1: 0.032 / 0.042 s at
+        // d = 1, 0.031 / 0.042 s at d = 2).
+        assert!(later_settle(&n, 0) <= 0.20 && later_settle(&n, 1) <= 0.20, "d = {d}: {n:?}");
+    }
 }
 
 #[test]
 fn acrylic_hard_surface() {
-    let d1 = run("acrylic", "scheduled", 1, 1.0);
-    // Goal peak ≤ 1.2 f_d = 12 N: met at d = 1 (11.68 N). Every paper law limit-cycles here
-    // (peaks 55-268 N).
-    assert!(d1.peak_n <= 12.0, "{d1:?}");
-    // Goal no limit cycle and ±2 % ≤ 0.05 s: missed, never within ±2 %: the force creeps
-    // by ±1 N (20 µm of position is 1 N at 50 000 N/m). Achieved: late peak-to-peak 2.0 N.
-    assert!(d1.late_p2p_n <= 2.2, "{d1:?}");
-    let d2 = run("acrylic", "scheduled", 2, 1.0);
-    // d = 2: missed, it bounces (peak 30 N, late peak-to-peak 8 N). Achieved: below the
-    // 50 N force limit.
-    assert!(d2.peak_n < 35.0, "{d2:?}");
+    for d in [1, 2] {
+        let n = run("acrylic", "scheduled", d, 1.0);
+        // Goals met: peak ≤ 1.2 f_d = 12 N (10.14 / 10.18 N), no limit cycle (late peak-to-peak
+        // 0.21 / 0.22 N ≤ 0.4 N). Every paper law limit-cycles here (peaks 54-276 N).
+        assert!(n.peak_n <= 12.0 && n.late_p2p_n <= 0.4, "d = {d}: {n:?}");
+        // Goal within ±2 % ≤ 0.05 s after contact: met (seed 1: 0.033 / 0.042 s; the
+        // observer's velocity gain decays from 300 rad/s after the impact).
+        assert!(settle(&n) <= 0.05, "d = {d}: {n:?}");
+    }
 }
 
 #[test]
 fn two_material_switch() {
-    let d1 = run("two-material", "scheduled", 1, 1.0);
-    // Goal ≤ 10 % at first contact with f_d = 3 N: missed, 161 % (the §5.2 approach hits the
-    // acrylic at the free-space impedance's speed; the approach limit near an expected
-    // surface exists but no scenario sets one). Achieved: peak below 8 N (AIC: 30.6 N).
-    assert!(d1.peak_n <= 8.0, "{d1:?}");
-    // Goal after the switch to foam ≤ 0.3 s recovery: missed, 0.51 s; ≤ 10 % overshoot of
-    // the recovery: met (9.6 %).
-    assert!(!d1.later_settle_s.is_empty() && later_settle(&d1, 0) <= 0.55, "{d1:?}");
-    assert!(d1.later_recovery_overshoot_pct[0] <= 10.0, "{d1:?}");
+    for d in [1, 2] {
+        let n = run("two-material", "scheduled", d, 1.0);
+        // Goal ≤ 10 % at first contact (acrylic, f_d = 3 N, approach 5 mm/s): missed, 66 % (d = 1),
+        // 69 % (d = 2). The impact at 5 mm/s is 0.6 N (20 %); the rest is the tool at rest on
+        // acrylic: the velocity observer (needed against the encoder noise at b_d ≈ 430 N s/m)
+        // lags the joints' stiction and the force swings at ≈ 12 Hz. Achieved: peak below
+        // 5.5 N (AIC: 31 N).
+        assert!(n.peak_n <= 5.5, "d = {d}: {n:?}");
+        // Goal after the switch to foam ≤ 0.3 s recovery: missed, 3.0 s: the ±2 % band at
+        // 3 N is ±0.06 N, one F/T resolution step; the true force (SD 0.016 N on the foam)
+        // leaves it for single samples — with a noiseless sensor it is back in 0.25 s.
+        // ≤ 10 % overshoot of the recovery: met (3.7 % / 2.6 %).
+        // (seed 1: 3.00 / 3.04 s.)
+        assert!(!n.later_settle_s.is_empty() && later_settle(&n, 0) <= 3.2, "d = {d}: {n:?}");
+        assert!(n.later_recovery_overshoot_pct[0] <= 10.0, "d = {d}: {n:?}");
+    }
 }
 
 #[test]
 fn slope_steady_state() {
     for d in [1, 2] {
         let n = run("slope", "scheduled", d, 1.0);
-        // Goal |ss error| ≤ 0.05 N: met (0.002 N at d = 1, 0.007 N at d = 2; fixed: 0.41 N).
-        assert!(n.ss_error_n.abs() <= 0.05, "d = {d}: {n:?}");
-        // ... while the contact overshoot goal (≤ 5 %) holds: missed, 7.0 % (d = 1),
-        // 12.6 % (d = 2): the slope is met 0.7 s earlier, at a faster approach.
-        assert!(n.contact_overshoot_pct <= if d == 1 { 7.5 } else { 13.0 }, "d = {d}: {n:?}");
+        // Goals met: |ss error| ≤ 0.05 N (0.004 / 0.005 N; fixed: 0.41 N) with ≤ 5 % contact
+        // overshoot (1.6 / 1.7 %).
+        assert!(n.ss_error_n.abs() <= 0.05 && n.contact_overshoot_pct <= 5.0, "d = {d}: {n:?}");
     }
 }
 
 #[test]
 fn model_mass_error() {
-    // Goal: every goal under a model mass error of 0.8 and 1.25. Missed. The free-space
-    // approach uses the paper's impedance (k_d = 50 N/m on z): a 25 % weight error moves
-    // its equilibrium by centimetres, so the contact time and speed change (flat: 0.96 s
-    // at 0.8, 2.79 s at 1.25; foam at 1.25: no contact in 8 s).
-    let lo = run("flat", "scheduled", 1, 0.8);
-    let hi = run("flat", "scheduled", 1, 1.25);
-    // Achieved on flat: contact overshoot 7.8 % / 5.3 % (goal 5 %), steady error ≤ 0.05 N.
-    assert!(lo.contact_overshoot_pct <= 8.0 && hi.contact_overshoot_pct <= 5.5, "{lo:?} {hi:?}");
-    assert!(lo.ss_error_n.abs() <= 0.05 && hi.ss_error_n.abs() <= 0.05, "{lo:?} {hi:?}");
-    let foam_lo = run("foam", "scheduled", 1, 0.8);
-    // Foam at 0.8: 6.7 % (goal 5 %), settling 0.207 s (goal 0.20 s).
-    assert!(foam_lo.contact_overshoot_pct <= 7.0 && settle(&foam_lo) <= 0.21, "{foam_lo:?}");
+    // Goal: every goal under a model mass error of 0.8 and 1.25 (the issue's delays; here d = 1).
+    // Before the approach servo, at 1.25 the free-space impedance stalled ≈ 6 mm above every
+    // surface but the slope (no contact in 5 s).
+    for f in [0.8, 1.25] {
+        let n = run("flat", "scheduled", 1, f);
+        // Met (seed 1: 0.8: 4.98 % [at the goal: no margin], 0.089 s, step 2.8 %, 0.032 s;
+        // 1.25: 0.5 %, 0.100 s, step 0.6 %, 0.040 s).
+        assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.15, "flat F = {f}: {n:?}");
+        assert!(n.later_overshoot_pct[0] <= 5.0 && later_settle(&n, 0) <= 0.15, "flat F = {f}: {n:?}");
+        let n = run("foam", "scheduled", 1, f);
+        // Met (3.1 %, 0.160 s; 0.6 %, 0.169 s).
+        assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.20, "foam F = {f}: {n:?}");
+        let n = run("stiffness-step", "scheduled", 1, f);
+        // Met (0.078 / 0.043 s; 0.061 / 0.042 s).
+        assert!(later_settle(&n, 0) <= 0.20 && later_settle(&n, 1) <= 0.20, "stiffness-step F = {f}: {n:?}");
+        let n = run("slope", "scheduled", 1, f);
+        assert!(n.ss_error_n.abs() <= 0.05 && n.contact_overshoot_pct <= 5.0, "slope F = {f}: {n:?}");
+        let n = run("acrylic", "scheduled", 1, f);
+        // Peak ≤ 12 N and no limit cycle: met (0.8 was 42.8 N with +3.6 N steady error before
+        // the disturbance feedforward).
+        assert!(n.peak_n <= 12.0 && n.late_p2p_n <= 0.4, "acrylic F = {f}: {n:?}");
+        // ±2 % ≤ 0.05 s: met at 1.25 (0.039 s); missed at 0.8: 0.097 s (4.3 % overshoot: the
+        // light model realises 0.8 of every commanded acceleration, the predictor's residual
+        // delay is then a lead and the loop rings once).
+        assert!(settle(&n) <= if f < 1.0 { 0.11 } else { 0.05 }, "acrylic F = {f}: {n:?}");
+    }
+}
+
+/// The stiffness sweep on flat (`--stiffness`, flat's approach: no expected surface, 37 mm/s at
+/// the surface), one parameter set.
+#[test]
+fn stiffness_sweep() {
+    for d in [1, 2] {
+        for k in [500.0, 1000.0, 2000.0, 5000.0, 20_000.0, 50_000.0] {
+            let n = run_k("flat", Some(k), "scheduled", d, 1.0);
+            assert!(n.contact_time_s.is_some(), "k = {k} d = {d}: {n:?}");
+            if k <= 5000.0 {
+                // Met up to 5000 N/m (seed 1: ≤ 1.4 %, 0.04-0.15 s).
+                assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.15, "k = {k} d = {d}: {n:?}");
+                assert!(n.later_overshoot_pct[0] <= 5.0 && later_settle(&n, 0) <= 0.15, "k = {k} d = {d}: {n:?}");
+            } else {
+                // Missed at 20 000 and 50 000 N/m: ±2 % settling 1.3-1.5 s (goal 0.15 s), contact
+                // overshoot up to 12 %: the joints' stick-slip while sliding moves the tip along n
+                // by tens of µm, k_e times that is ±0.2-1 N; without joint friction 20 000 N/m
+                // stays within ±2 % after 0.04 s. Achieved: the peak stays ≤ 1.2 f_d.
+                assert!(n.peak_n <= 1.2 * 20.0 && n.contact_overshoot_pct <= 15.0, "k = {k} d = {d}: {n:?}");
+            }
+        }
+    }
 }
 
 #[test]
-#[ignore = "issue 12 goals not met yet (docs/controller.md 'Which controller to use'): flat/foam settling, d = 2 overshoot, step overshoot, acrylic, two-material contact, mass error"]
+#[ignore = "issue 12 goals not all met (docs/controller.md 'Goals of issue 12'): two-material, acrylic settling at mass error 0.8, the stiffness sweep at 20 000 and 50 000 N/m"]
 fn issue_12_goals() {
     let mut missed = Vec::new();
     for d in [1, 2] {
@@ -179,12 +208,33 @@ fn issue_12_goals() {
             missed.push(format!("stiffness-step d={d}"));
         }
         let f = run("acrylic", "scheduled", d, 1.0);
-        if !(f.peak_n <= 12.0 && settle(&f) <= 0.05) {
+        if !(f.peak_n <= 12.0 && settle(&f) <= 0.05 && f.late_p2p_n <= 0.4) {
             missed.push(format!("acrylic d={d}"));
         }
         let f = run("two-material", "scheduled", d, 1.0);
-        if !(f.contact_overshoot_pct <= 10.0 && later_settle(&f, 0) <= 0.3) {
+        if !(f.contact_overshoot_pct <= 10.0 && later_settle(&f, 0) <= 0.3 && f.later_recovery_overshoot_pct[0] <= 10.0) {
             missed.push(format!("two-material d={d}"));
+        }
+        let f = run("slope", "scheduled", d, 1.0);
+        if !(f.ss_error_n.abs() <= 0.05 && f.contact_overshoot_pct <= 5.0) {
+            missed.push(format!("slope d={d}"));
+        }
+    }
+    for m in [0.8, 1.25] {
+        for sc in ["flat", "foam", "acrylic"] {
+            let f = run(sc, "scheduled", 1, m);
+            let t = if sc == "foam" { 0.20 } else if sc == "flat" { 0.15 } else { 0.05 };
+            if !(f.contact_time_s.is_some() && f.contact_overshoot_pct <= 5.0 && settle(&f) <= t && f.peak_n <= 1.2 * if sc == "flat" { 20.0 } else { 10.0 }) {
+                missed.push(format!("{sc} mass error {m}"));
+            }
+        }
+    }
+    for d in [1, 2] {
+        for k in [500.0, 1000.0, 2000.0, 5000.0, 20_000.0, 50_000.0] {
+            let f = run_k("flat", Some(k), "scheduled", d, 1.0);
+            if !(f.contact_overshoot_pct <= 5.0 && settle(&f) <= 0.15 && later_settle(&f, 0) <= 0.15) {
+                missed.push(format!("sweep {k} N/m d={d}"));
+            }
         }
     }
     assert!(missed.is_empty(), "goals missed: {missed:?}");

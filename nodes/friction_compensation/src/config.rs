@@ -72,7 +72,7 @@ mod tests {
 
     const URDF_EFFORT: [f64; 6] = [100.0; 6];
 
-    fn table(overrides: &[(&str, V)]) -> Result<ParamTable, String> {
+    fn table(overrides: &[(&str, V)]) -> Result<ParamTable, naic_ros::params::ParamError> {
         let o: Vec<(String, V)> = overrides.iter().map(|(n, v)| (n.to_string(), v.clone())).collect();
         ParamTable::new(specs(&URDF_EFFORT), None, &o)
     }
@@ -120,10 +120,10 @@ mod tests {
         let ok = table(&[]).unwrap();
         for (v, needle) in cases {
             // At start-up (files, -p) ...
-            let e = table(&[("torque_rate_limit", v.clone())]).err().unwrap();
+            let e = table(&[("torque_rate_limit", v.clone())]).err().unwrap().to_string();
             assert!(e.contains("torque_rate_limit") && e.contains(needle), "{v:?}: {e}");
             // ... and at run time: rejected, nothing changes.
-            let e = ok.set_atomically(&[("torque_rate_limit".into(), v.clone())]).unwrap_err();
+            let e = ok.set_atomically(&[("torque_rate_limit".into(), v.clone())]).unwrap_err().to_string();
             assert!(e.contains(needle), "{v:?}: {e}");
             assert_eq!(ok.with(actuate_params).max_delta, DEFAULT_RATE_LIMIT);
         }

@@ -139,7 +139,9 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64) -> (State, Outbox
             s.pending = None;
             return (s, out);
         }
-        s.pending = Some(Pending { tau, src, until_ns: now_ns.saturating_add(p.joint_state_timeout_ns) });
+        let first = s.dq_stamp_ns.is_none() && s.effort_meas.is_none();
+        let wait = if first { naic_ros::timebase::FIRST_PAIR_TIMEOUT_NS } else { p.joint_state_timeout_ns };
+        s.pending = Some(Pending { tau, src, until_ns: now_ns.saturating_add(wait) });
     }
     let Some(cmd) = s.pending else { return (s, out) };
     let sim = p.time.is_sim() && cmd.src.is_some();
@@ -326,6 +328,19 @@ mod tests {
         let (s, _) = run(&p, &s, Inbox { joint_states: Some(&js(3000, ORDER, [0.0; 6], [-50.0; 6])), ..Default::default() }, 70 * MS);
         let (_, o) = run(&p, &s, Inbox { command: Some(&effort_msg(&[1.0; 6], Some(3000))), ..Default::default() }, 70 * MS);
         assert_eq!(o.command.unwrap().0, feedforward::step(&p.friction, &[0.0; 6], &[1.0; 6]), "not restarted from -50");
+    }
+
+    #[test]
+    fn before_the_first_joint_state_a_command_waits_for_discovery() {
+        // Discovery matched /naic/effort before /joint_states: the first command waits for
+        // its joint state (seconds if need be), so a lockstep run does not depend on it.
+        let p = params(TimeBase::Sim);
+        let cmd = effort_msg(&[1.0; 6], Some(2000));
+        let (s, o) = run(&p, &State::default(), Inbox { command: Some(&cmd), ..Default::default() }, MS);
+        assert_eq!((o.command, o.wait_until_ns), (None, Some(MS + naic_ros::timebase::FIRST_PAIR_TIMEOUT_NS)));
+        let dq = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+        let (_, o) = run(&p, &s, Inbox { joint_states: Some(&js(2000, ORDER, dq, [0.0; 6])), ..Default::default() }, 2_000 * MS);
+        assert_eq!(o.command, Some((feedforward::step(&p.friction, &dq, &[1.0; 6]), Some(2000))));
     }
 
     #[test]

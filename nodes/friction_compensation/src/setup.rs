@@ -23,10 +23,10 @@ impl Setup {
     pub fn from_args(args: &RosArgs) -> Result<Setup, RosError> {
         let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
         let robot = Model::from_urdf_file(&urdf)
-            .map_err(|e| RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
+            .map_err(|e| RosError::param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
         let l = robot.effort_limits();
         if l.len() != 6 {
-            return Err(RosError::Param(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
+            return Err(RosError::param(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
         }
         let effort_limit: [f64; 6] = std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i].min(EFFORT_CAP) } else { EFFORT_CAP });
         let sense = SenseParams { wrench_max: [f64::INFINITY; 6], joint_timeout: 1.0, wrench_timeout: 1.0, ..SenseParams::for_model(&robot) };
@@ -43,7 +43,7 @@ impl Setup {
         let effort_limit = self.effort_limit;
         Box::new(move |p: &ParamView| {
             effort_limit_within(p, &effort_limit)?;
-            config::load_model(p).map(|_| ())
+            config::load_model(p).map(|_| ()).map_err(Into::into)
         })
     }
 }

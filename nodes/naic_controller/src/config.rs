@@ -49,6 +49,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::choice("scenario", crate::reference::DEFAULT_SCENARIO, &crate::reference::SCENARIOS,
             "Position reference: a naic_sim paper scenario's trajectory, or 'none' (start pose moved approach_depth along n)").read_only(),
         ParamSpec::double("approach_depth", 0.05, -0.5, 0.5, "With scenario 'none': free-space target = start tip position moved this far along n [m]"),
+        ParamSpec::double("approach_speed", fl.scheduled.approach.max_speed, 1.0e-3, 0.5, "Mode 'scheduled': speed limit of the free-space approach along n [m/s] (a velocity servo toward the reference, robust to model error); the first contact adds k_e * approach_speed * (d + 1/2) * T before the loop reacts (50 000 N/m, 2 cycles of delay: 1.25 N per 10 mm/s)"),
         ParamSpec::string("base_frame", "base_link", "With scenario 'none': the only header.frame_id accepted on /naic/target_pose and /naic/desired_wrench (the URDF's root link)"),
         ParamSpec::double("max_speed", rd.linear.max_speed, 1.0e-4, 2.0, "With scenario 'none': speed limit of the position reference [m/s]"),
         ParamSpec::double("max_accel", rd.linear.max_accel, 1.0e-3, 20.0, "With scenario 'none': acceleration limit of the position reference [m/s^2]"),
@@ -93,7 +94,7 @@ fn vec3(v: &[f64]) -> Vector3<f64> {
 }
 
 /// `base` with the ROS parameters applied, validated by the core.
-pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<ControllerParams, String> {
+pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<ControllerParams, naic_ros::params::ParamError> {
     let mut c = *base;
     let axis = force_axis(p.str("force_axis"));
     let mut k_contact = arr6(p.f64s("k_d_contact"));
@@ -109,6 +110,7 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
         sigma_margin: p.f64("sigma_margin"),
         ..base.control.force_law
     };
+    c.control.force_law.scheduled.approach.max_speed = p.f64("approach_speed");
     c.control.contact = ContactDetect {
         enter_n: p.f64("contact_threshold"),
         exit_n: p.f64("contact_exit_force"),
@@ -164,10 +166,10 @@ pub fn check(base: ControllerParams) -> SetCheck {
         controller_params(p, &base)?;
         let (ct, fl, fd) = (p.f64("contact_threshold"), p.f64("force_limit"), p.f64("desired_force"));
         if ct >= fl {
-            return Err(format!("contact_threshold ({ct} N) must be below force_limit ({fl} N)"));
+            return Err(format!("contact_threshold ({ct} N) must be below force_limit ({fl} N)").into());
         }
         if fd >= fl {
-            return Err(format!("desired_force ({fd} N) must be below force_limit ({fl} N)"));
+            return Err(format!("desired_force ({fd} N) must be below force_limit ({fl} N)").into());
         }
         reference_params(p).validate()?;
         Ok(())
@@ -207,11 +209,11 @@ mod tests {
     fn bad_values_are_rejected_with_reasons() {
         let (t, b) = table();
         let set = |n: &str, v: V| t.set_atomically(&[(n.to_string(), v)]);
-        assert!(set("learning_rate", V::Double(-0.1)).unwrap_err().contains("outside its range"));
-        assert!(set("mode", V::String("pid".into())).unwrap_err().contains("naic, aic, fixed"));
-        assert!(set("desired_force", V::Double(60.0)).unwrap_err().contains("below force_limit"));
+        assert!(set("learning_rate", V::Double(-0.1)).unwrap_err().to_string().contains("outside its range"));
+        assert!(set("mode", V::String("pid".into())).unwrap_err().to_string().contains("naic, aic, fixed"));
+        assert!(set("desired_force", V::Double(60.0)).unwrap_err().to_string().contains("below force_limit"));
         // The core's own bound: b_d on the force axis must lie in the NAIC weight bounds.
-        let e = set("b_d", V::DoubleArray(vec![500.0, 500.0, 0.5, 500.0, 500.0, 500.0])).unwrap_err();
+        let e = set("b_d", V::DoubleArray(vec![500.0, 500.0, 0.5, 500.0, 500.0, 500.0])).unwrap_err().to_string();
         assert!(e.contains("b_d"), "{e}");
         set("force_axis", V::String("x".into())).unwrap();
         set("mode", V::String("aic".into())).unwrap();
@@ -229,5 +231,26 @@ mod tests {
         assert_eq!(cp.control.force_law.mode, Mode::Scheduled);
         // Its own settings are the core's defaults (one place).
         assert_eq!(cp.control.force_law.scheduled, b.control.force_law.scheduled);
+    }
+
+    #[test]
+    fn the_approach_speed_reaches_the_scheduled_law_and_is_bounded() {
+        let (t, b) = table();
+        let set = |n: &str, v: V| t.set_atomically(&[(n.to_string(), v)]);
+        set("approach_speed", V::Double(0.02)).unwrap();
+        let cp = t.with(|p| controller_params(p, &b)).unwrap();
+        assert_eq!(cp.control.force_law.scheduled.approach.max_speed, 0.02);
+        // Everything else of the scheduled law stays the core's.
+        let mut expect = b.control.force_law.scheduled;
+        expect.approach.max_speed = 0.02;
+        assert_eq!(cp.control.force_law.scheduled, expect);
+        for bad in [0.0, -0.01, 0.6, f64::NAN] {
+            assert!(set("approach_speed", V::Double(bad)).is_err(), "{bad} accepted");
+        }
+        // The core rejects what the range would let through if the range were wider.
+        let mut c = b;
+        c.control.force_law.mode = Mode::Scheduled;
+        c.control.force_law.scheduled.approach.max_speed = 0.0;
+        assert!(c.control.validate().unwrap_err().to_string().contains("max_speed"));
     }
 }

@@ -13,7 +13,7 @@ use naic_core::{
     model::FrameId,
     pipeline::{
         controller::{self, Controller, ControllerParams, ControllerState, Reference, Status, Workspace},
-        param_change,
+        param_change, ConfigError,
         reference::{self as refstage, DesiredWrench, ReferenceParams, ReferenceState, Rejection, Source, TargetPose, Verdict},
         sense::{Fault, RawMeasurements},
     },
@@ -23,14 +23,17 @@ use naic_ros::{
     msgs::{JointState, PoseStamped, WrenchStamped, JOINT_NAMES},
     replay::Replay,
     throttle::Throttle,
-    timebase::TimeBase,
+    timebase::{TimeBase, FIRST_PAIR_TIMEOUT_NS},
 };
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
 use crate::reference::ScenarioReference;
 
 /// Lockstep: how long a joint state waits for the wrench of its stamp [ns] (wall clock).
-pub const PAIR_TIMEOUT_NS: i64 = 5_000_000;
+/// The wait only costs time when the wrench never comes; giving up too early makes the
+/// run depend on the machine's load (a cycle then runs on the previous wrench).
+/// Before any wrench has arrived: [`naic_ros::timebase::FIRST_PAIR_TIMEOUT_NS`].
+pub const PAIR_TIMEOUT_NS: i64 = 50_000_000;
 
 /// The node's settings besides the controller's own parameters (from the ROS parameters).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,8 +66,8 @@ impl Params {
         settings: Settings,
         reference: Option<ScenarioReference>,
         reference_params: ReferenceParams,
-    ) -> Result<Params, String> {
-        let tip = controller.model().frame_id(controller::TIP_FRAME).ok_or("the URDF has no 'tip' frame")?;
+    ) -> Result<Params, ConfigError> {
+        let tip = controller.model().frame_id(controller::TIP_FRAME).ok_or_else(|| ConfigError::Model("the URDF has no 'tip' frame".into()))?;
         reference_params.validate()?;
         Ok(Params { controller, settings, reference, reference_params, tip })
     }
@@ -258,7 +261,9 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
         if let Layout::Missing(i) = layout {
             out.events.missing_joint = Some(JOINT_NAMES[i]);
         }
-        s.pending = Some(Pending { joints, until_ns: now_ns.saturating_add(PAIR_TIMEOUT_NS) });
+        let wait = if s.wrench.is_some() { PAIR_TIMEOUT_NS } else { FIRST_PAIR_TIMEOUT_NS };
+        // (In wall-clock time nothing waits: see below.)
+        s.pending = Some(Pending { joints, until_ns: now_ns.saturating_add(wait) });
     }
     let Some(pd) = s.pending else { return (s, out) };
     let js_stamp = pd.joints.stamp_ns;
@@ -417,7 +422,7 @@ pub fn set_params(
     cp: ControllerParams,
     settings: Settings,
     mut reference_params: ReferenceParams,
-) -> Result<param_change::Outcome, String> {
+) -> Result<param_change::Outcome, ConfigError> {
     // One force set point: the `desired_force` setting is the stage's default force.
     reference_params.default_force = settings.desired_force;
     reference_params.validate()?;

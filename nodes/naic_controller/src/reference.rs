@@ -24,7 +24,6 @@ impl ScenarioReference {
 
     /// The reference at controller time `t` [s] (allocation-free).
     pub fn at(&self, t: f64) -> Reference {
-        let r = self.scenario.reference(t);
-        Reference { p_d: r.p_d, r_d: r.r_d, v_d: r.v_d, a_d: r.a_d, f_d: r.f_d }
+        self.scenario.reference(t)
     }
 }

@@ -70,7 +70,7 @@ impl Runner {
         self.gen = params.generation();
         let base = &self.base;
         let (cp, settings, rp) = params.with(|v| (config::controller_params(v, base), config::settings(v), config::reference_params(v)));
-        match cp.and_then(|cp| core::set_params(&mut self.p, &mut self.s, cp, settings, rp)) {
+        match cp.and_then(|cp| Ok(core::set_params(&mut self.p, &mut self.s, cp, settings, rp)?)) {
             Ok(o) if o.resumed => log::info!("parameters changed: resuming force control"),
             Ok(_) => {}
             Err(e) => log::error!("parameters not applied: {e}"),

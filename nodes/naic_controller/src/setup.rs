@@ -24,15 +24,15 @@ impl Setup {
     pub fn from_args(args: &RosArgs) -> Result<Setup, RosError> {
         let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
         let model = Model::from_urdf_file(&urdf)
-            .map_err(|e| RosError::Param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
+            .map_err(|e| RosError::param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
         // Defaults: the core's paper settings on this model (learning rate: not in the paper).
         let base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
-        let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides(NODE)?).map_err(RosError::Param)?;
-        let bad_model = |e: String| RosError::Param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
-        let cp = table.with(|p| config::controller_params(p, &base)).map_err(RosError::Param)?;
+        let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides(NODE)?)?;
+        let bad_model = |e: naic_core::pipeline::ConfigError| RosError::param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
+        let cp = table.with(|p| config::controller_params(p, &base))?;
         // The model first (its message names the URDF file), then the scenario.
         let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
-        let reference = ScenarioReference::new(&table.with(|p| p.str("scenario").to_string()), &model).map_err(RosError::Param)?;
+        let reference = ScenarioReference::new(&table.with(|p| p.str("scenario").to_string()), &model).map_err(RosError::param)?;
         let rp = table.with(config::reference_params);
         let params = core::Params::new(ctl, table.with(config::settings), reference, rp).map_err(bad_model)?;
         Ok(Setup { params, base })

@@ -6,157 +6,15 @@
 //! with the parameters of `params/*.yaml`, in lockstep (one plant step per command).
 //! No DDS and no clock: deterministic, and the numbers the DDS test must reproduce.
 
+mod common;
+
 use std::path::PathBuf;
 
-use friction_compensation::{config as fc_config, core as fc, setup as fc_shell};
-use jk5_sim_driver::{
-    config as drv_config,
-    core::{self as drv, Commands},
-    plant::Plant,
-    runner::{sim_stamp_ns, StateMsgs},
-    setup as drv_shell,
-};
-use naic_controller::{core as ctl, setup as ctl_shell};
+use common::{push, target, Chain};
+use jk5_sim_driver::plant::Plant;
+use naic_controller::core as ctl;
 use naic_core::pipeline::control::Phase;
-use naic_ros::{
-    msgs::{self, Float64MultiArray, Header, Point, Pose, PoseStamped, Quaternion, Vector3 as V3, Wrench, WrenchStamped},
-    time::time_from_ns,
-    ParamTable, RosArgs,
-};
-use nalgebra::{UnitQuaternion, Vector3};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// A node's arguments as `naic launch --lockstep` gives them, files by absolute path.
-fn args(node: &str, extra: &[&str]) -> RosArgs {
-    let r = root();
-    let mut a: Vec<String> = vec!["--ros-args".into(), "--params-file".into(), r.join(format!("params/{node}.yaml")).display().to_string()];
-    let mut p = |s: String| a.extend(["-p".to_string(), s]);
-    p("use_sim_time:=true".into());
-    p(format!("urdf:={}", r.join("urdf/jk5.urdf").display()));
-    if node == drv_shell::NODE {
-        p("lockstep:=true".into());
-    }
-    if node != ctl_shell::NODE {
-        p(format!("friction_file:={}", r.join("params/friction_jk5.yaml").display()));
-    }
-    for e in extra {
-        p(e.to_string());
-    }
-    RosArgs::parse(a).unwrap()
-}
-
-/// The three cores in lockstep, as `naic launch --composed --lockstep` runs them.
-struct Chain {
-    dp: drv::Params,
-    plant: jk5_sim_driver::sim_plant::SimPlant,
-    cmds: Commands,
-    ds: drv::State,
-    cp: ctl::Params,
-    cs: ctl::State,
-    ws: naic_core::pipeline::controller::Workspace,
-    fp: fc::Params,
-    fs: fc::State,
-    state: StateMsgs,
-    effort: Float64MultiArray,
-    cmd: Float64MultiArray,
-}
-
-impl Chain {
-    fn new(controller: &[&str]) -> Chain {
-        let da = args(drv_shell::NODE, &[]);
-        let d = drv_shell::Setup::from_args(&da).unwrap();
-        let dp = ParamTable::new(d.specs(), None, &da.overrides(drv_shell::NODE).unwrap()).unwrap().with(drv_config::core_params);
-        let mut c_extra = vec!["scenario:=none"];
-        c_extra.extend_from_slice(controller);
-        let c = ctl_shell::Setup::from_args(&args(ctl_shell::NODE, &c_extra)).unwrap();
-        let fa = args(fc_shell::NODE, &[]);
-        let f = fc_shell::Setup::from_args(&fa).unwrap();
-        let fp = ParamTable::new(f.specs(), None, &fa.overrides(fc_shell::NODE).unwrap())
-            .unwrap()
-            .with(|v| fc_config::core_params(v, &f.sense))
-            .unwrap();
-        let cs = ctl::State::new(&c.params);
-        let ws = c.params.controller.workspace();
-        Chain {
-            dp,
-            plant: d.plant,
-            cmds: Commands::new(0, true),
-            ds: drv::State::default(),
-            cp: c.params,
-            cs,
-            ws,
-            fp,
-            fs: fc::State::default(),
-            state: StateMsgs::default(),
-            effort: Float64MultiArray::default(),
-            cmd: Float64MultiArray::default(),
-        }
-    }
-
-    fn now_ns(&self) -> i64 {
-        sim_stamp_ns(&self.plant)
-    }
-
-    /// One lockstep step: the reference samples (taken before the state, as the shell
-    /// does), the state, controller, friction compensation, the plant. The report.
-    fn step(&mut self, target: Option<&PoseStamped>, wrench: Option<&WrenchStamped>) -> Option<ctl::Report> {
-        let stamp = self.state.fill(&self.plant, true, jk5_sim_driver::runner::SensorFault::None);
-        self.cmds.expect(Some(stamp));
-        self.ds.last_published_stamp = Some(stamp);
-        let (cp, ws) = (&self.cp, &mut self.ws);
-        let mut c_step = |s: &mut ctl::State, inbox: ctl::Inbox| {
-            let (next, out) = ctl::step(cp, s, &inbox, stamp, ws);
-            *s = next;
-            out
-        };
-        c_step(&mut self.cs, ctl::Inbox { wrench: Some(&self.state.w), ..Default::default() });
-        if target.is_some() || wrench.is_some() {
-            let out = c_step(&mut self.cs, ctl::Inbox { target_pose: target, desired_wrench: wrench, ..Default::default() });
-            assert!(out.events.target_rejected.is_none() && out.events.wrench_rejected.is_none(), "{:?}", out.events);
-        }
-        let out = c_step(&mut self.cs, ctl::Inbox { joint_states: Some(&self.state.js), ..Default::default() });
-        assert!(out.wait_until_ns.is_none(), "the wrench of the stamp is in");
-        let report = out.report;
-        if let Some((tau, src)) = out.effort {
-            msgs::set_effort_msg(&mut self.effort, &tau, Some(src));
-            let f = |s: &mut fc::State, inbox: fc::Inbox| {
-                let (next, out) = fc::step(&self.fp, s, &inbox, stamp);
-                *s = next;
-                out
-            };
-            f(&mut self.fs, fc::Inbox { joint_states: Some(&self.state.js), ..Default::default() });
-            let o = f(&mut self.fs, fc::Inbox { command: Some(&self.effort), ..Default::default() });
-            if let Some((tau, src)) = o.command {
-                msgs::set_effort_msg(&mut self.cmd, &tau, src);
-                assert!(drv::receive(&mut self.cmds, &self.cmd, stamp).is_none());
-            }
-        }
-        assert!(self.cmds.ready, "lockstep: a command for every state");
-        self.cmds.ready = false;
-        let (n, _) = drv::step(&self.dp, &self.ds, &self.cmds.view(), stamp, &mut self.plant);
-        self.ds = n;
-        report
-    }
-}
-
-fn header(ns: i64) -> Header {
-    Header { stamp: time_from_ns(ns), frame_id: "base_link".into() }
-}
-
-fn target(ns: i64, p: &Vector3<f64>, q: &UnitQuaternion<f64>) -> PoseStamped {
-    PoseStamped {
-        header: header(ns),
-        pose: Pose { position: Point { x: p.x, y: p.y, z: p.z }, orientation: Quaternion { x: q.i, y: q.j, z: q.k, w: q.w } },
-    }
-}
-
-fn push(ns: i64, f: f64) -> WrenchStamped {
-    // The wrench the tool applies to the surface: down (force axis -z).
-    WrenchStamped { header: header(ns), wrench: Wrench { force: V3 { x: 0.0, y: 0.0, z: -f }, torque: V3::default() } }
-}
+use nalgebra::Vector3;
 
 /// One cycle of the slide (what the figure and the summary need).
 #[derive(Clone, Copy, Debug)]
@@ -165,7 +23,9 @@ struct Sample {
     f_d: f64,
     f: f64,
     phase: Phase,
+    /// Tip and reference position along the slide [m].
     x: f64,
+    x_ref: f64,
 }
 
 /// The example's profile: 1 s still, approach at 20 mm/s until contact (5 N), the target
@@ -195,7 +55,7 @@ fn slide(c: &mut Chain, settle: f64) -> Vec<Sample> {
             let r = c.step(due.then_some(&tp), due.then_some(&dw));
             if let Some(r) = r {
                 let st = r.status;
-                out.push(Sample { t: now as f64 * 1e-9, f_d: st.f_d, f: st.f_ext, phase: st.phase, x: st.tip_position.x });
+                out.push(Sample { t: now as f64 * 1e-9, f_d: st.f_d, f: st.f_ext, phase: st.phase, x: st.tip_position.x, x_ref: r.reference.position[0] });
             }
             if end(now, r.as_ref()) {
                 return out;
@@ -243,40 +103,42 @@ fn write_csv(name: &str, s: &[Sample]) {
 }
 
 /// The controller settings the example sets (examples/slide_with_force_profile.py
-/// `CONTROLLER_PARAMS`): the force reference at 5 N/s (the default 100 N/s makes each
-/// 5 N step a step for the force loop, which overshoots it by 2.2 N), and half the
-/// impedance mass on the force axis (a force loop twice as stiff against the joint
-/// friction's torque bursts when the slide starts).
-const EXAMPLE_PARAMS: [&str; 2] = ["max_force_rate:=5.0", "m_d:=[1.0,1.0,0.5,1.0,1.0,1.0]"];
+/// `CONTROLLER_PARAMS`): the stiffness-scheduled force law, and the force reference at
+/// 5 N/s (the default 100 N/s makes each 5 N step a step for the force loop).
+const EXAMPLE_PARAMS: [&str; 2] = ["mode:=scheduled", "max_force_rate:=5.0"];
 
 #[test]
 fn the_example_profile_tracks_force_in_process() {
     // The slide starting at a few moments (how long the example settles first): the joint
     // friction's breakaway at the slide start differs with the state the arm is in.
     for settle in [1.9, 2.0, 2.2] {
-        let mut a = vec!["mode:=naic"];
-        a.extend(EXAMPLE_PARAMS);
-        let mut c = Chain::new(&a);
+        let mut c = Chain::new(&EXAMPLE_PARAMS);
         let s = slide(&mut c, settle);
-        write_csv(&format!("naic_settle_{settle}"), &s);
+        write_csv(&format!("slide_settle_{settle}"), &s);
         let (max, rms, worst) = summary(&s);
         let t0 = s[0].t;
-        // After the first second of the slide (the breakaway of the joints).
-        let (max_after, _, _) = summary(&s[s.iter().position(|x| x.t >= t0 + 1.0).unwrap()..]);
+        let lead = s.iter().fold(0.0f64, |m, x| m.max((x.x - x.x_ref).abs()));
+        let (first, last) = (s[0], s[s.len() - 1]);
         eprintln!(
-            "settle {settle} s: {} cycles, max |e_f| {max:.3} N at {:.3} s into the slide (f_d {:.2} N), after the first second {max_after:.3} N, rms {rms:.3} N",
+            "settle {settle} s: {} cycles, max |e_f| {max:.3} N at {:.3} s into the slide (f_d {:.2} N), rms {rms:.3} N; tip {:.1} mm along the slide, largest |x - x_ref| {:.1} mm",
             s.len(),
             s[worst].t - t0,
-            s[worst].f_d
+            s[worst].f_d,
+            (last.x - first.x) * 1e3,
+            lead * 1e3
         );
         // 10 cm at 10 mm/s, 1 kHz, in contact all the way, through 5 -> 10 -> 5 N.
         assert_eq!(s.len(), 10_001);
         assert!(s.iter().all(|x| x.phase == Phase::Contact));
-        assert!((s[s.len() - 1].x - s[0].x - 0.1).abs() < 0.003, "slid {} m", s[s.len() - 1].x - s[0].x);
-        assert!(s.iter().any(|x| x.f_d == 10.0) && s[s.len() - 1].f_d == 5.0);
-        // Issue #16's goal (|e_f| <= 0.5 N while sliding) holds after the first second; the
-        // slide's start reaches 0.3-0.7 N (docs/nodes.md, "The rclpy example").
-        assert!(max_after <= 0.5, "settle {settle}: {max_after} N after the first second");
-        assert!(max <= 1.0 && rms <= 0.1, "settle {settle}: max {max} N, rms {rms} N");
+        // The reference stage follows the 50 Hz targets two intervals behind: 0.4 mm at 10 mm/s.
+        assert!((last.x_ref - first.x_ref - 0.0996).abs() < 1e-4, "the reference moved {} m", last.x_ref - first.x_ref);
+        // The tip follows the reference within 5 mm along the slide (the DDS test's bound;
+        // measured 0.2-0.6 mm; 3.3-3.6 mm before the scheduled law bounded the tangential
+        // impedance for the loop delay).
+        assert!(lead < 0.005, "settle {settle}: the tip was {lead} m from the reference");
+        assert!(s.iter().any(|x| x.f_d == 10.0) && last.f_d == 5.0);
+        // Issue #16's goal: |e_f| <= 0.5 N while sliding (measured 0.26-0.30 N over eleven
+        // starts between 1.8 and 2.3 s; docs/nodes.md).
+        assert!(max <= 0.5 && rms <= 0.1, "settle {settle}: max {max} N, rms {rms} N");
     }
 }

@@ -148,14 +148,8 @@ pub fn stacked_regressor(model: &Model, samples: usize) -> DMatrix<f64> {
     let p = PARAMS_PER_BODY * n;
     let mut rd = RegressorData::new(model);
     let mut w = DMatrix::zeros(samples * n, p);
-    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
-    let mut rnd = move || {
-        // xorshift64*: a fixed sequence, not statistics
-        seed ^= seed >> 12;
-        seed ^= seed << 25;
-        seed ^= seed >> 27;
-        (seed.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = crate::rng::Rng::seed(0x9E37_79B9_7F4A_7C15);
+    let mut rnd = move || rng.uniform();
     let (lo, hi) = (model.lower_limits(), model.upper_limits());
     let (mut q, mut v, mut a) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     for s in 0..samples {

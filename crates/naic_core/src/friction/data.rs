@@ -1,7 +1,7 @@
 //! Steady-state friction data: one `(joint, velocity, torque)` point per
 //! constant-velocity segment, read from CSV with the header
 //! `joint,velocity_rad_s,torque_nm` (columns in any order; extra columns are ignored;
-//! blank lines and lines starting with `#` are skipped).
+//! blank lines and lines starting with `#` are skipped), parsed with the `csv` crate.
 
 use super::FrictionError;
 use std::path::Path;
@@ -41,21 +41,34 @@ impl FrictionData {
         Self::from_csv_str(&path.display().to_string(), &text)
     }
 
-    /// Parses and validates CSV text; `name` is used in error messages.
+    /// Parses and validates CSV text (the `csv` crate: quoting, `#` comments, trimmed
+    /// fields); `name` is used in error messages, which name the line and the column.
     pub fn from_csv_str(name: &str, text: &str) -> Result<Self, FrictionError> {
         let err = |msg: String| FrictionError::Data(format!("{name}: {msg}"));
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let mut lines = text
+        // Line by line, so that messages give the file's own line numbers (the csv crate's
+        // positions do not count comment lines); each line's fields are read by the csv
+        // crate (quoting, trimming).
+        let fields_of = |line: &str| -> Result<Vec<String>, csv::Error> {
+            let mut r = csv::ReaderBuilder::new().has_headers(false).trim(csv::Trim::All).flexible(true).from_reader(line.as_bytes());
+            Ok(r.records().next().transpose()?.map(|rec| rec.iter().map(String::from).collect()).unwrap_or_default())
+        };
+        let mut rows = text
             .lines()
             .enumerate()
             .map(|(i, l)| (i + 1, l.trim()))
-            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-        let Some((header_line, header)) = lines.next() else {
+            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
+            .map(|(line, l)| fields_of(l).map(|f| (line, f)).map_err(|e| (line, e)));
+        let csv_err = |(line, e): (usize, csv::Error)| {
+            err(format!("line {line}: {e}; the file must be plain CSV (UTF-8, comma-separated)"))
+        };
+        let Some(first) = rows.next() else {
             return Err(err(format!(
                 "the file is empty; it needs the header `{CSV_HEADER}` and one row per constant-velocity segment"
             )));
         };
-        let cols: Vec<String> = header.split(',').map(|c| c.trim().to_ascii_lowercase()).collect();
+        let (header_line, header) = first.map_err(csv_err)?;
+        let cols: Vec<String> = header.iter().map(|c| c.to_ascii_lowercase()).collect();
         if cols.iter().all(|c| c.parse::<f64>().is_ok()) {
             return Err(err(format!(
                 "line {header_line} is data, not a header; add the header line `{CSV_HEADER}` as the first line"
@@ -75,23 +88,24 @@ impl FrictionData {
         };
         let (cj, cv, ct) = (find("joint")?, find("velocity_rad_s")?, find("torque_nm")?);
         let mut samples = Vec::new();
-        for (line, row) in lines {
-            let fields: Vec<&str> = row.split(',').map(str::trim).collect();
+        for row in rows {
+            let (line, fields) = row.map_err(csv_err)?;
             if fields.len() != cols.len() {
                 return Err(err(format!(
-                    "line {line}: expected {} fields like the header, found {}; fix the row `{row}`",
+                    "line {line}: expected {} fields like the header, found {}; fix the row `{}`",
                     cols.len(),
-                    fields.len()
+                    fields.len(),
+                    fields.join(",")
                 )));
             }
-            let joint = parse_joint(fields[cj]).ok_or_else(|| {
+            let joint = parse_joint(&fields[cj]).ok_or_else(|| {
                 err(format!(
                     "line {line}, column `joint`: `{}` is not a joint number; use an integer ≥ 1 (joint 1 is the base joint)",
-                    fields[cj]
+                    &fields[cj]
                 ))
             })?;
             let num = |col: usize, cname: &str, unit: &str| -> Result<f64, FrictionError> {
-                let s = fields[col];
+                let s = &fields[col];
                 let v: f64 = s.parse().map_err(|_| {
                     err(format!("line {line}, column `{cname}`: `{s}` is not a number; give the value in {unit}"))
                 })?;

@@ -37,8 +37,10 @@ fn find_unknown_joint_type(xml: &str) -> Option<(String, String)> {
                 }
                 let t = s.trim_start();
                 let t = t.strip_prefix('=')?.trim_start();
+                // The quote character (any character in a damaged file: slice past its
+                // UTF-8 length, not one byte).
                 let q = t.chars().next()?;
-                let t = &t[1..];
+                let t = &t[q.len_utf8()..];
                 return Some(t[..t.find(q)?].to_string());
             }
         };

@@ -25,12 +25,14 @@
 //! stale), the output is `τ = G(q) − D_hold q̇` at the last valid state
 //! (gravity compensation plus joint damping, capped per joint for stability at
 //! the control period: [`super::hold`]; no force command), the phase is
-//! `Hold`, and the fault is reported; the next valid cycle resumes in free
-//! space and re-detects contact.
+//! `Hold`, the force law forgets what it learned ([`ControlState::hold`]), and
+//! the fault is reported; the next valid cycle resumes in free space and
+//! re-detects contact.
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3, Vector6};
 
 use super::control::force_law::Mode;
+use super::ConfigError;
 use super::control::{self, ControlParams, ControlState, Phase, TaskInputs};
 use super::estimate::{self, TareState, ToolParams};
 use super::sense::{self, Fault, RawMeasurements, SenseParams, SenseState};
@@ -68,23 +70,23 @@ pub const SENSOR_FRAME: &str = "ft_sensor";
 
 impl Controller {
     /// Checks the model (6 joints, `tip` and `ft_sensor` frames) and the parameters.
-    pub fn new(model: Model, params: ControllerParams) -> Result<Self, String> {
+    pub fn new(model: Model, params: ControllerParams) -> Result<Self, ConfigError> {
         if model.nv() != 6 {
-            return Err(format!("the controller needs a 6-joint arm; this model has {} joints", model.nv()));
+            return Err(ConfigError::Model(format!("the controller needs a 6-joint arm; this model has {} joints", model.nv())));
         }
         let frame = |name: &str| {
-            model.frame_id(name).ok_or_else(|| format!("the URDF has no frame '{name}': add a link named '{name}'"))
+            model.frame_id(name).ok_or_else(|| ConfigError::Model(format!("the URDF has no frame '{name}': add a link named '{name}'")))
         };
         let (tip, sensor) = (frame(TIP_FRAME)?, frame(SENSOR_FRAME)?);
         params.sense.validate()?;
         params.control.validate()?;
         if !(params.tool.mass >= 0.0 && params.tool.mass.is_finite()) {
-            return Err(format!("tool mass = {} kg must be finite and >= 0", params.tool.mass));
+            return Err(ConfigError::invalid("tool mass", params.tool.mass, "kg must be finite and >= 0"));
         }
         if params.hold_damping.iter().any(|d| !(*d >= 0.0 && d.is_finite())) {
-            return Err(format!("hold_damping = {:?} must be finite and >= 0", params.hold_damping));
+            return Err(ConfigError::invalid("hold_damping", format!("{:?}", params.hold_damping), "must be finite and >= 0"));
         }
-        let blank = Data6::try_new(&model).map_err(|e| e.to_string())?;
+        let blank = Data6::try_new(&model).map_err(|e| ConfigError::Model(e.to_string()))?;
         Ok(Self { model, blank, tip, sensor, params })
     }
 
@@ -97,7 +99,7 @@ impl Controller {
     }
 
     /// A copy with other parameters (validated); the state stays compatible.
-    pub fn with_params(&self, params: ControllerParams) -> Result<Self, String> {
+    pub fn with_params(&self, params: ControllerParams) -> Result<Self, ConfigError> {
         Self::new(self.model.clone(), params)
     }
 
@@ -319,11 +321,11 @@ fn hold(
     let next = ControllerState {
         fault: Some(fault),
         fault_count: s.fault_count + u32::from(s.fault.is_none()),
-        control: ControlState { phase: Phase::Hold, ..s.control },
+        control: s.control.hold(&p.control),
         last_q: q,
         ..*s
     };
-    let law = &s.control.law;
+    let law = &next.control.law;
     let status = Status {
         mode: p.control.force_law.mode,
         phase: Phase::Hold,

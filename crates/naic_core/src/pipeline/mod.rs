@@ -27,6 +27,32 @@ pub mod sense;
 
 use crate::friction::FrictionModel;
 
+/// Why the core refuses a parameter set: which parameter, the value given and the rule it
+/// breaks (the text a node returns as a parameter service's reason), or a model it cannot use.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    #[error("{field} = {value} {rule}")]
+    Invalid { field: String, value: String, rule: String },
+    /// The robot model lacks what the controller needs.
+    #[error("{0}")]
+    Model(String),
+}
+
+impl From<ConfigError> for String {
+    /// The message, where a caller reports errors as text (CLI, logs).
+    fn from(e: ConfigError) -> String {
+        e.to_string()
+    }
+}
+
+impl ConfigError {
+    /// `field = value rule`, e.g. `m_d[2] = -1 must be a positive finite mass`.
+    pub fn invalid(field: impl Into<String>, value: impl std::fmt::Display, rule: impl Into<String>) -> Self {
+        ConfigError::Invalid { field: field.into(), value: value.to_string(), rule: rule.into() }
+    }
+}
+
+
 /// The whole pipeline: controller, friction feedforward and actuation limits.
 #[derive(Clone, Debug)]
 pub struct Pipeline {

@@ -34,7 +34,7 @@ pub fn apply(
     c: &Controller,
     s: &ControllerState,
     new: ControllerParams,
-) -> Result<(Controller, ControllerState, Outcome), String> {
+) -> Result<(Controller, ControllerState, Outcome), super::ConfigError> {
     let next = c.with_params(new)?;
     let was_retracting = s.control.retracting();
     let mut state = *s;
@@ -109,6 +109,6 @@ mod tests {
         let c = controller();
         let mut bad = *c.params();
         bad.hold_damping[0] = f64::NAN;
-        assert!(apply(&c, &running(&c), bad).unwrap_err().contains("hold_damping"));
+        assert!(apply(&c, &running(&c), bad).unwrap_err().to_string().contains("hold_damping"));
     }
 }

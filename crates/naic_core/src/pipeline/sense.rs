@@ -111,13 +111,13 @@ impl SenseParams {
     }
 
     /// Checks the settings themselves; the message names the field and the fix.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         if self.median_window == 0 || self.median_window > MAX_MEDIAN_WINDOW {
-            return Err(format!("median_window = {} must be in 1..={MAX_MEDIAN_WINDOW}", self.median_window));
+            return Err(crate::pipeline::ConfigError::invalid("median_window", self.median_window, format!("must be in 1..={MAX_MEDIAN_WINDOW}")));
         }
         for (name, v) in [("joint_timeout", self.joint_timeout), ("wrench_timeout", self.wrench_timeout)] {
             if !(v > 0.0 && v.is_finite()) {
-                return Err(format!("{name} = {v} must be a positive number of seconds"));
+                return Err(crate::pipeline::ConfigError::invalid(format!("{name}"), v, "must be a positive number of seconds"));
             }
         }
         Ok(())
@@ -308,9 +308,9 @@ mod tests {
     #[test]
     fn bad_settings_are_rejected_with_the_field_name() {
         let mut p = params(0);
-        assert!(p.validate().unwrap_err().contains("median_window"));
+        assert!(p.validate().unwrap_err().to_string().contains("median_window"));
         p.median_window = 3;
         p.wrench_timeout = -1.0;
-        assert!(p.validate().unwrap_err().contains("wrench_timeout"));
+        assert!(p.validate().unwrap_err().to_string().contains("wrench_timeout"));
     }
 }

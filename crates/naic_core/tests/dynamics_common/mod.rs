@@ -32,15 +32,14 @@ pub fn jk5_path() -> PathBuf {
     repo_root().join("urdf/jk5.urdf")
 }
 
-/// Deterministic xorshift random numbers.
-pub struct Rng(pub u64);
+/// The project's random numbers (`naic_core::rng`), with the draws these tests need.
+pub struct Rng(naic_core::rng::Rng);
 impl Rng {
+    pub fn seed(seed: u64) -> Rng {
+        Rng(naic_core::rng::Rng::seed(seed))
+    }
     pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let x = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
-        lo + (hi - lo) * (x as f64 / (1u64 << 53) as f64)
+        self.0.range(lo, hi)
     }
     pub fn vec(&mut self, n: usize, lo: f64, hi: f64) -> nalgebra::DVector<f64> {
         nalgebra::DVector::from_fn(n, |_, _| self.uniform(lo, hi))

@@ -103,6 +103,22 @@ fn lockstep_pairs_each_joint_state_with_the_wrench_of_its_stamp() {
 }
 
 #[test]
+fn before_the_first_wrench_a_joint_state_waits_for_discovery() {
+    // Discovery matched /joint_states before /wrench: the first cycle waits for the first
+    // wrench (seconds if need be) instead of holding on a missing one, so a lockstep run
+    // does not depend on the order in which the driver's writers were matched.
+    let p = params(TimeBase::Sim);
+    let s = State::new(&p);
+    let (s, o) = run(&p, &s, Inbox { joint_states: Some(&js(0, ORDER)), ..Default::default() }, MS);
+    assert_eq!((o.effort, o.report, o.wait_until_ns), (None, None, Some(MS + FIRST_PAIR_TIMEOUT_NS)));
+    let (s, o) = run(&p, &s, Inbox::default(), MS + PAIR_TIMEOUT_NS);
+    assert_eq!(o.wait_until_ns, Some(MS + FIRST_PAIR_TIMEOUT_NS), "still waiting after the usual timeout");
+    let (_, o) = run(&p, &s, Inbox { wrench: Some(&wrench(0, 1.0)), ..Default::default() }, 3_000 * MS);
+    let r = o.report.unwrap();
+    assert!(r.fault.is_none() && r.status.phase != Phase::Hold, "{r:?}");
+}
+
+#[test]
 fn a_wrench_that_never_comes_is_stale_by_the_stamps() {
     let p = params(TimeBase::Sim);
     let s = State::new(&p);

@@ -98,13 +98,13 @@ impl Mode {
     pub const ALL: [Mode; 4] = [Mode::Naic, Mode::Aic, Mode::Fixed, Mode::Scheduled];
 
     /// Parses `fixed`, `aic`, `naic` or `scheduled`.
-    pub fn parse(s: &str) -> Result<Mode, String> {
+    pub fn parse(s: &str) -> Result<Mode, crate::pipeline::ConfigError> {
         match s.trim().to_ascii_lowercase().as_str() {
             "fixed" => Ok(Mode::Fixed),
             "aic" => Ok(Mode::Aic),
             "naic" => Ok(Mode::Naic),
             "scheduled" => Ok(Mode::Scheduled),
-            other => Err(format!("unknown controller mode '{other}': use naic, aic, fixed or scheduled")),
+            other => Err(crate::pipeline::ConfigError::invalid("controller mode", format!("'{other}'"), "is unknown: use naic, aic, fixed or scheduled")),
         }
     }
 }
@@ -451,6 +451,8 @@ mod tests {
             assert_eq!(Mode::parse(m.as_str()), Ok(m));
         }
         let e = Mode::parse("pid").unwrap_err();
+        assert!(matches!(&e, crate::pipeline::ConfigError::Invalid { field, value, .. } if field == "controller mode" && value == "'pid'"), "{e:?}");
+        let e = e.to_string();
         assert!(e.contains("pid") && e.contains("naic"), "{e}");
     }
 

@@ -105,78 +105,73 @@ pub struct ControlParams {
 
 impl ControlParams {
     /// Checks every value; the message names the parameter and the fix.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         let imp = &self.impedance;
         for i in 0..6 {
             if !(imp.m_d[i] > 0.0 && imp.m_d[i].is_finite()) {
-                return Err(format!("m_d[{i}] = {} must be a positive finite mass", imp.m_d[i]));
+                return Err(crate::pipeline::ConfigError::invalid(format!("m_d[{i}]"), imp.m_d[i], "must be a positive finite mass"));
             }
             for (name, v) in [("b_d", imp.b_d[i]), ("k_d (free)", imp.k_free[i]), ("k_d (contact)", imp.k_contact[i])] {
                 if !(v >= 0.0 && v.is_finite()) {
-                    return Err(format!("{name}[{i}] = {v} must be a finite value >= 0"));
+                    return Err(crate::pipeline::ConfigError::invalid(format!("{name}[{i}]"), v, "must be a finite value >= 0"));
                 }
             }
         }
         if self.force_axis.axis > 2 {
-            return Err(format!("force_axis = {} must be 0, 1 or 2 (x, y, z)", self.force_axis.axis));
+            return Err(crate::pipeline::ConfigError::invalid("force_axis", self.force_axis.axis, "must be 0, 1 or 2 (x, y, z)"));
         }
         if self.force_axis.sign != 1.0 && self.force_axis.sign != -1.0 {
-            return Err(format!("force axis sign = {} must be +1 or -1", self.force_axis.sign));
+            return Err(crate::pipeline::ConfigError::invalid("force axis sign", self.force_axis.sign, "must be +1 or -1"));
         }
         let fl = &self.force_law;
         if !(fl.gamma >= 0.0 && fl.gamma.is_finite()) {
-            return Err(format!("learning_rate (gamma) = {} must be a finite value >= 0 (eq 15)", fl.gamma));
+            return Err(crate::pipeline::ConfigError::invalid("learning_rate (gamma)", fl.gamma, "must be a finite value >= 0 (eq 15)"));
         }
         if !(fl.lambda > 0.0 && fl.lambda.is_finite()) {
-            return Err(format!("control period (lambda) = {} s must be positive", fl.lambda));
+            return Err(crate::pipeline::ConfigError::invalid("control period (lambda)", fl.lambda, "s must be positive"));
         }
         if !(fl.sigma_margin > 0.0) {
-            return Err(format!("sigma_margin = {} must be > 0 (inf disables the σ stability bound)", fl.sigma_margin));
+            return Err(crate::pipeline::ConfigError::invalid("sigma_margin", fl.sigma_margin, "must be > 0 (inf disables the σ stability bound)"));
         }
         if !(fl.integral_limit_n > 0.0) {
-            return Err(format!("integral_limit_n = {} must be > 0 N (inf: eq 9 without anti-windup)", fl.integral_limit_n));
+            return Err(crate::pipeline::ConfigError::invalid("integral_limit_n", fl.integral_limit_n, "must be > 0 N (inf: eq 9 without anti-windup)"));
         }
         if !(fl.sigma >= 0.0 && fl.sigma.is_finite()) {
-            return Err(format!("sigma = {} must be a finite value >= 0", fl.sigma));
+            return Err(crate::pipeline::ConfigError::invalid("sigma", fl.sigma, "must be a finite value >= 0"));
         }
         let b = &fl.bounds;
         let n = self.force_axis.axis;
         if !(b.m_d.0 > 0.0 && b.m_d.0 <= imp.m_d[n] && imp.m_d[n] <= b.m_d.1) {
-            return Err(format!("m_d on the force axis ({}) must lie in the NAIC weight bounds {:?}, lower bound > 0", imp.m_d[n], b.m_d));
+            return Err(crate::pipeline::ConfigError::invalid("m_d on the force axis", imp.m_d[n], format!("must lie in the NAIC weight bounds {:?}, lower bound > 0", b.m_d)));
         }
         if !(b.b_d.0 > 0.0 && b.b_d.0 <= imp.b_d[n] && imp.b_d[n] <= b.b_d.1) {
-            return Err(format!("b_d on the force axis ({}) must lie in the NAIC weight bounds {:?}, lower bound > 0", imp.b_d[n], b.b_d));
+            return Err(crate::pipeline::ConfigError::invalid("b_d on the force axis", imp.b_d[n], format!("must lie in the NAIC weight bounds {:?}, lower bound > 0", b.b_d)));
         }
         if !(b.sigma.0 <= fl.sigma && fl.sigma <= b.sigma.1) {
-            return Err(format!("sigma ({}) must lie in the NAIC weight bounds {:?}", fl.sigma, b.sigma));
+            return Err(crate::pipeline::ConfigError::invalid("sigma", fl.sigma, format!("must lie in the NAIC weight bounds {:?}", b.sigma)));
         }
         if fl.mode == Mode::Scheduled {
             fl.scheduled.validate()?;
         }
         let fl = &self.force_limit;
         if !(fl.limit_n > self.contact.enter_n) {
-            return Err(format!(
-                "force_limit = {} N must be above the contact threshold {} N",
-                fl.limit_n, self.contact.enter_n
-            ));
+            return Err(crate::pipeline::ConfigError::invalid("force_limit", fl.limit_n, format!("N must be above the contact threshold {} N", self.contact.enter_n)));
         }
         if !(fl.retract_speed > 0.0 && fl.retract_speed <= 0.5) {
-            return Err(format!("retract speed = {} m/s must be in (0, 0.5]", fl.retract_speed));
+            return Err(crate::pipeline::ConfigError::invalid("retract speed", fl.retract_speed, "m/s must be in (0, 0.5]"));
         }
         let c = &self.contact;
         if !(c.enter_n > 0.0 && c.enter_n.is_finite() && c.exit_n >= 0.0 && c.exit_n <= c.enter_n) {
-            return Err(format!(
-                "contact_threshold: enter = {} N must be > 0 and exit = {} N in [0, enter]",
-                c.enter_n, c.exit_n
-            ));
+            return Err(crate::pipeline::ConfigError::invalid("contact_threshold: enter", c.enter_n, format!("N must be > 0 and exit = {} N in [0, enter]", c.exit_n)));
         }
         Ok(())
     }
 }
 
 /// The phase of the two-phase controller (§3.1), plus the safe hold.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Phase {
+    #[default]
     Free = 0,
     Contact = 1,
     /// Measurements unusable: gravity compensation and joint damping only.
@@ -219,6 +214,20 @@ impl ControlState {
             return *self;
         }
         Self { retract_left: 0, retract_hold: None, phase: Phase::Free, below_exit: 0, ..*self }
+    }
+
+    /// The state a safe hold leaves (every held cycle): phase `Hold`, and the force law
+    /// starts again from its configured weights (NAIC's `m_d`, `b_d`, `σ`, eq 10–15; the
+    /// scheduled law's estimator and integral); a force-limit retraction, in progress or
+    /// latched, is kept. What was learned before the fault is not carried into the next
+    /// contact: the hold let the tool leave the surface, and NAIC's weights, which drift
+    /// with every contact transient (m_d down, σ up), had reached m_d = 0.05 kg and
+    /// σ = 0.22 after two holds on `flat`, where the re-contact limit-cycles at 25 Hz and
+    /// spins joint 4 past its 6.28 rad/s limit (`nodes/naic_controller/tests/faults_in_process.rs`).
+    pub fn hold(&self, p: &ControlParams) -> Self {
+        let fresh = Self::new(p);
+        let sched = ScheduledState { k_known: self.sched.k_known, ..fresh.sched };
+        Self { phase: Phase::Hold, below_exit: 0, law: fresh.law, sched, ..*self }
     }
 
     /// A force-limit retraction is in progress or latched.
@@ -280,6 +289,17 @@ fn eq6(imp: &ImpedanceParams, k: &[f64; 6], u: &TaskInputs) -> Vector6<f64> {
 /// One cycle of the control stage (contact detection + eq 6/8 per axis).
 /// Pure: `(params, state, inputs) -> (state, outputs)`.
 pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
+    let (mut next, out) = step_phases(p, s, u);
+    if p.force_law.mode == Mode::Scheduled && (next.phase != Phase::Contact || out.retracting) {
+        // The scheduled law's predictor remembers every command along n; in contact the
+        // law pushes its own (without the feedforward correction).
+        let ax = p.force_axis.axis;
+        next.sched = next.sched.commanded(p.force_axis.sign * out.v[ax]);
+    }
+    (next, out)
+}
+
+fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
     let ax = p.force_axis.axis;
     let sign = p.force_axis.sign;
     let f_ext = sign * u.f_e[ax];
@@ -291,7 +311,15 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
         next.retract_hold = None;
         next.phase = Phase::Free;
     }
-    let imp = &p.impedance;
+    let bounded;
+    let imp = if p.force_law.mode == Mode::Scheduled {
+        // The scheduled law bounds every axis' damping-to-mass ratio by the loop delay.
+        let sp = &p.force_law.scheduled.schedule;
+        bounded = ImpedanceParams { m_d: scheduled::schedule::axis_masses(sp, &p.impedance.m_d, &p.impedance.b_d, p.force_law.lambda), ..p.impedance };
+        &bounded
+    } else {
+        &p.impedance
+    };
     if next.retract_left > 0 {
         next.retract_left -= 1;
         next.phase = Phase::Free;
@@ -348,7 +376,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     if contact && scheduled {
         let fl = &p.force_law;
         let inputs =
-            ScheduledInputs { x: sign * u.p[ax], x_dot: sign * u.x_dot[ax], e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d };
+            ScheduledInputs { x: sign * u.p[ax], x_dot: sign * u.x_dot[ax], e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d, xdd_d: sign * u.a_d[ax] };
         let (sched, r) = scheduled::step(&fl.scheduled, fl.lambda, fl.integral_limit_n, &next.sched, &inputs);
         next.sched = sched;
         let g = &sched.gains;
@@ -374,9 +402,28 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
         out.k_d = 0.0;
         out.law = report;
     } else if scheduled {
-        // Approach: limit the speed along n near the expected surface.
+        // Free space: a PI velocity servo along n toward the reference (robust to a model
+        // error), slower near an expected surface (`scheduled::approach_accel`).
         let a = &p.force_law.scheduled.approach;
-        let a_n = scheduled::approach_accel(a, a.expected_surface.map_or(f64::NAN, |z| sign * z), sign * u.p[ax], sign * u.x_dot[ax], sign * out.v[ax], imp.b_d[ax] / imp.m_d[ax]);
+        let free = scheduled::ApproachAxis {
+            m: imp.m_d[ax],
+            b: imp.b_d[ax],
+            k: imp.k_free[ax],
+            e: sign * u.e[ax],
+            v_d: sign * (u.e_dot[ax] + u.x_dot[ax]),
+            a_d: sign * u.a_d[ax],
+        };
+        let (a_n, e) = scheduled::approach_accel(
+            a,
+            a.expected_surface.map_or(f64::NAN, |z| sign * z),
+            sign * u.p[ax],
+            sign * u.x_dot[ax],
+            free,
+            sign * out.v[ax],
+            next.sched.approach_integral,
+            p.force_law.lambda,
+        );
+        next.sched.approach_integral = e;
         out.v[ax] = sign * a_n;
     }
     if scheduled {
@@ -592,12 +639,12 @@ mod tests {
     fn invalid_parameters_name_themselves() {
         let mut p = params(Mode::Naic);
         p.force_law.gamma = -1.0;
-        assert!(p.validate().unwrap_err().contains("learning_rate"));
+        assert!(p.validate().unwrap_err().to_string().contains("learning_rate"));
         let mut p = params(Mode::Naic);
         p.impedance.m_d[3] = 0.0;
-        assert!(p.validate().unwrap_err().contains("m_d[3]"));
+        assert!(p.validate().unwrap_err().to_string().contains("m_d[3]"));
         let mut p = params(Mode::Naic);
         p.force_axis.axis = 4;
-        assert!(p.validate().unwrap_err().contains("force_axis"));
+        assert!(p.validate().unwrap_err().to_string().contains("force_axis"));
     }
 }

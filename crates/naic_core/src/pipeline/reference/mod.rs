@@ -81,7 +81,7 @@ impl ReferenceParams {
     }
 
     /// Every bound positive (rates may be `inf`), ranges ordered; the message names the parameter.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         let positive = [
             ("max_speed", self.linear.max_speed),
             ("max_accel", self.linear.max_accel),
@@ -92,27 +92,24 @@ impl ReferenceParams {
         ];
         for (name, v) in positive {
             if !(v > 0.0 && v.is_finite()) {
-                return Err(format!("{name} = {v} must be a positive finite number (SI units)"));
+                return Err(crate::pipeline::ConfigError::invalid(format!("{name}"), v, "must be a positive finite number (SI units)"));
             }
         }
         if !(self.max_force_rate > 0.0) {
-            return Err(format!("max_force_rate = {} N/s must be > 0 (inf: no limit)", self.max_force_rate));
+            return Err(crate::pipeline::ConfigError::invalid("max_force_rate", self.max_force_rate, "N/s must be > 0 (inf: no limit)"));
         }
         if !(self.force_min.is_finite() && self.force_max.is_finite() && self.force_min <= self.force_max) {
-            return Err(format!("force range [{}, {}] N must be finite and ordered", self.force_min, self.force_max));
+            return Err(crate::pipeline::ConfigError::invalid("force range", format!("[{}, {}]", self.force_min, self.force_max), "N must be finite and ordered"));
         }
         if !(self.default_force >= self.force_min && self.default_force <= self.force_max) {
-            return Err(format!(
-                "desired_force = {} N is outside the accepted range [{}, {}] N",
-                self.default_force, self.force_min, self.force_max
-            ));
+            return Err(crate::pipeline::ConfigError::invalid("desired_force", self.default_force, format!("N is outside the accepted range [{}, {}] N", self.force_min, self.force_max)));
         }
         let ws = &self.workspace;
         if !(0..3).all(|i| ws.min[i].is_finite() && ws.max[i].is_finite() && ws.min[i] < ws.max[i]) {
-            return Err(format!("workspace box min {:?} / max {:?} must be finite with min < max", ws.min.as_slice(), ws.max.as_slice()));
+            return Err(crate::pipeline::ConfigError::invalid("workspace box", format!("min {:?} / max {:?}", ws.min.as_slice(), ws.max.as_slice()), "must be finite with min < max"));
         }
         if self.base_frame.is_empty() {
-            return Err("base_frame is empty: give the URDF's root link (e.g. base_link)".into());
+            return Err(crate::pipeline::ConfigError::invalid("base_frame", "''", "is empty: give the URDF's root link (e.g. base_link)"));
         }
         Ok(())
     }

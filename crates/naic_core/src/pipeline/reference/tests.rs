@@ -240,15 +240,15 @@ fn parameters_are_validated_with_names() {
     let mut p = params();
     assert!(p.validate().is_ok());
     p.linear.max_speed = 0.0;
-    assert!(p.validate().unwrap_err().contains("max_speed"));
+    assert!(p.validate().unwrap_err().to_string().contains("max_speed"));
     let mut p = params();
     p.max_force_rate = f64::INFINITY;
     assert!(p.validate().is_ok());
     p.default_force = 500.0;
-    assert!(p.validate().unwrap_err().contains("desired_force"));
+    assert!(p.validate().unwrap_err().to_string().contains("desired_force"));
     let mut p = params();
     p.timeout = f64::NAN;
-    assert!(p.validate().unwrap_err().contains("reference_timeout"));
+    assert!(p.validate().unwrap_err().to_string().contains("reference_timeout"));
 }
 
 /// One cycle of random input: a time step (sometimes negative, huge or NaN) and maybe samples.

@@ -75,9 +75,9 @@ impl Default for EstimatorParams {
 }
 
 impl EstimatorParams {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         if !(self.forgetting > 0.5 && self.forgetting <= 1.0) {
-            return Err(format!("estimator.forgetting = {} must be in (0.5, 1]", self.forgetting));
+            return Err(crate::pipeline::ConfigError::invalid("estimator.forgetting", self.forgetting, "must be in (0.5, 1]"));
         }
         for (name, v) in [
             ("noise_n", self.noise_n),
@@ -87,11 +87,15 @@ impl EstimatorParams {
             ("jump_min_n", self.jump_min_n),
         ] {
             if !(v > 0.0 && v.is_finite()) {
-                return Err(format!("estimator.{name} = {v} must be a positive finite number"));
+                return Err(crate::pipeline::ConfigError::invalid(format!("estimator.{name}"), v, "must be a positive finite number"));
             }
         }
         if !(self.v_excite >= 0.0 && self.jump_fraction >= 0.0 && self.jump_cycles >= 1) {
-            return Err("estimator: v_excite and jump_fraction must be >= 0, jump_cycles >= 1".into());
+            return Err(crate::pipeline::ConfigError::invalid(
+                "estimator (v_excite, jump_fraction, jump_cycles)",
+                format!("({}, {}, {})", self.v_excite, self.jump_fraction, self.jump_cycles),
+                "must be >= 0, >= 0 and >= 1",
+            ));
         }
         Ok(())
     }

@@ -48,15 +48,19 @@ impl Default for LearningParams {
 }
 
 impl LearningParams {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         if !(self.learning_rate >= 0.0 && self.learning_rate.is_finite()) {
-            return Err(format!("scheduled learning_rate = {} must be finite and >= 0", self.learning_rate));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled learning_rate", self.learning_rate, "must be finite and >= 0"));
         }
         if !(self.beta > 0.0 && self.beta <= 1.0) || self.eps.iter().any(|e| !(*e > 0.0 && e.is_finite())) {
-            return Err("scheduled learning: beta must be in (0, 1], eps > 0".into());
+            return Err(crate::pipeline::ConfigError::invalid(
+                "scheduled learning (beta, eps)",
+                format!("({}, {:?})", self.beta, self.eps),
+                "must be in (0, 1] and > 0",
+            ));
         }
         if !(self.max_relative >= 0.0 && self.max_relative < 1.0) {
-            return Err(format!("scheduled learning max_relative = {} must be in [0, 1)", self.max_relative));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled learning max_relative", self.max_relative, "must be in [0, 1)"));
         }
         Ok(())
     }
@@ -181,7 +185,9 @@ mod tests {
         // moves each weight by a similar fraction of its own size.
         let sp = ScheduleParams::default();
         let lp = LearningParams { learning_rate: 0.05, max_relative: 0.9, ..Default::default() };
-        let g = schedule(&sp, 2000.0, 1e-3);
+        // a stiffness where m_d is above m_d_min (free to move both ways)
+        let g = schedule(&sp, 30_000.0, 1e-3);
+        assert!(g.m_d > sp.m_d_min * 1.5, "{g:?}");
         let mut s = Learning::default();
         for k in 0..50 {
             let t = k as f64 * 1e-3;

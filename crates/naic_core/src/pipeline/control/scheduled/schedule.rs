@@ -29,9 +29,16 @@
 //!    a good margin only for `(b_d/m_d) τ_v ≤ α` (α < π/2 is the stability
 //!    limit; α = 0.7 keeps the phase margin ≈ 50°). With near-critical damping
 //!    `b_d = 2ζ√(k_e m_d)` this is `2ζ ω_n τ_v ≤ α`, a lower bound on the mass:
-//!    `m_d ≥ k_e (2ζτ_v/α)²`. On soft surfaces `m_d_min` (0.25 kg, for speed) wins;
-//!    on acrylic (d = 2) the mass grows to ≈ 8 kg (ω_n = 78 rad/s) — a light virtual
-//!    mass on a hard surface with a delayed loop is what makes it chatter.
+//!    `m_d ≥ k_e (2ζτ_v/α)²`. On soft surfaces `m_d_min` (0.1 kg) wins; on acrylic the
+//!    mass grows to ≈ 0.9 kg with the predictor (residual τ_v = 1.5 ms, ω_n ≈ 230 rad/s)
+//!    and to ≈ 8 kg without it (τ_v = 4.5 ms at d = 2, ω_n = 78 rad/s) — a light virtual
+//!    mass on a hard surface with a delayed loop is what makes it chatter. The lightest
+//!    mass matters beyond speed: a disturbance force Δ on the arm (friction, model
+//!    error) reaches the contact force as `(m_d / D) Δ`.
+//!
+//!    All delays in these bounds are the residual delays the predictor leaves
+//!    ([`ScheduleParams::delay`], [`ScheduleParams::velocity_delay`]); the predictor is
+//!    designed for `delay_cycles`.
 //!    With `m_d` from this bound, `b_d / m_d = 2ζ ω_n ≤ α/τ` holds, and the
 //!    delay floor is below the critical damping whenever `4ζ²/α > 1`
 //!    (checked by [`ScheduleParams::validate`]).
@@ -77,12 +84,16 @@ pub struct ScheduleParams {
     /// The stiffness the schedule accepts, [N/m]; NaN or outside → clamped (NaN → k_max).
     pub k_min: f64,
     pub k_max: f64,
+    /// Fraction of the loop delay the predictor ([`super::predictor`]) is trusted to cancel,
+    /// in [0, 1): the bounds below use the residual delays `(½ + (1 − prediction)·d) T` and
+    /// `(½ + (1 − prediction)(d + velocity_lag)) T`. 0 turns the predictor off.
+    pub prediction: f64,
 }
 
 impl Default for ScheduleParams {
     fn default() -> Self {
         Self {
-            m_d_min: 0.25,
+            m_d_min: 0.1,
             zeta: 1.0,
             delay_cycles: 2.0,
             alpha: 0.7,
@@ -93,14 +104,15 @@ impl Default for ScheduleParams {
             integral_bandwidth: 0.3,
             k_min: 300.0,
             k_max: 1.0e5,
+            prediction: 0.75,
         }
     }
 }
 
 impl ScheduleParams {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         let pos = |name: &str, v: f64| {
-            if v > 0.0 && v.is_finite() { Ok(()) } else { Err(format!("scheduled.{name} = {v} must be a positive finite number")) }
+            if v > 0.0 && v.is_finite() { Ok(()) } else { Err(crate::pipeline::ConfigError::invalid(format!("scheduled.{name}"), v, "must be a positive finite number")) }
         };
         pos("m_d_min", self.m_d_min)?;
         pos("zeta", self.zeta)?;
@@ -109,41 +121,61 @@ impl ScheduleParams {
         pos("k_min", self.k_min)?;
         pos("k_max", self.k_max)?;
         if !(self.velocity_lag_cycles >= 0.0 && self.velocity_lag_cycles <= 20.0) {
-            return Err(format!("scheduled.velocity_lag_cycles = {} must be in [0, 20]", self.velocity_lag_cycles));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.velocity_lag_cycles", self.velocity_lag_cycles, "must be in [0, 20]"));
         }
         if !(self.delay_cycles >= 0.0 && self.delay_cycles <= 20.0) {
-            return Err(format!("scheduled.delay_cycles = {} must be in [0, 20] control periods", self.delay_cycles));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.delay_cycles", self.delay_cycles, "must be in [0, 20] control periods"));
         }
         if !(self.alpha < std::f64::consts::FRAC_PI_2) {
-            return Err(format!("scheduled.alpha = {} must be below π/2 (the delayed velocity loop's stability limit)", self.alpha));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.alpha", self.alpha, "must be below π/2 (the delayed velocity loop's stability limit)"));
         }
         if !(self.floor_margin >= 1.0 && self.floor_margin * self.alpha <= 4.0 * self.zeta * self.zeta) {
-            return Err(format!(
-                "scheduled.floor_margin = {} must be >= 1 and floor_margin·alpha <= 4ζ² (= {}) so that damping at the floor keeps (b_d/m_d)τ <= alpha",
-                self.floor_margin,
-                4.0 * self.zeta * self.zeta
-            ));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.floor_margin", self.floor_margin, format!("must be >= 1 and floor_margin·alpha <= 4ζ² (= {}) so that damping at the floor keeps (b_d/m_d)τ <= alpha", 4.0 * self.zeta * self.zeta)));
         }
         if !(self.sigma_fraction >= 0.0 && self.sigma_fraction < 1.0) {
-            return Err(format!("scheduled.sigma_fraction = {} must be in [0, 1) (fraction of the σ stability bound)", self.sigma_fraction));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.sigma_fraction", self.sigma_fraction, "must be in [0, 1) (fraction of the σ stability bound)"));
         }
         if !(self.integral_bandwidth >= 0.0 && self.integral_bandwidth.is_finite()) {
-            return Err(format!("scheduled.integral_bandwidth = {} must be finite and >= 0", self.integral_bandwidth));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.integral_bandwidth", self.integral_bandwidth, "must be finite and >= 0"));
+        }
+        if !(self.prediction >= 0.0 && self.prediction < 1.0) {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.prediction", self.prediction, "must be in [0, 1) (fraction of the delay the predictor cancels)"));
+        }
+        if self.prediction > 0.0 && self.horizons().1 > super::predictor::HISTORY {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled: delay_cycles + velocity_lag_cycles", self.delay_cycles + self.velocity_lag_cycles, format!("exceeds the predictor's history of {} cycles", super::predictor::HISTORY)));
         }
         if !(self.k_min < self.k_max) {
-            return Err(format!("scheduled.k_min = {} must be below k_max = {}", self.k_min, self.k_max));
+            return Err(crate::pipeline::ConfigError::invalid("scheduled.k_min", self.k_min, format!("must be below k_max = {}", self.k_max)));
         }
         Ok(())
     }
 
-    /// `τ = (d + ½) T` [s]: the delay of the force feedback.
+    /// `τ = ((1 − prediction) d + ½) T` [s]: the delay of the force feedback the
+    /// predictor leaves (the whole loop delay without it).
     pub fn delay(&self, period: f64) -> f64 {
-        (self.delay_cycles + 0.5) * period
+        ((1.0 - self.prediction) * self.delay_cycles + 0.5) * period
     }
 
-    /// `τ_v = (d + velocity_lag + ½) T` [s]: the delay of the velocity feedback.
+    /// `τ_v = ((1 − prediction)(d + velocity_lag) + ½) T` [s]: the delay of the velocity
+    /// feedback the predictor leaves.
     pub fn velocity_delay(&self, period: f64) -> f64 {
+        ((1.0 - self.prediction) * (self.delay_cycles + self.velocity_lag_cycles) + 0.5) * period
+    }
+
+    /// `(d + velocity_lag + ½) T` [s]: the whole velocity delay, for the axes without a
+    /// predictor ([`axis_masses`]).
+    pub fn loop_velocity_delay(&self, period: f64) -> f64 {
         (self.delay_cycles + self.velocity_lag_cycles + 0.5) * period
+    }
+
+    /// The predictor's horizons `(n_x, n_v) = (d, d + velocity_lag)` [cycles], `(0, 0)`
+    /// with the predictor off.
+    pub fn horizons(&self) -> (usize, usize) {
+        if self.prediction > 0.0 {
+            (self.delay_cycles.round() as usize, (self.delay_cycles + self.velocity_lag_cycles).round() as usize)
+        } else {
+            (0, 0)
+        }
     }
 }
 
@@ -174,6 +206,22 @@ pub fn sigma_bound(m_d: f64, b_d: f64, period: f64) -> f64 {
     b_d * period / (m_d + b_d * period)
 }
 
+/// Bound 2 on every axis of the Cartesian impedance (the scheduled law's free space and
+/// the axes other than the force axis, which have no predictor): `m_i ≥ b_i τ_v / α` with
+/// the whole velocity delay `τ_v = (d + velocity_lag + ½) T`.
+///
+/// The paper's `B_d = 500` (N·s/m, N·m·s/rad) on x, y and the rotations with `M_d = 1`
+/// gives `(b/m) τ_v = 1.75` at d = 1 and 2.25 at d = 2, past the stability limit π/2 of
+/// the delayed velocity loop: those axes chatter, held back only by joint friction, and
+/// the chatter reaches the contact force (±0.3–0.8 N while sliding on `flat`, the
+/// "stick-slip" of docs/controller.md). Raising the mass to the bound (3.2 at d = 2) keeps
+/// the damping and stiffness (the steady behaviour) and only slows those axes' fastest
+/// mode. Masses already above the bound are kept.
+pub fn axis_masses(p: &ScheduleParams, m_d: &[f64; 6], b_d: &[f64; 6], period: f64) -> [f64; 6] {
+    let tau_v = p.loop_velocity_delay(period);
+    std::array::from_fn(|i| m_d[i].max(b_d[i] * tau_v / p.alpha))
+}
+
 /// Gains for stiffness `k_e` at control period `period`. Total: any `k_e`
 /// (NaN, ±∞, negative) gives finite gains within every bound.
 pub fn schedule(p: &ScheduleParams, k_e: f64, period: f64) -> Gains {
@@ -201,13 +249,17 @@ mod tests {
         let f1 = delay_floor(50_000.0, 1.0, 6.4, 1.5e-3);
         let f2 = delay_floor(50_000.0, 1.0, 6.4, 2.5e-3);
         assert!((f1 - 63.3).abs() < 0.1 && (f2 - 105.5).abs() < 0.1, "{f1} {f2}");
-        let g = schedule(&p, 2000.0, 1e-3);
-        assert!((g.m_d - 0.25f64.max(2000.0 * (2.0 * 4.5e-3 / 0.7f64).powi(2))).abs() < 1e-12, "{g:?}");
+        // With the predictor cancelling 3/4 of the d = 2 delay the velocity loop sees
+        // τ_v = (¼ (2 + 2) + ½) T = 1.5 ms; without it 4.5 ms.
+        assert!((p.velocity_delay(1e-3) - 1.5e-3).abs() < 1e-15);
+        assert!((ScheduleParams { prediction: 0.0, ..p }.velocity_delay(1e-3) - 4.5e-3).abs() < 1e-15);
+        let g = schedule(&p, 20_000.0, 1e-3);
+        assert!((g.m_d - 0.1f64.max(20_000.0 * (2.0 * 1.5e-3 / 0.7f64).powi(2))).abs() < 1e-12, "{g:?}");
         let g = schedule(&p, 1000.0, 1e-3);
-        assert_eq!(g.m_d, 0.25);
-        assert!((g.b_d - 2.0 * (1000.0f64 * 0.25).sqrt()).abs() < 1e-9);
+        assert_eq!(g.m_d, 0.1);
+        assert!((g.b_d - 2.0 * (1000.0f64 * 0.1).sqrt()).abs() < 1e-9);
         let g = schedule(&p, 50_000.0, 1e-3);
-        assert!(g.m_d > 8.0 && g.b_d > g.b_floor && g.b_d <= g.b_max * (1.0 + 1e-12), "{g:?}");
+        assert!(g.m_d > 0.9 && g.b_d > g.b_floor && g.b_d <= g.b_max * (1.0 + 1e-12), "{g:?}");
         // the paper's b_d = 40 is below the floor of its own m_d = 1 on acrylic
         assert!(40.0 < f1);
     }
@@ -238,12 +290,39 @@ mod tests {
         }
     }
 
+    proptest! {
+        /// Every Cartesian axis: `(b_i / m_i) τ_v ≤ α` with the whole loop delay, masses
+        /// never lowered, damping and stiffness untouched.
+        #[test]
+        fn axis_masses_bound_every_axis(
+            m in proptest::array::uniform6(0.01..10.0f64),
+            b in proptest::array::uniform6(0.0..2000.0f64),
+            d in 0.0..4.0f64,
+        ) {
+            let p = ScheduleParams { delay_cycles: d, ..Default::default() };
+            let out = axis_masses(&p, &m, &b, 1e-3);
+            for i in 0..6 {
+                prop_assert!(out[i] >= m[i] && out[i].is_finite());
+                prop_assert!(b[i] * p.loop_velocity_delay(1e-3) / out[i] <= p.alpha * (1.0 + 1e-12));
+            }
+        }
+    }
+
+    #[test]
+    fn paper_tangential_impedance_is_past_the_delay_limit() {
+        // B_d = 500, M_d = 1 (x, y, rotations): (b/m) τ_v = 2.25 at d = 2 > π/2; raised to 3.2.
+        let p = ScheduleParams::default();
+        assert!(500.0 * p.loop_velocity_delay(1e-3) > std::f64::consts::FRAC_PI_2);
+        let m = axis_masses(&p, &[1.0; 6], &[500.0, 500.0, 40.0, 500.0, 500.0, 500.0], 1e-3);
+        assert!((m[0] - 500.0 * 4.5e-3 / 0.7).abs() < 1e-12 && m[2] == 1.0, "{m:?}");
+    }
+
     #[test]
     fn bad_settings_are_named() {
         let p = ScheduleParams { alpha: 2.0, ..Default::default() };
-        assert!(p.validate().unwrap_err().contains("alpha"));
+        assert!(p.validate().unwrap_err().to_string().contains("alpha"));
         let p = ScheduleParams { k_min: 1e6, ..Default::default() };
-        assert!(p.validate().unwrap_err().contains("k_min"));
+        assert!(p.validate().unwrap_err().to_string().contains("k_min"));
         assert!(ScheduleParams::default().validate().is_ok());
     }
 }

@@ -1,4 +1,4 @@
-//! A small SVG line-plot writer for the paper-style figures (stacked panels
+//! The project's SVG line-plot writer for the paper-style figures (stacked panels
 //! sharing the time axis, readable ticks, axis labels and a legend).
 
 use std::fmt::Write;
