@@ -6,10 +6,12 @@
 //! an all-joint stage after the per-joint catalogue has run:
 //!
 //! 1. One least-squares fit on all joints together: the shared `Y_B δβ` plus, per joint,
-//!    that joint's nominal friction columns (Coulomb with its calibrated width, viscous),
-//!    against the same per-joint columns without `Y_B`. (Each joint's first-pass final model
-//!    was used before: its effects had already absorbed part of a rigid-body error and
-//!    biased δβ.) Held out on the same
+//!    that joint's nominal friction columns (Coulomb with its calibrated width, viscous) and
+//!    the first pass's `rotor_inertia` / `payload` columns when it found them (specific
+//!    rigid-body-like effects, kept first where they suffice), against the same per-joint
+//!    columns without `Y_B`. (Each joint's whole first-pass model was used before: effects such
+//!    as `stribeck`, `position_torque` or `torque_offset` had already absorbed part of a
+//!    rigid-body error and biased δβ.) Held out on the same
 //!    time-block folds. The stage is significant when the mean over joints of the held-out
 //!    gain is ≥ `min_gain`, the normalised held-out sum is lower in ≥ `min_fold_wins` folds,
 //!    and BIC with one noise level per joint, `Σ_j n_eff,j ln(SSR_j'/SSR_j) + r ln(Σ n_eff)`,
@@ -136,7 +138,11 @@ pub fn fit(
         .iter()
         .map(|res| {
             if nominal_only {
-                nominal_cols.clone()
+                // the nominal friction, and the first pass's own rigid-body-like findings
+                // (a rotor inertia, a payload: specific, and kept first where they suffice)
+                let mut c = nominal_cols.clone();
+                c.extend(res.final_eval.columns.iter().copied().filter(|c| matches!(c, Col::Rotor | Col::Payload)));
+                c
             } else {
                 res.final_eval.columns.iter().copied().filter(|c| *c != Col::Inertial).collect()
             }
