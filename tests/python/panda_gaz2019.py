@@ -33,9 +33,8 @@ def write_csv(shared, path):
     np.savetxt(path, np.column_stack([t, q, dq, tau]), delimiter=",", header=hdr, comments="", fmt="%.9g")
 
 
-def published_rmse(shared, urdf, window_s, stride=10, v_rest=1e-3):
-    """Per joint RMSE of τ − RNEA(q, q̇, q̈) − τ_f(q̇) on the analysis instants, and the
-    same without friction (rigid body only)."""
+def _instants(shared, urdf, window_s, stride=10, v_rest=1e-3):
+    """The analysis instants: (q̇ there, keep mask, τ − RNEA(q, q̇, q̈))."""
     t, q, _, tau = load(shared)
     dt = 1e-3
     tg = np.arange(t[0], t[-1], dt)
@@ -60,7 +59,65 @@ def published_rmse(shared, urdf, window_s, stride=10, v_rest=1e-3):
     for k in range(len(idx)):
         lo, hi = max(k - margin + 1, 0), min(k + margin, len(idx) - 1)
         keep[k] = ~change[lo:hi + 1].any(axis=0)
-    r_rb = ts[idx] - rb
+    return vi, keep, ts[idx] - rb
+
+
+def published_rmse(shared, urdf, window_s, stride=10, v_rest=1e-3):
+    """Per joint RMSE of τ − RNEA(q, q̇, q̈) − τ_f(q̇) on the analysis instants, and the
+    same without friction (rigid body only)."""
+    vi, keep, r_rb = _instants(shared, urdf, window_s, stride, v_rest)
     r_pub = r_rb - published_friction(vi)
     rms = lambda r: np.sqrt(np.array([np.mean(r[keep[:, j], j] ** 2) for j in range(7)]))
     return rms(r_pub), rms(r_rb), keep.sum(axis=0)
+
+
+def friction_vs_published(shared, urdf, window_s, friction):
+    """An identified friction law next to the published one (Supp. Table I) on the analysis
+    instants: per joint the RMS and the largest |τ_f,identified(q̇) − τ_f,published(q̇)|, and the
+    published model's scatter there (the RMS of τ − RNEA − τ_f,published, its residual).
+    `friction(v)` maps the (N, 7) velocities to the identified friction torques."""
+    vi, keep, r_rb = _instants(shared, urdf, window_s)
+    diff = friction(vi) - published_friction(vi)
+    scatter = r_rb - published_friction(vi)
+    pick = lambda r, j: r[keep[:, j], j]  # noqa: E731
+    rms_diff = np.array([np.sqrt(np.mean(pick(diff, j) ** 2)) for j in range(7)])
+    max_diff = np.array([np.abs(pick(diff, j)).max() for j in range(7)])
+    sc = np.array([np.sqrt(np.mean(pick(scatter, j) ** 2)) for j in range(7)])
+    return rms_diff, max_diff, sc
+
+
+def baseline_friction(report):
+    """The baseline's f_v q̇ + f_c sgn(q̇) + f_o per joint from a report.json."""
+    b = [report["baseline"]["joints"][f"joint{j}"] for j in range(1, 8)]
+    fv, fc, fo = (np.array([x[k] for x in b]) for k in ("f_v", "f_c", "f_o"))
+    return lambda v: fv * v + fc * np.sign(v) + fo
+
+
+def extended_friction(report, params_yaml):
+    """The extended model's friction: the eq. 5 law of extended_params.yaml (exact sign) plus
+    a `torque_offset` finding, per joint."""
+    import yaml
+
+    joints = {j["joint"]: j for j in yaml.safe_load(open(params_yaml))["joints"]}
+    off = np.zeros(7)
+    for f in report["findings"]:
+        if f["significant"] and f["effect"] == "torque_offset":
+            for k, p in f["params"].items():
+                off[int(k.removeprefix("joint")) - 1] = p["offset_nm"]
+
+    def law(v):
+        out = np.zeros_like(v)
+        for j in range(7):
+            p = joints[j + 1]
+            x = v[:, j]
+            if "positive" in p:  # per direction
+                pp, pn = p["positive"], p["negative"]
+                for sel, q in ((x > 0, pp), (x < 0, pn)):
+                    out[sel, j] = np.sign(x[sel]) * (q["f_a"] + (q["f_b"] - q["f_a"]) * np.exp(-(x[sel] / q["q_s"]) ** 2)) + q["f_v"] * x[sel]
+            elif "f_c" in p:  # eq. 4
+                out[:, j] = p["f_c"] * np.sign(x) + p["f_v"] * x
+            else:
+                out[:, j] = np.sign(x) * (p["f_a"] + (p["f_b"] - p["f_a"]) * np.exp(-(x / p["q_s"]) ** 2)) + p["f_v"] * x
+        return out + off
+
+    return law

@@ -30,7 +30,8 @@ use std::time::Instant;
 #[derive(clap::Args, Default)]
 pub struct ExplainArgs {
     /// Measured data to fit: .mcap bags (/joint_states …) or CSV time series `t,q1..qN,dq1..dqN,tau1..tauN`
-    /// (N joints of the URDF; several runs are analysed together), or one friction-points CSV
+    /// (N joints of the URDF; several runs are analysed together; non-uniform timestamps are
+    /// resampled onto a uniform grid, gaps split the run), or one friction-points CSV
     /// `joint,velocity_rad_s,torque_nm`.
     #[arg(long, num_args = 1.., value_name = "FILE")]
     measured: Vec<PathBuf>,

@@ -23,8 +23,11 @@
 //!    `n_eff` = samples / (filter window in analysis samples) for time series (filtered
 //!    samples are not independent), = points for friction points.
 //!
-//! Forward selection: the most gaining significant candidate is added to the joint's
-//! model, the rest are re-scored against the extended model, until none is significant.
+//! Forward selection: of the significant candidates the one with the lowest held-out BIC
+//! (n_eff·ln of the held-out SSR ratio + ln(n_eff) per parameter) is added to the joint's
+//! model (where two explain the same residual about equally, the one with fewer
+//! parameters), the rest are re-scored against the extended model, until none is
+//! significant.
 
 use crate::catalogue::{k_grid, k_pos_grid, n_exp_grid, q_s_grid, Effect};
 use nalgebra::{DMatrix, DVector};
@@ -55,7 +58,6 @@ pub enum Col {
     PosSin,
     PosCos,
     Payload,
-    Delay,
     Drift,
     Rotor,
     Visc2,
@@ -85,6 +87,8 @@ pub enum ScanParam {
     H,
     /// Contact exponent n.
     NExp,
+    /// Delay of the torque channel [s] (`delay`: the model is evaluated at the motion of t − delay).
+    Delay,
 }
 
 /// The nominal Stribeck shape σ₀(q̇) = 1 + r₀·e^{−(q̇/q_s0)²} (from `--nominal`; r₀ = 0 = flat).
@@ -115,11 +119,28 @@ pub struct Structure {
     pub coupled: bool,
     pub h: f64,
     pub n_exp: f64,
+    /// `delay`: the torque channel lags the motion by this [s] (the model is evaluated at the
+    /// motion of t − delay, see [`JointSamples::target`] and `col`).
+    pub delay: f64,
+    /// The delay was found on other joints and is fixed here (no parameter of this joint).
+    pub delay_fixed: bool,
 }
 
 impl Structure {
     pub fn nominal() -> Self {
-        Self { effects: BTreeSet::new(), q_s_pos: 0.02, q_s_neg: 0.02, k: 10.0, k_pos: 5.0, contact: false, coupled: false, h: 0.0, n_exp: 1.0 }
+        Self {
+            effects: BTreeSet::new(),
+            q_s_pos: 0.02,
+            q_s_neg: 0.02,
+            k: 10.0,
+            k_pos: 5.0,
+            contact: false,
+            coupled: false,
+            h: 0.0,
+            n_exp: 1.0,
+            delay: 0.0,
+            delay_fixed: false,
+        }
     }
     /// The nominal structure of a target and the shape parameters its calibration scans
     /// (joints: none; contact axes: the surface height).
@@ -138,7 +159,10 @@ impl Structure {
             return self.coupled as usize * (1 + self.has(Effect::ContactNonlinearity) as usize);
         }
         let strib = if self.has(Effect::Stribeck) { 1 + self.has(Effect::FrictionAsymmetry) as usize } else { 0 };
-        strib + self.has(Effect::PositionRipple) as usize + self.has(Effect::PositionTorque) as usize
+        strib
+            + self.has(Effect::PositionRipple) as usize
+            + self.has(Effect::PositionTorque) as usize
+            + (self.has(Effect::Delay) && !self.delay_fixed) as usize
     }
     pub fn has(&self, e: Effect) -> bool {
         self.effects.contains(&e)
@@ -177,7 +201,6 @@ impl Structure {
                     c.push(Col::RipCos)
                 }
                 Effect::Payload => c.push(Col::Payload),
-                Effect::Delay => c.push(Col::Delay),
                 Effect::Drift => c.push(Col::Drift),
                 Effect::RotorInertia => c.push(Col::Rotor),
                 Effect::ViscousNonlinearity => c.push(Col::Visc2),
@@ -187,7 +210,8 @@ impl Structure {
                     c.push(Col::PosCos)
                 }
                 Effect::InertialParameters => c.push(Col::Inertial),
-                Effect::FrictionAsymmetry | Effect::Stribeck => {}
+                // no column: it shifts the motion the model is evaluated at (JointSamples::target, col)
+                Effect::FrictionAsymmetry | Effect::Stribeck | Effect::Delay => {}
                 Effect::ContactNonlinearity | Effect::ContactDamping | Effect::FtBias | Effect::ToolGravity => {}
             }
         }
@@ -201,6 +225,7 @@ impl Structure {
             ScanParam::KPos => self.k_pos,
             ScanParam::H => self.h,
             ScanParam::NExp => self.n_exp,
+            ScanParam::Delay => self.delay,
         }
     }
     fn set(&mut self, p: ScanParam, v: f64) {
@@ -215,6 +240,7 @@ impl Structure {
             ScanParam::KPos => self.k_pos = v,
             ScanParam::H => self.h = v,
             ScanParam::NExp => self.n_exp = v,
+            ScanParam::Delay => self.delay = v,
         }
     }
     /// The structure with `e` added and the shape parameters to scan for it.
@@ -239,6 +265,7 @@ impl Structure {
             Effect::FrictionAsymmetry if s.has(Effect::Stribeck) => vec![ScanParam::QsPos, ScanParam::QsNeg],
             Effect::PositionRipple => vec![ScanParam::K],
             Effect::PositionTorque => vec![ScanParam::KPos],
+            Effect::Delay => vec![ScanParam::Delay],
             _ => vec![],
         };
         (s, scan)
@@ -253,8 +280,11 @@ pub struct JointSamples {
     /// Residual to explain: measured torque − rigid-body torque [N·m].
     pub y: Vec<f64>,
     pub v: Vec<f64>,
-    /// sgn(q̇) with 0 at rest.
+    /// sgn(q̇) with 0 at rest: tanh(q̇/`coulomb_width`) (the exact sign when the width is 0).
     pub s: Vec<f64>,
+    /// Smoothing of the Coulomb law's sgn(q̇) [rad/s] (time series: calibrated per joint by
+    /// [`calibrate_coulomb_width`]; 0 = the exact sign).
+    pub coulomb_width: f64,
     pub q: Vec<f64>,
     /// Time [s] (row order for friction points).
     pub t: Vec<f64>,
@@ -287,9 +317,25 @@ pub struct JointSamples {
     /// `inertial_parameters`: per sample, `Y_B,j δβ` of the correction fitted without the
     /// sample's fold (empty until the all-joint stage finds it, [`crate::inertial`]).
     pub inertial: Vec<f64>,
+    /// `delay` (time series): q⃛, and the rate and second rate of the rigid-body torque
+    /// (see [`crate::prepare::Prepared::dtau_rb`]).
+    pub jerk: Vec<f64>,
+    pub dtau_rb: Vec<f64>,
+    pub ddtau_rb: Vec<f64>,
 }
 
 impl JointSamples {
+    /// The target of sample `i` under structure `st`: τ_measured − τ_rb(t − delay), the
+    /// rigid-body torque of the delayed motion to second order (y itself without a delay).
+    #[inline]
+    pub fn target(&self, st: &Structure, i: usize) -> f64 {
+        let d = st.delay;
+        if d == 0.0 {
+            return self.y[i];
+        }
+        self.y[i] + d * self.dtau_rb[i] - 0.5 * d * d * self.ddtau_rb[i]
+    }
+
     pub fn len(&self) -> usize {
         self.y.len()
     }
@@ -299,8 +345,22 @@ impl JointSamples {
 
     #[inline]
     pub(crate) fn col(&self, c: Col, st: &Structure, sh: &NominalShape, i: usize) -> f64 {
-        let s = self.s[i];
-        let v = self.v[i];
+        // with a delay d the model is evaluated at the motion of t − d (second order)
+        let (s, v, q, a) = if st.delay != 0.0 && self.jerk.len() == self.y.len() {
+            let (d, j) = (st.delay, self.jerk[i]);
+            let (v0, a0) = (self.v[i], self.a[i]);
+            let v = v0 - d * a0 + 0.5 * d * d * j;
+            let s = if self.s[i] == 0.0 {
+                0.0
+            } else if self.coulomb_width > 0.0 {
+                (v / self.coulomb_width).tanh()
+            } else {
+                v.signum()
+            };
+            (s, v, self.q[i] - d * v0 + 0.5 * d * d * a0, a0 - d * j)
+        } else {
+            (self.s[i], self.v[i], self.q[i], self.a[i])
+        };
         let ind = |d: Dir| match d {
             Dir::Both => 1.0,
             Dir::Pos => (s > 0.0) as u8 as f64,
@@ -323,16 +383,15 @@ impl JointSamples {
                 ind(d) * s * (-x * x).exp()
             }
             Col::Offset => 1.0,
-            Col::RipSin => s * (st.k * self.q[i]).sin(),
-            Col::RipCos => s * (st.k * self.q[i]).cos(),
-            Col::PosSin => (st.k_pos * self.q[i]).sin(),
-            Col::PosCos => (st.k_pos * self.q[i]).cos(),
+            Col::RipSin => s * (st.k * q).sin(),
+            Col::RipCos => s * (st.k * q).cos(),
+            Col::PosSin => (st.k_pos * q).sin(),
+            Col::PosCos => (st.k_pos * q).cos(),
             Col::Payload => self.payload[i],
-            Col::Delay => -self.dtau[i],
             Col::Drift => s * self.tn[i],
-            Col::Rotor => self.a[i],
+            Col::Rotor => a,
             Col::Visc2 => s * v * v,
-            Col::Scale => self.tau_rb[i],
+            Col::Scale => self.tau_rb[i] - self.target(st, i) + self.y[i],
             Col::Inertial => self.inertial[i],
             Col::Spring => {
                 let d = st.h - self.cz[i];
@@ -373,6 +432,9 @@ impl JointSamples {
             (&mut self.cg0, &o.cg0),
             (&mut self.cg1, &o.cg1),
             (&mut self.inertial, &o.inertial),
+            (&mut self.jerk, &o.jerk),
+            (&mut self.dtau_rb, &o.dtau_rb),
+            (&mut self.ddtau_rb, &o.ddtau_rb),
         ] {
             a.extend_from_slice(b);
         }
@@ -401,6 +463,7 @@ impl JointSamples {
             tau_rb: pick(&self.tau_rb),
             fold: self.fold.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect(),
             corr_len: self.corr_len,
+            coulomb_width: self.coulomb_width,
             time_series: self.time_series,
             contact: self.contact,
             cu: pick(&self.cu),
@@ -411,6 +474,9 @@ impl JointSamples {
             h_grid: self.h_grid.clone(),
             coupled: self.coupled,
             inertial: pick(&self.inertial),
+            jerk: pick(&self.jerk),
+            dtau_rb: pick(&self.dtau_rb),
+            ddtau_rb: pick(&self.ddtau_rb),
         };
         if !self.time_series {
             out.assign_velocity_folds(folds);
@@ -438,11 +504,72 @@ impl JointSamples {
         } else if e.is_contact() != self.contact || (needs_spring && !self.coupled) {
             false
         } else if self.time_series {
-            true
+            e != Effect::Delay || self.dtau_rb.len() == self.len()
         } else {
             e.applies_to_points()
         }
     }
+}
+
+/// Largest Coulomb smoothing width tried by [`calibrate_coulomb_width`] [rad/s].
+pub const COULOMB_WIDTH_MAX: f64 = 2e-3;
+
+impl JointSamples {
+    /// Sets the Coulomb law's smoothing: s = tanh(q̇/w) on moving samples (the exact sign for
+    /// w = 0), 0 at rest.
+    pub fn set_coulomb_width(&mut self, w: f64) {
+        for (s, &v) in self.s.iter_mut().zip(&self.v) {
+            if *s != 0.0 {
+                *s = if w > 0.0 { (v / w).tanh() } else { v.signum() };
+            }
+        }
+        self.coulomb_width = w;
+    }
+}
+
+/// The nominal's Coulomb law at the lowest speeds is structure, like its Stribeck shape: the
+/// exact sign (a generator's, many papers'), or a tanh whose width is the simulator's 1 mrad/s
+/// or another. At 1–3 mrad/s they differ by up to a quarter of the Coulomb level, and a law
+/// fixed at one width leaves that difference as a narrow low-speed bump which `stribeck`
+/// (q_s at the bottom of its grid) took on noise-only data with the other law. The width is
+/// chosen per joint (time series) on the whole data by the nominal's SSR, 0–2 mrad/s (grid
+/// 0.25 mrad/s, then six halvings), before any candidate is scored: the nominal and every
+/// candidate use the same law, so the comparison between them stays fair.
+pub fn calibrate_coulomb_width(js: &mut JointSamples, sh: &NominalShape, folds: usize) {
+    if !js.time_series || js.contact || js.is_empty() {
+        return;
+    }
+    let (st, scan) = Structure::nominal_for(js);
+    let ssr_of = |js: &mut JointSamples, w: f64| {
+        js.set_coulomb_width(w);
+        evaluate(js, &st, &scan, sh, folds).full_ssr
+    };
+    let step0 = 0.25e-3;
+    let mut best = (f64::INFINITY, 0.0);
+    for k in 0..=((COULOMB_WIDTH_MAX / step0).round() as usize) {
+        let w = k as f64 * step0;
+        let ssr = ssr_of(js, w);
+        if ssr < best.0 {
+            best = (ssr, w);
+        }
+    }
+    let mut step = step0;
+    // to 4 µrad/s: at 2 mrad/s a tanh of width 0.9 mrad/s changes by 0.17 % of the Coulomb level
+    // per 15 µrad/s of width (≈ 0.01 N·m on the JK5's joint 1), which `stribeck` took on
+    // noise-only data when the width was refined to 31 µrad/s only
+    for _ in 0..6 {
+        step *= 0.5;
+        let c = best.1;
+        for w in [c - step, c + step] {
+            if (0.0..=COULOMB_WIDTH_MAX).contains(&w) {
+                let ssr = ssr_of(js, w);
+                if ssr < best.0 {
+                    best = (ssr, w);
+                }
+            }
+        }
+    }
+    js.set_coulomb_width(best.1);
 }
 
 /// The friction part (Coulomb, viscous, Stribeck, s·q̇² columns) of a whole-data fit at
@@ -514,11 +641,13 @@ pub struct AnalysisOptions {
     pub max_steps: usize,
     /// Effects to consider.
     pub effects: Vec<Effect>,
+    /// `delay` at this value (the torque channel's delay found on other joints) instead of scanned.
+    pub delay_fixed: Option<f64>,
 }
 
 impl Default for AnalysisOptions {
     fn default() -> Self {
-        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: crate::catalogue::default_effects() }
+        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: crate::catalogue::default_effects(), delay_fixed: None }
     }
 }
 
@@ -564,7 +693,7 @@ fn fold_grams(js: &JointSamples, st: &Structure, sh: &NominalShape, cols: &[Col]
         for (c, xc) in cols.iter().zip(x.iter_mut()) {
             *xc = js.col(*c, st, sh, i);
         }
-        x[p] = js.y[i];
+        x[p] = js.target(st, i);
         let gm = &mut g[gram_index(js.fold[i], k_folds)];
         for a in 0..=p {
             let xa = x[a];
@@ -620,7 +749,7 @@ fn fold_grams_update(
         for (c, xc) in cols.iter().zip(x.iter_mut()) {
             *xc = js.col(*c, st, sh, i);
         }
-        x[p] = js.y[i];
+        x[p] = js.target(st, i);
         let gm = &mut g[gram_index(js.fold[i], base.len() - 1)];
         for &a in scan_cols {
             let xa = x[a];
@@ -655,6 +784,8 @@ fn depends_on(c: Col, sp: ScanParam) -> bool {
             | (Col::PosSin | Col::PosCos, ScanParam::KPos)
             | (Col::Spring | Col::CDamp, ScanParam::H)
             | (Col::Spring, ScanParam::NExp)
+            // a delay shifts the motion every column is evaluated at
+            | (_, ScanParam::Delay)
     )
 }
 
@@ -673,12 +804,13 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
             ScanParam::KPos => k_pos_grid(),
             ScanParam::H => js.h_grid.clone(),
             ScanParam::NExp => n_exp_grid(),
+            ScanParam::Delay => crate::catalogue::delay_grid(),
             _ => q_s_grid(),
         }
     };
     // additive parameters (h, n) are refined by repeated halving of the grid step;
     // log-spaced ones (q_s, k) by four multiplicative steps
-    let additive = |sp: ScanParam| matches!(sp, ScanParam::H | ScanParam::NExp);
+    let additive = |sp: ScanParam| matches!(sp, ScanParam::H | ScanParam::NExp | ScanParam::Delay);
     // Enumerate configurations: for one parameter, its grid; for two (q_s±, disjoint
     // supports) scan each with the other fixed at its current value, then combine the
     // per-direction bests — the Gram blocks of the two directions do not interact except
@@ -696,12 +828,11 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
         grams.push(fold_grams(js, st, sh, &cols, k_folds));
     } else {
         configs.clear();
-        let scan_cols: Vec<usize> = cols
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| scan.iter().any(|&sp| depends_on(**c, sp)))
-            .map(|(i, _)| i)
-            .collect();
+        let mut scan_cols: Vec<usize> =
+            cols.iter().enumerate().filter(|(_, c)| scan.iter().any(|&sp| depends_on(**c, sp))).map(|(i, _)| i).collect();
+        if scan.contains(&ScanParam::Delay) {
+            scan_cols.push(p); // the delay shifts the target, the last column of [X y]
+        }
         // stage 1: coarse grids, one parameter at a time (others at current values)
         let mut best_vals: Vec<f64> = scan.iter().map(|&sp| st.get(sp)).collect();
         let mut tried: Vec<(Vec<f64>, Vec<DMatrix<f64>>)> = Vec::new();
@@ -900,8 +1031,8 @@ pub fn residuals(js: &JointSamples, ev: &Eval, sh: &NominalShape) -> (Vec<f64>, 
             pf += tf[k] * js.col(c, sf, sh, i);
             pa += ev.full_theta[k] * js.col(c, &ev.full_structure, sh, i);
         }
-        oof.push(js.y[i] - pf);
-        ins.push(js.y[i] - pa);
+        oof.push(js.target(sf, i) - pf);
+        ins.push(js.target(&ev.full_structure, i) - pa);
     }
     (oof, ins)
 }
@@ -916,6 +1047,9 @@ pub struct Candidate {
     pub gain: f64,
     pub fold_wins: usize,
     pub delta_bic: f64,
+    /// The held-out counterpart of ΔBIC: n_eff·ln(held-out SSR ratio) + Δp·ln(n_eff). The
+    /// forward selection adds the significant candidate with the lowest.
+    pub heldout_bic: f64,
     pub significant: bool,
 }
 
@@ -938,7 +1072,12 @@ pub const TORQUE_SCALE_MAX_ERROR: f64 = 0.5;
 
 /// Scores one candidate against the current model.
 pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &AnalysisOptions) -> Candidate {
-    let (st, scan) = cur.full_structure.with(e);
+    let (mut st, mut scan) = cur.full_structure.with(e);
+    if let (Effect::Delay, Some(d)) = (e, o.delay_fixed) {
+        st.delay = d;
+        st.delay_fixed = true;
+        scan.clear();
+    }
     let ev = evaluate(js, &st, &scan, sh, o.folds);
     let gain = if cur.heldout_ssr > 0.0 { 1.0 - ev.heldout_ssr / cur.heldout_ssr } else { 0.0 };
     let fold_wins = ev.fold_ssr.iter().zip(&cur.fold_ssr).filter(|(a, b)| a < b).count();
@@ -953,7 +1092,8 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
     // wrong rigid-body torque (on the real Panda joint 7 it gave k = 0.025), not a scale error
     let plausible = e != Effect::TorqueScale || ev.coef(Col::Scale).is_some_and(|c| c.abs() <= TORQUE_SCALE_MAX_ERROR);
     let significant = gain >= o.min_gain && fold_wins >= o.min_fold_wins && delta_bic < 0.0 && plausible;
-    Candidate { effect: e, eval: ev, before_ssr: cur.heldout_ssr, gain, fold_wins, delta_bic, significant }
+    let heldout_bic = if gain < 1.0 { n_eff * (1.0 - gain).ln() + dp * n_eff.ln() } else { f64::NEG_INFINITY };
+    Candidate { effect: e, eval: ev, before_ssr: cur.heldout_ssr, gain, fold_wins, delta_bic, heldout_bic, significant }
 }
 
 /// Forward selection on one joint.
@@ -972,7 +1112,18 @@ pub fn analyse_joint(js: &JointSamples, sh: &NominalShape, o: &AnalysisOptions) 
             .map(|e| score(js, &cur, e, sh, o))
             .collect();
         cands.sort_by(|a, b| b.gain.total_cmp(&a.gain));
-        let pick = cands.iter().position(|c| c.significant);
+        // Of the significant candidates the one with the lowest held-out BIC is added (held-out
+        // gain, with ln(n_eff) per parameter): where two explain the same residual about
+        // equally (a Stribeck curve whose q_s lies beyond the data mimics s·q̇²; a slow
+        // sin(k'q + φ) over a joint's range mimics an offset; a delay found on the other joints
+        // is a negative rotor inertia on a wrist joint), the one with fewer parameters is
+        // taken, not the one whose extra freedom fits the noise a little better held out.
+        let pick = cands
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.significant)
+            .min_by(|a, b| a.1.heldout_bic.total_cmp(&b.1.heldout_bic))
+            .map(|(i, _)| i);
         match pick {
             Some(i) if steps.len() < o.max_steps => {
                 let c = cands.swap_remove(i);

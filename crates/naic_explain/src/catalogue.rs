@@ -4,7 +4,7 @@
 //! (Stribeck velocity `q_s`, ripple wave number `k`) are fixed; shape parameters are
 //! found by a grid scan on the training part (see [`crate::analysis`]).
 //!
-//! Notation: `s = tanh(q̇/v_s)` (v_s = 1 mrad/s, the simulation friction's smoothing) with 0 at rest (regime, see [`crate::prepare`]), `p = [q̇ > 0]`,
+//! Notation: `s = tanh(q̇/w)` (w per joint in 0–2 mrad/s, 0 = the exact sign, chosen on the nominal fit: [`crate::analysis::calibrate_coulomb_width`]) with 0 at rest (regime, see [`crate::prepare`]), `p = [q̇ > 0]`,
 //! `n = [q̇ < 0]`. The residual explained is `y = τ_measured − τ_rigid_body(q, q̇, q̈)`.
 //!
 //! | effect | columns added (per joint) | parameters |
@@ -16,7 +16,7 @@
 //! | `position_torque` | `sin(k' q)`, `cos(k' q)` (no `s`: the same torque in both directions — cogging, a gravity-model error) | amplitude, k' [rad⁻¹], phase |
 //! | `payload` | `[J_tip,linᵀ (p̈_tip − g)]_j` | mass [kg] at the `tip` frame |
 //! | `torque_offset` | `1` | offset [N·m] |
-//! | `delay` | `−τ̇` (first-order shift of the torque channel) | delay [s] (torque lags motion when > 0) |
+//! | `delay` | none: the model is evaluated at the motion of t − d (τ_rb(t − d) ≈ τ_rb − d·τ̇_rb + d²/2·τ̈_rb, every other column at q̇(t − d), q(t − d), q̈(t − d)); d scanned on ±30 ms, then refined; found on one joint, it is fixed at the joints' median on all | delay [s] (torque lags motion when > 0) |
 //! | `drift` | `s·(t − t_mid)/T` | change of the Coulomb level over the session [N·m] |
 //! | `rotor_inertia` | `q̈_j` (engineer's check: unmodelled motor/gear inertia) | I_a [kg·m²] |
 //! | `viscous_nonlinearity` | `s·q̇²` (engineer's check: non-Newtonian lubricant) | f_v2 [N·m·s²/rad²] |
@@ -174,6 +174,11 @@ pub fn log_grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 /// Grid of Stribeck velocities q_s [rad/s].
 pub fn q_s_grid() -> Vec<f64> {
     log_grid(1.5e-3, 0.5, 18)
+}
+
+/// Grid of torque-channel delays [s] (`delay`; refined by halving around the best): ±30 ms.
+pub fn delay_grid() -> Vec<f64> {
+    lin_grid(-0.03, 0.03, 61)
 }
 
 /// Linear grid from `lo` to `hi` with `n` points.

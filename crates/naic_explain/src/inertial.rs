@@ -6,8 +6,12 @@
 //! an all-joint stage after the per-joint catalogue has run:
 //!
 //! 1. One least-squares fit on all joints together: the shared `Y_B δβ` plus, per joint,
-//!    the columns of that joint's final model (its shape parameters fixed at the whole-data
-//!    values), against the same per-joint columns without `Y_B`. Held out on the same
+//!    that joint's nominal friction columns (Coulomb with its calibrated width, viscous) and
+//!    the first pass's `rotor_inertia` / `payload` columns when it found them (specific
+//!    rigid-body-like effects, kept first where they suffice), against the same per-joint
+//!    columns without `Y_B`. (Each joint's whole first-pass model was used before: effects such
+//!    as `stribeck`, `position_torque` or `torque_offset` had already absorbed part of a
+//!    rigid-body error and biased δβ.) Held out on the same
 //!    time-block folds. The stage is significant when the mean over joints of the held-out
 //!    gain is ≥ `min_gain`, the normalised held-out sum is lower in ≥ `min_fold_wins` folds,
 //!    and BIC with one noise level per joint, `Σ_j n_eff,j ln(SSR_j'/SSR_j) + r ln(Σ n_eff)`,
@@ -116,6 +120,7 @@ pub fn fit(
     results: &[JointResult],
     shapes: &[NominalShape],
     o: &AnalysisOptions,
+    nominal_only: bool,
 ) -> InertialFit {
     let nj = model.nv();
     let base = base_parameters(model, 30 * nj);
@@ -127,15 +132,30 @@ pub fn fit(
     let names: Vec<String> = cols.iter().map(|&c| crate::baseline::Baseline::column_name(model, c)).collect();
     let mut rd = RegressorData::new(model);
     // local layout per joint: [base (r), own columns (p_j), y]
-    let own: Vec<Vec<crate::analysis::Col>> =
-        results.iter().map(|res| res.final_eval.columns.iter().copied().filter(|c| *c != crate::analysis::Col::Inertial).collect()).collect();
+    use crate::analysis::{Col, Dir, Structure};
+    let nominal_cols = vec![Col::Coul(Dir::Both), Col::Visc(Dir::Both)];
+    let own: Vec<Vec<Col>> = results
+        .iter()
+        .map(|res| {
+            if nominal_only {
+                // the nominal friction, and the first pass's own rigid-body-like findings
+                // (a rotor inertia, a payload: specific, and kept first where they suffice)
+                let mut c = nominal_cols.clone();
+                c.extend(res.final_eval.columns.iter().copied().filter(|c| matches!(c, Col::Rotor | Col::Payload)));
+                c
+            } else {
+                res.final_eval.columns.iter().copied().filter(|c| *c != Col::Inertial).collect()
+            }
+        })
+        .collect();
+    let nominal_st = Structure::nominal();
     let mut grams: Vec<Vec<DMatrix<f64>>> = own.iter().map(|c| vec![DMatrix::zeros(r + c.len() + 1, r + c.len() + 1); kf + 1]).collect();
     // one pass over the instants: the regressor (all joints' rows) once per instant, each
     // joint's row into that joint's Gram when the instant is one of its samples (k[j]
     // counts them in JointSamples order)
     let mut xs: Vec<Vec<f64>> = own.iter().map(|c| vec![0.0; r + c.len() + 1]).collect();
     let mut ks = vec![0usize; nj];
-    let sts: Vec<_> = results.iter().map(|res| &res.final_eval.full_structure).collect();
+    let sts: Vec<_> = results.iter().map(|res| if nominal_only { &nominal_st } else { &res.final_eval.full_structure }).collect();
     let shs: Vec<NominalShape> = (0..nj).map(|j| shapes.get(j).copied().unwrap_or_default()).collect();
     for_each_kept(model, &mut rd, fit, val, |j, y| {
         let (js, x) = (&joints[j], &mut xs[j]);
@@ -148,7 +168,7 @@ pub fn fit(
         for (a, c) in own[j].iter().enumerate() {
             x[r + a] = js.col(*c, sts[j], &shs[j], k);
         }
-        x[r + pj] = js.y[k];
+        x[r + pj] = js.target(sts[j], k);
         let f = if js.fold[k] == VALIDATION_FOLD { kf } else { js.fold[k] as usize };
         let g = &mut grams[j][f];
         for a in 0..x.len() {

@@ -203,7 +203,8 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
     let corr = (p.window_samples as f64 / p.stride as f64).max(1.0);
     (0..p.nj())
         .map(|j| {
-            let mut js = JointSamples { joint: j + 1, corr_len: corr, time_series: true, ..Default::default() };
+            let v_s = naic_core::friction::DEFAULT_V_S;
+            let mut js = JointSamples { joint: j + 1, corr_len: corr, time_series: true, coulomb_width: v_s, ..Default::default() };
             for i in 0..p.len() {
                 if !p.keep[i][j] {
                     continue;
@@ -211,7 +212,7 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
                 js.y.push(p.tau[i][j] - p.tau_rb[i][j]);
                 js.v.push(p.v[i][j]);
                 // sgn(q̇) as the project's simulation friction evaluates it: tanh(q̇/v_s), 0 at rest
-                js.s.push(if p.regime[i][j] == 0 { 0.0 } else { (p.v[i][j] / naic_core::friction::DEFAULT_V_S).tanh() });
+                js.s.push(if p.regime[i][j] == 0 { 0.0 } else { (p.v[i][j] / v_s).tanh() });
                 js.q.push(p.q[i][j]);
                 js.t.push(p.t[i]);
                 js.tn.push((p.t[i] - t0) / dur - 0.5);
@@ -220,6 +221,9 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
                 js.payload.push(p.payload[i][j]);
                 js.tau_rb.push(p.tau_rb[i][j]);
                 js.fold.push(fold_of(p.t[i]));
+                js.jerk.push(p.jerk[i][j]);
+                js.dtau_rb.push(p.dtau_rb[i][j]);
+                js.ddtau_rb.push(p.ddtau_rb[i][j]);
             }
             js
         })
@@ -319,7 +323,38 @@ pub fn analyse_all(
             }
         }
     }
+    // The torque channel has one delay. A joint whose own torque shows it weakly (a wrist joint
+    // carrying little torque) took part of it as a negative `rotor_inertia` (the viscous
+    // friction's share of −d·τ̇ is −d·f_v·q̈) instead. When the delay is found on any joint,
+    // every joint is analysed again with `delay` fixed at the median of the joints' estimates.
+    let delays: Vec<f64> = results
+        .iter()
+        .filter(|r| r.final_eval.full_structure.has(catalogue::Effect::Delay))
+        .map(|r| r.final_eval.full_structure.delay)
+        .collect();
+    if !delays.is_empty() && o.delay_fixed.is_none() {
+        let d = median(&delays);
+        let o2 = AnalysisOptions { delay_fixed: Some(d), ..o.clone() };
+        let again = analyse_all(joints, shapes, &o2, threads, progress);
+        for (r, a) in results.iter_mut().zip(again) {
+            if !joints.iter().any(|js| js.joint == a.joint && js.contact) {
+                *r = a;
+            }
+        }
+    }
     results
+}
+
+/// The median of `x` (not empty).
+fn median(x: &[f64]) -> f64 {
+    let mut v = x.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 /// One recording to analyse: its name (file) and data.
@@ -531,6 +566,12 @@ pub fn explain_runs(
             js.append(&v);
         }
     }
+    // the nominal's Coulomb law at the lowest speeds (sign or tanh of some width), per joint
+    for js in joints.iter_mut() {
+        let sh = shapes.get(js.joint - 1).copied().unwrap_or_default();
+        analysis::calibrate_coulomb_width(js, &sh, opts.analysis.folds);
+    }
+    laps.lap("Coulomb smoothing width per joint");
     // the classical identification on the same samples and folds (not for contact data:
     // its measured torques carry the contact wrench); it needs nothing of the catalogue, so
     // with more than one thread it runs on its own thread beside the per-joint selection
@@ -576,7 +617,7 @@ pub fn explain_runs(
     // and the per-joint selection runs again with it as a candidate (crate::inertial)
     let inertial = if axes.is_empty() && opts.analysis.effects.contains(&catalogue::Effect::InertialParameters) {
         progress(0.95, "inertial_parameters: base parameters on all joints");
-        let fit = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis);
+        let fit = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis, true);
         if fit.significant {
             for (js, c) in joints.iter_mut().zip(&fit.corrections) {
                 js.inertial = c.clone();
@@ -584,7 +625,7 @@ pub fn explain_runs(
             results = analyse_all(&joints, &shapes, &opts.analysis, opts.threads, &|f, w| progress(0.95 + 0.05 * f, w));
             // the estimate beside the effects that survived the second pass
             let mut fit = fit;
-            fit.delta = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis).delta;
+            fit.delta = inertial::fit(&model, &prep, val_prep.as_ref(), &joints, &results, &shapes, &opts.analysis, false).delta;
             Some(fit)
         } else {
             Some(fit)
@@ -629,7 +670,28 @@ pub fn explain_runs(
             ),
         ));
     }
-    method.push(("samples used".into(), "steady motion and rest; samples within a filter window of a direction change are left out".into()));
+    method.push((
+        "Coulomb law".into(),
+        format!(
+            "sgn(q̇) as tanh(q̇/w), w chosen per joint on the nominal's fit in 0–{:.0} mrad/s (0 = the exact sign): {}",
+            analysis::COULOMB_WIDTH_MAX * 1e3,
+            joints
+                .iter()
+                .filter(|j| !j.contact)
+                .map(|j| format!("joint {} {:.2} mrad/s", j.joint, j.coulomb_width * 1e3))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    ));
+    method.push((
+        "samples used".into(),
+        format!(
+            "steady motion (|q̇| > {:.1} mrad/s) and rest (|q̇| < {:.1} mrad/s); creeping samples between the two, and samples within a \
+             filter window of a change of direction or of rest/creep/motion, are left out",
+            opts.prepare.v_rest * 1e3,
+            opts.prepare.v_still * 1e3
+        ),
+    ));
     Ok(Explained {
         path: name,
         kind,

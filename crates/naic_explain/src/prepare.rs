@@ -13,7 +13,10 @@
 //! sample in its window).
 //!
 //! Each analysis sample gets, per joint, a *regime*: +1 / −1 when the joint moves
-//! faster than `v_rest` in that direction, 0 at rest. Samples whose neighbourhood
+//! faster than `v_rest` in that direction, 0 at rest (slower than `v_still`), and
+//! [`CREEP`] in between: the joint creeps, neither sliding steadily nor at rest, and no
+//! static friction law holds (a sign-law Coulomb torque is fully on there, a smoothed one
+//! partly, a real joint is in pre-sliding): those samples are left out. Samples whose neighbourhood
 //! (± half a filter window plus one analysis step) contains a regime change are
 //! marked `keep = false`: there the friction sign flips inside the filter window and
 //! neither the smoothed torque nor any static friction law is meaningful.
@@ -39,24 +42,54 @@ pub struct PrepareOptions {
     pub rate_hz: f64,
     /// At most this many analysis instants (the rate is lowered for long files).
     pub max_samples: usize,
-    /// |q̇| below this is rest [rad/s].
+    /// |q̇| above this is motion [rad/s].
     pub v_rest: f64,
+    /// |q̇| below this is rest [rad/s]; between it and `v_rest` the joint creeps ([`CREEP`], left out).
+    pub v_still: f64,
+    /// Below this speed [rad/s] the friction law bends sharply (the Coulomb law's smoothing, a
+    /// low Stribeck velocity): a moving sample whose speed anywhere in its filter window is
+    /// below it and changes by more than [`KNEE_CHANGE_MAX`] of its value across the window is
+    /// left out, because there the smoothed torque is not the law at the smoothed speed.
+    pub v_knee: f64,
 }
+
+/// Largest relative change of the speed across the filter window for a sample that comes
+/// within `v_knee` of rest (see [`PrepareOptions::v_knee`]).
+pub const KNEE_CHANGE_MAX: f64 = 0.1;
+
+/// Only samples slower than this many `v_knee` plus their acceleration's swing over half a
+/// window are examined for the knee (the rest cannot reach it).
+const KNEE_SCREEN: f64 = 2.0;
+
+/// The regime of a creeping joint (`v_still` ≤ |q̇| ≤ `v_rest`): left out of the analysis.
+pub const CREEP: i8 = 2;
 
 impl Default for PrepareOptions {
     fn default() -> Self {
-        Self { window_s: 0.051, order: 5, rate_hz: 100.0, max_samples: 60_000, v_rest: 1e-3 }
+        Self { window_s: 0.051, order: 5, rate_hz: 100.0, max_samples: 60_000, v_rest: 1e-3, v_still: 1e-4, v_knee: 5e-3 }
     }
 }
 
 /// Savitzky–Golay coefficients for the value and first two derivatives at the centre
 /// of a window of `2h+1` samples spaced `dt`, for a polynomial of `order`.
 pub fn savgol_coefficients(h: usize, order: usize, dt: f64) -> [Vec<f64>; 3] {
+    let rows = savgol_polynomial(h, order, dt);
+    let row =
+        |k: usize, scale: f64| -> Vec<f64> { rows.get(k).map_or_else(|| vec![0.0; 2 * h + 1], |r| r.iter().map(|x| x * scale).collect()) };
+    [row(0, 1.0), row(1, 1.0), row(2, 2.0)]
+}
+
+/// Savitzky–Golay rows of every coefficient of the fitted polynomial in time: row k applied to
+/// the window gives p_k of y(t_i + δ) ≈ Σ_k p_k δᵏ (δ in seconds).
+pub fn savgol_polynomial(h: usize, order: usize, dt: f64) -> Vec<Vec<f64>> {
     let m = 2 * h + 1;
     let p = order + 1;
     let mut a = DMatrix::zeros(m, p);
+    // x in half-windows (−1 … 1): with x in samples AᵀA of a quintic over 51 samples has a
+    // condition number near 1e16 and the higher coefficients would be lost
+    let hs = (h as f64).max(1.0);
     for r in 0..m {
-        let x = r as f64 - h as f64;
+        let x = (r as f64 - h as f64) / hs;
         let mut xp = 1.0;
         for c in 0..p {
             a[(r, c)] = xp;
@@ -67,14 +100,14 @@ pub fn savgol_coefficients(h: usize, order: usize, dt: f64) -> [Vec<f64>; 3] {
     let ata = a.tr_mul(&a);
     let inv = ata.try_inverse().unwrap_or_else(|| DMatrix::identity(p, p));
     let pinv = inv * a.transpose();
-    let row = |k: usize, scale: f64| -> Vec<f64> {
-        if k >= p {
-            return vec![0.0; m];
-        }
-        (0..m).map(|r| pinv[(k, r)] * scale).collect()
-    };
-    [row(0, 1.0), row(1, 1.0 / dt), row(2, 2.0 / (dt * dt))]
+    (0..p).map(|k| (0..m).map(|r| pinv[(k, r)] / (hs * dt).powi(k as i32)).collect()).collect()
 }
+
+/// The window of the fit behind τ̇_rb, τ̈_rb and q⃛ ([`Prepared::dtau_rb`]) is this many times the filter window.
+const RATE_WINDOW_FACTOR: usize = 3;
+
+/// Half the span [s] of the central differences that give τ̇_rb and τ̈_rb ([`Prepared::dtau_rb`]).
+const RB_RATE_HALF_SPAN_S: f64 = 0.005;
 
 /// The analysis samples (struct of arrays; index `[i][j]` = sample i, joint j).
 #[derive(Clone, Debug, Default)]
@@ -87,6 +120,20 @@ pub struct Prepared {
     pub tau: Rows,
     /// Time derivative of the smoothed measured torque.
     pub dtau: Rows,
+    /// Third time derivative of q (the quintic fit's), for `delay`.
+    pub jerk: Rows,
+    /// First and second time derivatives of the rigid-body torque along the motion, for
+    /// `delay`: RNEA at the states of the same polynomial fit 5 ms before and after the instant,
+    /// central differences. A delay d shifts the model torque: τ_rb(t − d) ≈ τ_rb − d·τ̇_rb +
+    /// d²/2·τ̈_rb, and the friction terms are evaluated at q̇(t − d) ≈ q̇ − d·q̈ + d²/2·q⃛
+    /// ([`crate::analysis::JointSamples::target`]). The measured torque is not shifted: its
+    /// noise stays the same for every delay tried, so a delay competes with the other
+    /// candidates on the same noise (a shifted measured torque brought other noise samples
+    /// into the held-out sums and made noise-only data "find" delays of 1–2 ms), and no
+    /// regressor carries noise (a −τ̇ column of the measured torque did: the delay came out
+    /// 40–55 % low, errors in variables).
+    pub dtau_rb: Rows,
+    pub ddtau_rb: Rows,
     /// Rigid-body torque RNEA(q, v, a).
     pub tau_rb: Rows,
     /// Gravity torque G(q).
@@ -94,6 +141,9 @@ pub struct Prepared {
     /// Torque per kg of a point mass at the `tip` frame: J_tip,linᵀ (p̈_tip − g).
     pub payload: Rows,
     pub regime: Vec<Vec<i8>>,
+    /// Per instant and joint: accelerating through the friction law's low-speed knee
+    /// ([`PrepareOptions::v_knee`]), left out.
+    pub knee: Vec<Vec<bool>>,
     pub keep: Vec<Vec<bool>>,
     /// Raw sample index of each analysis instant.
     pub raw_index: Vec<usize>,
@@ -142,13 +192,18 @@ impl Prepared {
             (&mut self.tau, &o.tau),
             (&mut self.dtau, &o.dtau),
             (&mut self.tau_rb, &o.tau_rb),
+            (&mut self.jerk, &o.jerk),
+            (&mut self.dtau_rb, &o.dtau_rb),
+            (&mut self.ddtau_rb, &o.ddtau_rb),
             (&mut self.grav, &o.grav),
             (&mut self.payload, &o.payload),
         ] {
             a.extend(b);
         }
         self.regime.extend(o.regime);
+        self.knee.extend(o.knee);
         self.keep.extend(o.keep);
+
         self.wrench.extend(o.wrench);
         self.raw_samples += o.raw_samples;
     }
@@ -179,6 +234,13 @@ pub fn prepare(
         stride = usable.div_ceil(opts.max_samples);
     }
     let [c0, c1, c2] = savgol_coefficients(h, opts.order, dt);
+    // a fit of q over a window RATE_WINDOW_FACTOR times longer, for q⃛ and the states at t ± δ
+    // (the short fit's third derivative carries the encoder's quantisation noise many times
+    // over: on 2¹⁹-count data τ̇_rb came out with noise of ~14 N·m/s on the JK5's joint 2)
+    let hl = RATE_WINDOW_FACTOR * h;
+    let poly_short = savgol_polynomial(h, opts.order, dt);
+    let poly_long = savgol_polynomial(hl, opts.order, dt);
+    let delta = RB_RATE_HALF_SPAN_S.min(h as f64 * dt);
     let idx: Vec<usize> = (h..n - h).step_by(stride).collect();
     let m = idx.len();
     let mut p = Prepared {
@@ -193,13 +255,28 @@ pub fn prepare(
     if ts.nj() != nj {
         return Err(ExplainError::input(format!("the data has {} joints, the robot model {nj}", ts.nj())));
     }
-    for r in [&mut p.q, &mut p.v, &mut p.a, &mut p.tau, &mut p.dtau, &mut p.tau_rb, &mut p.grav, &mut p.payload] {
+    for r in [
+        &mut p.q,
+        &mut p.v,
+        &mut p.a,
+        &mut p.tau,
+        &mut p.dtau,
+        &mut p.tau_rb,
+        &mut p.grav,
+        &mut p.payload,
+        &mut p.jerk,
+        &mut p.dtau_rb,
+        &mut p.ddtau_rb,
+    ] {
         *r = Rows::with_capacity(nj, m);
     }
     let mut data = Data::new(model);
     let g = Vector3::new(0.0, 0.0, -9.81);
     let (mut qv, mut vv, mut av) = (DVector::zeros(nj), DVector::zeros(nj), DVector::zeros(nj));
     let (mut tau, mut dtau, mut pl) = (vec![0.0; nj], vec![0.0; nj], vec![0.0; nj]);
+    // p_0 … p_order of q's polynomial per joint, and the states at t + δ
+    let mut ph = vec![vec![0.0; nj]; opts.order + 1];
+    let (mut qs, mut vs, mut as_) = (DVector::zeros(nj), DVector::zeros(nj), DVector::zeros(nj));
     for (k, &i) in idx.iter().enumerate() {
         if k % 8192 == 0 {
             progress(k as f64 / m as f64);
@@ -230,7 +307,46 @@ pub fn prepare(
                 dtau[j] += w1 * tr[j];
             }
         }
-        p.tau_rb.push(rnea(model, &mut data, &qv, &vv, &av).as_slice());
+        let rb0 = rnea(model, &mut data, &qv, &vv, &av).clone_owned();
+        // the rates of τ_rb: central differences of RNEA at the long fit's states at t − δ, t, t + δ
+        let (poly, hw) = if i >= hl && i + hl < n { (&poly_long, hl) } else { (&poly_short, h) };
+        for (c, out) in poly.iter().zip(ph.iter_mut()) {
+            out.fill(0.0);
+            for (w, r) in (i - hw..=i + hw).enumerate() {
+                let qr = &ts.q[r];
+                for j in 0..nj {
+                    out[j] += c[w] * qr[j];
+                }
+            }
+        }
+        let mut rb3 = [rb0.clone(), rb0.clone(), rb0.clone()];
+        for (d, out) in [-delta, 0.0, delta].into_iter().zip(rb3.iter_mut()) {
+            for j in 0..nj {
+                let (mut x, mut v, mut a) = (0.0, 0.0, 0.0);
+                for (k, pk) in ph.iter().enumerate() {
+                    let e = k as i32;
+                    x += pk[j] * d.powi(e);
+                    if e >= 1 {
+                        v += f64::from(e) * pk[j] * d.powi(e - 1);
+                    }
+                    if e >= 2 {
+                        a += f64::from(e * (e - 1)) * pk[j] * d.powi(e - 2);
+                    }
+                }
+                qs[j] = x;
+                vs[j] = v;
+                as_[j] = a;
+            }
+            *out = rnea(model, &mut data, &qs, &vs, &as_).clone_owned();
+        }
+        let [rm, rc, rp] = rb3;
+        let d1: Vec<f64> = (0..nj).map(|j| (rp[j] - rm[j]) / (2.0 * delta)).collect();
+        let d2: Vec<f64> = (0..nj).map(|j| (rp[j] - 2.0 * rc[j] + rm[j]) / (delta * delta)).collect();
+        p.dtau_rb.push(&d1);
+        p.ddtau_rb.push(&d2);
+        let jk: Vec<f64> = (0..nj).map(|j| ph.get(3).map_or(0.0, |p3| 6.0 * p3[j])).collect();
+        p.jerk.push(&jk);
+        p.tau_rb.push(rb0.as_slice());
         p.grav.push(gravity_torques(model, &mut data, &qv).as_slice());
         let jdqd = frame_jdot_qdot(model, &mut data, &qv, &vv, tip);
         let jdqd_lin = Vector3::new(jdqd[0], jdqd[1], jdqd[2]);
@@ -240,6 +356,27 @@ pub fn prepare(
         for (j, x) in pl.iter_mut().enumerate() {
             *x = jl.column(j).dot(&acc_g);
         }
+        // accelerating through the low-speed knee of the friction law: left out like a creep.
+        // The speed across the filter window from the long fit's polynomial (`ph`, the one
+        // behind τ̇_rb), at 9 points: the short fit's own speed near its window's ends carries
+        // the encoder noise (0.4 mrad/s on a 2 mrad/s plateau) and left the slowest plateaus out
+        let half = h as f64 * dt;
+        let mut knee = vec![false; nj];
+        for (j, kn) in knee.iter_mut().enumerate() {
+            let v0 = vv[j].abs();
+            if v0 <= opts.v_rest || v0 > KNEE_SCREEN * opts.v_knee + av[j].abs() * half {
+                continue;
+            }
+            let (mut lo_v, mut hi_v) = (f64::INFINITY, f64::NEG_INFINITY);
+            for m in 0..=8 {
+                let d = (m as f64 / 4.0 - 1.0) * half;
+                let v: f64 = ph.iter().enumerate().skip(1).map(|(k, pk)| k as f64 * pk[j] * d.powi(k as i32 - 1)).sum();
+                lo_v = lo_v.min(v.abs());
+                hi_v = hi_v.max(v.abs());
+            }
+            *kn = lo_v < opts.v_knee && hi_v - lo_v > KNEE_CHANGE_MAX * v0;
+        }
+        p.knee.push(knee);
         let reg: Vec<i8> = vv
             .iter()
             .map(|&v| {
@@ -247,8 +384,10 @@ pub fn prepare(
                     1
                 } else if v < -opts.v_rest {
                     -1
-                } else {
+                } else if v.abs() < opts.v_still {
                     0
+                } else {
+                    CREEP
                 }
             })
             .collect();
@@ -280,7 +419,7 @@ pub fn prepare(
             let lo = k.saturating_sub(margin) + 1;
             let hi = (k + margin).min(m - 1);
             // changes at indices lo..=hi (a change at index x is between x-1 and x)
-            if lo <= hi && pre[hi + 1] - pre[lo] > 0 {
+            if (lo <= hi && pre[hi + 1] - pre[lo] > 0) || p.regime[k][j] == CREEP || p.knee[k][j] {
                 p.keep[k][j] = false;
             }
         }
@@ -439,5 +578,43 @@ mod tests {
             still.q[i].fill(0.3);
         }
         assert_eq!(choose_window(&[still], 5).window_s, WINDOW_LADDER_START_S);
+    }
+}
+
+#[cfg(test)]
+mod rate_tests {
+    use super::*;
+
+    /// τ̇_rb and τ̈_rb (for `delay`) equal the time derivatives of τ_rb along a smooth motion of
+    /// the JK5 (central differences over the analysis instants, 10 ms apart).
+    #[test]
+    fn rigid_body_torque_rates_match_its_differences() {
+        let model = Model::from_urdf_file(concat!(env!("CARGO_MANIFEST_DIR"), "/../../urdf/jk5.urdf")).expect("jk5");
+        let nj = model.nv();
+        let mut ts = TimeSeries::default();
+        for k in 0..20_000 {
+            let t = k as f64 * 1e-3;
+            let q: Vec<f64> = (0..nj).map(|j| 0.3 + 0.5 * (0.7 * (j as f64 + 1.0) * t + j as f64).sin()).collect();
+            ts.t.push(t);
+            ts.q.push(&q);
+            ts.dq.push(vec![0.0; nj]);
+            ts.tau.push(vec![0.0; nj]);
+        }
+        let tip = crate::tip_frame(&model, std::path::Path::new("jk5"), None).expect("tip").0;
+        let p = prepare(&ts, &model, tip, &PrepareOptions::default(), &mut |_| {}).expect("prepare");
+        let dt = p.dt();
+        let mut worst: [f64; 2] = [0.0, 0.0];
+        let mut scale: [f64; 2] = [0.0, 0.0];
+        for k in 1..p.len() - 1 {
+            for j in 0..nj {
+                let d1 = (p.tau_rb[k + 1][j] - p.tau_rb[k - 1][j]) / (2.0 * dt);
+                let d2 = (p.tau_rb[k + 1][j] - 2.0 * p.tau_rb[k][j] + p.tau_rb[k - 1][j]) / (dt * dt);
+                worst[0] = worst[0].max((d1 - p.dtau_rb[k][j]).abs());
+                worst[1] = worst[1].max((d2 - p.ddtau_rb[k][j]).abs());
+                scale[0] = scale[0].max(p.dtau_rb[k][j].abs());
+                scale[1] = scale[1].max(p.ddtau_rb[k][j].abs());
+            }
+        }
+        assert!(worst[0] < 1e-3 * scale[0] && worst[1] < 1e-2 * scale[1], "worst {worst:?} of {scale:?}");
     }
 }

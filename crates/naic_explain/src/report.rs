@@ -76,7 +76,7 @@ pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(Strin
         }
         Effect::Payload => push("mass_kg", c(Col::Payload)),
         Effect::TorqueOffset => push("offset_nm", c(Col::Offset)),
-        Effect::Delay => push("delay_s", c(Col::Delay)),
+        Effect::Delay => push("delay_s", st.delay),
         Effect::Drift => {
             push("delta_f_c_nm", c(Col::Drift));
             let dur = js.t.last().copied().unwrap_or(0.0) - js.t.first().copied().unwrap_or(0.0);

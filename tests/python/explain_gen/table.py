@@ -33,7 +33,7 @@ def table(path):
         errs = collections.defaultdict(list)
         for r in res:
             for k, v in r["param_err"].items():
-                errs[k].append(v["rel_err"])
+                errs[k].append(v["rel_err"] if "rel_err" in v else v["ratio"])  # ratio: share of the error left
         perr = "; ".join(f"{k} {np.median(v):.3f} / {np.max(v):.3f}" for k, v in errs.items()) or "–"
         firsts = collections.Counter(r["first"] for r in res if not r.get("named_first"))
         others = collections.Counter(f for r in res for f in r["findings"][1:])
@@ -66,7 +66,7 @@ def known_fails(path):
             for r in bad:
                 for k, v in r["param_err"].items():
                     if not v["ok"]:
-                        errs[k].append(f"{v['true']:.4g}→{v['est']:.4g}")
+                        errs[k].append(f"{v['true']:.4g}→{v['est']:.4g}" if "true" in v else f"{v['ratio']:.3g} left")
             why = f"{d['n_ok']}/{n} seeds pass (goal ≥ {n - n // 20}); named first {named}/{n}"
             if firsts:
                 why += f", first instead {dict(firsts)}"
