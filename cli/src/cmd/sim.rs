@@ -262,12 +262,12 @@ pub fn summary_table(s: &Scenario, runs: &[RunResult]) -> String {
     for r in runs {
         let m = &r.metrics;
         if m.phases.is_empty() {
-            t.push_str(&format!("| {} | {} | {} | – | – | – | – | – | – | – | – |\n", s.name, r.controller, fmt_opt(m.contact_time_s)));
+            t.push_str(&format!("| {} | {} | {} | – | – | – | – | – | – | – | – |\n", s.task.name, r.controller, fmt_opt(m.contact_time_s)));
         }
         for ph in &m.phases {
             t.push_str(&format!(
                 "| {} | {} | {} | {:.3} | {:.1} | {} | {} | {:.1} | {:.3} | {:.3} | {:.2} |\n",
-                s.name,
+                s.task.name,
                 r.controller,
                 fmt_opt(m.contact_time_s),
                 ph.t_start_s,
@@ -292,7 +292,7 @@ pub fn summary_table(s: &Scenario, runs: &[RunResult]) -> String {
 pub fn write_outputs(out: &Path, s: &Scenario, runs: &[RunResult]) -> Result<(), CliError> {
     let fail = |p: &Path, e: std::io::Error| CliError::failure(format!("cannot write {}: {e}", p.display()));
     std::fs::create_dir_all(out).map_err(|e| fail(out, e))?;
-    let n = s.force_axis;
+    let n = s.task.force_axis;
     let force_axis = (0..3).max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs())).unwrap_or(2) as u8;
     let mut controllers = BTreeMap::new();
     for r in runs {
@@ -302,11 +302,11 @@ pub fn write_outputs(out: &Path, s: &Scenario, runs: &[RunResult]) -> Result<(),
         let p = out.join(format!("{}.truth.csv", r.controller));
         std::fs::write(&p, runner::to_csv(&r.records)).map_err(|e| fail(&p, e))?;
     }
-    let mf = MetricsFile { scenario: s.name.clone(), controllers };
+    let mf = MetricsFile { scenario: s.task.name.clone(), controllers };
     let p = out.join("metrics.json");
     let json = serde_json::to_string_pretty(&mf).map_err(|e| CliError::failure(e.to_string()))?;
     std::fs::write(&p, json + "\n").map_err(|e| fail(&p, e))?;
-    let p = out.join(format!("{}.svg", s.name));
+    let p = out.join(format!("{}.svg", s.task.name));
     std::fs::write(&p, naic_sim::plots::figure(s, runs).to_svg()).map_err(|e| fail(&p, e))?;
     Ok(())
 }
@@ -360,7 +360,7 @@ pub fn run(a: SimArgs) -> CliResult {
         if !(d > 0.0 && d.is_finite()) {
             return Err(CliError::usage(format!("--duration {d}: must be a positive number of seconds")));
         }
-        s.duration = d;
+        s.task.duration = d;
     }
     let mut settings = LoopSettings::default();
     if let Some(g) = a.gamma {
@@ -398,7 +398,7 @@ pub fn run(a: SimArgs) -> CliResult {
     }
     let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
-    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", utc_stamp(), s.name)));
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", utc_stamp(), s.task.name)));
     let show = std::io::stderr().is_terminal();
     let n_seeds = a.seeds.unwrap_or(1);
     if n_seeds == 0 {
@@ -414,9 +414,9 @@ pub fn run(a: SimArgs) -> CliResult {
         let plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
         eprintln!(
             "naic sim: scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
-            s.name,
+            s.task.name,
             s.seed,
-            s.duration,
+            s.task.duration,
             plant.substeps,
             plant.h() * 1e3,
             dir.display()
@@ -436,12 +436,12 @@ pub fn run(a: SimArgs) -> CliResult {
         for r in &runs {
             controllers.insert(r.controller.clone(), r.metrics.clone());
         }
-        files.push(MetricsFile { scenario: s.name.clone(), controllers });
+        files.push(MetricsFile { scenario: s.task.name.clone(), controllers });
     }
     if a.seeds.is_some() {
         let mut md = format!(
             "Scenario '{}', seeds {}–{}: median [min–max]\n\n{}\nRMS of f_ext − f_d from first contact to the end:",
-            s.name,
+            s.task.name,
             first_seed,
             first_seed + u64::from(n_seeds) - 1,
             naic_sim::metrics::spread_table(&files, true)
@@ -505,7 +505,7 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     let c = PipelineController::new(Mode::Naic, &s, &model, Some(friction), tool.0, tool.1, &LoopSettings::default())
         .map_err(CliError::failure)?;
     let t_start = 2.5;
-    let max_steps = ((s.duration - t_start) / s.dt) as usize;
+    let max_steps = ((s.task.duration - t_start) / s.task.dt) as usize;
     let steps = a.steps.min(max_steps.max(1));
     let (rate, last) = runner::bench_closed_loop(&s, &plant, &c, t_start, steps, a.repeats);
     // the same without joint friction (as MuJoCo's model): plant Euler-like, no feedforward

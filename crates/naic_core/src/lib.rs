@@ -15,6 +15,8 @@
 //!   in Table 1, and a smooth variant) and their identification from data.
 //! * [`pipeline`] — the 1 kHz control path, one stage per folder, in the order
 //!   the data flows: `sense → estimate → control → feedforward → actuate`.
+//! * [`task`]     — the paper's tasks as the controller sees them: start joints,
+//!   reference trajectory, desired force schedule, impedance settings.
 
 pub mod alloc_count;
 pub mod dynamics;
@@ -22,3 +24,4 @@ pub mod friction;
 pub mod model;
 pub mod pipeline;
 pub mod rng;
+pub mod task;

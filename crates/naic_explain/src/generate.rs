@@ -460,7 +460,7 @@ struct Seg {
 /// Seeded contact data ("measured" on the simulator, issue 6 item 4).
 ///
 /// Scripted motion (1 kHz), tool pointing down as in the `flat` scenario
-/// (`naic_sim::scenario::Q0_FLAT_DEG`): 20 s of free-space wrist motion 0.15 m above the
+/// (`naic_core::task::Q0_FLAT_DEG`): 20 s of free-space wrist motion 0.15 m above the
 /// surface (joints 1, 4, 5, 6 sum of sines: the sensor turns, so tool weight and sensor
 /// bias can be told apart), then at three sites a pressing motion: from 10 mm above the
 /// surface to a depth of 3–6 mm (drawn) and back, with down/up times 3, 1 and 0.4 s and
@@ -479,7 +479,7 @@ struct Seg {
 pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
     use crate::contact::AXIS_BASE;
     use naic_sim::environment::{Environment, Material, MaterialMap};
-    use naic_sim::scenario::{deg, inverse_kinematics, tip_pose, Q0_FLAT_DEG};
+    use naic_core::task::{deg, inverse_kinematics, tip_pose, Q0_FLAT_DEG};
     use naic_sim::sensor::Mini45;
     let mut rng = Rng::new(spec.seed ^ 0xC0C7_AC7D_A7A0_0001);
     let noise_tau = rng.range(0.02, 0.08);

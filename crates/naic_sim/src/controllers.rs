@@ -9,7 +9,7 @@ use naic_core::friction::FrictionModel;
 use naic_core::model::Model;
 use naic_core::pipeline::actuate::ActuateParams;
 use naic_core::pipeline::control::force_law::Mode;
-use naic_core::pipeline::control::{ForceAxis, ImpedanceParams};
+use naic_core::pipeline::control::ForceAxis;
 use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Status, Workspace};
 use naic_core::pipeline::estimate::ToolParams;
 use naic_core::pipeline::{self, param_change, ConfigError, Pipeline, PipelineState};
@@ -96,7 +96,7 @@ impl PipelineController {
             return Err(ConfigError::invalid("model mass error", f, "must be a positive factor (1 = exact model)"));
         }
         let model = &if f == 1.0 { model.clone() } else { model.with_scaled_inertias(f) };
-        let n = scenario.force_axis;
+        let n = scenario.task.force_axis;
         let axis = (0..3).max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs())).unwrap_or(2);
         if (n.norm() - 1.0).abs() > 1e-9 || (n[axis].abs() - 1.0).abs() > 1e-9 {
             return Err(ConfigError::invalid("the force axis", format!("{n:?}"), "must be ±x, ±y or ±z of the base frame"));
@@ -107,12 +107,12 @@ impl PipelineController {
         params.sense.median_window = settings.median_window;
         params.tool = ToolParams { mass: tool_mass, com: tool_com, gravity: model.gravity, ..params.tool };
         params.tare_samples = settings.tare_samples;
-        let imp = &scenario.impedance;
+        let imp = &scenario.task.impedance;
         let c = &mut params.control;
-        c.impedance = ImpedanceParams { m_d: imp.m_d, b_d: imp.b_d, k_free: imp.k_free, k_contact: imp.k_contact };
+        c.impedance = imp.params;
         c.force_axis = ForceAxis { axis, sign: n[axis].signum() };
         c.force_law.sigma = imp.sigma;
-        c.force_law.lambda = scenario.dt;
+        c.force_law.lambda = scenario.task.dt;
         c.force_law.sigma_margin = settings.sigma_margin;
         c.contact.enter_n = settings.contact_enter_n;
         c.contact.exit_n = settings.contact_exit_n;
@@ -120,7 +120,7 @@ impl PipelineController {
         c.force_law.integral_limit_n = settings.force_limit_n;
         if mode == Mode::Scheduled {
             // The task's expected surface (acrylic, two-material): the approach slows down near it.
-            c.force_law.scheduled.approach.expected_surface = scenario.expected_surface;
+            c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
         }
         let mut effort = [0.0; 6];
         for (e, j) in effort.iter_mut().zip(model.joints()) {

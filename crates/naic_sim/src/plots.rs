@@ -69,5 +69,5 @@ pub fn figure(s: &Scenario, runs: &[RunResult]) -> Figure {
     if !w.series.is_empty() {
         panels.push(w);
     }
-    Figure { title: format!("Scenario '{}'", s.name), subtitle: s.description.clone(), x_label: "time [s]".into(), panels }
+    Figure { title: format!("Scenario '{}'", s.task.name), subtitle: s.description.clone(), x_label: "time [s]".into(), panels }
 }

@@ -72,14 +72,14 @@ fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &R
     let tr = &obs.truth;
     let tip = tr.tip.translation.vector;
     Record {
-        t: k as f64 * s.dt,
+        t: k as f64 * s.task.dt,
         q: ps.q,
         dq: ps.dq,
         tau: tr.tau_applied,
         tip: tip.into(),
         p_d: reference.p_d.into(),
         // F_robot_on_env = −F_contact
-        f_ext: -s.force_axis.dot(&tr.contact.force),
+        f_ext: -s.task.force_axis.dot(&tr.contact.force),
         f_ext_est: rep.f_ext,
         f_d: reference.f_d,
         surface_z: p.env.height_at(tip.x, tip.y),
@@ -105,14 +105,14 @@ fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &R
 pub fn run(s: &Scenario, p: &PlantParams, controller: &mut dyn Controller, progress: &mut dyn FnMut(f64)) -> RunResult {
     let n = s.steps();
     let mut ws = PlantWorkspace::new(p);
-    let state0 = PlantState::at_rest(s.q0, s.seed);
+    let state0 = PlantState::at_rest(s.task.q0, s.seed);
     let (mut state, mut obs) = plant::observe(p, &state0, &mut ws, [0.0; 6], false);
     let mut records = Vec::with_capacity(n + 1);
     let mut limit_violation = false;
     let mut saturated = false;
     let every = (n / 100).max(1);
     for k in 0..=n {
-        let reference = s.reference(k as f64 * s.dt);
+        let reference = s.reference(k as f64 * s.task.dt);
         controller.set_true_stiffness(obs.truth.contact.k_e);
         let (tau, rep) = controller.step(&obs.meas, &reference);
         records.push(record(s, k, &obs, &rep, &reference, &state, p));
@@ -140,7 +140,7 @@ pub fn metrics_of(s: &Scenario, records: &[Record]) -> ControllerMetrics {
     // A change of the material under the tip (two-material surface) starts a
     // phase too, like a scheduled stiffness step.
     for w in records.windows(2) {
-        if w[1].k_e != w[0].k_e && w[1].in_contact && !events.iter().any(|e| (e.t_start - w[1].t).abs() < 1.5 * s.dt) {
+        if w[1].k_e != w[0].k_e && w[1].in_contact && !events.iter().any(|e| (e.t_start - w[1].t).abs() < 1.5 * s.task.dt) {
             events.push(PhaseSpec { t_start: w[1].t, desired_force: w[1].f_d, start: PhaseStart::Disturbance });
         }
     }
@@ -203,10 +203,10 @@ pub fn bench_closed_loop<C: Controller + Clone>(
 ) -> (LoopThroughput, Observation) {
     let mut ws = PlantWorkspace::new(p);
     let mut c = controller.clone();
-    let (mut state, mut obs) = plant::observe(p, &PlantState::at_rest(s.q0, s.seed), &mut ws, [0.0; 6], false);
-    let k0 = (t_start / s.dt).round() as usize;
+    let (mut state, mut obs) = plant::observe(p, &PlantState::at_rest(s.task.q0, s.seed), &mut ws, [0.0; 6], false);
+    let k0 = (t_start / s.task.dt).round() as usize;
     for k in 0..k0 {
-        let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+        let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.task.dt));
         (state, obs) = plant::step(p, &state, &tau, &mut ws);
     }
     let (state0, obs0, c0) = (state, obs, c.clone());
@@ -221,7 +221,7 @@ pub fn bench_closed_loop<C: Controller + Clone>(
         let (mut state, mut obs, mut c) = (state0, obs0, c0.clone());
         for k in k0..k0 + steps {
             meas.push(obs.meas);
-            let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+            let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.task.dt));
             taus.push(tau);
             (state, obs) = plant::step(p, &state, &tau, &mut ws);
         }
@@ -233,7 +233,7 @@ pub fn bench_closed_loop<C: Controller + Clone>(
         let (mut state, mut obs, mut c) = (state0, obs0, c0.clone());
         let t0 = std::time::Instant::now();
         for k in k0..k0 + steps {
-            let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.dt));
+            let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.task.dt));
             (state, obs) = plant::step(p, &state, &tau, &mut ws);
         }
         closed.push(steps as f64 / t0.elapsed().as_secs_f64());
@@ -251,7 +251,7 @@ pub fn bench_closed_loop<C: Controller + Clone>(
         let mut c = c0.clone();
         let t0 = std::time::Instant::now();
         for (i, m) in meas.iter().enumerate() {
-            let rep = c.step(m, &s.reference((k0 + i) as f64 * s.dt));
+            let rep = c.step(m, &s.reference((k0 + i) as f64 * s.task.dt));
             std::hint::black_box(&rep);
         }
         ctrl_only.push(steps as f64 / t0.elapsed().as_secs_f64());

@@ -34,8 +34,8 @@ use common::{friction, model};
 
 fn plant_for(s: &scenario::Scenario, m: &Model, f: Option<FrictionModel>) -> PlantParams {
     let ft = Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(s.seed));
-    let mut p = PlantParams::new(m.clone(), f, Integrator::ImplicitFriction, s.dt, 1, s.env.clone(), ft, Encoders::default()).unwrap();
-    p.substeps = p.substeps_for_contact(&s.q0, s.dt);
+    let mut p = PlantParams::new(m.clone(), f, Integrator::ImplicitFriction, s.task.dt, 1, s.env.clone(), ft, Encoders::default()).unwrap();
+    p.substeps = p.substeps_for_contact(&s.task.q0, s.task.dt);
     p
 }
 
@@ -50,7 +50,7 @@ fn initial_pose_is_above_the_surface_with_the_tool_down() {
     // foam / two-material start 0.538 m above the base, tool down
     for name in ["foam", "two-material"] {
         let s = scenario::preset(name, &m).unwrap();
-        let (p, r) = tip_pose(&m, &s.q0);
+        let (p, r) = tip_pose(&m, &s.task.q0);
         assert!((p.z - 0.538).abs() < 1e-9 && (r * Vector3::z() + Vector3::z()).norm() < 1e-9);
     }
 }
@@ -59,7 +59,7 @@ fn initial_pose_is_above_the_surface_with_the_tool_down() {
 fn flat_closed_loop_is_deterministic_and_tracks_the_force() {
     let m = model();
     let mut s = scenario::preset("flat", &m).unwrap();
-    s.duration = 3.0;
+    s.task.duration = 3.0;
     let p = plant_for(&s, &m, Some(friction()));
     let run = |seed: u64| {
         let mut s = s.clone();
@@ -130,9 +130,9 @@ fn scenario_presets_match_the_paper_settings() {
     assert!((r.p_d - Vector3::new(-0.3, -0.1135, 0.05)).norm() < 1e-12);
     assert!((flat.reference(5.0).p_d.x + 0.75).abs() < 1e-12);
     assert!((r.v_d[0] + 0.09).abs() < 1e-12, "0.45 m over 5 s");
-    assert_eq!(flat.impedance.b_d, [500.0, 500.0, 40.0, 500.0, 500.0, 500.0]);
-    assert_eq!(flat.impedance.k_contact[2], 0.0);
-    assert_eq!(flat.impedance.sigma, 0.01);
+    assert_eq!(flat.task.impedance.params.b_d, [500.0, 500.0, 40.0, 500.0, 500.0, 500.0]);
+    assert_eq!(flat.task.impedance.params.k_contact[2], 0.0);
+    assert_eq!(flat.task.impedance.sigma, 0.01);
     let ev = flat.events();
     assert_eq!(ev.len(), 1);
     assert_eq!(ev[0].t_start, 3.0);

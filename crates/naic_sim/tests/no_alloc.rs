@@ -40,7 +40,7 @@ fn plant_and_controller_steps_do_not_allocate() {
 
 fn count_in_contact(name: &str, mut c: PipelineController, s: &scenario::Scenario, p: &PlantParams) {
     let mut ws = PlantWorkspace::new(p);
-    let (mut st, mut obs) = plant::observe(p, &PlantState::at_rest(s.q0, 1), &mut ws, [0.0; 6], false);
+    let (mut st, mut obs) = plant::observe(p, &PlantState::at_rest(s.task.q0, 1), &mut ws, [0.0; 6], false);
     // run into contact first (allocation-free too, but counted only below)
     let mut k = 0;
     while k < 1700 || (!obs.truth.contact.in_contact && k < 4000) {

@@ -74,8 +74,8 @@ fn desired_force_mode_and_impedance_changed_mid_run_follow_the_node_policy() {
     let model = Model::from_urdf_file(format!("{ROOT}/urdf/jk5.urdf")).unwrap();
     let mut s = scenario::preset("flat", &model).unwrap();
     // The node's set point is its parameter (10 N), not the scenario's 10 → 20 N steps.
-    s.duration = 17.0;
-    s.f_d_steps = vec![(0.0, 10.0)];
+    s.task.duration = 17.0;
+    s.task.f_d_steps = vec![(0.0, 10.0)];
     let friction = FrictionParams::from_yaml_file(format!("{ROOT}/params/friction_jk5.yaml"))
         .unwrap()
         .to_model()

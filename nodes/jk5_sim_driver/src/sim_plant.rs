@@ -20,7 +20,7 @@ pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, String> {
     let (urdf, name, friction_file) = (p.str("urdf"), p.str("scenario"), p.str("friction_file"));
     let model = Model::from_urdf_file(urdf).map_err(|e| format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"))?;
     let mut scen = scenario::preset(name, &model).map_err(|e| format!("scenario '{name}' on robot model '{urdf}': {e} (set -p urdf:=PATH)"))?;
-    scen.dt = 1.0 / p.f64("rate");
+    scen.task.dt = 1.0 / p.f64("rate");
     let friction = FrictionParams::from_yaml_file(friction_file)
         .and_then(|f| f.to_model())
         .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: p.f64("friction_smoothing") }))
@@ -32,8 +32,8 @@ pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, String> {
     let params = scenario::plant_for(&scen, model, Some(friction), tool)
         .map_err(|e| format!("robot model '{urdf}' in scenario '{name}': {e} (set -p urdf:=PATH)"))?;
     let data = Data6::try_new(&params.model).map_err(|e| format!("robot model '{urdf}': {e}"))?;
-    let dt = scen.dt;
-    Ok(SimPlant { arm: SimArm::new(params, scen.q0, scen.seed), data, dt })
+    let dt = scen.task.dt;
+    Ok(SimPlant { arm: SimArm::new(params, scen.task.q0, scen.seed), data, dt })
 }
 
 /// The simulated arm plus the workspace of the driver's hold.

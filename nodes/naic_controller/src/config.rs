@@ -47,7 +47,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::double("wrench_timeout", base.sense.wrench_timeout, 0.0005, 1.0, "Wrench older than this [s] is stale: safe hold"),
         ParamSpec::double("joint_timeout", base.sense.joint_timeout, 0.0005, 1.0, "Joint state older than this [s] is stale: safe hold"),
         ParamSpec::choice("scenario", crate::reference::DEFAULT_SCENARIO, &crate::reference::SCENARIOS,
-            "Position reference: a naic_sim paper scenario's trajectory, or 'none' (start pose moved approach_depth along n)").read_only(),
+            "Position reference: a paper task's trajectory (naic_core::task), or 'none' (start pose moved approach_depth along n)").read_only(),
         ParamSpec::double("approach_depth", 0.05, -0.5, 0.5, "With scenario 'none': free-space target = start tip position moved this far along n [m]"),
         ParamSpec::double("approach_speed", fl.scheduled.approach.max_speed, 1.0e-3, 0.5, "Mode 'scheduled': speed limit of the free-space approach along n [m/s] (a velocity servo toward the reference, robust to model error); the first contact adds k_e * approach_speed * (d + 1/2) * T before the loop reacts (50 000 N/m, 2 cycles of delay: 1.25 N per 10 mm/s)"),
         ParamSpec::string("base_frame", "base_link", "With scenario 'none': the only header.frame_id accepted on /naic/target_pose and /naic/desired_wrench (the URDF's root link)"),

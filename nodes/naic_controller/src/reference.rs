@@ -1,15 +1,16 @@
-//! Where the tip should go: a `naic_sim` paper scenario's reference trajectory, or none
-//! (the node then uses its start pose moved `approach_depth` along the force axis).
+//! Where the tip should go: a paper task's reference trajectory (`naic_core::task`, the
+//! same presets `naic sim` runs), or none (the node then uses its start pose moved
+//! `approach_depth` along the force axis).
 
-use naic_core::{model::Model, pipeline::controller::Reference};
+use naic_core::{model::Model, pipeline::controller::Reference, task::Task};
 
 pub const SCENARIOS: [&str; 6] = ["none", "flat", "stiffness-step", "slope", "foam", "two-material"];
 pub const DEFAULT_SCENARIO: &str = "flat";
 
-/// A scenario's reference as a function of controller time.
+/// A task's reference as a function of controller time.
 #[derive(Clone)]
 pub struct ScenarioReference {
-    scenario: naic_sim::scenario::Scenario,
+    task: Task,
 }
 
 impl ScenarioReference {
@@ -18,12 +19,12 @@ impl ScenarioReference {
         if name == "none" {
             return Ok(None);
         }
-        let scenario = naic_sim::scenario::preset(name, model).map_err(|e| format!("scenario '{name}': {e}"))?;
-        Ok(Some(ScenarioReference { scenario }))
+        let task = naic_core::task::preset(name, model).map_err(|e| format!("scenario '{name}': {e}"))?;
+        Ok(Some(ScenarioReference { task }))
     }
 
     /// The reference at controller time `t` [s] (allocation-free).
     pub fn at(&self, t: f64) -> Reference {
-        self.scenario.reference(t)
+        self.task.reference(t)
     }
 }

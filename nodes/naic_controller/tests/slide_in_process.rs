@@ -40,7 +40,7 @@ fn slide(c: &mut Chain, settle: f64) -> Vec<Sample> {
     }
     let (q, _, _) = c.plant.joints();
     let model = c.cp.controller.model();
-    let (p0, r0) = naic_sim::scenario::tip_pose(model, &q);
+    let (p0, r0) = naic_core::task::tip_pose(model, &q);
     let mut next_pub = c.now_ns() + 1_000_000_000;
     let mut run_until = |c: &mut Chain, end: &mut dyn FnMut(i64, Option<&ctl::Report>) -> bool, pose: &dyn Fn(i64) -> (Vector3<f64>, f64)| {
         let mut out = Vec::new();

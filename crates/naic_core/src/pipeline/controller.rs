@@ -356,9 +356,8 @@ fn hold(
 }
 
 impl ControllerParams {
-    /// The paper's §4.1 settings on a model: M_d = I, B_d = diag(500, 500, 40,
-    /// 500, 500, 500), K_d free diag(500, 500, 50, 1000, 1000, 1000), contact
-    /// diag(100, 100, 0, 1000, 1000, 1000), σ = 0.01, force along −z (pushing
+    /// The paper's §4.1 settings on a model: the impedance and σ of
+    /// [`crate::task::PAPER_IMPEDANCE`], force along −z (pushing
     /// down), 1 ms period; sense limits from the model's URDF limits; the
     /// tool of the authors' model (0.424 kg, CoM 0.015 m and tip 0.169 m
     /// along the sensor z); the ATI mini45 SI-145-5 range ×1.5 as the
@@ -366,7 +365,8 @@ impl ControllerParams {
     /// the paper; `gamma` is the caller's choice.
     pub fn paper_defaults(model: &Model, mode: Mode, gamma: f64) -> Self {
         use super::control::force_law::{ForceLawParams, WeightBounds};
-        use super::control::{ContactDetect, ForceAxis, ForceLimit, ImpedanceParams};
+        use super::control::{ContactDetect, ForceAxis, ForceLimit};
+        use crate::task::PAPER_IMPEDANCE;
         let lambda = 1e-3;
         ControllerParams {
             sense: SenseParams::for_model(model),
@@ -378,16 +378,11 @@ impl ControllerParams {
             },
             tare_samples: 100,
             control: ControlParams {
-                impedance: ImpedanceParams {
-                    m_d: [1.0; 6],
-                    b_d: [500.0, 500.0, 40.0, 500.0, 500.0, 500.0],
-                    k_free: [500.0, 500.0, 50.0, 1000.0, 1000.0, 1000.0],
-                    k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
-                },
+                impedance: PAPER_IMPEDANCE.params,
                 force_axis: ForceAxis { axis: 2, sign: -1.0 },
                 force_law: ForceLawParams {
                     mode,
-                    sigma: 0.01,
+                    sigma: PAPER_IMPEDANCE.sigma,
                     gamma,
                     bounds: WeightBounds::default(),
                     lambda,
