@@ -154,6 +154,7 @@ fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
     use naic_core::pipeline::controller::{self, Controller, ControllerParams, Reference};
     use naic_core::pipeline::estimate;
     use naic_core::pipeline::sense::RawMeasurements;
+    use naic_core::{JointVec, N_JOINTS};
     use nalgebra::{Rotation3, UnitQuaternion, Vector3, Vector6};
     let params = ControllerParams::paper_defaults(model, Mode::Naic, 1e-6);
     let ctl = Controller::new(model.clone(), params)
@@ -166,7 +167,7 @@ fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
     let d = std::f64::consts::PI / 180.0;
     let q0 = [0.0, -30.0 * d, 120.0 * d, 0.0, -90.0 * d, 0.0];
     let tool = ctl.params().tool;
-    let reading = |data: &mut Data<U6>, q: &[f64; 6], push: f64| -> [f64; 6] {
+    let reading = |data: &mut Data<U6>, q: &JointVec, push: f64| -> [f64; 6] {
         dynamics::forward_kinematics(model, data, &Vector6::from(*q));
         let r = data.frame_se3(sensor).rot;
         let weight = estimate::tool_weight_wrench(&tool, &r);
@@ -175,10 +176,10 @@ fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
         (weight + Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)).into()
     };
     let mut rng = Rng::seed(0xD1B5_4A32_D192_ED03);
-    let inputs: Vec<([f64; 6], [f64; 6], [f64; 6])> = (0..STATES)
+    let inputs: Vec<(JointVec, JointVec, [f64; 6])> = (0..STATES)
         .map(|_| {
-            let q: [f64; 6] = std::array::from_fn(|i| q0[i] + rng.range(-0.2, 0.2));
-            let dq: [f64; 6] = std::array::from_fn(|_| rng.range(-0.3, 0.3));
+            let q: JointVec = std::array::from_fn(|i| q0[i] + rng.range(-0.2, 0.2));
+            let dq: JointVec = std::array::from_fn(|_| rng.range(-0.3, 0.3));
             (q, dq, reading(&mut data, &q, 10.0))
         })
         .collect();
@@ -197,7 +198,7 @@ fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
     let free = reading(&mut data, &q0, 0.0);
     for _ in 0..=ctl.params().tare_samples {
         t += 1e-3;
-        let m = RawMeasurements { t, q: q0, dq: [0.0; 6], joints_stamp: t, wrench: free, wrench_stamp: t };
+        let m = RawMeasurements { t, q: q0, dq: [0.0; N_JOINTS], joints_stamp: t, wrench: free, wrench_stamp: t };
         s = controller::step(&ctl, &s, &m, &reference, &mut ws).0;
     }
     let mut faults = 0usize;

@@ -21,7 +21,8 @@ pub struct PlotArgs {
     pub frame: String,
 }
 
-const JOINT_COLORS: [&str; 6] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b"];
+/// One colour per joint.
+const JOINT_COLORS: [&str; naic_core::N_JOINTS] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b"];
 
 pub fn run(a: PlotArgs) -> CliResult {
     let bag = Bag::open(&a.file).map_err(|e| CliError::usage(e.to_string()))?;

@@ -9,6 +9,7 @@
 use super::{CliError, CliResult};
 use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
 use naic_core::model::Model;
+use naic_core::{JointVec, N_JOINTS};
 use naic_core::pipeline::control::force_law::Mode;
 use naic_sim::controllers::{LoopSettings, PipelineController, CONTROLLERS, MAX_DELAY_CYCLES};
 use naic_sim::environment::{Environment, Material, MaterialMap};
@@ -131,16 +132,16 @@ pub fn load_friction(path: Option<&Path>) -> Result<FrictionModel, CliError> {
         .map_err(|e| CliError::usage(format!("--friction {}: {e}", p.display())))
 }
 
-fn parse_joints(s: &str, what: &str) -> Result<[f64; 6], CliError> {
+fn parse_joints(s: &str, what: &str) -> Result<JointVec, CliError> {
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|e| CliError::usage(format!("{what} '{s}': {e}; give 6 comma-separated numbers (rad)")))?;
-    if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
-        return Err(CliError::usage(format!("{what} '{s}': give exactly 6 finite comma-separated numbers (rad)")));
+        .map_err(|e| CliError::usage(format!("{what} '{s}': {e}; give {N_JOINTS} comma-separated numbers (rad)")))?;
+    if v.len() != N_JOINTS || v.iter().any(|x| !x.is_finite()) {
+        return Err(CliError::usage(format!("{what} '{s}': give exactly {N_JOINTS} finite comma-separated numbers (rad)")));
     }
-    Ok([v[0], v[1], v[2], v[3], v[4], v[5]])
+    Ok(std::array::from_fn(|i| v[i]))
 }
 
 /// Plant of a scenario (see `naic_sim::scenario::plant_for`).
@@ -158,7 +159,7 @@ fn replay(a: &SimArgs) -> CliResult {
     let q0 = parse_joints(a.q0.as_deref().ok_or_else(|| CliError::usage("--replay needs --q0 (6 joint angles in rad)"))?, "--q0")?;
     let dq0 = match &a.dq0 {
         Some(s) => parse_joints(s, "--dq0")?,
-        None => [0.0; 6],
+        None => [0.0; N_JOINTS],
     };
     let integrator = Integrator::parse(a.integrator.as_deref().unwrap_or("euler")).map_err(|e| CliError::usage(format!("--integrator: {e}")))?;
     let text = std::fs::read_to_string(csv).map_err(|e| CliError::usage(format!("--replay {}: {e}", csv.display())))?;
@@ -174,7 +175,7 @@ fn replay(a: &SimArgs) -> CliResult {
             continue;
         }
         let f: Vec<&str> = line.split(',').collect();
-        let mut row = [0.0; 6];
+        let mut row = [0.0; N_JOINTS];
         for (j, &c) in cols.iter().enumerate() {
             row[j] = f.get(c).and_then(|x| x.trim().parse::<f64>().ok()).filter(|x| x.is_finite()).ok_or_else(|| {
                 CliError::usage(format!("--replay {} line {}: tau{} is missing or not a finite number", csv.display(), n + 2, j + 1))
@@ -188,7 +189,7 @@ fn replay(a: &SimArgs) -> CliResult {
     let ft = Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(0)).ideal();
     let mut p = PlantParams::new(model, None, integrator, dt, a.substeps.unwrap_or(1), env, ft, Encoders::ideal())
         .map_err(|e| CliError::usage(e.to_string()))?;
-    p.effort_limit = [f64::INFINITY; 6];
+    p.effort_limit = [f64::INFINITY; N_JOINTS];
     let states = plant::replay(&p, q0, dq0, &torques);
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("."));
     std::fs::create_dir_all(&out).map_err(|e| CliError::failure(format!("--out {}: {e}", out.display())))?;

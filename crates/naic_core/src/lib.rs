@@ -25,3 +25,24 @@ pub mod model;
 pub mod pipeline;
 pub mod rng;
 pub mod task;
+
+/// Joints of the arm (the JK5 has six revolute joints).
+///
+/// The one joint count of the fixed-size code paths: [`JointVec`], the
+/// pipeline stages, the simulator plant. [`model::Data6`] is the matching
+/// 6-DOF workspace; its joint-space vectors (`data.tau`, `data.ddq`) are
+/// nalgebra `Vector6<f64>` = `SVector<f64, N_JOINTS>`, convertible to and from a
+/// [`JointVec`] with `.into()` / `Vector6::from(q)`.
+///
+/// Not every six in the code is this one: a wrench (Fx, Fy, Fz, Tx, Ty, Tz), a
+/// twist, a pose error (3 position + 3 orientation) and the Cartesian impedance
+/// diagonals (`m_d`, `b_d`, `k_*`) have six components because space has six
+/// degrees of freedom, and stay `[f64; 6]` / `Vector6<f64>`.
+pub const N_JOINTS: usize = 6;
+
+/// One value per joint [SI unit of the quantity: rad, rad/s, N·m, ...], joint 1 first.
+///
+/// The plain-array form of a joint-space vector (positions, velocities,
+/// torques, per-joint limits and gains); see [`N_JOINTS`] for its nalgebra
+/// counterpart and for the six-component quantities that are not joint vectors.
+pub type JointVec = [f64; N_JOINTS];

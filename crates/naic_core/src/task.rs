@@ -31,6 +31,7 @@
 use crate::dynamics;
 use crate::model::{Data6, Model};
 use crate::pipeline::control::ImpedanceParams;
+use crate::JointVec;
 pub use crate::pipeline::controller::Reference;
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
@@ -58,7 +59,7 @@ pub const PAPER_IMPEDANCE: ImpedanceSettings = ImpedanceSettings {
 };
 
 /// §4.1 initial joints (authors' code): (0, −30°, 120°, 0, −90°, 0).
-pub const Q0_FLAT_DEG: [f64; 6] = [0.0, -30.0, 120.0, 0.0, -90.0, 0.0];
+pub const Q0_FLAT_DEG: JointVec = [0.0, -30.0, 120.0, 0.0, -90.0, 0.0];
 
 /// A piecewise-linear tip position target: `p_d(t)` moves from `from` to `to`
 /// between `t0` and `t1` at constant speed and holds outside.
@@ -80,7 +81,7 @@ pub struct Task {
     /// Control period [s].
     pub dt: f64,
     /// Start joints [rad].
-    pub q0: [f64; 6],
+    pub q0: JointVec,
     /// Force axis `n`, base frame (−z: pushing down).
     pub force_axis: Vector3<f64>,
     /// `(t, f_d)` steps, ascending, first at t = 0.
@@ -155,12 +156,12 @@ impl From<TaskError> for String {
 }
 
 /// Degrees to radians for a joint vector.
-pub fn deg(q: [f64; 6]) -> [f64; 6] {
+pub fn deg(q: JointVec) -> JointVec {
     q.map(f64::to_radians)
 }
 
 /// Tip position and orientation at `q`.
-pub fn tip_pose(model: &Model, q: &[f64; 6]) -> (Vector3<f64>, UnitQuaternion<f64>) {
+pub fn tip_pose(model: &Model, q: &JointVec) -> (Vector3<f64>, UnitQuaternion<f64>) {
     let mut data = Data6::try_new(model).expect("6-joint model");
     let tip = model.frame_id("tip").expect("tip frame");
     dynamics::forward_kinematics(model, &mut data, &Vector6::from(*q));
@@ -172,10 +173,10 @@ pub fn tip_pose(model: &Model, q: &[f64; 6]) -> (Vector3<f64>, UnitQuaternion<f6
 /// orientation) from `q_start`. Returns the joints and the final position error.
 pub fn inverse_kinematics(
     model: &Model,
-    q_start: &[f64; 6],
+    q_start: &JointVec,
     p_target: &Vector3<f64>,
     r_target: &UnitQuaternion<f64>,
-) -> ([f64; 6], f64) {
+) -> (JointVec, f64) {
     let mut data = Data6::try_new(model).expect("6-joint model");
     let tip = model.frame_id("tip").expect("tip frame");
     let mut q = Vector6::from(*q_start);

@@ -5,6 +5,7 @@
 
 use naic_core::dynamics;
 use naic_core::model::{Data6, Model};
+use naic_core::JointVec;
 use naic_core::pipeline::ConfigError;
 use naic_core::pipeline::control::force_law::Mode;
 use naic_core::pipeline::control::Phase;
@@ -26,13 +27,13 @@ fn params(mode: Mode) -> ControllerParams {
 }
 
 /// The paper's §4.1 start: (0, −30°, 120°, 0, −90°, 0).
-fn q0() -> [f64; 6] {
+fn q0() -> JointVec {
     let d = std::f64::consts::PI / 180.0;
     [0.0, -30.0 * d, 120.0 * d, 0.0, -90.0 * d, 0.0]
 }
 
 /// What an ideal F/T sensor reads in free space: the tool weight.
-fn free_space_reading(model: &Model, data: &mut Data6, tool: &ToolParams, q: &[f64; 6]) -> [f64; 6] {
+fn free_space_reading(model: &Model, data: &mut Data6, tool: &ToolParams, q: &JointVec) -> [f64; 6] {
     dynamics::forward_kinematics(model, data, &Vector6::from(*q));
     let r = data.frame_se3(model.frame_id("ft_sensor").unwrap()).rot;
     estimate::tool_weight_wrench(tool, &r).into()

@@ -11,6 +11,7 @@
 use naic_core::dynamics;
 use naic_core::friction::FrictionParams;
 use naic_core::model::{Data6, Model};
+use naic_core::JointVec;
 use naic_core::pipeline::actuate::{self, ActuateParams, ActuateState};
 use naic_core::pipeline::control::force_law::Mode;
 use naic_core::pipeline::control::Phase;
@@ -33,12 +34,12 @@ fn params(model: &Model) -> ControllerParams {
     p
 }
 
-fn q0() -> [f64; 6] {
+fn q0() -> JointVec {
     let d = std::f64::consts::PI / 180.0;
     [0.0, -30.0 * d, 120.0 * d, 0.0, -90.0 * d, 0.0]
 }
 
-fn effort_limits(model: &Model) -> [f64; 6] {
+fn effort_limits(model: &Model) -> JointVec {
     let l = model.effort_limits();
     std::array::from_fn(|i| l[i])
 }
@@ -228,7 +229,7 @@ fn whole_pipeline_in_a_fault_drops_the_friction_feedforward_and_respects_the_rat
     let mut ws = p.controller.workspace();
     let mut s = p.initial_state();
     let mut t = 0.0;
-    let mut prev: Option<[f64; 6]> = None;
+    let mut prev: Option<JointVec> = None;
     let cases = injections(p.controller.params());
     for (k, (what, inject, _)) in cases.iter().cycle().take(3 * cases.len()).enumerate() {
         let mut m = RawMeasurements { t, q: q0(), dq: [0.3; 6], joints_stamp: t, wrench: rig.good_wrench, wrench_stamp: t };

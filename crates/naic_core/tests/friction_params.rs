@@ -6,6 +6,7 @@ use naic_core::friction::{
     fit, Ci95, FitForm, FitOptions, FrictionData, FrictionModel, FrictionParams, JointFriction, Smoothing,
     StribeckParams,
 };
+use naic_core::N_JOINTS;
 use std::path::PathBuf;
 
 fn repo() -> PathBuf {
@@ -13,7 +14,7 @@ fn repo() -> PathBuf {
 }
 
 /// Table 1 of the paper: (f_a⁺, f_b⁺, q_s⁺, f_v⁺, RMSE⁺, f_a⁻, f_b⁻, q_s⁻, f_v⁻, RMSE⁻).
-const TABLE_1: [[f64; 10]; 6] = [
+const TABLE_1: [[f64; 10]; N_JOINTS] = [
     [41.63, 17.97, 0.2610, 30.52, 1.259, 29.95, 16.98, 0.2715, 5.811, 0.8796],
     [5.729, 5.474, 0.0359, 22.27, 0.2353, 2.949, 4.469, 0.1965, 27.48, 0.438],
     [0.5415, 0.6825, 0.0049, 3.773, 0.0721, 1.183, 1.382, 0.004, 3.465, 0.1905],

@@ -8,15 +8,16 @@
 //! gives no usable values (the consumer holds / leaves the feedforward out).
 
 use crate::msgs::{JointState, JOINT_NAMES};
+use naic_core::{JointVec, N_JOINTS};
 
 /// One `/joint_states` sample in joint order (joint1..joint6). Values the message does
 /// not carry are NaN.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointSample {
     pub stamp_ns: i64,
-    pub q: [f64; 6],
-    pub dq: [f64; 6],
-    pub effort: [f64; 6],
+    pub q: JointVec,
+    pub dq: JointVec,
+    pub effort: JointVec,
 }
 
 /// How the names were mapped, for the caller to report.
@@ -35,7 +36,7 @@ pub enum Layout {
 /// compares) instead of keeping a copy of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct JointMap {
-    idx: [usize; 6],
+    idx: [usize; N_JOINTS],
     /// `None`: no message yet; `Some(false)`: the last layout lacked a name.
     ok: Option<bool>,
     /// The message carried no names (joint order).
@@ -53,7 +54,7 @@ impl JointMap {
         if names.is_empty() {
             return self.unnamed;
         }
-        !self.unnamed && (0..6).all(|j| names.get(self.idx[j]).is_some_and(|n| n == JOINT_NAMES[j]))
+        !self.unnamed && (0..N_JOINTS).all(|j| names.get(self.idx[j]).is_some_and(|n| n == JOINT_NAMES[j]))
     }
 
     /// Map `names` (rebuilt only when the layout changed).
@@ -87,7 +88,7 @@ impl JointMap {
     pub fn sample(&mut self, js: &JointState) -> (JointSample, Layout) {
         let layout = self.update(&js.name);
         let ok = self.ok == Some(true);
-        let pick = |v: &[f64]| -> [f64; 6] {
+        let pick = |v: &[f64]| -> JointVec {
             std::array::from_fn(|j| if ok { v.get(self.idx[j]).copied().unwrap_or(f64::NAN) } else { f64::NAN })
         };
         let s = JointSample {
@@ -101,7 +102,7 @@ impl JointMap {
 }
 
 /// Six values, if all are finite.
-pub fn finite(v: &[f64; 6]) -> Option<[f64; 6]> {
+pub fn finite(v: &JointVec) -> Option<JointVec> {
     v.iter().all(|x| x.is_finite()).then_some(*v)
 }
 
@@ -125,7 +126,7 @@ pub(crate) mod tests {
     #[test]
     fn joints_are_read_by_name_in_any_order() {
         let mut m = JointMap::default();
-        let expect: [f64; 6] = std::array::from_fn(|j| 10.0 * j as f64 + 1.0);
+        let expect: JointVec = std::array::from_fn(|j| 10.0 * j as f64 + 1.0);
         let (s, l) = m.sample(&shuffled(&[0, 1, 2, 3, 4, 5]));
         assert_eq!((s.q, l), (expect, Layout::New));
         let (s, l) = m.sample(&shuffled(&[0, 1, 2, 3, 4, 5]));

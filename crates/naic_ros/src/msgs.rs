@@ -6,6 +6,8 @@ pub use naic_msgs::{
     NaicParams, Time, Vector3, Wrench, WrenchStamped,
 };
 
+use naic_core::{JointVec, N_JOINTS};
+
 pub const JOINT_STATE: (&str, &str) = ("sensor_msgs", "JointState");
 pub const WRENCH_STAMPED: (&str, &str) = ("geometry_msgs", "WrenchStamped");
 pub const POSE_STAMPED: (&str, &str) = ("geometry_msgs", "PoseStamped");
@@ -14,7 +16,7 @@ pub const CLOCK: (&str, &str) = ("rosgraph_msgs", "Clock");
 pub const NAIC_PARAMS: (&str, &str) = ("naic_msgs", "NaicParams");
 
 /// Joint names of the JK5 in joint order, as published on `/joint_states`.
-pub const JOINT_NAMES: [&str; 6] = ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"];
+pub const JOINT_NAMES: [&str; N_JOINTS] = ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"];
 
 /// A torque command `std_msgs/Float64MultiArray` with one dimension `joints` of size n.
 ///
@@ -70,19 +72,19 @@ pub enum EffortError {
 impl std::fmt::Display for EffortError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            EffortError::TooFew(n) => write!(f, "torque command needs 6 values (joint1..joint6, N m), got {n}"),
+            EffortError::TooFew(n) => write!(f, "torque command needs {N_JOINTS} values (joint1..joint6, N m), got {n}"),
             EffortError::NonFinite(v) => write!(f, "torque command contains a non-finite value ({v})"),
         }
     }
 }
 
 /// Check a 6-joint torque command: six finite numbers, data_offset 0.
-pub fn effort_values(m: &Float64MultiArray, out: &mut [f64; 6]) -> Result<(), EffortError> {
+pub fn effort_values(m: &Float64MultiArray, out: &mut JointVec) -> Result<(), EffortError> {
     let off = m.layout.data_offset as usize;
-    if m.data.len() < off + 6 {
+    if m.data.len() < off + N_JOINTS {
         return Err(EffortError::TooFew(m.data.len().saturating_sub(off)));
     }
-    for (o, v) in out.iter_mut().zip(&m.data[off..off + 6]) {
+    for (o, v) in out.iter_mut().zip(&m.data[off..off + N_JOINTS]) {
         if !v.is_finite() {
             return Err(EffortError::NonFinite(*v));
         }

@@ -342,9 +342,9 @@ pub const EFFORT_CAP: f64 = 10_000.0;
 
 /// The nodes' per-joint `effort_limit` may tighten the URDF's `<limit effort>`, never
 /// loosen it: the message names the joint and both values.
-pub fn effort_limit_within(p: &ParamView, urdf_effort: &[f64; 6]) -> Result<(), ParamError> {
+pub fn effort_limit_within(p: &ParamView, urdf_effort: &naic_core::JointVec) -> Result<(), ParamError> {
     let e = p.f64s("effort_limit");
-    match (0..6).find(|&i| e[i] > urdf_effort[i]) {
+    match (0..naic_core::N_JOINTS).find(|&i| e[i] > urdf_effort[i]) {
         Some(i) => Err(ParamError::Rule(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], urdf_effort[i], i + 1))),
         None => Ok(()),
     }

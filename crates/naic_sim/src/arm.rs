@@ -7,6 +7,7 @@
 //! `SimPlant`), the same law the controller applies on a fault.
 
 use crate::plant::{self, Observation, PlantParams, PlantState, PlantWorkspace};
+use naic_core::{JointVec, N_JOINTS};
 
 /// The simulated JK5 + mini45 in one scenario's world.
 pub struct SimArm {
@@ -18,19 +19,19 @@ pub struct SimArm {
 
 impl SimArm {
     /// At rest at `q0`, noise seeded with `seed`. The control period is `params.dt`.
-    pub fn new(params: PlantParams, q0: [f64; 6], seed: u64) -> Self {
+    pub fn new(params: PlantParams, q0: JointVec, seed: u64) -> Self {
         let mut ws = PlantWorkspace::new(&params);
-        let (state, obs) = plant::observe(&params, &PlantState::at_rest(q0, seed), &mut ws, [0.0; 6], false);
+        let (state, obs) = plant::observe(&params, &PlantState::at_rest(q0, seed), &mut ws, [0.0; N_JOINTS], false);
         Self { params, state, ws, obs }
     }
 
     /// Advance one control period (`params().dt`) under `tau` [N·m] (saturated at the effort limits).
-    pub fn step(&mut self, tau: &[f64; 6]) {
+    pub fn step(&mut self, tau: &JointVec) {
         (self.state, self.obs) = plant::step(&self.params, &self.state, tau, &mut self.ws);
     }
 
     /// Measured joint positions [rad], velocities [rad/s], and the applied joint torques [N·m].
-    pub fn joints(&self) -> ([f64; 6], [f64; 6], [f64; 6]) {
+    pub fn joints(&self) -> (JointVec, JointVec, JointVec) {
         (self.obs.meas.q, self.obs.meas.dq, self.obs.truth.tau_applied)
     }
 

@@ -14,6 +14,7 @@ use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, S
 use naic_core::pipeline::estimate::ToolParams;
 use naic_core::pipeline::{self, param_change, ConfigError, Pipeline, PipelineState};
 use naic_core::pipeline::sense::RawMeasurements;
+use naic_core::{JointVec, N_JOINTS};
 use nalgebra::Vector3;
 
 /// Settings of the simulated controller that the paper does not fix.
@@ -122,7 +123,7 @@ impl PipelineController {
             // The task's expected surface (acrylic, two-material): the approach slows down near it.
             c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
         }
-        let mut effort = [0.0; 6];
+        let mut effort = [0.0; N_JOINTS];
         for (e, j) in effort.iter_mut().zip(model.joints()) {
             *e = j.limits.effort;
         }
@@ -131,7 +132,7 @@ impl PipelineController {
         let pipeline = Pipeline {
             controller,
             friction,
-            actuate: ActuateParams { effort_limit: effort, max_delta: [f64::INFINITY; 6] },
+            actuate: ActuateParams { effort_limit: effort, max_delta: [f64::INFINITY; N_JOINTS] },
         };
         let state = pipeline.initial_state();
         let delayed = [None; MAX_DELAY_CYCLES + 1];
@@ -186,7 +187,7 @@ impl SimController for PipelineController {
         }
     }
 
-    fn step(&mut self, m: &RawMeasurements, r: &Reference) -> ([f64; 6], Status) {
+    fn step(&mut self, m: &RawMeasurements, r: &Reference) -> (JointVec, Status) {
         // The loop delay: the controller works on the measurement of `delay` periods ago.
         self.delayed.rotate_right(1);
         self.delayed[0] = Some(*m);

@@ -40,12 +40,10 @@ use crate::sensor::{Encoders, Mini45};
 use naic_core::dynamics;
 use naic_core::friction::FrictionModel;
 use naic_core::model::{Data6, FrameId, Model};
+use naic_core::{JointVec, N_JOINTS};
 use nalgebra::{Isometry3, Matrix3x6, Matrix6, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
 
 mod implicit;
-
-/// Number of joints of the JK5.
-pub const NJ: usize = 6;
 
 /// Integration scheme of the plant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -89,7 +87,7 @@ pub struct PlantParams {
     /// Integration steps per control period.
     pub substeps: u32,
     /// |τ_i| ≤ effort_limit[i] (URDF `<limit effort>`).
-    pub effort_limit: [f64; NJ],
+    pub effort_limit: JointVec,
     pub env: Environment,
     pub ft: Mini45,
     pub encoders: Encoders,
@@ -101,15 +99,15 @@ pub struct PlantState {
     /// Control periods since the start (time is `k · dt`, no accumulated rounding).
     pub k: u64,
     pub t: f64,
-    pub q: [f64; NJ],
-    pub dq: [f64; NJ],
+    pub q: JointVec,
+    pub dq: JointVec,
     pub rng: Rng,
 }
 
 impl PlantState {
     /// At rest at `q` at t = 0 with the RNG seeded from `seed`.
-    pub fn at_rest(q: [f64; NJ], seed: u64) -> Self {
-        Self { k: 0, t: 0.0, q, dq: [0.0; NJ], rng: Rng::seed(seed) }
+    pub fn at_rest(q: JointVec, seed: u64) -> Self {
+        Self { k: 0, t: 0.0, q, dq: [0.0; N_JOINTS], rng: Rng::seed(seed) }
     }
 }
 
@@ -143,15 +141,15 @@ pub struct Truth {
     pub tip_velocity: Vector3<f64>,
     pub contact: Contact,
     /// Torque applied to the joints after saturation (last period) [N·m].
-    pub tau_applied: [f64; NJ],
+    pub tau_applied: JointVec,
     /// Joint friction torque at the end of the period [N·m].
-    pub tau_friction: [f64; NJ],
+    pub tau_friction: JointVec,
     /// Some commanded torque was clipped at the effort limit.
     pub saturated: bool,
     /// Some joint is outside its position limits.
     pub limit_violation: bool,
     /// Sensor-frame wrench without bias/noise/quantisation.
-    pub wrench_true: [f64; NJ],
+    pub wrench_true: [f64; 6],
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -173,7 +171,7 @@ impl PlantParams {
         ft: Mini45,
         encoders: Encoders,
     ) -> Result<Self, PlantError> {
-        if model.nv() != NJ {
+        if model.nv() != N_JOINTS {
             return Err(PlantError::Model(format!("the simulator needs a 6-joint arm; the URDF has {} moving joints", model.nv())));
         }
         let frame = |name: &str| {
@@ -190,11 +188,11 @@ impl PlantParams {
             return Err(PlantError::Config("substeps must be at least 1".into()));
         }
         if let Some(f) = &friction {
-            if f.n_joints() != NJ {
+            if f.n_joints() != N_JOINTS {
                 return Err(PlantError::Config(format!("the friction model has {} joints; the arm has 6", f.n_joints())));
             }
         }
-        let mut effort_limit = [0.0; NJ];
+        let mut effort_limit = [0.0; N_JOINTS];
         for (i, j) in model.joints().iter().enumerate() {
             let e = j.limits.effort;
             if !(e > 0.0) {
@@ -213,7 +211,7 @@ impl PlantParams {
     /// Sub-steps per control period so that the stiffest contact is resolved:
     /// `ω h ≤ 0.1` with `ω = √(k_e,max / m_tip)`, `m_tip` the smallest apparent
     /// mass of the arm at the tip along the surface normal at `q`.
-    pub fn substeps_for_contact(&self, q: &[f64; NJ], dt: f64) -> u32 {
+    pub fn substeps_for_contact(&self, q: &JointVec, dt: f64) -> u32 {
         let mut data = Data6::try_new(&self.model).expect("checked");
         let qv = Vector6::from(*q);
         let m = dynamics::crba(&self.model, &mut data, &qv).clone_owned();
@@ -300,10 +298,10 @@ fn integrate(
 }
 
 /// Saturate the commanded torque at the effort limits.
-fn saturate(p: &PlantParams, tau_cmd: &[f64; NJ]) -> ([f64; NJ], bool) {
-    let mut out = [0.0; NJ];
+fn saturate(p: &PlantParams, tau_cmd: &JointVec) -> (JointVec, bool) {
+    let mut out = [0.0; N_JOINTS];
     let mut sat = false;
-    for i in 0..NJ {
+    for i in 0..N_JOINTS {
         let l = p.effort_limit[i];
         let v = if tau_cmd[i].is_finite() { tau_cmd[i] } else { 0.0 };
         out[i] = v.clamp(-l, l);
@@ -314,7 +312,7 @@ fn saturate(p: &PlantParams, tau_cmd: &[f64; NJ]) -> ([f64; NJ], bool) {
 
 /// Measure the current state (encoders, F/T sensor) and collect the truth.
 /// Pure: returns the state with its RNG advanced.
-pub fn observe(p: &PlantParams, s: &PlantState, ws: &mut PlantWorkspace, tau_applied: [f64; NJ], saturated: bool) -> (PlantState, Observation) {
+pub fn observe(p: &PlantParams, s: &PlantState, ws: &mut PlantWorkspace, tau_applied: JointVec, saturated: bool) -> (PlantState, Observation) {
     observe_with_friction(p, s, ws, tau_applied, saturated, None)
 }
 
@@ -323,7 +321,7 @@ fn observe_with_friction(
     p: &PlantParams,
     s: &PlantState,
     ws: &mut PlantWorkspace,
-    tau_applied: [f64; NJ],
+    tau_applied: JointVec,
     saturated: bool,
     tau_f: Option<Vector6<f64>>,
 ) -> (PlantState, Observation) {
@@ -366,7 +364,7 @@ fn observe_with_friction(
 
 /// One control period: saturate `tau_cmd`, integrate `substeps` steps, observe.
 /// Pure: `(params, state, input) -> (state, outputs)`; allocation-free.
-pub fn step(p: &PlantParams, s: &PlantState, tau_cmd: &[f64; NJ], ws: &mut PlantWorkspace) -> (PlantState, Observation) {
+pub fn step(p: &PlantParams, s: &PlantState, tau_cmd: &JointVec, ws: &mut PlantWorkspace) -> (PlantState, Observation) {
     let (tau, saturated) = saturate(p, tau_cmd);
     let tau_v = Vector6::from(tau);
     let h = p.h();
@@ -384,7 +382,7 @@ pub fn step(p: &PlantParams, s: &PlantState, tau_cmd: &[f64; NJ], ws: &mut Plant
 /// Open-loop replay: from `(q0, dq0)` apply `torques[k]` over period `k` and
 /// return the true state after every period (the first entry is the start).
 /// For cross-checks against other simulators (contact and friction as in `p`).
-pub fn replay(p: &PlantParams, q0: [f64; NJ], dq0: [f64; NJ], torques: &[[f64; NJ]]) -> Vec<PlantState> {
+pub fn replay(p: &PlantParams, q0: JointVec, dq0: JointVec, torques: &[JointVec]) -> Vec<PlantState> {
     let mut ws = PlantWorkspace::new(p);
     let mut s = PlantState { dq: dq0, ..PlantState::at_rest(q0, 0) };
     let mut out = Vec::with_capacity(torques.len() + 1);

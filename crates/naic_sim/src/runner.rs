@@ -7,6 +7,7 @@ use crate::plant::{self, Observation, PlantParams, PlantState, PlantWorkspace, R
 use crate::scenario::{Reference, Scenario};
 use naic_core::pipeline::control::Phase;
 use naic_core::pipeline::controller::Status;
+use naic_core::{JointVec, N_JOINTS};
 
 /// A force-tracking controller as the simulator drives it: measured signals
 /// and the reference in, torque out. Implementations keep their own state and
@@ -16,7 +17,7 @@ pub trait Controller {
     /// Name used in files and legends (`naic`, `aic`, `fixed`).
     fn name(&self) -> &str;
     /// The torque to the drives and the controller's report of this period.
-    fn step(&mut self, meas: &RawMeasurements, reference: &Reference) -> ([f64; 6], Status);
+    fn step(&mut self, meas: &RawMeasurements, reference: &Reference) -> (JointVec, Status);
     /// The simulator's true stiffness under the tip before each step: only the
     /// `oracle` benchmark uses it (default: ignored).
     fn set_true_stiffness(&mut self, _k_e: f64) {}
@@ -26,9 +27,9 @@ pub trait Controller {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Record {
     pub t: f64,
-    pub q: [f64; 6],
-    pub dq: [f64; 6],
-    pub tau: [f64; 6],
+    pub q: JointVec,
+    pub dq: JointVec,
+    pub tau: JointVec,
     pub tip: [f64; 3],
     /// Reference tip position.
     pub p_d: [f64; 3],
@@ -100,13 +101,13 @@ fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &R
 }
 
 /// Run `scenario` with `controller` on the plant `p` from rest at
-/// `scenario.q0`. `progress(fraction)` is called about 100 times.
+/// `scenario.task.q0`. `progress(fraction)` is called about 100 times.
 /// The loop itself does not allocate (the record buffer is reserved up front).
 pub fn run(s: &Scenario, p: &PlantParams, controller: &mut dyn Controller, progress: &mut dyn FnMut(f64)) -> RunResult {
     let n = s.steps();
     let mut ws = PlantWorkspace::new(p);
     let state0 = PlantState::at_rest(s.task.q0, s.seed);
-    let (mut state, mut obs) = plant::observe(p, &state0, &mut ws, [0.0; 6], false);
+    let (mut state, mut obs) = plant::observe(p, &state0, &mut ws, [0.0; N_JOINTS], false);
     let mut records = Vec::with_capacity(n + 1);
     let mut limit_violation = false;
     let mut saturated = false;
@@ -203,7 +204,7 @@ pub fn bench_closed_loop<C: Controller + Clone>(
 ) -> (LoopThroughput, Observation) {
     let mut ws = PlantWorkspace::new(p);
     let mut c = controller.clone();
-    let (mut state, mut obs) = plant::observe(p, &PlantState::at_rest(s.task.q0, s.seed), &mut ws, [0.0; 6], false);
+    let (mut state, mut obs) = plant::observe(p, &PlantState::at_rest(s.task.q0, s.seed), &mut ws, [0.0; N_JOINTS], false);
     let k0 = (t_start / s.task.dt).round() as usize;
     for k in 0..k0 {
         let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * s.task.dt));

@@ -3,6 +3,7 @@
 
 use naic_core::friction::FrictionModel;
 use naic_core::model::Model;
+use naic_core::JointVec;
 use naic_core::pipeline::control::force_law::Mode;
 use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::environment::{Environment, Material, MaterialMap};
@@ -97,12 +98,12 @@ fn implicit_friction_holds_a_resting_arm_and_breaks_away_above_friction() {
     // every period: the arm must stay put (no chatter, no drift)
     let mut ws = PlantWorkspace::new(&p);
     let mut s = PlantState::at_rest(q0, 1);
-    let half: [f64; 6] = std::array::from_fn(|i| 0.5 * f.tau_f(i, 1e-2).abs().min(f.tau_f(i, -1e-2).abs()));
+    let half: JointVec = std::array::from_fn(|i| 0.5 * f.tau_f(i, 1e-2).abs().min(f.tau_f(i, -1e-2).abs()));
     for k in 0..500 {
         let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
         let qv = Vector6::from(s.q);
         let g_now = *naic_core::dynamics::gravity_torques(&m, &mut d, &qv);
-        let tau: [f64; 6] = std::array::from_fn(|i| g_now[i] + sign * half[i]);
+        let tau: JointVec = std::array::from_fn(|i| g_now[i] + sign * half[i]);
         s = plant::step(&p, &s, &tau, &mut ws).0;
         assert!(s.dq.iter().all(|v| v.abs() < 5e-3), "k = {k}: dq = {:?}", s.dq);
     }
@@ -110,7 +111,7 @@ fn implicit_friction_holds_a_resting_arm_and_breaks_away_above_friction() {
     assert!(drift < 1e-3, "drift {drift} rad");
     // 3× the friction level on joint 6 makes it move
     let mut s = PlantState::at_rest(q0, 1);
-    let mut tau: [f64; 6] = g.into();
+    let mut tau: JointVec = g.into();
     tau[5] += 3.0 * f.tau_f(5, 0.05);
     for _ in 0..100 {
         s = plant::step(&p, &s, &tau, &mut ws).0;

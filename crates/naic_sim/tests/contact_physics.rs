@@ -3,6 +3,7 @@
 
 use naic_core::dynamics;
 use naic_core::model::{Data6, Model};
+use naic_core::JointVec;
 use naic_sim::environment::{Environment, Material, MaterialMap};
 use naic_sim::plant::{self, Integrator, PlantParams, PlantState, PlantWorkspace};
 use naic_sim::rng::Rng;
@@ -22,7 +23,7 @@ fn plant(env: Environment, integrator: Integrator) -> PlantParams {
 }
 
 /// Joints with the tip `depth` below z = 0.08 at (−0.4, −0.1135), tool down.
-fn pressed_pose(m: &Model, depth: f64) -> [f64; 6] {
+fn pressed_pose(m: &Model, depth: f64) -> JointVec {
     let q0 = deg(Q0_FLAT_DEG);
     let (_, r0) = tip_pose(m, &q0);
     let (q, err) = inverse_kinematics(m, &q0, &Vector3::new(-0.4, -0.1135, 0.08 - depth), &r0);
@@ -31,7 +32,7 @@ fn pressed_pose(m: &Model, depth: f64) -> [f64; 6] {
 }
 
 /// The torque that balances gravity and a contact force `f` (N, along +z on the tip).
-fn balancing_torque(m: &Model, q: &[f64; 6], f: f64) -> [f64; 6] {
+fn balancing_torque(m: &Model, q: &JointVec, f: f64) -> JointVec {
     let mut d = Data6::try_new(m).unwrap();
     let qv = Vector6::from(*q);
     let g = *dynamics::gravity_torques(m, &mut d, &qv);
@@ -102,7 +103,7 @@ fn stiffness_steps_take_effect_at_2_s_and_4_s() {
     for _ in 0..5000 {
         let qv = Vector6::from(s.q);
         let g = *dynamics::gravity_torques(&p.model, &mut d, &qv);
-        let tau: [f64; 6] = std::array::from_fn(|i| g[i] + 2.0e4 * (q[i] - s.q[i]) - 200.0 * s.dq[i]);
+        let tau: JointVec = std::array::from_fn(|i| g[i] + 2.0e4 * (q[i] - s.q[i]) - 200.0 * s.dq[i]);
         let obs;
         (s, obs) = plant::step(&p, &s, &tau, &mut ws);
         log.push((s.t, obs.truth.contact.k_e, obs.truth.contact.force.z / obs.truth.contact.penetration));

@@ -7,6 +7,7 @@
 
 use naic_core::friction::{FrictionParams, Smoothing, DEFAULT_V_S};
 use naic_core::model::Model;
+use naic_core::JointVec;
 use naic_core::pipeline::control::force_law::Mode;
 use naic_core::pipeline::controller::ControllerParams;
 use naic_core::pipeline::param_change::Outcome;
@@ -39,7 +40,7 @@ impl Controller for Scheduled {
     fn name(&self) -> &str {
         "scheduled"
     }
-    fn step(&mut self, m: &RawMeasurements, r: &Reference) -> ([f64; 6], Status) {
+    fn step(&mut self, m: &RawMeasurements, r: &Reference) -> (JointVec, Status) {
         while self.plan.first().is_some_and(|(t, _)| m.t >= *t - 1e-9) {
             let (t, c) = self.plan.remove(0);
             let new = match c {

@@ -3,6 +3,7 @@
 use naic_core::{
     friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S},
     pipeline::{actuate, sense::SenseParams},
+    JointVec, N_JOINTS,
 };
 use naic_ros::{params::EFFORT_CAP, timebase::TimeBase, ParamSpec, ParamView};
 
@@ -25,16 +26,16 @@ pub fn core_params(p: &ParamView, sense: &SenseParams) -> Result<Params, String>
 }
 
 /// Default `torque_rate_limit` per joint [N m per cycle] (as in params/friction_compensation.yaml).
-pub const DEFAULT_RATE_LIMIT: [f64; 6] = [10.0; 6];
+pub const DEFAULT_RATE_LIMIT: JointVec = [10.0; N_JOINTS];
 
 /// The actuation guard's limits from the parameters (both are per joint, six values each;
 /// the parameter table has checked the length, finiteness and ranges).
 pub fn actuate_params(p: &ParamView) -> actuate::ActuateParams {
-    let six = |v: &[f64]| -> [f64; 6] { std::array::from_fn(|i| v[i]) };
-    actuate::ActuateParams { effort_limit: six(p.f64s("effort_limit")), max_delta: six(p.f64s("torque_rate_limit")) }
+    let per_joint = |v: &[f64]| -> JointVec { std::array::from_fn(|i| v[i]) };
+    actuate::ActuateParams { effort_limit: per_joint(p.f64s("effort_limit")), max_delta: per_joint(p.f64s("torque_rate_limit")) }
 }
 
-pub fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
+pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
     vec![
         ParamSpec::doubles("effort_limit", urdf_effort, 0.0, EFFORT_CAP, "Per-joint torque saturation [N m], at most the URDF effort limit (default: the URDF's)"),
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model: effort limits of the actuation guard").read_only(),
@@ -70,7 +71,7 @@ mod tests {
     use super::*;
     use naic_ros::{ParamTable, ParameterValue as V};
 
-    const URDF_EFFORT: [f64; 6] = [100.0; 6];
+    const URDF_EFFORT: JointVec = [100.0; 6];
 
     fn table(overrides: &[(&str, V)]) -> Result<ParamTable, naic_ros::params::ParamError> {
         let o: Vec<(String, V)> = overrides.iter().map(|(n, v)| (n.to_string(), v.clone())).collect();

@@ -14,6 +14,7 @@ use naic_core::{
         actuate, feedforward,
         sense::{self, RawMeasurements, SenseParams, SenseState},
     },
+    JointVec, N_JOINTS,
 };
 use naic_ros::{
     joints::{finite, JointMap, Layout},
@@ -43,7 +44,7 @@ pub struct Params {
 /// A command waiting for the joint state of its stamp (lockstep).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Pending {
-    tau: [f64; 6],
+    tau: JointVec,
     src: Option<i64>,
     /// Give up waiting at this wall time [ns] (then: no feedforward this cycle).
     until_ns: i64,
@@ -55,15 +56,15 @@ pub struct State {
     joints: JointMap,
     sense: SenseState,
     /// Filtered joint velocity, its wall-clock arrival and its stamp [ns].
-    dq: [f64; 6],
+    dq: JointVec,
     dq_rx_ns: i64,
     dq_stamp_ns: Option<i64>,
     /// Torque the driver applies now (`/joint_states` effort).
-    effort_meas: Option<[f64; 6]>,
+    effort_meas: Option<JointVec>,
     actuate: actuate::ActuateState,
     /// When the last command went out (node time base) [ns].
     last_pub_ns: i64,
-    replay: Replay<[f64; 6]>,
+    replay: Replay<JointVec>,
     pending: Option<Pending>,
     warn: Throttle,
     /// Commands published.
@@ -75,7 +76,7 @@ impl Default for State {
         Self {
             joints: JointMap::default(),
             sense: SenseState::default(),
-            dq: [0.0; 6],
+            dq: [0.0; N_JOINTS],
             dq_rx_ns: i64::MIN,
             dq_stamp_ns: None,
             effort_meas: None,
@@ -110,7 +111,7 @@ pub enum Event {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Outbox {
     /// `/joint_effort_cmd`: six torques and the `/joint_states` stamp they answer.
-    pub command: Option<([f64; 6], Option<i64>)>,
+    pub command: Option<(JointVec, Option<i64>)>,
     /// Lockstep: a command waits for the joint state of its stamp; step again with each
     /// `/joint_states` sample until this wall time [ns], then with an empty inbox.
     pub wait_until_ns: Option<i64>,
@@ -125,7 +126,7 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64) -> (State, Outbox
         absorb(p, &mut s, js, now_ns, &mut out);
     }
     if let Some(m) = inbox.command {
-        let mut tau = [0.0; 6];
+        let mut tau = [0.0; N_JOINTS];
         if let Err(e) = msgs::effort_values(m, &mut tau) {
             if s.warn.ready(now_ns) {
                 out.event = Some(Event::BadCommand(e));
@@ -242,7 +243,7 @@ mod tests {
     }
 
     /// Joint state at `stamp`, joints listed in `order`, velocity `dq`, effort `effort`.
-    fn js(stamp: i64, order: [usize; 6], dq: [f64; 6], effort: [f64; 6]) -> JointState {
+    fn js(stamp: i64, order: [usize; N_JOINTS], dq: JointVec, effort: JointVec) -> JointState {
         JointState {
             header: Header { stamp: Time::from_nanos(stamp), frame_id: String::new() },
             name: order.iter().map(|&j| JOINT_NAMES[j].to_string()).collect(),
@@ -252,7 +253,7 @@ mod tests {
         }
     }
 
-    const ORDER: [usize; 6] = [0, 1, 2, 3, 4, 5];
+    const ORDER: [usize; N_JOINTS] = [0, 1, 2, 3, 4, 5];
 
     fn run(p: &Params, s: &State, inbox: Inbox, now: i64) -> (State, Outbox) {
         let ((s, o), n) = counted(|| step(p, s, &inbox, now));

@@ -97,6 +97,7 @@ mod tests {
     };
 
     use super::*;
+    use naic_core::JointVec;
 
     /// The runner on the repository's JK5 files, with `-p` overrides `extra`, and the node's
     /// parameter table as `RosNode` would build it.
@@ -120,7 +121,7 @@ mod tests {
         }
     }
 
-    fn values(m: &Float64MultiArray) -> [f64; 6] {
+    fn values(m: &Float64MultiArray) -> JointVec {
         let mut tau = [0.0; 6];
         effort_values(m, &mut tau).unwrap();
         tau

@@ -1,7 +1,7 @@
 //! Building the node from its arguments, before any DDS participant exists: the robot
 //! model (effort limits, the velocity filter) and the check of parameter values.
 
-use naic_core::{model::Model, pipeline::sense::SenseParams};
+use naic_core::{model::Model, pipeline::sense::SenseParams, JointVec};
 use naic_ros::{
     params::{effort_limit_within, SetCheck, EFFORT_CAP},
     ParamSpec, ParamView, RosArgs, RosError,
@@ -14,7 +14,7 @@ pub const NODE: &str = "friction_compensation";
 /// What the node is built from, read before any DDS participant exists.
 pub struct Setup {
     /// The URDF's `<limit effort>` (capped): the highest saturation a parameter may set.
-    pub effort_limit: [f64; 6],
+    pub effort_limit: JointVec,
     /// The velocity filter: the controller's sense stage (joint limits of the model).
     pub sense: SenseParams,
 }
@@ -28,7 +28,7 @@ impl Setup {
         if l.len() != 6 {
             return Err(RosError::param(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
         }
-        let effort_limit: [f64; 6] = std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i].min(EFFORT_CAP) } else { EFFORT_CAP });
+        let effort_limit: JointVec = std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i].min(EFFORT_CAP) } else { EFFORT_CAP });
         let sense = SenseParams { wrench_max: [f64::INFINITY; 6], joint_timeout: 1.0, wrench_timeout: 1.0, ..SenseParams::for_model(&robot) };
         Ok(Setup { effort_limit, sense })
     }

@@ -2,6 +2,7 @@
 //! and the chain-latency report.
 
 use naic_core::model::Model;
+use naic_core::{JointVec, N_JOINTS};
 use naic_ros::{
     msgs::JOINT_NAMES,
     params::{effort_limit_within, SetCheck, EFFORT_CAP},
@@ -10,7 +11,7 @@ use naic_ros::{
 
 use crate::{core, latency, runner::SensorFault, sim_plant::PLANT_NAME};
 
-pub fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
+pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
     vec![
         ParamSpec::doubles(
             "effort_limit",
@@ -69,13 +70,13 @@ pub fn specs(urdf_effort: &[f64; 6]) -> Vec<ParamSpec> {
 }
 
 /// Effort limits `<limit effort>` of the six joints of `urdf` [N m].
-pub fn urdf_effort_limits(urdf: &str) -> Result<[f64; 6], String> {
+pub fn urdf_effort_limits(urdf: &str) -> Result<JointVec, String> {
     let model = Model::from_urdf_file(urdf).map_err(|e| format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))?;
     let l = model.effort_limits();
-    if l.len() != 6 {
-        return Err(format!("robot model '{urdf}' has {} joints; the JK5 driver needs 6 (set -p urdf:=PATH)", l.len()));
+    if l.len() != N_JOINTS {
+        return Err(format!("robot model '{urdf}' has {} joints; the JK5 driver needs {N_JOINTS} (set -p urdf:=PATH)", l.len()));
     }
-    if let Some(i) = (0..6).find(|&i| !(l[i].is_finite() && l[i] > 0.0)) {
+    if let Some(i) = (0..N_JOINTS).find(|&i| !(l[i].is_finite() && l[i] > 0.0)) {
         return Err(format!(
             "robot model '{urdf}': joint {} has effort limit {}; set <limit effort=\"...\"> > 0 in the URDF",
             i + 1,
@@ -94,19 +95,19 @@ fn joint_order_spec() -> ParamSpec {
         "Order of the joints in the published /joint_states (each of joint1..joint6 once), e.g. to play a joint_state_broadcaster that does not follow the URDF; commands stay in joint1..joint6 order",
     )
     .read_only();
-    s.len = Some(6);
+    s.len = Some(N_JOINTS);
     s
 }
 
 /// The published index → joint index map of `joint_order` (published slot `i` carries
 /// joint `order[i] + 1`), or why the names are not each of joint1..joint6 once.
-pub fn joint_order(p: &ParamView) -> Result<[usize; 6], String> {
+pub fn joint_order(p: &ParamView) -> Result<[usize; N_JOINTS], String> {
     let names = match p.get("joint_order") {
         Some(ParameterValue::StringArray(a)) => a.as_slice(),
         _ => &[],
     };
-    let mut order = [0; 6];
-    for i in 0..6 {
+    let mut order = [0; N_JOINTS];
+    for i in 0..N_JOINTS {
         let name = names.get(i).map_or("", String::as_str);
         order[i] = JOINT_NAMES.iter().position(|j| *j == name).ok_or_else(|| {
             format!("joint_order[{i}] = '{name}' is not a joint of the JK5; name each of {} once", JOINT_NAMES.join(", "))
@@ -120,7 +121,7 @@ pub fn joint_order(p: &ParamView) -> Result<[usize; 6], String> {
 
 /// Live `effort_limit` changes may tighten the URDF limits, never loosen them; the
 /// `joint_order` names each joint once.
-pub fn check(urdf_effort: [f64; 6]) -> SetCheck {
+pub fn check(urdf_effort: JointVec) -> SetCheck {
     Box::new(move |p: &ParamView| {
         joint_order(p)?;
         effort_limit_within(p, &urdf_effort)

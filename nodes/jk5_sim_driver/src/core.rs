@@ -14,6 +14,7 @@
 //! rather than copying it every command; [`State`] is `Copy` and [`step`] pure.
 
 use naic_core::pipeline::actuate;
+use naic_core::{JointVec, N_JOINTS};
 use naic_ros::{
     msgs::{self, EffortError, Float64MultiArray},
     throttle::Throttle,
@@ -37,13 +38,13 @@ pub struct Params {
     /// Joint damping of the hold [N m s/rad].
     pub hold_damping: f64,
     /// Per-joint saturation of everything applied [N m].
-    pub effort_limit: [f64; 6],
+    pub effort_limit: JointVec,
 }
 
 /// The newest command, written by the receive thread, read by the main loop.
 #[derive(Clone)]
 pub struct Commands {
-    pub tau: [f64; 6],
+    pub tau: JointVec,
     /// The newest command was valid (else: hold until a valid one arrives).
     pub valid: bool,
     /// Wall-clock arrival of the newest command [ns].
@@ -72,7 +73,7 @@ pub struct Commands {
 impl Commands {
     pub fn new(record_after_ns: i64, sim_stamps: bool) -> Self {
         Commands {
-            tau: [0.0; 6],
+            tau: [0.0; N_JOINTS],
             valid: false,
             arrival_ns: 0,
             seq: 0,
@@ -118,7 +119,7 @@ impl Commands {
 /// Take one `/joint_effort_cmd` at wall time `now_ns`. Returns the reason of a refusal
 /// when a report is due (one per second).
 pub fn receive(c: &mut Commands, m: &Float64MultiArray, now_ns: i64) -> Option<EffortError> {
-    let mut tau = [0.0; 6];
+    let mut tau = [0.0; N_JOINTS];
     match msgs::effort_values(m, &mut tau) {
         Ok(()) => {
             let src = msgs::effort_source_stamp(m);
@@ -154,7 +155,7 @@ pub fn receive(c: &mut Commands, m: &Float64MultiArray, now_ns: i64) -> Option<E
 /// The newest command as [`step`] sees it (a copy taken under the lock).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Command {
-    pub tau: [f64; 6],
+    pub tau: JointVec,
     pub valid: bool,
     pub arrival_ns: i64,
     pub seq: u64,
@@ -194,14 +195,14 @@ pub struct Events {
     /// Commands resumed: the hold is released.
     pub released: bool,
     /// The torque was saturated on these joints (one report per second).
-    pub saturated: Option<[bool; 6]>,
+    pub saturated: Option<[bool; N_JOINTS]>,
 }
 
 /// What one step applied.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Outbox {
     /// The torque applied to the plant [N m].
-    pub tau: [f64; 6],
+    pub tau: JointVec,
     pub events: Events,
 }
 
@@ -256,19 +257,19 @@ mod tests {
     /// A plant that records what it is given; its hold torque is 7 N m per joint.
     #[derive(Default)]
     struct Probe {
-        applied: Vec<[f64; 6]>,
+        applied: Vec<JointVec>,
     }
 
     impl Plant for Probe {
-        fn step(&mut self, tau: &[f64; 6], _dt: f64) {
+        fn step(&mut self, tau: &JointVec, _dt: f64) {
             if self.applied.len() < self.applied.capacity() {
                 self.applied.push(*tau);
             }
         }
-        fn hold_torque(&mut self, _damping: f64) -> [f64; 6] {
+        fn hold_torque(&mut self, _damping: f64) -> JointVec {
             [7.0; 6]
         }
-        fn joints(&self) -> ([f64; 6], [f64; 6], [f64; 6]) {
+        fn joints(&self) -> (JointVec, JointVec, JointVec) {
             ([0.0; 6], [0.0; 6], [0.0; 6])
         }
         fn wrench(&self) -> [f64; 6] {

@@ -10,6 +10,7 @@
 //! [`receive`] (or [`SharedCommands::receive`] from a receive thread). The core's events
 //! are logged here.
 
+use naic_core::N_JOINTS;
 use std::{
     sync::{Condvar, Mutex, MutexGuard},
     time::Duration,
@@ -68,7 +69,7 @@ pub struct StateMsgs {
     pub w: WrenchStamped,
     pub clock: Clock,
     /// `js`'s slot `i` carries joint `order[i] + 1` ([`config::joint_order`]).
-    order: [usize; 6],
+    order: [usize; N_JOINTS],
 }
 
 impl Default for StateMsgs {
@@ -80,9 +81,9 @@ impl Default for StateMsgs {
 impl StateMsgs {
     /// The messages with the joints of `/joint_states` in `order` (slot `i`: joint
     /// `order[i] + 1`).
-    pub fn in_order(order: [usize; 6]) -> Self {
+    pub fn in_order(order: [usize; N_JOINTS]) -> Self {
         StateMsgs {
-            js: JointState { name: order.iter().map(|&j| msgs::JOINT_NAMES[j].to_string()).collect(), position: vec![0.0; 6], velocity: vec![0.0; 6], effort: vec![0.0; 6], ..Default::default() },
+            js: JointState { name: order.iter().map(|&j| msgs::JOINT_NAMES[j].to_string()).collect(), position: vec![0.0; N_JOINTS], velocity: vec![0.0; N_JOINTS], effort: vec![0.0; N_JOINTS], ..Default::default() },
             w: WrenchStamped { header: Header { frame_id: "ft_sensor".into(), ..Default::default() }, ..Default::default() },
             clock: Clock::default(),
             order,

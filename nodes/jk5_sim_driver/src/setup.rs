@@ -1,6 +1,7 @@
 //! Building the driver from its arguments, before any DDS participant exists: the robot
 //! model (effort limits), then the whole plant (model, scenario, friction file).
 
+use naic_core::JointVec;
 use naic_ros::{ParamSpec, ParamTable, RosArgs, RosError};
 
 use crate::{
@@ -13,7 +14,7 @@ pub const NODE: &str = "jk5_sim_driver";
 /// What the node is built from, read before any DDS participant exists.
 pub struct Setup {
     /// The URDF's `<limit effort>`: the highest `effort_limit` a parameter may set.
-    pub urdf_effort: [f64; 6],
+    pub urdf_effort: JointVec,
     pub plant: SimPlant,
 }
 

@@ -4,6 +4,7 @@ use naic_core::{
     friction::{FrictionParams, Smoothing},
     model::{Data6, Model},
     pipeline::hold,
+    JointVec, N_JOINTS,
 };
 use naic_sim::{arm::SimArm, scenario, sensor::tool_from_urdf};
 
@@ -45,16 +46,16 @@ pub struct SimPlant {
 }
 
 impl Plant for SimPlant {
-    fn step(&mut self, tau: &[f64; 6], _dt: f64) {
+    fn step(&mut self, tau: &JointVec, _dt: f64) {
         self.arm.step(tau)
     }
     /// The core's hold law (`naic_core::pipeline::hold`) at the measured joint state, as a
     /// real driver would compute it from its encoders.
-    fn hold_torque(&mut self, damping: f64) -> [f64; 6] {
+    fn hold_torque(&mut self, damping: f64) -> JointVec {
         let (q, dq, _) = self.arm.joints();
-        hold::torque(&self.arm.params().model, &mut self.data, &q, &dq, &[damping; 6], self.dt)
+        hold::torque(&self.arm.params().model, &mut self.data, &q, &dq, &[damping; N_JOINTS], self.dt)
     }
-    fn joints(&self) -> ([f64; 6], [f64; 6], [f64; 6]) {
+    fn joints(&self) -> (JointVec, JointVec, JointVec) {
         self.arm.joints()
     }
     fn wrench(&self) -> [f64; 6] {

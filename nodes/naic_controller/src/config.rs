@@ -11,6 +11,7 @@ use naic_core::{
         estimate::ToolParams,
         reference::ReferenceParams,
     },
+    N_JOINTS,
 };
 use nalgebra::Vector3;
 use naic_ros::{params::SetCheck, timebase::TimeBase, ParamSpec, ParamView};
@@ -128,7 +129,7 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
     c.sense.wrench_timeout = p.f64("wrench_timeout");
     c.tool = ToolParams { mass: p.f64("tool_mass"), com: vec3(p.f64s("tool_com")), tip: vec3(p.f64s("tool_tip")), ..base.tool };
     c.tare_samples = p.i64("tare_samples") as u32;
-    c.hold_damping = [p.f64("hold_damping"); 6];
+    c.hold_damping = [p.f64("hold_damping"); N_JOINTS];
     c.control.validate()?;
     c.sense.validate()?;
     Ok(c)

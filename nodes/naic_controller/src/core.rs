@@ -17,6 +17,7 @@ use naic_core::{
         reference::{self as refstage, DesiredWrench, ReferenceParams, ReferenceState, Rejection, Source, TargetPose, Verdict},
         sense::{Fault, RawMeasurements},
     },
+    JointVec,
 };
 use naic_ros::{
     joints::{finite, JointMap, JointSample, Layout},
@@ -120,7 +121,7 @@ pub struct ActiveReference {
 /// The answer to one joint state: the torque (when finite) and the report.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Answer {
-    tau: Option<[f64; 6]>,
+    tau: Option<JointVec>,
     report: Report,
 }
 
@@ -222,7 +223,7 @@ pub struct Events {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Outbox {
     /// `/naic/effort`: torque and the `/joint_states` stamp it answers.
-    pub effort: Option<([f64; 6], i64)>,
+    pub effort: Option<(JointVec, i64)>,
     /// `/naic/params`.
     pub report: Option<Report>,
     /// Lockstep: a joint state waits for the wrench of its stamp; step again with each

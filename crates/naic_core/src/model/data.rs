@@ -55,7 +55,9 @@ where
     pub j: OMatrix<f64, U6, D>,
 }
 
-/// The 6-DOF fast-path workspace (stack joint-space matrices).
+/// The 6-DOF fast-path workspace (stack joint-space matrices) for the
+/// [`crate::N_JOINTS`] joints of the arm; its joint-space vectors are the
+/// nalgebra form of a [`crate::JointVec`].
 pub type Data6 = Data<U6>;
 
 impl Data<Dyn> {

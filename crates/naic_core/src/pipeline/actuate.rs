@@ -4,19 +4,21 @@
 //! * Per-joint rate limit: |τ(t) − τ(t−λ)| ≤ `max_delta` [N·m per cycle].
 //! * Per-joint saturation at the effort limit.
 
+use crate::{JointVec, N_JOINTS};
+
 /// Limits of the actuation stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ActuateParams {
     /// Effort limit per joint [N·m].
-    pub effort_limit: [f64; 6],
+    pub effort_limit: JointVec,
     /// Largest change per control cycle [N·m] (`f64::INFINITY` disables it).
-    pub max_delta: [f64; 6],
+    pub max_delta: JointVec,
 }
 
 /// The command sent last cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct ActuateState {
-    pub tau_prev: [f64; 6],
+    pub tau_prev: JointVec,
     /// False until the first command has gone out (the rate limit starts from it).
     pub started: bool,
 }
@@ -24,11 +26,11 @@ pub struct ActuateState {
 /// What the stage did this cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct ActuateReport {
-    pub tau: [f64; 6],
+    pub tau: JointVec,
     /// Joints whose command was saturated at the effort limit.
-    pub saturated: [bool; 6],
+    pub saturated: [bool; N_JOINTS],
     /// Joints whose command was rate limited.
-    pub rate_limited: [bool; 6],
+    pub rate_limited: [bool; N_JOINTS],
     /// The input had a NaN or Inf; the previous command was held.
     pub rejected_non_finite: bool,
 }
@@ -37,10 +39,10 @@ pub struct ActuateReport {
 /// clipped. A non-finite entry becomes 0 and counts as clipped (callers that can hold
 /// the previous command instead, like [`step`], reject non-finite input before this).
 /// Also the last guard of a driver, on whatever it is about to apply.
-pub fn saturate(limit: &[f64; 6], tau: &[f64; 6]) -> ([f64; 6], [bool; 6]) {
-    let mut out = [0.0; 6];
-    let mut clipped = [false; 6];
-    for i in 0..6 {
+pub fn saturate(limit: &JointVec, tau: &JointVec) -> (JointVec, [bool; N_JOINTS]) {
+    let mut out = [0.0; N_JOINTS];
+    let mut clipped = [false; N_JOINTS];
+    for i in 0..N_JOINTS {
         let t = if tau[i].is_finite() { tau[i] } else { 0.0 };
         out[i] = t.clamp(-limit[i], limit[i]);
         clipped[i] = out[i] != tau[i];
@@ -49,14 +51,14 @@ pub fn saturate(limit: &[f64; 6], tau: &[f64; 6]) -> ([f64; 6], [bool; 6]) {
 }
 
 /// One cycle. Pure: `(params, state, input) -> (state, outputs)`.
-pub fn step(p: &ActuateParams, s: &ActuateState, tau_in: &[f64; 6]) -> (ActuateState, ActuateReport) {
+pub fn step(p: &ActuateParams, s: &ActuateState, tau_in: &JointVec) -> (ActuateState, ActuateReport) {
     let mut r = ActuateReport::default();
     if tau_in.iter().any(|t| !t.is_finite()) {
         r.rejected_non_finite = true;
         r.tau = s.tau_prev;
         return (*s, r);
     }
-    for i in 0..6 {
+    for i in 0..N_JOINTS {
         let mut t = tau_in[i];
         if s.started {
             let lo = s.tau_prev[i] - p.max_delta[i];

@@ -38,6 +38,7 @@ use super::estimate::{self, TareState, ToolParams};
 use super::sense::{self, Fault, RawMeasurements, SenseParams, SenseState};
 use crate::dynamics::{self, Damping};
 use crate::model::{Data6, FrameId, Model};
+use crate::{JointVec, N_JOINTS};
 
 /// Everything the controller needs besides the robot model.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,7 +49,7 @@ pub struct ControllerParams {
     pub tare_samples: u32,
     pub control: ControlParams,
     /// Joint damping of the safe hold [N·m·s/rad].
-    pub hold_damping: [f64; 6],
+    pub hold_damping: JointVec,
     /// Jacobian inverse near singularities.
     pub damping: Damping,
 }
@@ -71,7 +72,7 @@ pub const SENSOR_FRAME: &str = "ft_sensor";
 impl Controller {
     /// Checks the model (6 joints, `tip` and `ft_sensor` frames) and the parameters.
     pub fn new(model: Model, params: ControllerParams) -> Result<Self, ConfigError> {
-        if model.nv() != 6 {
+        if model.nv() != N_JOINTS {
             return Err(ConfigError::Model(format!("the controller needs a 6-joint arm; this model has {} joints", model.nv())));
         }
         let frame = |name: &str| {
@@ -138,7 +139,7 @@ pub struct ControllerState {
     /// Fault events (transitions into a fault) since start.
     pub fault_count: u32,
     /// Last valid joint position (the hold uses it when q itself is bad).
-    pub last_q: Option<[f64; 6]>,
+    pub last_q: Option<JointVec>,
 }
 
 /// The reference of one cycle: where the tip should be and what force it should apply.
@@ -198,9 +199,9 @@ pub struct Status {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ControlOutputs {
     /// Joint torques before friction feedforward and actuation limits [N·m].
-    pub tau: [f64; 6],
+    pub tau: JointVec,
     /// The (median-filtered) joint velocity this cycle used [rad/s].
-    pub dq: [f64; 6],
+    pub dq: JointVec,
     pub status: Status,
 }
 
@@ -308,14 +309,14 @@ fn hold(
     // Use q and q̇ only if they are plausible themselves (the fault reported may be another
     // signal's): an implausible q̇ times the damping could be an infinite torque.
     let sp = &p.sense;
-    let q_ok = (0..6).all(|i| m.q[i] >= sp.q_min[i] - sp.q_margin && m.q[i] <= sp.q_max[i] + sp.q_margin);
+    let q_ok = (0..N_JOINTS).all(|i| m.q[i] >= sp.q_min[i] - sp.q_margin && m.q[i] <= sp.q_max[i] + sp.q_margin);
     let q = if q_ok { Some(m.q) } else { s.last_q };
-    let mut tau = [0.0; 6];
+    let mut tau = [0.0; N_JOINTS];
     if let Some(q) = q {
         // Damping at q̇ clamped to its plausible range (a finite reading beyond it may be a
         // real spin, which must be damped, not left to run: seen on the JK5's joint 4 after
         // a hold), none at a non-finite q̇; capped per joint for stability at the period λ.
-        let dq: [f64; 6] = std::array::from_fn(|i| if m.dq[i].is_finite() { m.dq[i].clamp(-sp.dq_max[i], sp.dq_max[i]) } else { 0.0 });
+        let dq: JointVec = std::array::from_fn(|i| if m.dq[i].is_finite() { m.dq[i].clamp(-sp.dq_max[i], sp.dq_max[i]) } else { 0.0 });
         tau = super::hold::torque(&c.model, &mut ws.data, &q, &dq, &p.hold_damping, p.control.force_law.lambda);
     }
     let next = ControllerState {
@@ -352,7 +353,7 @@ fn hold(
         jacobian_damped: false,
         force_limited: false,
     };
-    (next, ControlOutputs { tau, dq: [0.0; 6], status })
+    (next, ControlOutputs { tau, dq: [0.0; N_JOINTS], status })
 }
 
 impl ControllerParams {
@@ -394,7 +395,7 @@ impl ControllerParams {
                 contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
                 force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
             },
-            hold_damping: [5.0; 6],
+            hold_damping: [5.0; N_JOINTS],
             damping: Damping::default(),
         }
     }

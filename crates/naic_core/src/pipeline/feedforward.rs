@@ -9,11 +9,12 @@
 //! rest from turning into torque chatter.
 
 use crate::friction::FrictionModel;
+use crate::{JointVec, N_JOINTS};
 
-/// One cycle: `τ_ctrl + τ_f(q̇)`. A model with a joint count other than 6
+/// One cycle: `τ_ctrl + τ_f(q̇)`. A model with a joint count other than [`N_JOINTS`]
 /// adds nothing.
-pub fn step(model: &FrictionModel, dq: &[f64; 6], tau_ctrl: &[f64; 6]) -> [f64; 6] {
-    let mut tau_f = [0.0; 6];
+pub fn step(model: &FrictionModel, dq: &JointVec, tau_ctrl: &JointVec) -> JointVec {
+    let mut tau_f = [0.0; N_JOINTS];
     if model.tau_f_into(dq, &mut tau_f).is_err() {
         return *tau_ctrl;
     }

@@ -13,6 +13,7 @@ use nalgebra::Vector6;
 
 use crate::{
     dynamics,
+    JointVec,
     model::{Data6, Model},
 };
 
@@ -21,16 +22,16 @@ use crate::{
 pub const KAPPA: f64 = 0.5;
 
 /// `min(damping_i, KAPPA · M_ii / period)` per joint; `m_diag` is the diagonal of `M(q)`.
-pub fn stable_damping(m_diag: &[f64; 6], damping: &[f64; 6], period: f64) -> [f64; 6] {
+pub fn stable_damping(m_diag: &JointVec, damping: &JointVec, period: f64) -> JointVec {
     std::array::from_fn(|i| damping[i].min(KAPPA * m_diag[i] / period).max(0.0))
 }
 
 /// `τ = G(q) − b ⊙ q̇` with `b` = [`stable_damping`] at `q`. No heap allocation.
 /// Pass `dq = 0` for gravity compensation only (e.g. when q̇ itself is implausible).
-pub fn torque(model: &Model, data: &mut Data6, q: &[f64; 6], dq: &[f64; 6], damping: &[f64; 6], period: f64) -> [f64; 6] {
+pub fn torque(model: &Model, data: &mut Data6, q: &JointVec, dq: &JointVec, damping: &JointVec, period: f64) -> JointVec {
     let qv = Vector6::from(*q);
     let m = dynamics::crba(model, data, &qv);
-    let m_diag: [f64; 6] = std::array::from_fn(|i| m[(i, i)]);
+    let m_diag: JointVec = std::array::from_fn(|i| m[(i, i)]);
     let b = stable_damping(&m_diag, damping, period);
     let g = dynamics::gravity_torques(model, data, &qv);
     std::array::from_fn(|i| g[i] - b[i] * dq[i])
@@ -39,6 +40,7 @@ pub fn torque(model: &Model, data: &mut Data6, q: &[f64; 6], dq: &[f64; 6], damp
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::N_JOINTS;
 
     fn jk5() -> Model {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../urdf/jk5.urdf");
@@ -48,7 +50,7 @@ mod tests {
     /// Hold the arm with the torque of `law` recomputed every `period` (zero-order hold),
     /// integrating the rigid-body dynamics (ABA) with 20 semi-implicit Euler substeps, no
     /// friction, from a state where the wrist spins. Returns max |q̇| over the last 50 periods.
-    fn run(period: f64, law: impl Fn(&Model, &mut Data6, &[f64; 6], &[f64; 6]) -> [f64; 6]) -> f64 {
+    fn run(period: f64, law: impl Fn(&Model, &mut Data6, &JointVec, &JointVec) -> JointVec) -> f64 {
         let model = jk5();
         let mut data = Data6::try_new(&model).unwrap();
         let mut q = [0.0, -0.524, 2.094, 0.0, -1.571, 0.0];
@@ -57,11 +59,11 @@ mod tests {
         let n = 400;
         for k in 0..n {
             let tau = law(&model, &mut data, &q, &v);
-            let tau: [f64; 6] = std::array::from_fn(|i| tau[i].clamp(-100.0, 100.0)); // URDF effort limits
+            let tau: JointVec = std::array::from_fn(|i| tau[i].clamp(-100.0, 100.0)); // URDF effort limits
             let h = period / 20.0;
             for _ in 0..20 {
                 let a = *dynamics::aba(&model, &mut data, &Vector6::from(q), &Vector6::from(v), &Vector6::from(tau));
-                for i in 0..6 {
+                for i in 0..N_JOINTS {
                     v[i] += h * a[i];
                     q[i] += h * v[i];
                 }
@@ -93,13 +95,13 @@ mod tests {
         let mut data = Data6::try_new(&model).unwrap();
         let q = [0.0, -0.524, 2.094, 0.0, -1.571, 0.0];
         let m = *dynamics::crba(&model, &mut data, &Vector6::from(q));
-        let m_diag: [f64; 6] = std::array::from_fn(|i| m[(i, i)]);
+        let m_diag: JointVec = std::array::from_fn(|i| m[(i, i)]);
         let b = stable_damping(&m_diag, &[5.0; 6], 1e-3);
         assert_eq!(&b[..3], &[5.0; 3]);
         assert!((b[5] - KAPPA * m_diag[5] / 1e-3).abs() < 1e-12 && b[5] < 1.0, "{b:?}");
         // At rest the hold is pure gravity compensation.
         let t = torque(&model, &mut data, &q, &[0.0; 6], &[5.0; 6], 1e-3);
         let g = *dynamics::gravity_torques(&model, &mut data, &Vector6::from(q));
-        assert!((0..6).all(|i| (t[i] - g[i]).abs() < 1e-12));
+        assert!((0..N_JOINTS).all(|i| (t[i] - g[i]).abs() < 1e-12));
     }
 }

@@ -26,6 +26,7 @@ pub mod reference;
 pub mod sense;
 
 use crate::friction::FrictionModel;
+use crate::JointVec;
 
 /// Why the core refuses a parameter set: which parameter, the value given and the rule it
 /// breaks (the text a node returns as a parameter service's reason), or a model it cannot use.
@@ -73,7 +74,7 @@ pub struct PipelineState {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PipelineOutputs {
     /// Torque to the drives [N·m].
-    pub tau: [f64; 6],
+    pub tau: JointVec,
     /// The controller's torque and report.
     pub control: controller::ControlOutputs,
     pub actuate: actuate::ActuateReport,

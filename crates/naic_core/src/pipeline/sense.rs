@@ -9,6 +9,8 @@
 //!   Fig 5a); a running median over `median_window` samples removes the
 //!   spikes the paper median-filters. Window 1 passes the signal through.
 
+use crate::{JointVec, N_JOINTS};
+
 /// Longest median window supported (the history lives in a fixed array).
 pub const MAX_MEDIAN_WINDOW: usize = 15;
 
@@ -66,11 +68,11 @@ impl std::fmt::Display for Fault {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SenseParams {
     /// Joint position limits [rad] (from the URDF), widened by `q_margin`.
-    pub q_min: [f64; 6],
-    pub q_max: [f64; 6],
+    pub q_min: JointVec,
+    pub q_max: JointVec,
     pub q_margin: f64,
     /// Largest plausible |q̇| per joint [rad/s] (for example 2× the URDF velocity limit).
-    pub dq_max: [f64; 6],
+    pub dq_max: JointVec,
     /// Largest plausible |wrench| component (force N, torque N·m), e.g. 1.5× the sensor range.
     pub wrench_max: [f64; 6],
     /// Median window for the joint velocity (1 = no filtering, at most [`MAX_MEDIAN_WINDOW`]).
@@ -87,10 +89,10 @@ impl SenseParams {
     /// (2π rad/s where it gives none), the ATI mini45 SI-145-5 range ×1.5 as the wrench
     /// limit, a 5-sample velocity median and 10 ms staleness (the paper's §4.1 setup).
     pub fn for_model(model: &crate::model::Model) -> SenseParams {
-        let mut q_min = [-std::f64::consts::PI; 6];
-        let mut q_max = [std::f64::consts::PI; 6];
-        let mut dq_max = [2.0 * std::f64::consts::PI; 6];
-        for (i, j) in model.joints().iter().take(6).enumerate() {
+        let mut q_min = [-std::f64::consts::PI; N_JOINTS];
+        let mut q_max = [std::f64::consts::PI; N_JOINTS];
+        let mut dq_max = [2.0 * std::f64::consts::PI; N_JOINTS];
+        for (i, j) in model.joints().iter().take(N_JOINTS).enumerate() {
             q_min[i] = j.limits.lower;
             q_max[i] = j.limits.upper;
             if j.limits.velocity.is_finite() {
@@ -127,14 +129,14 @@ impl SenseParams {
 /// The velocity history of the median filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SenseState {
-    hist: [[f64; 6]; MAX_MEDIAN_WINDOW],
+    hist: [JointVec; MAX_MEDIAN_WINDOW],
     len: usize,
     next: usize,
 }
 
 impl Default for SenseState {
     fn default() -> Self {
-        Self { hist: [[0.0; 6]; MAX_MEDIAN_WINDOW], len: 0, next: 0 }
+        Self { hist: [[0.0; N_JOINTS]; MAX_MEDIAN_WINDOW], len: 0, next: 0 }
     }
 }
 
@@ -144,8 +146,8 @@ pub struct RawMeasurements {
     /// Controller time now [s].
     pub t: f64,
     /// Joint positions [rad] and velocities [rad/s], and their stamp [s].
-    pub q: [f64; 6],
-    pub dq: [f64; 6],
+    pub q: JointVec,
+    pub dq: JointVec,
     pub joints_stamp: f64,
     /// Raw F/T reading in the `ft_sensor` frame (Fx, Fy, Fz [N], Tx, Ty, Tz [N·m]) and its stamp [s].
     pub wrench: [f64; 6],
@@ -155,9 +157,9 @@ pub struct RawMeasurements {
 /// Conditioned measurements.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sensed {
-    pub q: [f64; 6],
+    pub q: JointVec,
     /// Median-filtered joint velocity.
-    pub dq: [f64; 6],
+    pub dq: JointVec,
     pub wrench: [f64; 6],
 }
 
@@ -224,7 +226,7 @@ pub fn step(p: &SenseParams, s: &SenseState, m: &RawMeasurements) -> (SenseState
     next.hist[next.next] = m.dq;
     next.next = (next.next + 1) % w;
     next.len = (next.len + 1).min(w);
-    let mut dq = [0.0; 6];
+    let mut dq = [0.0; N_JOINTS];
     for (j, out) in dq.iter_mut().enumerate() {
         let mut col = [0.0; MAX_MEDIAN_WINDOW];
         for k in 0..next.len {

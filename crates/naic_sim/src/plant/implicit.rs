@@ -34,6 +34,7 @@
 //! most), against 4.3 (30 at most) for the clamped Newton with a fixed trust region.
 
 use naic_core::friction::{FrictionModel, Smoothing};
+use naic_core::N_JOINTS;
 use nalgebra::{Matrix6, Vector6};
 
 /// Velocity scale of the trust region for the exact (unsmoothed) laws [rad/s]
@@ -63,12 +64,12 @@ pub(super) struct Solution {
 /// step saved). Only used for a bit-identical velocity, so results do not depend on it.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct FrictionAt {
-    at: Option<[u64; 6]>,
+    at: Option<[u64; N_JOINTS]>,
     tau_f: Vector6<f64>,
     slope: Vector6<f64>,
 }
 
-fn bits(u: &Vector6<f64>) -> [u64; 6] {
+fn bits(u: &Vector6<f64>) -> [u64; N_JOINTS] {
     std::array::from_fn(|i| u[i].to_bits())
 }
 
@@ -131,7 +132,7 @@ pub(super) fn solve(
         // Direction: the Newton step, but for a joint inside the tanh zone taken in
         // t = tanh(q̇/v_s) (the step's first-order change of t, then q̇ = v_s atanh t):
         // there the friction is ≈ linear in t, not in q̇.
-        let mut warp = [None; 6];
+        let mut warp = [None; N_JOINTS];
         let mut alpha: f64 = 1.0;
         for i in 0..6 {
             let (from, to) = (u[i], u[i] - dv[i]);
@@ -229,7 +230,7 @@ mod tests {
         // Coulomb + viscous, tanh-smoothed: slopes ≥ f_v > 0, so M + h·diag(slope) is
         // positive definite and the root unique.
         let law = JointFriction::CoulombViscous { f_c: 3.0, f_v: 2.0 };
-        let f = FrictionModel::new(vec![law; 6]).unwrap().with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S }).unwrap();
+        let f = FrictionModel::new(vec![law; N_JOINTS]).unwrap().with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S }).unwrap();
         let cs = cases(300);
         let mut worst = 0;
         for (m, v, rhs0) in &cs {

@@ -5,6 +5,7 @@ use naic_core::{
         control::{force_law::Mode, Phase},
         sense::Signal,
     },
+    N_JOINTS,
 };
 use naic_ros::{
     alloc_check::counted,
@@ -13,7 +14,7 @@ use naic_ros::{
 
 const MS: i64 = 1_000_000;
 /// A plausible JK5 pose (the flat scenario's start).
-const Q0: [f64; 6] = [0.0, 0.3, 1.8, 0.0, 1.0, 0.0];
+const Q0: JointVec = [0.0, 0.3, 1.8, 0.0, 1.0, 0.0];
 
 fn model() -> Model {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../urdf/jk5.urdf");
@@ -36,7 +37,7 @@ fn params(time: TimeBase) -> Params {
     Params::new(Controller::new(m.clone(), base(&m)).unwrap(), settings(time), None, rp).unwrap()
 }
 
-fn js(stamp: i64, order: [usize; 6]) -> JointState {
+fn js(stamp: i64, order: [usize; N_JOINTS]) -> JointState {
     JointState {
         header: Header { stamp: Time::from_nanos(stamp), frame_id: String::new() },
         name: order.iter().map(|&j| JOINT_NAMES[j].to_string()).collect(),
@@ -53,7 +54,7 @@ fn wrench(stamp: i64, fz: f64) -> WrenchStamped {
     }
 }
 
-const ORDER: [usize; 6] = [0, 1, 2, 3, 4, 5];
+const ORDER: [usize; N_JOINTS] = [0, 1, 2, 3, 4, 5];
 
 /// One step under the allocation check.
 fn run(p: &Params, s: &State, inbox: Inbox, now: i64) -> (State, Outbox) {
@@ -80,7 +81,7 @@ fn direct(p: &Params, s: &State, m: &RawMeasurements) -> ControllerState {
     controller::step(&p.controller, &s.ctl, m, &r, &mut ws).0
 }
 
-fn dq() -> [f64; 6] {
+fn dq() -> JointVec {
     std::array::from_fn(|j| 0.01 * j as f64)
 }
 
