@@ -1,9 +1,8 @@
 //! `naic friction fit` and `naic friction eval`: identify equation 4/5 friction
 //! parameters from steady-state data and check a parameter file against data.
 use super::{CliError, CliResult};
-use naic_core::friction::{
-    fit, residual_stats, FitForm, FitOptions, FrictionData, FrictionError, FrictionParams, JointFriction,
-};
+use naic_core::friction::{FrictionError, FrictionParams, JointFriction};
+use naic_ident::{fit, residual_stats, FitForm, FitOptions, FrictionData};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -126,7 +125,7 @@ fn run_fit(a: FitArgs) -> CliResult {
         if a.min_speed > 0.0 { format!(" --min-speed {}", a.min_speed) } else { String::new() },
         opts.n_starts
     );
-    let params = FrictionParams::from_fit(&report, &source);
+    let params = report.to_params(&source);
     params.save(&out).map_err(|e| CliError::failure(format!("could not write the fitted parameters: {e}")))?;
     // Read back through the loader so a written file is always loadable and unchanged.
     match FrictionParams::from_yaml_file(&out) {

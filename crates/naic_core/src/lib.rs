@@ -12,7 +12,8 @@
 //!   forward kinematics, frame Jacobians, J̇q̇, RNEA, CRBA, ABA, and the
 //!   Cartesian terms of equation 3.
 //! * [`friction`] — joint friction models (equations 4 and 5, per direction as
-//!   in Table 1, and a smooth variant) and their identification from data.
+//!   in Table 1, and a smooth variant) and their parameter files; identifying
+//!   them from data is offline work, in the `naic_ident` crate.
 //! * [`pipeline`] — the 1 kHz control path, one stage per folder, in the order
 //!   the data flows: `sense → estimate → control → feedforward → actuate`.
 //! * [`task`]     — the paper's tasks as the controller sees them: start joints,

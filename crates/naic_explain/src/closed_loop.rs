@@ -6,7 +6,7 @@
 //! to 520 mrad/s on joints 4–6, with seeded noise of 2 % of the level). Two compensations are
 //! identified from those points:
 //! * **symmetric**: eq. 5 with one parameter set per joint, fitted by
-//!   `naic_core::friction::fit` (`FitForm::Symmetric`) — the best symmetric law;
+//!   `naic_ident::fit` (`FitForm::Symmetric`) — the best symmetric law;
 //! * **extended**: the `extended_params.yaml` of `naic explain` on the same points.
 //! Both (and, as references, none and the truth itself) feed the NAIC pipeline's friction
 //! feedforward in the `flat` and `stiffness-step` scenarios; the table is the RMS of
@@ -14,7 +14,8 @@
 
 use crate::generate::Rng;
 use crate::{explain_points, report, ExplainError, ExplainOptions};
-use naic_core::friction::{fit, FitForm, FitOptions, FrictionData, FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
+use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
+use naic_ident::{fit, FitForm, FitOptions, FrictionData};
 use naic_core::model::Model;
 use naic_core::pipeline::control::force_law::Mode;
 use naic_sim::controllers::{LoopSettings, PipelineController};
@@ -78,7 +79,7 @@ pub fn closed_loop(
     let data = points_from_truth(&truth, 42)?;
     // symmetric eq. 5 fit (the project's fitter)
     let rep = fit(&data, &FitOptions { form: FitForm::Symmetric, ..Default::default() }).map_err(|e| ExplainError::model(e.to_string()))?;
-    let sym_p = FrictionParams::from_fit(&rep, "naic_core::friction::fit, symmetric eq. 5, on points from the true friction");
+    let sym_p = rep.to_params("naic_ident::fit, symmetric eq. 5, on points from the true friction");
     let symmetric = smooth(sym_p.to_model().map_err(|e| ExplainError::model(e.to_string()))?)?;
     // naic explain
     let opts = ExplainOptions { urdf: urdf.to_path_buf(), ..Default::default() };

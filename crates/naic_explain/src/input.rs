@@ -8,13 +8,13 @@
 //!   `fx,fy,fz,mx,my,mz`; extra columns are ignored. Timestamps need not be uniform
 //!   ([`crate::resample`] puts them on a uniform grid); they must increase.
 //! * **friction_points**: CSV `joint,velocity_rad_s,torque_nm` (steady-state segment
-//!   means), read by [`naic_core::friction::FrictionData`].
+//!   means), read by [`naic_ident::FrictionData`].
 //!
 //! The kind is detected from the MCAP magic bytes / `.mcap` extension, else from the CSV
 //! header. Every problem names the column or row and the fix.
 
 use crate::ExplainError;
-use naic_core::friction::FrictionData;
+use naic_ident::FrictionData;
 use std::path::Path;
 
 /// Rows of equal width stored flat, row-major: `rows[i]` is sample i's slice (one

@@ -34,8 +34,9 @@ pub mod resample;
 
 use analysis::{AnalysisOptions, JointResult, JointSamples, NominalShape};
 use input::{Kind, Measured};
-use naic_core::friction::{FrictionData, FrictionParams, JointFriction};
+use naic_core::friction::{FrictionParams, JointFriction};
 use naic_core::model::Model;
+use naic_ident::FrictionData;
 use prepare::{PrepareOptions, Prepared};
 use std::path::{Path, PathBuf};
 

@@ -11,7 +11,8 @@
 use crate::analysis::{residuals, Candidate, Col, Dir, Eval, JointResult, JointSamples, NominalShape};
 use crate::catalogue::{Effect, ALL_EFFECTS};
 use crate::{ExplainError, Explained};
-use naic_core::friction::{fit, FitForm, FitOptions, FrictionData, FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
+use naic_core::friction::{FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
+use naic_ident::{fit, FitForm, FitOptions, FrictionData};
 use serde_json::{json, Map, Value};
 use std::fmt::Write;
 use std::path::Path;
@@ -448,7 +449,7 @@ fn nonneg(x: f64) -> f64 {
 /// asymmetric). When the final model has terms the schema cannot hold (s·q̇²) or a level
 /// came out negative, the model's friction part is evaluated at 200 speeds per direction
 /// spanning the data and eq. 5 is fitted to it with the project's bounded fitter
-/// (`naic_core::friction::fit`); the note gives the largest deviation.
+/// (`naic_ident::fit`); the note gives the largest deviation.
 pub fn extended_friction(r: &JointResult, js: &JointSamples, sh: &NominalShape, notes: &mut Vec<String>) -> JointFriction {
     let mut direct_notes = Vec::new();
     let direct = extended_friction_direct(r, sh, &mut direct_notes);

@@ -17,11 +17,12 @@
 //! gave mean-square ratios 1.25–2.0, not or barely flagged. The dip's width is therefore
 //! drawn in point spacings.
 
-use naic_core::friction::{FrictionData, FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
+use naic_core::friction::{FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
 use naic_explain::closed_loop::experiment_speeds;
 use naic_explain::generate::Rng;
 use naic_explain::lack_of_fit::{lack_of_fit, DirectionFit};
 use naic_explain::{explain_points, ExplainOptions};
+use naic_ident::FrictionData;
 use std::path::PathBuf;
 
 fn opts() -> ExplainOptions {

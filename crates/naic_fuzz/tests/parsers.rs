@@ -4,8 +4,9 @@
 //! never panic, never hang. Budgets are bounded (`CASES`, override with
 //! PROPTEST_CASES) so the suite stays fast; failures print the shrunk input.
 
-use naic_core::friction::{FrictionData, FrictionParams};
+use naic_core::friction::FrictionParams;
 use naic_core::model::Model;
+use naic_ident::FrictionData;
 use proptest::prelude::*;
 
 const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");

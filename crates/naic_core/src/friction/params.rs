@@ -30,11 +30,27 @@
 //! negative or zero value, duplicate or missing joint) is reported with the file, the
 //! joint, the field and the fix.
 
-use super::fit::{Ci95, Direction, FitReport};
 use super::model::{FrictionModel, JointFriction, Smoothing, StribeckParams};
 use super::FrictionError;
 use serde_yaml::{Mapping, Value};
 use std::path::Path;
+
+/// A confidence interval, or why there is none.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Ci95 {
+    Interval { lo: f64, hi: f64 },
+    /// The parameter ended on a bound (constrained optimum): no interval.
+    AtBound,
+    /// The data does not determine the parameter (null space of the Jacobian).
+    Unidentifiable,
+}
+
+impl Ci95 {
+    /// Whether `v` lies in the interval (false for AtBound/Unidentifiable).
+    pub fn contains(&self, v: f64) -> bool {
+        matches!(*self, Ci95::Interval { lo, hi } if lo <= v && v <= hi)
+    }
+}
 
 /// Fit statistics of one branch (all optional).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -480,44 +496,6 @@ impl FrictionParams {
             Some(v_s) => model.with_smoothing(Smoothing::Tanh { v_s }),
             None => Ok(model),
         }
-    }
-
-    /// Parameters (with their statistics) from a fit report.
-    pub fn from_fit(report: &FitReport, source: &str) -> Self {
-        let stats_of = |b: &super::fit::BranchFit| BranchStats {
-            rmse: Some(b.rmse),
-            rmse_dfe: Some(b.rmse_dfe),
-            n_points: Some(b.n_points),
-            ci95: b.params.iter().map(|p| (p.name.to_string(), p.ci95)).collect(),
-        };
-        let joints = report
-            .joints
-            .iter()
-            .map(|j| {
-                let mut stats = JointStats::default();
-                for b in &j.branches {
-                    match b.direction {
-                        Direction::Both => {
-                            stats.all = stats_of(b);
-                            stats.positive = BranchStats {
-                                rmse: j.rmse_positive,
-                                n_points: Some(j.n_positive),
-                                ..Default::default()
-                            };
-                            stats.negative = BranchStats {
-                                rmse: j.rmse_negative,
-                                n_points: Some(j.n_negative),
-                                ..Default::default()
-                            };
-                        }
-                        Direction::Positive => stats.positive = stats_of(b),
-                        Direction::Negative => stats.negative = stats_of(b),
-                    }
-                }
-                JointParams { joint: j.joint, friction: j.friction, stats }
-            })
-            .collect();
-        Self { source: source.to_string(), notes: None, smoothing_v_s: None, joints }
     }
 }
 

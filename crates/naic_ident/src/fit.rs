@@ -2,7 +2,7 @@
 //!
 //! Each branch (all data for the symmetric forms; the q̇ > 0 and q̇ < 0 halves separately
 //! for the per-direction form, as in Table 1) is fitted by bounded nonlinear least squares
-//! ([`super::lm::lm_box`]) on the residuals `τ̂(q̇_i; θ) − τ_i`, with
+//! ([`crate::lm::lm_box`]) on the residuals `τ̂(q̇_i; θ) − τ_i`, with
 //! `τ̂ = sgn(q̇)·g(q̇) + f_v·q̇` and the physical bounds
 //! `f_a, f_b, f_c, f_v ≥ 0`, `q_s ∈ [q_s_min, q_s_max]` (default [1e-4, 2] rad/s).
 //!
@@ -23,11 +23,10 @@
 //! * RMSE per branch is √(SSR/n); `rmse_dfe` = σ = √(SSR/(n − p)) is MATLAB `fit`'s
 //!   `gof.rmse`, the statistic printed in the paper's Table 1.
 
-use super::data::FrictionData;
-use super::lm::{lm_box, LeastSquares, LmOptions};
-use super::model::{JointFriction, StribeckParams};
-use super::stats::student_t_quantile;
-use super::FrictionError;
+use crate::data::FrictionData;
+use crate::lm::{lm_box, LeastSquares, LmOptions};
+use crate::stats::student_t_quantile;
+use naic_core::friction::{BranchStats, FrictionError, FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
 use nalgebra::{DMatrix, DVector};
 use std::time::{Duration, Instant};
 
@@ -103,22 +102,9 @@ impl Default for FitOptions {
     }
 }
 
-/// A confidence interval, or why there is none.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Ci95 {
-    Interval { lo: f64, hi: f64 },
-    /// The parameter ended on a bound (constrained optimum): no interval.
-    AtBound,
-    /// The data does not determine the parameter (null space of the Jacobian).
-    Unidentifiable,
-}
-
-impl Ci95 {
-    /// Whether `v` lies in the interval (false for AtBound/Unidentifiable).
-    pub fn contains(&self, v: f64) -> bool {
-        matches!(*self, Ci95::Interval { lo, hi } if lo <= v && v <= hi)
-    }
-}
+/// A confidence interval, or why there is none: defined with the parameter file that
+/// stores it (`naic_core::friction::params`), re-exported here for the fit's API.
+pub use naic_core::friction::Ci95;
 
 /// One fitted parameter.
 #[derive(Clone, Debug, PartialEq)]
@@ -515,6 +501,46 @@ fn fmt_est(p: &ParamEstimate) -> String {
 }
 
 impl FitReport {
+    /// The parameter file (`naic_core::friction::FrictionParams`) of this fit: the fitted
+    /// laws with their statistics (RMSE, n, 95 % intervals per branch; RMSE per direction
+    /// for the symmetric forms). Was `FrictionParams::from_fit` before the fit left naic_core.
+    pub fn to_params(&self, source: &str) -> FrictionParams {
+        let stats_of = |b: &BranchFit| BranchStats {
+            rmse: Some(b.rmse),
+            rmse_dfe: Some(b.rmse_dfe),
+            n_points: Some(b.n_points),
+            ci95: b.params.iter().map(|p| (p.name.to_string(), p.ci95)).collect(),
+        };
+        let joints = self
+            .joints
+            .iter()
+            .map(|j| {
+                let mut stats = JointStats::default();
+                for b in &j.branches {
+                    match b.direction {
+                        Direction::Both => {
+                            stats.all = stats_of(b);
+                            stats.positive = BranchStats {
+                                rmse: j.rmse_positive,
+                                n_points: Some(j.n_positive),
+                                ..Default::default()
+                            };
+                            stats.negative = BranchStats {
+                                rmse: j.rmse_negative,
+                                n_points: Some(j.n_negative),
+                                ..Default::default()
+                            };
+                        }
+                        Direction::Positive => stats.positive = stats_of(b),
+                        Direction::Negative => stats.negative = stats_of(b),
+                    }
+                }
+                JointParams { joint: j.joint, friction: j.friction, stats }
+            })
+            .collect();
+        FrictionParams { source: source.to_string(), notes: None, smoothing_v_s: None, joints }
+    }
+
     /// A Table-1-like text table: parameters with 95 % intervals, RMSE per joint and direction.
     pub fn table(&self) -> String {
         let names = self.form.param_names();

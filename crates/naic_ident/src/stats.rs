@@ -1,4 +1,4 @@
-//! Student-t quantiles for the confidence intervals of [`super::fit`], from `statrs`
+//! Student-t quantiles for the confidence intervals of [`crate::fit`], from `statrs`
 //! (its regularized incomplete beta function and inverse; this module used to carry its
 //! own Lanczos ln Γ, continued-fraction incomplete beta and a bisection for the quantile).
 

@@ -8,9 +8,10 @@
 //! fixed, so the outcome is deterministic; the thresholds come from the binomial tail, not
 //! from the outcome.
 
-use naic_core::friction::lm::{lm_box, LeastSquares, LmOptions};
-use naic_core::friction::stats::{student_t_cdf, student_t_quantile};
-use naic_core::friction::{fit, residual_stats, Ci95, Direction, FitForm, FitOptions, FrictionData, JointFriction, StribeckParams};
+use naic_core::friction::{JointFriction, StribeckParams};
+use naic_ident::lm::{lm_box, LeastSquares, LmOptions};
+use naic_ident::stats::{student_t_cdf, student_t_quantile};
+use naic_ident::{fit, residual_stats, Ci95, Direction, FitForm, FitOptions, FrictionData};
 use naic_core::rng::Rng;
 use nalgebra::{DMatrix, DVector};
 

@@ -3,7 +3,7 @@
 //! `joint,velocity_rad_s,torque_nm` (columns in any order; extra columns are ignored;
 //! blank lines and lines starting with `#` are skipped), parsed with the `csv` crate.
 
-use super::FrictionError;
+use naic_core::friction::FrictionError;
 use std::path::Path;
 
 /// The header the CSV reader expects.
