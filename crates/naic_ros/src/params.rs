@@ -324,6 +324,17 @@ pub enum ParamError {
     /// A node's rule across its parameters ([`SetCheck`]), in the node's words.
     #[error("{0}")]
     Rule(String),
+    /// The file parameter `param` names (`path`: a URDF, a friction YAML) cannot be used:
+    /// `problem` says why (naming the file), `fix` what to set instead.
+    #[error("{problem} ({fix})")]
+    File { param: &'static str, path: String, problem: String, fix: &'static str },
+}
+
+impl ParamError {
+    /// The file `path` named by parameter `param` cannot be used: `problem`, fixed by `fix`.
+    pub fn file(param: &'static str, path: &str, problem: impl Into<String>, fix: &'static str) -> Self {
+        ParamError::File { param, path: path.to_string(), problem: problem.into(), fix }
+    }
 }
 
 impl From<String> for ParamError {
@@ -337,8 +348,28 @@ impl From<String> for ParamError {
 pub type SetCheck = Box<dyn Fn(&ParamView) -> Result<(), ParamError> + Send + Sync>;
 
 /// Largest per-joint effort limit an `effort_limit` parameter may declare [N m] (the range
-/// of the parameter; also the value for a joint whose URDF gives none).
+/// of the parameter; a larger URDF limit is capped to it).
 pub const EFFORT_CAP: f64 = 10_000.0;
+
+/// The `<limit effort>` of the arm's joints in `urdf` [N m], capped at [`EFFORT_CAP`]: the
+/// default and the ceiling of the nodes' `effort_limit`. A model that does not load, has
+/// another joint count, or gives a joint no positive limit is refused (no torque limit is
+/// guessed), naming the file and the fix.
+pub fn urdf_effort_limits(urdf: &str) -> Result<naic_core::JointVec, ParamError> {
+    use naic_core::N_JOINTS;
+    const FIX: &str = "set -p urdf:=PATH";
+    let model = naic_core::model::Model::from_urdf_file(urdf)
+        .map_err(|e| ParamError::file("urdf", urdf, format!("cannot load the robot model '{urdf}': {e}"), FIX))?;
+    let l = model.effort_limits();
+    if l.len() != N_JOINTS {
+        return Err(ParamError::file("urdf", urdf, format!("robot model '{urdf}' has {} joints; the JK5 needs {N_JOINTS}", l.len()), FIX));
+    }
+    if let Some(i) = (0..N_JOINTS).find(|&i| !(l[i].is_finite() && l[i] > 0.0)) {
+        let problem = format!("robot model '{urdf}': joint {} has effort limit {}", i + 1, l[i]);
+        return Err(ParamError::file("urdf", urdf, problem, "set <limit effort=\"...\"> > 0 in the URDF"));
+    }
+    Ok(std::array::from_fn(|i| l[i].min(EFFORT_CAP)))
+}
 
 /// The nodes' per-joint `effort_limit` may tighten the URDF's `<limit effort>`, never
 /// loosen it: the message names the joint and both values.

@@ -5,14 +5,14 @@ use naic_core::{
     pipeline::{actuate, sense::SenseParams},
     JointVec, N_JOINTS,
 };
-use naic_ros::{params::EFFORT_CAP, timebase::TimeBase, ParamSpec, ParamView};
+use naic_ros::{params::{ParamError, EFFORT_CAP}, timebase::TimeBase, ParamSpec, ParamView};
 
 use crate::core::Params;
 
 /// The core's parameters from the ROS parameters; `sense` is the velocity filter for the
 /// robot model (its median window comes from the parameters). Fails when the friction
 /// file does not load.
-pub fn core_params(p: &ParamView, sense: &SenseParams) -> Result<Params, String> {
+pub fn core_params(p: &ParamView, sense: &SenseParams) -> Result<Params, ParamError> {
     let ns = |name: &str| (p.f64(name) * 1e9) as i64;
     Ok(Params {
         friction: load_model(p)?,
@@ -50,18 +50,19 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
 }
 
 /// Load the friction model the parameters name.
-pub fn load_model(p: &ParamView) -> Result<FrictionModel, String> {
+pub fn load_model(p: &ParamView) -> Result<FrictionModel, ParamError> {
     let path = p.str("friction_file");
     const FIX: &str = "set -p friction_file:=PATH, e.g. params/friction_jk5.yaml";
-    let params = FrictionParams::from_yaml_file(path)
-        .map_err(|e| format!("friction_file '{path}': {e} ({FIX})"))?;
-    let model = params.to_model().map_err(|e| format!("friction_file '{path}': {e} ({FIX})"))?;
-    if model.n_joints() != 6 {
-        return Err(format!("friction_file '{path}' has {} joints; the JK5 needs 6 ({FIX})", model.n_joints()));
+    let bad = |problem: String| ParamError::file("friction_file", path, problem, FIX);
+    let model = FrictionParams::from_yaml_file(path)
+        .and_then(|f| f.to_model())
+        .map_err(|e| bad(format!("friction_file '{path}': {e}")))?;
+    if model.n_joints() != N_JOINTS {
+        return Err(bad(format!("friction_file '{path}' has {} joints; the JK5 needs {N_JOINTS}", model.n_joints())));
     }
     let v_s = p.f64("smoothing_velocity");
     match (model.smoothing(), v_s > 0.0) {
-        (Smoothing::Exact, true) => model.with_smoothing(Smoothing::Tanh { v_s }).map_err(|e| e.to_string()),
+        (Smoothing::Exact, true) => model.with_smoothing(Smoothing::Tanh { v_s }).map_err(|e| bad(format!("friction_file '{path}': {e}"))),
         _ => Ok(model),
     }
 }

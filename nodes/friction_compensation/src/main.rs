@@ -30,7 +30,7 @@ fn run() -> Result<(), RosError> {
     let args = RosArgs::parse(std::env::args().skip(1))?;
     let setup = Setup::from_args(&args)?; // files first, before any DDS participant exists
     let mut node = RosNode::new(args, NODE, setup.specs(), Some(setup.check()))?;
-    let mut r = Runner::new(&setup, &node.params).map_err(RosError::param)?;
+    let mut r = Runner::new(&setup, &node.params)?;
     let mut cmd_sub = node.subscription::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     let js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let cmd_pub = node.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, node.params.with(data_qos).0)?;

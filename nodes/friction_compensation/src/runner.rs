@@ -34,7 +34,7 @@ pub struct Runner {
 impl Runner {
     /// From the node's setup; `params` is the node's parameter table as it starts. `Err`:
     /// the friction file does not load (named).
-    pub fn new(setup: &Setup, params: &ParamTable) -> Result<Runner, String> {
+    pub fn new(setup: &Setup, params: &ParamTable) -> Result<Runner, naic_ros::params::ParamError> {
         let sense = setup.sense.clone();
         let p = params.with(|v| config::core_params(v, &sense))?;
         Ok(Runner { p, s: core::State::default(), sense, gen: params.generation(), cmd: Float64MultiArray::default(), warned: false })

@@ -3,7 +3,7 @@
 
 use naic_core::{model::Model, pipeline::sense::SenseParams, JointVec};
 use naic_ros::{
-    params::{effort_limit_within, SetCheck, EFFORT_CAP},
+    params::{effort_limit_within, SetCheck},
     ParamSpec, ParamView, RosArgs, RosError,
 };
 
@@ -22,13 +22,8 @@ pub struct Setup {
 impl Setup {
     pub fn from_args(args: &RosArgs) -> Result<Setup, RosError> {
         let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
-        let robot = Model::from_urdf_file(&urdf)
-            .map_err(|e| RosError::param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
-        let l = robot.effort_limits();
-        if l.len() != 6 {
-            return Err(RosError::param(format!("'{urdf}' has {} joints; the JK5 needs 6", l.len())));
-        }
-        let effort_limit: JointVec = std::array::from_fn(|i| if l[i].is_finite() && l[i] > 0.0 { l[i].min(EFFORT_CAP) } else { EFFORT_CAP });
+        let effort_limit = naic_ros::params::urdf_effort_limits(&urdf)?;
+        let robot = Model::from_urdf_file(&urdf).map_err(|e| RosError::param(format!("robot model '{urdf}': {e}")))?;
         let sense = SenseParams { wrench_max: [f64::INFINITY; 6], joint_timeout: 1.0, wrench_timeout: 1.0, ..SenseParams::for_model(&robot) };
         Ok(Setup { effort_limit, sense })
     }

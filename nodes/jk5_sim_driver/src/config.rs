@@ -1,11 +1,10 @@
 //! The driver's ROS parameters, the URDF checks made before the DDS participant exists,
 //! and the chain-latency report.
 
-use naic_core::model::Model;
 use naic_core::{JointVec, N_JOINTS};
 use naic_ros::{
     msgs::JOINT_NAMES,
-    params::{effort_limit_within, SetCheck, EFFORT_CAP},
+    params::{effort_limit_within, ParamError, SetCheck, EFFORT_CAP},
     ParamSpec, ParamView, ParameterValue,
 };
 
@@ -69,23 +68,6 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
     ]
 }
 
-/// Effort limits `<limit effort>` of the six joints of `urdf` [N m].
-pub fn urdf_effort_limits(urdf: &str) -> Result<JointVec, String> {
-    let model = Model::from_urdf_file(urdf).map_err(|e| format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)"))?;
-    let l = model.effort_limits();
-    if l.len() != N_JOINTS {
-        return Err(format!("robot model '{urdf}' has {} joints; the JK5 driver needs {N_JOINTS} (set -p urdf:=PATH)", l.len()));
-    }
-    if let Some(i) = (0..N_JOINTS).find(|&i| !(l[i].is_finite() && l[i] > 0.0)) {
-        return Err(format!(
-            "robot model '{urdf}': joint {} has effort limit {}; set <limit effort=\"...\"> > 0 in the URDF",
-            i + 1,
-            l[i]
-        ));
-    }
-    Ok(std::array::from_fn(|i| l[i].min(EFFORT_CAP)))
-}
-
 /// `joint_order`: the order of the joints in the published `/joint_states`, as
 /// ros2_control's `joint_state_broadcaster` may publish them (default: joint1..joint6).
 fn joint_order_spec() -> ParamSpec {
@@ -101,7 +83,7 @@ fn joint_order_spec() -> ParamSpec {
 
 /// The published index → joint index map of `joint_order` (published slot `i` carries
 /// joint `order[i] + 1`), or why the names are not each of joint1..joint6 once.
-pub fn joint_order(p: &ParamView) -> Result<[usize; N_JOINTS], String> {
+pub fn joint_order(p: &ParamView) -> Result<[usize; N_JOINTS], ParamError> {
     let names = match p.get("joint_order") {
         Some(ParameterValue::StringArray(a)) => a.as_slice(),
         _ => &[],
@@ -110,10 +92,10 @@ pub fn joint_order(p: &ParamView) -> Result<[usize; N_JOINTS], String> {
     for i in 0..N_JOINTS {
         let name = names.get(i).map_or("", String::as_str);
         order[i] = JOINT_NAMES.iter().position(|j| *j == name).ok_or_else(|| {
-            format!("joint_order[{i}] = '{name}' is not a joint of the JK5; name each of {} once", JOINT_NAMES.join(", "))
+            ParamError::Rule(format!("joint_order[{i}] = '{name}' is not a joint of the JK5; name each of {} once", JOINT_NAMES.join(", ")))
         })?;
         if let Some(k) = order[..i].iter().position(|&o| o == order[i]) {
-            return Err(format!("joint_order names '{name}' twice (elements {k} and {i}); name each of {} once", JOINT_NAMES.join(", ")));
+            return Err(ParamError::Rule(format!("joint_order names '{name}' twice (elements {k} and {i}); name each of {} once", JOINT_NAMES.join(", "))));
         }
     }
     Ok(order)

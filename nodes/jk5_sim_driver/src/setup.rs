@@ -23,10 +23,9 @@ impl Setup {
     /// scenario, friction file) from the start-up parameters.
     pub fn from_args(args: &RosArgs) -> Result<Setup, RosError> {
         let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
-        let urdf_effort = config::urdf_effort_limits(&urdf).map_err(RosError::param)?;
+        let urdf_effort = naic_ros::params::urdf_effort_limits(&urdf)?;
         let plant = ParamTable::new(config::specs(&urdf_effort), Some(config::check(urdf_effort)), &args.overrides(NODE)?)?
-            .with(make_plant)
-            .map_err(RosError::param)?;
+            .with(make_plant)?;
         Ok(Setup { urdf_effort, plant })
     }
 

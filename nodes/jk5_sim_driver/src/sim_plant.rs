@@ -7,6 +7,7 @@ use naic_core::{
     JointVec, N_JOINTS,
 };
 use naic_sim::{arm::SimArm, scenario, sensor::tool_from_urdf};
+use naic_ros::params::ParamError;
 
 use crate::plant::Plant;
 
@@ -17,22 +18,25 @@ const FRICTION_FIX: &str = "set -p friction_file:=PATH, e.g. params/friction_jk5
 
 /// The plant of scenario `scenario` (naic_sim presets) on `urdf`, with the friction of
 /// `friction_file` (tanh-smoothed with `v_s`) acting on the joints, at period `1/rate`.
-pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, String> {
+pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
     let (urdf, name, friction_file) = (p.str("urdf"), p.str("scenario"), p.str("friction_file"));
-    let model = Model::from_urdf_file(urdf).map_err(|e| format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"))?;
-    let mut scen = scenario::preset(name, &model).map_err(|e| format!("scenario '{name}' on robot model '{urdf}': {e} (set -p urdf:=PATH)"))?;
+    const URDF_FIX: &str = "set -p urdf:=PATH";
+    let bad_urdf = |problem: String| ParamError::file("urdf", urdf, problem, URDF_FIX);
+    let bad_friction = |problem: String| ParamError::file("friction_file", friction_file, problem, FRICTION_FIX);
+    let model = Model::from_urdf_file(urdf).map_err(|e| bad_urdf(format!("robot model '{urdf}': {e}")))?;
+    let mut scen = scenario::preset(name, &model).map_err(|e| bad_urdf(format!("scenario '{name}' on robot model '{urdf}': {e}")))?;
     scen.task.dt = 1.0 / p.f64("rate");
     let friction = FrictionParams::from_yaml_file(friction_file)
         .and_then(|f| f.to_model())
         .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: p.f64("friction_smoothing") }))
-        .map_err(|e| format!("friction_file '{friction_file}': {e} ({FRICTION_FIX})"))?;
-    if friction.n_joints() != 6 {
-        return Err(format!("friction_file '{friction_file}' has {} joints; the JK5 needs 6 ({FRICTION_FIX})", friction.n_joints()));
+        .map_err(|e| bad_friction(format!("friction_file '{friction_file}': {e}")))?;
+    if friction.n_joints() != N_JOINTS {
+        return Err(bad_friction(format!("friction_file '{friction_file}' has {} joints; the JK5 needs {N_JOINTS}", friction.n_joints())));
     }
-    let tool = tool_from_urdf(std::path::Path::new(urdf)).map_err(|e| format!("{e} (set -p urdf:=PATH)"))?;
+    let tool = tool_from_urdf(std::path::Path::new(urdf)).map_err(|e| bad_urdf(e.to_string()))?;
     let params = scenario::plant_for(&scen, model, Some(friction), tool)
-        .map_err(|e| format!("robot model '{urdf}' in scenario '{name}': {e} (set -p urdf:=PATH)"))?;
-    let data = Data6::try_new(&params.model).map_err(|e| format!("robot model '{urdf}': {e}"))?;
+        .map_err(|e| bad_urdf(format!("robot model '{urdf}' in scenario '{name}': {e}")))?;
+    let data = Data6::try_new(&params.model).map_err(|e| bad_urdf(format!("robot model '{urdf}': {e}")))?;
     let dt = scen.task.dt;
     Ok(SimPlant { arm: SimArm::new(params, scen.task.q0, scen.seed), data, dt })
 }
