@@ -77,6 +77,17 @@ impl Scan<'_> {
         ssr
     }
 
+    /// The configuration `best_vals` with parameter `a` at `v`: kept in `best` (SSR, value)
+    /// when its SSR is lower.
+    fn try_value(&mut self, best_vals: &[f64], a: usize, v: f64, best: &mut (f64, f64)) {
+        let mut vals = best_vals.to_vec();
+        vals[a] = v;
+        let ssr = self.ssr(&vals);
+        if ssr < best.0 {
+            *best = (ssr, v);
+        }
+    }
+
     /// Line search of h around `h0` at exponent `n`: 17 points over ±`half_width`, then
     /// [`H_HALVINGS`] halvings. Returns (SSR, h).
     fn line_h(&mut self, h0: f64, n: f64, half_width: f64) -> (f64, f64) {
@@ -142,12 +153,7 @@ impl Scan<'_> {
                 let mut best = (f64::INFINITY, best_vals[a]);
                 if pass == 0 {
                     for &v in &grid {
-                        let mut vals = best_vals.to_vec();
-                        vals[a] = v;
-                        let ssr = self.ssr(&vals);
-                        if ssr < best.0 {
-                            best = (ssr, v);
-                        }
+                        self.try_value(best_vals, a, v, &mut best);
                     }
                 } else {
                     best = (self.ssr(best_vals), best_vals[a]);
@@ -164,23 +170,13 @@ impl Scan<'_> {
                         step *= 0.5;
                         let centre = best.1;
                         for v in [centre - step, centre + step] {
-                            let mut vals = best_vals.to_vec();
-                            vals[a] = v;
-                            let ssr = self.ssr(&vals);
-                            if ssr < best.0 {
-                                best = (ssr, v);
-                            }
+                            self.try_value(best_vals, a, v, &mut best);
                         }
                     }
                 } else {
                     let step = (grid[1] / grid[0]).sqrt();
                     for f in [1.0 / step, 1.0 / step.sqrt(), step.sqrt(), step] {
-                        let mut vals = best_vals.to_vec();
-                        vals[a] = best.1 * f;
-                        let ssr = self.ssr(&vals);
-                        if ssr < best.0 {
-                            best = (ssr, vals[a]);
-                        }
+                        self.try_value(best_vals, a, best.1 * f, &mut best);
                     }
                 }
                 best_vals[a] = best.1;
