@@ -274,11 +274,11 @@ fn load_model(a: &ExplainArgs) -> Result<Model, CliError> {
 fn run_generate(a: &ExplainArgs, out: &PathBuf) -> CliResult {
     let model = load_model(a)?;
     let effects = parse_effects(&a.hide)?;
-    if (a.contact || effects.iter().any(|e| e.is_contact())) && model.nv() != naic_explain::generate::NJ {
+    if (a.contact || effects.iter().any(|e| e.is_contact())) && model.nv() != naic_core::N_JOINTS {
         return Err(CliError::usage(format!(
             "--urdf {}: contact data is scripted for the JK5's {} joints (urdf/jk5.urdf); this model has {}",
             a.urdf.display(),
-            naic_explain::generate::NJ,
+            naic_core::N_JOINTS,
             model.nv()
         )));
     }

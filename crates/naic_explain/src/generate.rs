@@ -10,53 +10,28 @@
 //! Excitation: each joint in turn moves back and forth at stepped speeds with rests in
 //! between (cosine velocity ramps), then all joints move together (sum of sines); one
 //! period lasts [`excitation_period_s`] (101.6 s for six joints, 115.2 s for seven).
-//! Contact data ([`generate_contact`]) is scripted for the JK5's six joints only.
+//! Contact data ([`generate_contact`]) is scripted for the JK5's six joints only
+//! ([`N_JOINTS`]). Every draw comes from the workspace's one generator, [`naic_core::rng`].
 
 use crate::catalogue::Effect;
 use crate::input::{Rows, TimeSeries};
-
-/// The contact generator drives the six joints of the JK5 (`urdf/jk5.urdf`).
-pub const NJ: usize = 6;
 use nalgebra::{DVector, SVector, Vector3};
 use naic_core::dynamics::{frame_jacobian, frame_jdot_qdot, rnea};
 use naic_core::model::{Data, Data6, Model};
+use naic_core::rng::Rng;
+use naic_core::{JointVec, N_JOINTS};
 
-/// Small deterministic RNG (SplitMix64 + Box–Muller).
-#[derive(Clone, Debug)]
-pub struct Rng(u64);
+/// A uniform index in `0..n` drawn from `rng`.
+pub fn pick(rng: &mut Rng, n: usize) -> usize {
+    (rng.uniform() * n as f64) as usize % n
+}
 
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Self(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.uniform()
-    }
-    pub fn normal(&mut self) -> f64 {
-        let u1 = self.uniform().max(1e-300);
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-    pub fn pick(&mut self, n: usize) -> usize {
-        (self.uniform() * n as f64) as usize % n
-    }
-    pub fn sign(&mut self) -> f64 {
-        if self.uniform() < 0.5 {
-            -1.0
-        } else {
-            1.0
-        }
+/// −1 or +1 with equal probability, drawn from `rng`.
+pub fn sign(rng: &mut Rng) -> f64 {
+    if rng.uniform() < 0.5 {
+        -1.0
+    } else {
+        1.0
     }
 }
 
@@ -112,7 +87,7 @@ pub struct Generated {
 }
 
 /// Home posture of the JK5: arm bent, wrist away from singularities.
-pub const HOME: [f64; NJ] = [0.2, 0.6, -1.1, 0.5, 0.9, 0.1];
+pub const HOME: JointVec = [0.2, 0.6, -1.1, 0.5, 0.9, 0.1];
 const SPEEDS: [f64; 4] = [0.01, 0.04, 0.12, 0.35];
 const RAMP: f64 = 0.15;
 const REST: f64 = 0.4;
@@ -122,7 +97,7 @@ const REST: f64 = 0.4;
 /// (0 for a joint without finite limits; the Panda: 0, 0, 0, −1.571, 0, 1.868, 0).
 pub fn home(model: &Model) -> Vec<f64> {
     let (lo, hi) = (model.lower_limits(), model.upper_limits());
-    if model.nv() == NJ && HOME.iter().zip(lo.iter().zip(&hi)).all(|(h, (l, u))| l <= h && h <= u) {
+    if model.nv() == N_JOINTS && HOME.iter().zip(lo.iter().zip(&hi)).all(|(h, (l, u))| l <= h && h <= u) {
         return HOME.to_vec();
     }
     lo.iter().zip(&hi).map(|(l, u)| if l.is_finite() && u.is_finite() { 0.5 * (l + u) } else { 0.0 }).collect()
@@ -249,7 +224,7 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
         return generate_contact(model, spec);
     }
     let nj = model.nv();
-    let mut rng = Rng::new(spec.seed);
+    let mut rng = Rng::seed(spec.seed);
     let exc = Excitation::new(home(model), spec.cruise_s, spec.multi_s, &mut rng);
     let n = ((exc.period() * spec.repeats as f64) / spec.dt).round() as usize;
     let noise_tau = rng.range(0.02, 0.08);
@@ -278,7 +253,7 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
     let mut used_joints: Vec<usize> = Vec::new();
     let mut pick_joint = |rng: &mut Rng, allowed: &[usize]| -> usize {
         loop {
-            let j = allowed[rng.pick(allowed.len())];
+            let j = allowed[pick(rng, allowed.len())];
             if !used_joints.contains(&j) || used_joints.len() >= allowed.len() {
                 used_joints.push(j);
                 return j;
@@ -291,7 +266,7 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
         match e {
             Effect::FrictionAsymmetry => {
                 let j = pick_joint(&mut rng, &all);
-                let d = rng.sign() * rng.range(0.3, 0.5) * base[j].0;
+                let d = sign(&mut rng) * rng.range(0.3, 0.5) * base[j].0;
                 asym[j] = d;
                 inj.joints.push(j + 1);
                 // report convention: f_c_difference = f_c_pos − f_c_neg
@@ -327,7 +302,7 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
             }
             Effect::TorqueOffset => {
                 let j = pick_joint(&mut rng, &all);
-                offset[j] = rng.sign() * rng.range(0.3, 0.8);
+                offset[j] = sign(&mut rng) * rng.range(0.3, 0.8);
                 inj.joints.push(j + 1);
                 inj.params.push((j + 1, "offset_nm".into(), offset[j]));
             }
@@ -340,7 +315,7 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
             }
             Effect::Drift => {
                 let j = pick_joint(&mut rng, &all);
-                drift[j] = rng.sign() * rng.range(0.3, 0.5) * base[j].0;
+                drift[j] = sign(&mut rng) * rng.range(0.3, 0.5) * base[j].0;
                 inj.joints.push(j + 1);
                 inj.params.push((j + 1, "delta_f_c_nm".into(), drift[j]));
             }
@@ -417,7 +392,7 @@ pub fn generate(model: &Model, spec: &GenSpec) -> Generated {
         let b = &tau_true[(k + 1).min(n - 1)];
         for j in 0..nj {
             let val = if ts_ < 0.0 { a[j] } else { a[j] * (1.0 - fr) + b[j] * fr };
-            tau[j] = val + noise_tau * rng.normal();
+            tau[j] = val + noise_tau * rng.gaussian();
         }
         ts.tau.push(&tau);
     }
@@ -452,8 +427,8 @@ fn trapezoid(tau: f64, dur: f64, ramp: f64) -> (f64, f64, f64) {
 /// A joint-space segment: from `a` to `b` over `dur` seconds (cosine blend), or a hold.
 #[derive(Clone, Copy)]
 struct Seg {
-    a: [f64; NJ],
-    b: [f64; NJ],
+    a: JointVec,
+    b: JointVec,
     dur: f64,
 }
 
@@ -481,9 +456,9 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
     use naic_sim::environment::{Environment, Material, MaterialMap};
     use naic_core::task::{deg, inverse_kinematics, tip_pose, Q0_FLAT_DEG};
     use naic_sim::sensor::Mini45;
-    let mut rng = Rng::new(spec.seed ^ 0xC0C7_AC7D_A7A0_0001);
+    let mut rng = Rng::seed(spec.seed ^ 0xC0C7_AC7D_A7A0_0001);
     let noise_tau = rng.range(0.02, 0.08);
-    let mut base = [(0.0, 0.0); NJ];
+    let mut base = [(0.0, 0.0); N_JOINTS];
     for (j, b) in base.iter_mut().enumerate() {
         *b = (if j < 3 { rng.range(2.0, 6.0) } else { rng.range(1.0, 3.0) }, rng.range(1.0, 5.0));
     }
@@ -517,13 +492,13 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
             }
             Effect::FtBias => {
                 for (a, b) in bias.iter_mut().enumerate() {
-                    *b = rng.sign() * if a < 3 { rng.range(0.3, 1.0) } else { rng.range(0.01, 0.03) };
+                    *b = sign(&mut rng) * if a < 3 { rng.range(0.3, 1.0) } else { rng.range(0.01, 0.03) };
                     inj.joints.push(AXIS_BASE + a + 1);
                     inj.params.push((AXIS_BASE + a + 1, "bias".into(), *b));
                 }
             }
             Effect::ToolGravity => {
-                d_mass = rng.sign() * rng.range(0.1, 0.3);
+                d_mass = sign(&mut rng) * rng.range(0.1, 0.3);
                 for a in 0..3 {
                     inj.joints.push(AXIS_BASE + a + 1);
                     inj.params.push((AXIS_BASE + a + 1, "delta_mass_kg".into(), d_mass));
@@ -534,7 +509,7 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
         }
         injected.push(inj);
     }
-    let mut srng = naic_sim::rng::Rng::seed(rng.next_u64());
+    let mut srng = Rng::seed(rng.next_u64());
     let mut sensor = Mini45::si_145_5(tool_mass + d_mass, tool_com, &mut srng);
     sensor.bias = bias;
     for s in sensor.noise_sigma.iter_mut() {
@@ -544,7 +519,7 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
     // waypoints
     let q0 = deg(Q0_FLAT_DEG);
     let (p0, r0) = tip_pose(model, &q0);
-    let ik = |p: Vector3<f64>, start: &[f64; NJ]| inverse_kinematics(model, start, &p, &r0).0;
+    let ik = |p: Vector3<f64>, start: &JointVec| inverse_kinematics(model, start, &p, &r0).0;
     let y = p0.y;
     let q_high = ik(Vector3::new(-0.40, y, h + 0.15), &q0);
     let mut segs: Vec<Seg> = Vec::new();
@@ -566,7 +541,7 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
     }
     // free-space wrist motion: per joint (amplitude, frequency, phase) × 2
     let sweep_s = 20.0;
-    let mut sines = [[(0.0, 0.0, 0.0); 2]; NJ];
+    let mut sines = [[(0.0, 0.0, 0.0); 2]; N_JOINTS];
     for j in [0usize, 3, 4, 5] {
         for (k, x) in sines[j].iter_mut().enumerate() {
             let f = [0.07, 0.19][k] * rng.range(0.85, 1.15);
@@ -576,14 +551,14 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
     }
     let press_s: f64 = segs.iter().map(|s| s.dur).sum();
     let n = (((sweep_s + press_s) * spec.repeats.max(1) as f64) / spec.dt).round() as usize;
-    let at = |t: f64| -> ([f64; NJ], [f64; NJ], [f64; NJ]) {
+    let at = |t: f64| -> (JointVec, JointVec, JointVec) {
         let t = t % (sweep_s + press_s);
         let mut q = q_high;
-        let mut dq = [0.0; NJ];
-        let mut ddq = [0.0; NJ];
+        let mut dq = [0.0; N_JOINTS];
+        let mut ddq = [0.0; N_JOINTS];
         if t < sweep_s {
             let env = fade(t, sweep_s);
-            for j in 0..NJ {
+            for j in 0..N_JOINTS {
                 let (x, v, a) = faded_sines(&sines[j], t, env);
                 q[j] += x;
                 dq[j] = v;
@@ -595,7 +570,7 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
         for sg in &segs {
             if tt < sg.dur {
                 let (b, db, ddb) = trapezoid(tt, sg.dur, RAMP);
-                for j in 0..NJ {
+                for j in 0..N_JOINTS {
                     let d = sg.b[j] - sg.a[j];
                     q[j] = sg.a[j] + b * d;
                     dq[j] = db * d;
@@ -612,16 +587,16 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
     let mut data = Data6::try_new(model).expect("the contact generator needs the JK5's six joints");
     let quant = 2.0 * std::f64::consts::PI / (1u64 << 20) as f64;
     let mut ts = TimeSeries::default();
-    let mut enc = (vec![0.0; NJ], vec![0.0; NJ]);
+    let mut enc = (vec![0.0; N_JOINTS], vec![0.0; N_JOINTS]);
     let mut wrench = Vec::with_capacity(n);
     let g = Vector3::new(0.0, 0.0, -9.81);
     for i in 0..n {
         let t = i as f64 * spec.dt;
         let (q, dq, ddq) = at(t);
-        let qv = SVector::<f64, 6>::from(q);
-        let vv = SVector::<f64, 6>::from(dq);
-        let av = SVector::<f64, 6>::from(ddq);
-        let mut tau: [f64; NJ] = (*rnea(model, &mut data, &qv, &vv, &av)).into();
+        let qv = SVector::<f64, N_JOINTS>::from(q);
+        let vv = SVector::<f64, N_JOINTS>::from(dq);
+        let av = SVector::<f64, N_JOINTS>::from(ddq);
+        let mut tau: JointVec = (*rnea(model, &mut data, &qv, &vv, &av)).into();
         naic_core::dynamics::forward_kinematics(model, &mut data, &qv);
         let ps = data.frame_placement(sframe);
         let pt = data.frame_placement(tip);
@@ -643,10 +618,10 @@ pub fn generate_contact(model: &Model, spec: &GenSpec) -> Generated {
         let r_c = r_ws * tool_com;
         let j_com = js_.fixed_rows::<3>(0) - naic_core::dynamics::spatial::skew(&r_c) * js_.fixed_rows::<3>(3);
         let extra = j_com.transpose() * (-d_mass * g);
-        for j in 0..NJ {
+        for j in 0..N_JOINTS {
             let v = dq[j];
             let (fc, fv) = base[j];
-            tau[j] += fc * (v / 1e-3).tanh() + fv * v - ext[j] + extra[j] + noise_tau * rng.normal();
+            tau[j] += fc * (v / 1e-3).tanh() + fv * v - ext[j] + extra[j] + noise_tau * rng.gaussian();
         }
         push_encoder_sample(&mut ts, t, &q, &dq, quant, &mut rng, &mut enc);
         ts.tau.push(tau);
@@ -661,7 +636,7 @@ fn push_encoder_sample(ts: &mut TimeSeries, t: f64, q: &[f64], dq: &[f64], quant
     let (qm, dqm) = buf;
     for j in 0..q.len() {
         qm[j] = (q[j] / quant).round() * quant;
-        dqm[j] = dq[j] + 1e-3 * rng.normal();
+        dqm[j] = dq[j] + 1e-3 * rng.gaussian();
     }
     ts.t.push(t);
     ts.q.push(&qm[..]);

@@ -142,16 +142,16 @@ pub fn lack_of_fit(ex: &Explained) -> Vec<JointLackOfFit> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::Rng;
+    use naic_core::rng::Rng;
 
     #[test]
     fn floor_recovers_the_noise_of_a_curved_law() {
-        let mut rng = Rng::new(3);
+        let mut rng = Rng::seed(3);
         let v: Vec<f64> = (1..=72).map(|k| k as f64 * 7e-3).collect();
         let truth = |x: f64| 2.3 + 0.7 * (-(x / 0.06f64).powi(2)).exp() + 3.2 * x;
         let mut est = Vec::new();
         for _ in 0..200 {
-            let y: Vec<f64> = v.iter().map(|&x| truth(x) + 0.03 * rng.normal()).collect();
+            let y: Vec<f64> = v.iter().map(|&x| truth(x) + 0.03 * rng.gaussian()).collect();
             est.push(difference_noise_sd(&v, &y).unwrap());
         }
         let mean = est.iter().sum::<f64>() / est.len() as f64;

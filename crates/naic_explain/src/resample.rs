@@ -285,7 +285,7 @@ mod tests {
 
     #[test]
     fn selected_quantiles_are_those_of_the_sorted_steps() {
-        let mut r = crate::generate::Rng::new(4);
+        let mut r = naic_core::rng::Rng::seed(4);
         for n in [1usize, 2, 3, 20, 21, 1000, 1001] {
             let x: Vec<f64> = (0..n).map(|_| r.range(0.5e-3, 2e-3)).collect();
             let mut sorted = x.clone();

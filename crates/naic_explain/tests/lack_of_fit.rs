@@ -18,8 +18,9 @@
 //! drawn in point spacings.
 
 use naic_core::friction::{FrictionParams, JointFriction, JointParams, JointStats, StribeckParams};
+use naic_core::rng::Rng;
 use naic_explain::closed_loop::experiment_speeds;
-use naic_explain::generate::Rng;
+use naic_explain::generate::pick;
 use naic_explain::lack_of_fit::{lack_of_fit, DirectionFit};
 use naic_explain::{explain_points, ExplainOptions};
 use naic_ident::FrictionData;
@@ -52,10 +53,10 @@ fn draw_direction(rng: &mut Rng) -> StribeckParams {
 }
 
 fn generate(seed: u64, with_dip: bool) -> Points {
-    let mut rng = Rng::new(seed);
+    let mut rng = Rng::seed(seed);
     let sigma = rng.range(0.02, 0.08);
     let dip = with_dip.then(|| {
-        let joint = 1 + rng.pick(6);
+        let joint = 1 + pick(&mut rng, 6);
         let positive = rng.uniform() < 0.5;
         let depth = rng.range(8.0, 12.0) * sigma;
         // the speed spacing above 15 mrad/s (experiment_speeds): 10.4 / 17.3 mrad/s
@@ -76,7 +77,7 @@ fn generate(seed: u64, with_dip: bool) -> Points {
                     let x = v / d.q_d;
                     tau -= dir * d.depth * x * x * (1.0 - x * x).exp();
                 }
-                pts.push((j + 1, dir * v, tau + sigma * rng.normal()));
+                pts.push((j + 1, dir * v, tau + sigma * rng.gaussian()));
             }
         }
     }
