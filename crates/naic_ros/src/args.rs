@@ -214,25 +214,39 @@ pub fn parse_param_assignment(s: &str) -> Result<(String, ParameterValue), RosEr
     Ok((name.to_string(), v))
 }
 
+/// A ROS name token (a node name, one part of a namespace) that ROS refuses: each variant
+/// names the token and the rule it breaks.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NameError {
+    #[error("empty name: give letters, digits and _, e.g. naic_controller")]
+    Empty,
+    #[error("'{name}' starts with a digit (a name starts with a letter or _)")]
+    LeadingDigit { name: String },
+    #[error("'{name}' contains '{found}' (only letters, digits and _ are allowed)")]
+    BadCharacter { name: String, found: char },
+    #[error("'{name}' contains a double underscore (__ is reserved by ROS; use a single _)")]
+    DoubleUnderscore { name: String },
+}
+
 /// A node base name: letters, digits, underscores, not starting with a digit.
-pub fn validate_base_name(s: &str) -> Result<(), String> {
+pub fn validate_base_name(s: &str) -> Result<(), NameError> {
     if s.is_empty() {
-        return Err("empty name".into());
+        return Err(NameError::Empty);
     }
     if s.starts_with(|c: char| c.is_ascii_digit()) {
-        return Err(format!("'{s}' starts with a digit"));
+        return Err(NameError::LeadingDigit { name: s.to_string() });
     }
     if let Some(c) = s.chars().find(|c| !(c.is_ascii_alphanumeric() || *c == '_')) {
-        return Err(format!("'{s}' contains '{c}' (only letters, digits and _ are allowed)"));
+        return Err(NameError::BadCharacter { name: s.to_string(), found: c });
     }
     if s.contains("__") {
-        return Err(format!("'{s}' contains a double underscore"));
+        return Err(NameError::DoubleUnderscore { name: s.to_string() });
     }
     Ok(())
 }
 
 /// `/a/b`, `a/b`, `/a/b/` → `/a/b`; `/` stays `/`.
-pub fn normalize_namespace(s: &str) -> Result<String, String> {
+pub fn normalize_namespace(s: &str) -> Result<String, NameError> {
     let trimmed = s.trim_matches('/');
     if trimmed.is_empty() {
         return Ok("/".into());
@@ -280,6 +294,21 @@ mod tests {
         assert!(e(&["--ros-args", "--bogus"]).contains("unknown --ros-args option"));
         assert!(e(&["--ros-args", "--log-level", "loud"]).contains("bad log level"));
         assert!(matches!(RosArgs::parse(["--help"]), Err(RosError::Help(_))));
+    }
+
+    #[test]
+    fn name_errors_name_the_token_and_the_rule() {
+        let e = validate_base_name("9bad").unwrap_err();
+        assert_eq!(e, NameError::LeadingDigit { name: "9bad".into() });
+        assert!(e.to_string().contains("'9bad'") && e.to_string().contains("starts with a letter or _"), "{e}");
+        let e = validate_base_name("a-b").unwrap_err().to_string();
+        assert!(e.contains("'a-b'") && e.contains("'-'") && e.contains("only letters, digits and _"), "{e}");
+        let e = validate_base_name("a__b").unwrap_err().to_string();
+        assert!(e.contains("'a__b'") && e.contains("use a single _"), "{e}");
+        let e = normalize_namespace("/robot1//x").unwrap_err();
+        assert_eq!(e, NameError::Empty);
+        assert!(e.to_string().contains("give letters, digits and _"), "{e}");
+        assert_eq!(normalize_namespace("robot1/arm/").as_deref(), Ok("/robot1/arm"));
     }
 
     #[test]

@@ -20,6 +20,41 @@ use serde_yaml::Value;
 
 use crate::RosError;
 
+/// A parameter YAML file rcl would not read: each variant names the key or node and the
+/// rule of the format (see the module docs).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamsFileError {
+    #[error("invalid YAML: {problem}")]
+    Yaml { problem: String },
+    #[error("the top level must be a mapping of node names to 'ros__parameters:' blocks")]
+    TopLevel,
+    #[error("'{node}' must be a mapping containing 'ros__parameters:'")]
+    NodeNotAMapping { node: String },
+    #[error("'ros__parameters' must be under a node name (or '/**')")]
+    ParametersWithoutNode,
+    #[error("unsupported key {key}: keys must be names")]
+    Key { key: String },
+    #[error("'ros__parameters' of '{node}' must be a mapping name: value")]
+    ParametersNotAMapping { node: String },
+    #[error("parameter '{name}' of '{node}': {source}")]
+    Value { name: String, node: String, source: ValueError },
+}
+
+/// A YAML value that is no ROS parameter value; each variant names the value and the rule.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ValueError {
+    #[error("number {number} out of range (a parameter is a 64-bit integer or a double)")]
+    NumberOutOfRange { number: String },
+    #[error("empty arrays have no type; give at least one element")]
+    EmptyArray,
+    #[error("arrays must hold one type (all numbers, all strings or all booleans)")]
+    MixedArray,
+    #[error("no value given (null)")]
+    Null,
+    #[error("a mapping is not a parameter value")]
+    Mapping,
+}
+
 /// Parameters from `path` that apply to the node with fully qualified name `fqn` (`/ns/name`).
 pub fn load_for_node(path: &Path, fqn: &str) -> Result<Vec<(String, ParameterValue)>, RosError> {
     let text = std::fs::read_to_string(path).map_err(|e| {
@@ -30,17 +65,13 @@ pub fn load_for_node(path: &Path, fqn: &str) -> Result<Vec<(String, ParameterVal
 }
 
 /// Same as [`load_for_node`] on YAML text; errors name the offending key.
-pub fn parse_for_node(text: &str, fqn: &str) -> Result<Vec<(String, ParameterValue)>, String> {
-    let doc: Value = serde_yaml::from_str(text).map_err(|e| format!("invalid YAML: {e}"))?;
+pub fn parse_for_node(text: &str, fqn: &str) -> Result<Vec<(String, ParameterValue)>, ParamsFileError> {
+    let doc: Value = serde_yaml::from_str(text).map_err(|e| ParamsFileError::Yaml { problem: e.to_string() })?;
     let mut out = Vec::new();
     match &doc {
         Value::Mapping(_) => walk_nodes(&doc, &mut Vec::new(), fqn, &mut out)?,
         Value::Null => {}
-        _ => {
-            return Err("the top level must be a mapping of node names to \
-                        'ros__parameters:' blocks"
-                .into())
-        }
+        _ => return Err(ParamsFileError::TopLevel),
     }
     Ok(out)
 }
@@ -50,18 +81,15 @@ fn walk_nodes(
     path: &mut Vec<String>,
     fqn: &str,
     out: &mut Vec<(String, ParameterValue)>,
-) -> Result<(), String> {
+) -> Result<(), ParamsFileError> {
     let Value::Mapping(m) = v else {
-        return Err(format!(
-            "'{}' must be a mapping containing 'ros__parameters:'",
-            path.join("/")
-        ));
+        return Err(ParamsFileError::NodeNotAMapping { node: path.join("/") });
     };
     for (k, child) in m {
         let key = key_str(k)?;
         if key == "ros__parameters" {
             if path.is_empty() {
-                return Err("'ros__parameters' must be under a node name (or '/**')".into());
+                return Err(ParamsFileError::ParametersWithoutNode);
             }
             let pattern = path.join("/");
             if node_matches(&pattern, fqn) {
@@ -76,12 +104,12 @@ fn walk_nodes(
     Ok(())
 }
 
-fn key_str(k: &Value) -> Result<String, String> {
+fn key_str(k: &Value) -> Result<String, ParamsFileError> {
     match k {
         Value::String(s) => Ok(s.clone()),
         Value::Number(n) => Ok(n.to_string()),
         Value::Bool(b) => Ok(b.to_string()),
-        other => Err(format!("unsupported key {other:?}: keys must be names")),
+        other => Err(ParamsFileError::Key { key: format!("{other:?}") }),
     }
 }
 
@@ -90,9 +118,9 @@ fn flatten_params(
     prefix: &str,
     node: &str,
     out: &mut Vec<(String, ParameterValue)>,
-) -> Result<(), String> {
+) -> Result<(), ParamsFileError> {
     let Value::Mapping(m) = v else {
-        return Err(format!("'ros__parameters' of '{node}' must be a mapping name: value"));
+        return Err(ParamsFileError::ParametersNotAMapping { node: node.to_string() });
     };
     for (k, child) in m {
         let key = key_str(k)?;
@@ -100,8 +128,11 @@ fn flatten_params(
         match child {
             Value::Mapping(_) => flatten_params(child, &name, node, out)?,
             _ => {
-                let pv = yaml_to_value(child)
-                    .map_err(|e| format!("parameter '{name}' of '{node}': {e}"))?;
+                let pv = yaml_to_value(child).map_err(|source| ParamsFileError::Value {
+                    name: name.clone(),
+                    node: node.to_string(),
+                    source,
+                })?;
                 out.push((name, pv));
             }
         }
@@ -111,7 +142,7 @@ fn flatten_params(
 
 /// One YAML value → a ROS parameter value (arrays must be homogeneous; ints in a float
 /// array are promoted to float, as rcl does not but users expect).
-pub fn yaml_to_value(v: &Value) -> Result<ParameterValue, String> {
+pub fn yaml_to_value(v: &Value) -> Result<ParameterValue, ValueError> {
     Ok(match v {
         Value::Bool(b) => ParameterValue::Boolean(*b),
         Value::Number(n) => {
@@ -120,13 +151,13 @@ pub fn yaml_to_value(v: &Value) -> Result<ParameterValue, String> {
             } else if let Some(f) = n.as_f64() {
                 ParameterValue::Double(f)
             } else {
-                return Err(format!("number {n} out of range"));
+                return Err(ValueError::NumberOutOfRange { number: n.to_string() });
             }
         }
         Value::String(s) => ParameterValue::String(s.clone()),
         Value::Sequence(seq) => {
             if seq.is_empty() {
-                return Err("empty arrays have no type; give at least one element".into());
+                return Err(ValueError::EmptyArray);
             }
             let items: Vec<ParameterValue> =
                 seq.iter().map(yaml_to_value).collect::<Result<_, _>>()?;
@@ -158,11 +189,11 @@ pub fn yaml_to_value(v: &Value) -> Result<ParameterValue, String> {
                         .collect(),
                 )
             } else {
-                return Err("arrays must hold one type (all numbers, all strings or all booleans)".into());
+                return Err(ValueError::MixedArray);
             }
         }
-        Value::Null => return Err("no value given (null)".into()),
-        Value::Mapping(_) => return Err("a mapping is not a parameter value".into()),
+        Value::Null => return Err(ValueError::Null),
+        Value::Mapping(_) => return Err(ValueError::Mapping),
         Value::Tagged(t) => return yaml_to_value(&t.value),
     })
 }
@@ -235,11 +266,29 @@ robot1:
     fn errors_name_the_problem() {
         assert!(parse_for_node("a: [", "/a").unwrap_err().to_string().contains("invalid YAML"));
         assert!(parse_for_node("- 1\n- 2", "/a").unwrap_err().to_string().contains("top level"));
-        let e = parse_for_node("a:\n  ros__parameters:\n    x: [1, foo]\n", "/a").unwrap_err();
+        let e = parse_for_node("a:\n  ros__parameters:\n    x: [1, foo]\n", "/a").unwrap_err().to_string();
         assert!(e.contains("parameter 'x'") && e.contains("one type"), "{e}");
-        let e = parse_for_node("a:\n  ros__parameters:\n    x:\n", "/a").unwrap_err();
+        let e = parse_for_node("a:\n  ros__parameters:\n    x:\n", "/a").unwrap_err().to_string();
         assert!(e.contains("'x'") && e.contains("null"), "{e}");
-        let e = parse_for_node("ros__parameters:\n  x: 1\n", "/a").unwrap_err();
+        let e = parse_for_node("ros__parameters:\n  x: 1\n", "/a").unwrap_err().to_string();
         assert!(e.contains("under a node name"), "{e}");
+    }
+
+    #[test]
+    fn file_errors_name_the_node_the_parameter_and_the_rule() {
+        let e = parse_for_node("robot1:\n  ctl:\n    ros__parameters:\n      m_d: []\n", "/robot1/ctl").unwrap_err();
+        assert_eq!(
+            e,
+            ParamsFileError::Value { name: "m_d".into(), node: "robot1/ctl".into(), source: ValueError::EmptyArray }
+        );
+        let m = e.to_string();
+        assert!(m.contains("parameter 'm_d' of 'robot1/ctl'") && m.contains("give at least one element"), "{m}");
+        let e = parse_for_node("ctl:\n  ros__parameters: 3\n", "/ctl").unwrap_err();
+        assert_eq!(e, ParamsFileError::ParametersNotAMapping { node: "ctl".into() });
+        assert!(e.to_string().contains("'ctl'") && e.to_string().contains("mapping name: value"), "{e}");
+        let e = parse_for_node("ctl: 3\n", "/ctl").unwrap_err();
+        assert!(e.to_string().contains("'ctl' must be a mapping containing 'ros__parameters:'"), "{e}");
+        let e = yaml_to_value(&serde_yaml::from_str("{a: 1}").unwrap()).unwrap_err();
+        assert_eq!(e, ValueError::Mapping);
     }
 }
