@@ -501,7 +501,7 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     let friction = load_friction(None)?;
     let s = scenario::preset("flat", &model).map_err(CliError::failure)?;
     let urdf_path = default_path("urdf/jk5.urdf");
-    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(CliError::failure)?;
+    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::failure(e.to_string()))?;
     let plant = scenario_plant(&s, model.clone(), Some(friction.clone()), tool)?;
     let c = PipelineController::new(Mode::Naic, &s, &model, Some(friction), tool.0, tool.1, &LoopSettings::default())
         .map_err(CliError::failure)?;

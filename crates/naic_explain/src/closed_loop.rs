@@ -118,7 +118,7 @@ pub fn closed_loop(
         sym_p.save(dir.join("symmetric_params.yaml")).map_err(|e| ExplainError::Io(e.to_string()))?;
         ext_p.save(dir.join("extended_params.yaml")).map_err(|e| ExplainError::Io(e.to_string()))?;
     }
-    let tool = naic_sim::sensor::tool_from_urdf(urdf).map_err(ExplainError::model)?;
+    let tool = naic_sim::sensor::tool_from_urdf(urdf).map_err(|e| ExplainError::model(e.to_string()))?;
     let comps: [(&str, Option<FrictionModel>); 4] =
         [("none", None), ("symmetric (eq. 5)", Some(symmetric)), ("extended (naic explain)", Some(extended)), ("true friction", Some(truth.clone()))];
     let mut rows = Vec::new();

@@ -324,23 +324,50 @@ fn from_pseudo_inertia(j: &nalgebra::Matrix4<f64>) -> [f64; PARAMS_PER_BODY] {
     [j[(3, 3)], j[(0, 3)], j[(1, 3)], j[(2, 3)], io[(0, 0)], io[(0, 1)], io[(1, 1)], io[(0, 2)], io[(1, 2)], io[(2, 2)]]
 }
 
+/// Why no corrected links ([`corrected_links`]) or no corrected URDF ([`write_urdf`]):
+/// each variant names the file or the link and what went wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum InertialError {
+    /// The robot model does not load (the model's own error names the file and field).
+    #[error(transparent)]
+    Model(#[from] naic_core::model::ModelError),
+    /// The URDF does not parse as a URDF (`problem`: the parser's words).
+    #[error("{path}: {problem}")]
+    Urdf { path: String, problem: String },
+    /// A joint's child link of the model is missing from the URDF.
+    #[error("{path}: no link `{link}`")]
+    NoLink { path: String, link: String },
+    /// The pseudo-inertia metric or the base-parameter map cannot be inverted.
+    #[error("the corrected links cannot be computed: {what}")]
+    Singular { what: String },
+    /// A corrected link is not physically consistent (`problem`: which condition fails).
+    #[error(
+        "no corrected URDF: the completion closest to the URDF of the identified base parameters gives link `{link}` {problem} (base \
+         parameters fix only combinations of the link inertials; the corrected base parameters are in report.json `inertial_parameters`)"
+    )]
+    Inconsistent { link: String, problem: String },
+    /// Serialising, writing or re-reading the corrected URDF failed.
+    #[error("{action} the corrected URDF {path}: {problem}")]
+    Write { action: &'static str, path: String, problem: String },
+}
+
 /// The completion of the corrected base parameters closest to the URDF, per URDF child
 /// link of each joint (its frame is the joint frame, so the 10 parameters add to the fixed
 /// descendants' into the body's). Distances are Frobenius norms of the pseudo-inertia
 /// change, one metric for kg, kg·m and kg·m². Start: the minimum-distance `δπ` with
 /// `K δπ = δβ`; when a link is not physically consistent, alternating projections between
 /// that affine set and the consistent set `J ⪰ ε` (both convex) look for a point in both.
-pub fn corrected_links(model: &Model, urdf: &Path, fit: &InertialFit) -> Result<Vec<LinkChange>, String> {
+pub fn corrected_links(model: &Model, urdf: &Path, fit: &InertialFit) -> Result<Vec<LinkChange>, InertialError> {
     let nj = model.nv();
     let np = PARAMS_PER_BODY * nj;
     let base = naic_core::dynamics::regressor::BaseParameters { columns: fit.base_columns.clone(), total: np, gap: 0.0 };
     let k = base_map(model, &base, 30 * nj);
-    let robot = urdf_rs::read_file(urdf).map_err(|e| format!("{}: {e}", urdf.display()))?;
+    let robot = read_urdf(urdf)?;
     let mut links = Vec::with_capacity(nj);
     let mut x = DVector::zeros(np);
     let mut fixed = DVector::zeros(np);
     for (i, jm) in model.joints().iter().enumerate() {
-        let link = robot.links.iter().find(|l| l.name == jm.child_link).ok_or_else(|| format!("{}: no link `{}`", urdf.display(), jm.child_link))?;
+        let link = robot.links.iter().find(|l| l.name == jm.child_link).ok_or_else(|| InertialError::NoLink { path: urdf.display().to_string(), link: jm.child_link.clone() })?;
         let old = link_inertia(link);
         let (pl, pb) = (dynamic_parameters(&old), dynamic_parameters(&jm.inertia));
         for kk in 0..PARAMS_PER_BODY {
@@ -363,9 +390,9 @@ pub fn corrected_links(model: &Model, urdf: &Path, fit: &InertialFit) -> Result<
         }
     }
     let q = l.tr_mul(&l);
-    let qinv = q.clone().try_inverse().ok_or("pseudo-inertia metric is singular")?;
+    let qinv = q.clone().try_inverse().ok_or_else(|| InertialError::Singular { what: "pseudo-inertia metric is singular".into() })?;
     let kq = &k * &qinv;
-    let gram = (&kq * k.transpose()).pseudo_inverse(1e-12).map_err(|e| e.to_string())?;
+    let gram = (&kq * k.transpose()).pseudo_inverse(1e-12).map_err(|e| InertialError::Singular { what: format!("K Q⁻¹ Kᵀ has no pseudo-inverse ({e})") })?;
     let project_affine = |x: &DVector<f64>| -> DVector<f64> { x - kq.transpose() * (&gram * (&k * x - &target)) };
     // floor of the consistent set: a thousandth of each URDF link's smallest pseudo-inertia eigenvalue
     let floor: Vec<f64> = (0..nj)
@@ -410,16 +437,11 @@ fn link_inertia(l: &urdf_rs::Link) -> Inertia {
 
 /// Writes `urdf` with the corrected link inertials to `out` (inertial origin at the new
 /// centre of mass, link axes). Refused when a link is not physically consistent.
-pub fn write_urdf(urdf: &Path, links: &[LinkChange], out: &Path) -> Result<(), String> {
+pub fn write_urdf(urdf: &Path, links: &[LinkChange], out: &Path) -> Result<(), InertialError> {
     if let Some(l) = links.iter().find(|l| l.inconsistent.is_some()) {
-        return Err(format!(
-            "no corrected URDF: the completion closest to the URDF of the identified base parameters gives link `{}` {} (base parameters \
-             fix only combinations of the link inertials; the corrected base parameters are in report.json `inertial_parameters`)",
-            l.link,
-            l.inconsistent.as_deref().unwrap_or("")
-        ));
+        return Err(InertialError::Inconsistent { link: l.link.clone(), problem: l.inconsistent.clone().unwrap_or_default() });
     }
-    let mut robot = urdf_rs::read_file(urdf).map_err(|e| format!("{}: {e}", urdf.display()))?;
+    let mut robot = read_urdf(urdf)?;
     for lc in links {
         if let Some(l) = robot.links.iter_mut().find(|l| l.name == lc.link) {
             let c = &lc.corrected;
@@ -429,16 +451,21 @@ pub fn write_urdf(urdf: &Path, links: &[LinkChange], out: &Path) -> Result<(), S
             l.inertial.inertia = urdf_rs::Inertia { ixx: i[(0, 0)], ixy: i[(0, 1)], ixz: i[(0, 2)], iyy: i[(1, 1)], iyz: i[(1, 2)], izz: i[(2, 2)] };
         }
     }
-    let text = urdf_rs::write_to_string(&robot).map_err(|e| format!("writing the corrected URDF: {e}"))?;
+    let failed = |action: &'static str, problem: String| InertialError::Write { action, path: out.display().to_string(), problem };
+    let text = urdf_rs::write_to_string(&robot).map_err(|e| failed("serialising", e.to_string()))?;
     let header = "<!-- written by naic explain (option write-urdf): the input URDF with the link inertials corrected by the \
                   inertial_parameters finding (the completion closest to the input of the identified base parameters) -->\n";
     let text = match text.find("?>") {
         Some(k) => format!("{}\n{header}{}", &text[..k + 2], text[k + 2..].trim_start()),
         None => format!("{header}{text}"),
     };
-    std::fs::write(out, text).map_err(|e| format!("{}: {e}", out.display()))?;
-    Model::from_urdf_file(out).map_err(|e| format!("the corrected URDF {} does not load back: {e}", out.display()))?;
+    std::fs::write(out, text).map_err(|e| failed("writing", e.to_string()))?;
+    Model::from_urdf_file(out).map_err(|e| failed("loading back", e.to_string()))?;
     Ok(())
+}
+
+fn read_urdf(urdf: &Path) -> Result<urdf_rs::Robot, InertialError> {
+    urdf_rs::read_file(urdf).map_err(|e| InertialError::Urdf { path: urdf.display().to_string(), problem: e.to_string() })
 }
 
 #[cfg(test)]
@@ -516,5 +543,27 @@ mod tests {
         for (a, b) in beta2.iter().zip(&want) {
             assert!((a - b).abs() < 1e-6 * (1.0 + b.abs()), "base parameters of the written URDF {a} vs {b}");
         }
+    }
+
+    /// A link that is not physically consistent refuses the URDF, naming the link, what
+    /// fails and where the corrected base parameters are; a missing URDF names its path.
+    #[test]
+    fn write_urdf_errors_name_the_link_or_the_file_and_the_way_out() {
+        let link = |inconsistent: Option<&str>| LinkChange {
+            link: "link3".into(),
+            urdf: Inertia::default(),
+            corrected: Inertia::default(),
+            inconsistent: inconsistent.map(str::to_string),
+        };
+        let out = std::env::temp_dir().join(format!("naic_inertial_err_{}.urdf", std::process::id()));
+        let e = write_urdf(&urdf("jk5.urdf"), &[link(None), link(Some("has mass -0.1 kg"))], &out).unwrap_err();
+        assert!(matches!(&e, InertialError::Inconsistent { link, problem } if link == "link3" && problem == "has mass -0.1 kg"), "{e:?}");
+        let m = e.to_string();
+        assert!(m.contains("link `link3` has mass -0.1 kg") && m.contains("report.json `inertial_parameters`"), "{m}");
+        assert!(!out.exists(), "a refused URDF must not be written");
+        let missing = urdf("no_such_robot.urdf");
+        let e = write_urdf(&missing, &[link(None)], &out).unwrap_err();
+        assert!(matches!(&e, InertialError::Urdf { path, .. } if path.ends_with("no_such_robot.urdf")), "{e:?}");
+        assert!(e.to_string().contains("no_such_robot.urdf"), "{e}");
     }
 }

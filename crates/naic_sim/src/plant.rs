@@ -54,12 +54,12 @@ pub enum Integrator {
 }
 
 impl Integrator {
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, PlantError> {
         match s {
             "euler" | "semi-implicit-euler" => Ok(Self::SemiImplicitEuler),
             "implicit-friction" => Ok(Self::ImplicitFriction),
             "rk4" => Ok(Self::Rk4),
-            o => Err(format!("unknown integrator '{o}': use euler, implicit-friction or rk4")),
+            o => Err(PlantError::Integrator { name: o.to_string() }),
         }
     }
 }
@@ -71,6 +71,9 @@ pub enum PlantError {
     Model(String),
     #[error("{0}")]
     Config(String),
+    /// The integrator `name` is not one of [`Integrator::parse`]'s.
+    #[error("unknown integrator '{name}': use euler, implicit-friction or rk4")]
+    Integrator { name: String },
 }
 
 /// Immutable parameters of the simulated robot and its world.
@@ -392,4 +395,20 @@ pub fn replay(p: &PlantParams, q0: JointVec, dq0: JointVec, torques: &[JointVec]
         out.push(s);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn integrator_names_parse_and_an_unknown_one_names_the_choices() {
+        assert_eq!(Integrator::parse("euler").ok(), Some(Integrator::SemiImplicitEuler));
+        assert_eq!(Integrator::parse("implicit-friction").ok(), Some(Integrator::ImplicitFriction));
+        assert_eq!(Integrator::parse("rk4").ok(), Some(Integrator::Rk4));
+        let e = Integrator::parse("verlet").unwrap_err();
+        assert!(matches!(&e, PlantError::Integrator { name } if name == "verlet"), "{e:?}");
+        let m = e.to_string();
+        assert!(m.contains("'verlet'") && m.contains("use euler, implicit-friction or rk4"), "{m}");
+    }
 }

@@ -172,6 +172,22 @@ impl Encoders {
 mod tests {
     use super::*;
 
+    #[test]
+    fn tool_errors_name_the_file_and_the_missing_link() {
+        let dir = std::env::temp_dir().join(format!("naic_tool_error_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let urdf = dir.join("no_sensor.urdf");
+        std::fs::write(&urdf, r#"<robot name="r"><link name="base_link"/></robot>"#).unwrap();
+        let e = tool_from_urdf(&urdf).unwrap_err();
+        assert_eq!(e, ToolError::NoSensorLink { path: urdf.display().to_string() });
+        let m = e.to_string();
+        assert!(m.contains("no_sensor.urdf") && m.contains("'ft_sensor'") && m.contains("add it"), "{m}");
+        let missing = dir.join("missing.urdf");
+        let e = tool_from_urdf(&missing).unwrap_err();
+        assert!(matches!(&e, ToolError::Urdf { path, .. } if path.ends_with("missing.urdf")), "{e:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     /// Tool pointing down: sensor z = −base z (180° about base y).
     fn down() -> Rotation3<f64> {
         Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI)
@@ -259,15 +275,26 @@ mod tests {
     }
 }
 
+/// Why the tool of a URDF could not be read ([`tool_from_urdf`]); names the file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ToolError {
+    /// The URDF does not parse (`problem`: the parser's words).
+    #[error("{path}: {problem}")]
+    Urdf { path: String, problem: String },
+    #[error("{path}: no link 'ft_sensor' (the F/T sensor + tool link) in the URDF; add it with the tool's <inertial>")]
+    NoSensorLink { path: String },
+}
+
 /// The tool of the `ft_sensor` link of a URDF: its mass [kg] and centre of
 /// mass in the sensor frame [m] (the `<inertial>` of link `ft_sensor`).
-pub fn tool_from_urdf(path: &std::path::Path) -> Result<(f64, Vector3<f64>), String> {
-    let robot = urdf_rs::read_file(path).map_err(|e| format!("{}: {e}", path.display()))?;
+pub fn tool_from_urdf(path: &std::path::Path) -> Result<(f64, Vector3<f64>), ToolError> {
+    let shown = || path.display().to_string();
+    let robot = urdf_rs::read_file(path).map_err(|e| ToolError::Urdf { path: shown(), problem: e.to_string() })?;
     let l = robot
         .links
         .iter()
         .find(|l| l.name == "ft_sensor")
-        .ok_or_else(|| format!("{}: no link 'ft_sensor' (the F/T sensor + tool link) in the URDF", path.display()))?;
+        .ok_or_else(|| ToolError::NoSensorLink { path: shown() })?;
     let o = l.inertial.origin.xyz;
     Ok((l.inertial.mass.value, Vector3::new(o[0], o[1], o[2])))
 }

@@ -48,7 +48,7 @@ pub(crate) fn contact_stage(
                 opts.sensor_frame,
             ))
         })?;
-        let (mass, com) = naic_sim::sensor::tool_from_urdf(&opts.urdf).map_err(ExplainError::model)?;
+        let (mass, com) = naic_sim::sensor::tool_from_urdf(&opts.urdf).map_err(|e| ExplainError::model(e.to_string()))?;
         let tool = contact::Tool { mass, com };
         progress(0.3, "contact: sensor and tip kinematics");
         let ck = contact::kinematics(prep, model, sensor, tip)?;

@@ -99,9 +99,9 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
 }
 
 /// The corrected link inertials (completion closest to the URDF), when the stage is significant.
-pub fn inertial_links(ex: &Explained) -> Option<Result<Vec<crate::inertial::LinkChange>, String>> {
+pub fn inertial_links(ex: &Explained) -> Option<Result<Vec<crate::inertial::LinkChange>, crate::inertial::InertialError>> {
     let fit = ex.inertial.as_ref().filter(|f| f.significant)?;
-    let model = naic_core::model::Model::from_urdf_file(&ex.urdf).map_err(|e| e.to_string());
+    let model = naic_core::model::Model::from_urdf_file(&ex.urdf).map_err(crate::inertial::InertialError::from);
     Some(model.and_then(|m| crate::inertial::corrected_links(&m, &ex.urdf, fit)))
 }
 
@@ -123,7 +123,7 @@ pub(super) fn inertial_json(ex: &Explained) -> Value {
     };
     let links = match inertial_links(ex) {
         None => Value::Null,
-        Some(Err(e)) => json!({"error": e}),
+        Some(Err(e)) => json!({"error": e.to_string()}),
         Some(Ok(ls)) => Value::Object(
             ls.iter()
                 .map(|l| (l.link.clone(), json!({"urdf": inertia(&l.urdf), "corrected": inertia(&l.corrected), "physically_consistent": l.inconsistent.is_none(), "problem": l.inconsistent})))
