@@ -14,7 +14,7 @@ pub mod run;
 pub mod sample;
 mod writer;
 
-pub use error::BagError;
+pub use error::{BagError, ChunkError};
 pub use qos::Qos;
 pub use reader::{AnyMessage, AnyStamped, Bag, ChannelDef, Damage, MessageRef, SchemaDef, Stamped, TimeRange, TopicInfo, MAGIC};
 pub use run::RunData;

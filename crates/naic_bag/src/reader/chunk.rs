@@ -7,6 +7,8 @@ use mcap::records::{op, Record};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mcap::McapError;
 
+use crate::ChunkError;
+
 /// The largest chunk we agree to decompress (guards against corrupt size fields).
 const MAX_CHUNK: u64 = 1 << 32;
 
@@ -17,28 +19,23 @@ pub(super) fn for_each_record(
     record: &[u8],
     indexed_size: Option<u64>,
     f: &mut dyn FnMut(u8, &[u8]),
-) -> Result<(), String> {
+) -> Result<(), ChunkError> {
     let header = match record.get(9..).map(|body| mcap::parse_record(op::CHUNK, body)) {
         Some(Ok(Record::Chunk { header, .. })) => header,
-        Some(Err(e)) => return Err(format!("chunk header is malformed ({e}; corrupted bytes); its messages are skipped")),
-        _ => return Err("chunk record is cut off; its messages are skipped".into()),
+        Some(Err(e)) => return Err(ChunkError::MalformedHeader { problem: e.to_string() }),
+        _ => return Err(ChunkError::CutOff),
     };
     let n = header.uncompressed_size;
-    if let Some(x) = indexed_size.filter(|&x| x != n) {
-        return Err(format!(
-            "chunk header claims {n} uncompressed bytes but the chunk index says {x} (corrupted header); its messages are skipped"
-        ));
+    if let Some(index) = indexed_size.filter(|&x| x != n) {
+        return Err(ChunkError::SizeDisagrees { header: n, index });
     }
     if n > MAX_CHUNK {
-        return Err(format!("chunk claims {n} uncompressed bytes (corrupted header); skipped"));
+        return Err(ChunkError::TooLarge { claimed: n });
     }
     // Without an index to confirm it, a size far beyond what the compressed bytes could
     // plausibly hold is taken as a corrupted field rather than allocated.
     if indexed_size.is_none() && !header.compression.is_empty() && n > (64 << 20) && n > header.compressed_size.saturating_mul(100) {
-        return Err(format!(
-            "chunk claims {n} uncompressed bytes from {} compressed ones (corrupted header); skipped",
-            header.compressed_size
-        ));
+        return Err(ChunkError::Implausible { claimed: n, compressed: header.compressed_size });
     }
     let limit = (n as usize).max(record.len());
     let mut r = LinearReader::new_with_options(
@@ -61,15 +58,11 @@ pub(super) fn for_each_record(
     Ok(())
 }
 
-fn describe(e: McapError) -> String {
+fn describe(e: McapError) -> ChunkError {
     match e {
-        McapError::BadChunkCrc { saved, calculated } => format!(
-            "chunk CRC mismatch (stored {saved:08x}, computed {calculated:08x}: corrupted bytes); its messages are skipped"
-        ),
-        McapError::UnsupportedCompression(c) => format!("unknown chunk compression {c:?}; its messages are skipped"),
-        McapError::UnexpectedEof | McapError::UnexpectedEoc => {
-            "a record inside a chunk runs past the chunk's end; the rest of the chunk is skipped".into()
-        }
-        e => format!("chunk does not decompress ({e}; corrupted bytes); its messages are skipped"),
+        McapError::BadChunkCrc { saved, calculated } => ChunkError::Crc { stored: saved, computed: calculated },
+        McapError::UnsupportedCompression(compression) => ChunkError::UnknownCompression { compression },
+        McapError::UnexpectedEof | McapError::UnexpectedEoc => ChunkError::RunsPastEnd,
+        e => ChunkError::Decompress { problem: e.to_string() },
     }
 }

@@ -224,7 +224,7 @@ impl Bag {
                     return;
                 }
                 if let Err(e) = chunk::for_each_record(&self.data[record.clone()], *indexed_size, f) {
-                    self.note(*offset, e);
+                    self.note(*offset, e.to_string());
                 }
             }
         }
