@@ -307,18 +307,18 @@ fn work_floor(a: &ChainArgs, work_us: f64) -> Result<serde_json::Value, CliError
         x
     }
     let (prio, cpu, seconds) = (a.realtime_priority as i32, a.cpu.unwrap_or(1), a.duration);
-    let t = std::thread::spawn(move || -> Result<serde_json::Value, String> {
+    let t = std::thread::spawn(move || -> Result<serde_json::Value, FloorError> {
         // SAFETY: scheduling calls for the calling thread with valid arguments.
         unsafe {
             if cpu >= 0 {
                 let mut set: libc::cpu_set_t = std::mem::zeroed();
                 libc::CPU_SET(cpu as usize, &mut set);
                 if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
-                    return Err(format!("cannot pin to CPU {cpu}: {}", std::io::Error::last_os_error()));
+                    return Err(FloorError::Pin { cpu, problem: std::io::Error::last_os_error().to_string() });
                 }
             }
             if prio > 0 && libc::sched_setscheduler(0, libc::SCHED_FIFO, &libc::sched_param { sched_priority: prio }) != 0 {
-                return Err(format!("cannot use SCHED_FIFO {prio}: {}", std::io::Error::last_os_error()));
+                return Err(FloorError::Fifo { priority: prio, problem: std::io::Error::last_os_error().to_string() });
             }
         }
         let calib = 20_000u64;
@@ -379,7 +379,16 @@ fn work_floor(a: &ChainArgs, work_us: f64) -> Result<serde_json::Value, CliError
             "work_max_us": q(&mut work, 1.0),
         }))
     });
-    t.join().map_err(|_| CliError::failure("the floor loop panicked"))?.map_err(CliError::failure)
+    t.join().map_err(|_| CliError::failure("the floor loop panicked"))?.map_err(|e| CliError::failure(e.to_string()))
+}
+
+/// Why the work floor's 1 kHz thread could not be set up as asked.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+enum FloorError {
+    #[error("cannot pin to CPU {cpu}: {problem} (--cpu -1: no pinning)")]
+    Pin { cpu: i64, problem: String },
+    #[error("cannot use SCHED_FIFO {priority}: {problem} (needs CAP_SYS_NICE or an rtprio limit; --realtime-priority 0: normal scheduling)")]
+    Fifo { priority: i32, problem: String },
 }
 
 fn machine() -> serde_json::Value {
@@ -464,4 +473,17 @@ pub fn run(a: ChainArgs) -> CliResult {
     println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floor_errors_name_the_setting_and_the_flag_that_avoids_it() {
+        let m = FloorError::Pin { cpu: 7, problem: "Invalid argument (os error 22)".into() }.to_string();
+        assert!(m.contains("CPU 7") && m.contains("os error 22") && m.contains("--cpu -1"), "{m}");
+        let m = FloorError::Fifo { priority: 80, problem: "Operation not permitted (os error 1)".into() }.to_string();
+        assert!(m.contains("SCHED_FIFO 80") && m.contains("CAP_SYS_NICE") && m.contains("--realtime-priority 0"), "{m}");
+    }
 }

@@ -383,7 +383,7 @@ fn run_bench(a: &ExplainArgs) -> CliResult {
             }
             v["numpy_reference"] = r.clone();
         }
-        Err(why) => v["numpy_reference_skipped"] = serde_json::json!(why),
+        Err(why) => v["numpy_reference_skipped"] = serde_json::json!(why.to_string()),
     }
     if a.json {
         println!("{v}");
@@ -436,10 +436,10 @@ fn rnea_every_sample(model: &Model, ts: &input::TimeSeries) -> f64 {
 /// Runs `bench/reference/explain_numpy_bench.py --samples N --joints J` with $NAIC_PYTHON
 /// (else $NAIC_VENV/bin/python, else python3); its last stdout line is JSON. Err: why it
 /// was skipped (no Python, no numpy, failed).
-fn numpy_reference(samples: usize, joints: usize, seed: u64, quiet: bool) -> Result<serde_json::Value, String> {
+fn numpy_reference(samples: usize, joints: usize, seed: u64, quiet: bool) -> Result<serde_json::Value, NumpySkipped> {
     let script = super::sim::default_path("bench/reference/explain_numpy_bench.py");
     if !script.exists() {
-        return Err(format!("{} not found (run from the repository)", script.display()));
+        return Err(NumpySkipped::NoScript { script: script.display().to_string() });
     }
     let py = super::sim::python();
     if !quiet {
@@ -450,19 +450,41 @@ fn numpy_reference(samples: usize, joints: usize, seed: u64, quiet: bool) -> Res
         .args(["--samples", &samples.to_string(), "--joints", &joints.to_string(), "--seed", &seed.to_string()])
         .stderr(if quiet { std::process::Stdio::piped() } else { std::process::Stdio::inherit() })
         .output()
-        .map_err(|e| format!("cannot run {py} (set NAIC_PYTHON or NAIC_VENV): {e}"))?;
+        .map_err(|e| NumpySkipped::CannotRun { python: py.clone(), problem: e.to_string() })?;
     let text = String::from_utf8_lossy(&o.stdout);
     let last = text.lines().last().unwrap_or("");
-    let v: serde_json::Value = serde_json::from_str(last).map_err(|e| {
-        format!("{py} {}: exit {:?}, no JSON on stdout ({e}): {}", script.display(), o.status.code(), String::from_utf8_lossy(&o.stderr).trim())
+    let stderr = || String::from_utf8_lossy(&o.stderr).trim().to_string();
+    let script = script.display().to_string();
+    let v: serde_json::Value = serde_json::from_str(last).map_err(|e| NumpySkipped::NoJson {
+        python: py.clone(),
+        script: script.clone(),
+        exit: o.status.code(),
+        problem: e.to_string(),
+        stderr: stderr(),
     })?;
     if let Some(why) = v["skipped"].as_str() {
-        return Err(why.to_string());
+        return Err(NumpySkipped::ScriptSaid { why: why.to_string() });
     }
     if !o.status.success() {
-        return Err(format!("{py} {} failed: {}", script.display(), String::from_utf8_lossy(&o.stderr).trim()));
+        return Err(NumpySkipped::Failed { python: py, script, stderr: stderr() });
     }
     Ok(v)
+}
+
+/// Why the numpy reference of the explain benchmark was skipped (reported, not fatal).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+enum NumpySkipped {
+    #[error("{script} not found (run from the repository)")]
+    NoScript { script: String },
+    #[error("cannot run {python} (set NAIC_PYTHON or NAIC_VENV): {problem}")]
+    CannotRun { python: String, problem: String },
+    #[error("{python} {script}: exit {exit:?}, no JSON on stdout ({problem}): {stderr}")]
+    NoJson { python: String, script: String, exit: Option<i32>, problem: String, stderr: String },
+    /// The script's own reason (e.g. numpy missing).
+    #[error("{why}")]
+    ScriptSaid { why: String },
+    #[error("{python} {script} failed: {stderr}")]
+    Failed { python: String, script: String, stderr: String },
 }
 
 /// The 1-minute load average (`/proc/loadavg`), to say how busy the machine was.
@@ -496,4 +518,19 @@ fn run_closed_loop(a: &ExplainArgs) -> CliResult {
         std::fs::write(dir.join("closed_loop.md"), md).map_err(|e| CliError::failure(format!("{}: {e}", dir.display())))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numpy_skip_reasons_name_the_interpreter_and_the_fix() {
+        let m = NumpySkipped::CannotRun { python: "nopython3".into(), problem: "No such file or directory (os error 2)".into() }.to_string();
+        assert!(m.starts_with("cannot run nopython3") && m.contains("NAIC_PYTHON") && m.contains("os error 2"), "{m}");
+        let m = NumpySkipped::NoJson { python: "py".into(), script: "b.py".into(), exit: Some(1), problem: "EOF".into(), stderr: "Traceback".into() }
+            .to_string();
+        assert_eq!(m, "py b.py: exit Some(1), no JSON on stdout (EOF): Traceback");
+        assert_eq!(NumpySkipped::ScriptSaid { why: "numpy is not installed".into() }.to_string(), "numpy is not installed");
+    }
 }

@@ -269,11 +269,19 @@ fn launch_params(a: &LaunchArgs) -> Result<BTreeMap<String, NodeLaunch>, CliErro
     Ok(map)
 }
 
+/// A `--real-time-factor` value outside the driver parameter's range (clap prints it after
+/// naming the flag).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("'{given}' is not a real-time factor: give a number in (0, 1000], e.g. 1.0 for real time")]
+pub struct RealTimeFactorError {
+    given: String,
+}
+
 /// `--real-time-factor`: a finite number in (0, 1000] (the driver parameter's range).
-fn parse_real_time_factor(s: &str) -> Result<f64, String> {
+fn parse_real_time_factor(s: &str) -> Result<f64, RealTimeFactorError> {
     match s.parse::<f64>() {
         Ok(f) if f > 0.0 && f <= 1000.0 => Ok(f),
-        _ => Err(format!("'{s}' is not a real-time factor: give a number in (0, 1000], e.g. 1.0 for real time")),
+        _ => Err(RealTimeFactorError { given: s.to_string() }),
     }
 }
 
@@ -618,6 +626,9 @@ mod tests {
         assert!(parse_real_time_factor("0").unwrap_err().to_string().contains("(0, 1000]"));
         assert!(parse_real_time_factor("nan").is_err() && parse_real_time_factor("x").is_err());
         assert_eq!(parse_real_time_factor("2.5"), Ok(2.5));
+        let e = parse_real_time_factor("-3").unwrap_err();
+        assert_eq!(e, RealTimeFactorError { given: "-3".into() });
+        assert!(e.to_string().contains("'-3'") && e.to_string().contains("e.g. 1.0 for real time"), "{e}");
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! same presets `naic sim` runs), or none (the node then uses its start pose moved
 //! `approach_depth` along the force axis).
 
-use naic_core::{model::Model, pipeline::controller::Reference, task::Task};
+use naic_core::{model::Model, pipeline::controller::Reference, task::{Task, TaskError}};
 
 pub const SCENARIOS: [&str; 6] = ["none", "flat", "stiffness-step", "slope", "foam", "two-material"];
 pub const DEFAULT_SCENARIO: &str = "flat";
@@ -15,11 +15,11 @@ pub struct ScenarioReference {
 
 impl ScenarioReference {
     /// `None` for "none".
-    pub fn new(name: &str, model: &Model) -> Result<Option<Self>, String> {
+    pub fn new(name: &str, model: &Model) -> Result<Option<Self>, TaskError> {
         if name == "none" {
             return Ok(None);
         }
-        let task = naic_core::task::preset(name, model).map_err(|e| format!("scenario '{name}': {e}"))?;
+        let task = naic_core::task::preset(name, model)?;
         Ok(Some(ScenarioReference { task }))
     }
 

@@ -32,7 +32,9 @@ impl Setup {
         let cp = table.with(|p| config::controller_params(p, &base))?;
         // The model first (its message names the URDF file), then the scenario.
         let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
-        let reference = ScenarioReference::new(&table.with(|p| p.str("scenario").to_string()), &model).map_err(RosError::param)?;
+        let scenario = table.with(|p| p.str("scenario").to_string());
+        let reference =
+            ScenarioReference::new(&scenario, &model).map_err(|e| RosError::param(format!("scenario '{scenario}': {e}")))?;
         let rp = table.with(config::reference_params);
         let params = core::Params::new(ctl, table.with(config::settings), reference, rp).map_err(bad_model)?;
         Ok(Setup { params, base })
