@@ -24,8 +24,14 @@ fn run(scenario: &str, controller: &str, delay: usize, mass_error: f64) -> RunSu
 
 /// [`run`] with the surface stiffness overridden (`naic sim --stiffness`).
 fn run_k(scenario: &str, k_e: Option<f64>, controller: &str, delay: usize, mass_error: f64) -> RunSummary {
+    run_seed(scenario, k_e, controller, delay, mass_error, 1)
+}
+
+/// [`run_k`] with the noise and sensor-bias seed (`naic sim --seed`).
+fn run_seed(scenario: &str, k_e: Option<f64>, controller: &str, delay: usize, mass_error: f64, seed: u64) -> RunSummary {
     let m = model();
-    let s = scenario::preset(scenario, &m).unwrap();
+    let mut s = scenario::preset(scenario, &m).unwrap();
+    s.seed = seed;
     let s = match k_e {
         Some(k) => s.with_stiffness(k).unwrap(),
         None => s,
@@ -36,7 +42,7 @@ fn run_k(scenario: &str, k_e: Option<f64>, controller: &str, delay: usize, mass_
     let mut c = PipelineController::by_name(controller, &s, &m, Some(friction()), tool, &settings).unwrap();
     let r = runner::run(&s, &plant, &mut c, &mut |_| {});
     let n = runner::summarize(&r);
-    eprintln!("{scenario} k={k_e:?} {controller} d={delay} F={mass_error}: {n:?}");
+    eprintln!("{scenario} k={k_e:?} {controller} d={delay} F={mass_error} seed {seed}: {n:?}");
     n
 }
 
@@ -112,18 +118,36 @@ fn two_material_switch() {
     for d in [1, 2] {
         let n = run("two-material", "scheduled", d, 1.0);
         // Goal ≤ 10 % at first contact (acrylic, f_d = 3 N, approach 5 mm/s): missed, 66 % (d = 1),
-        // 69 % (d = 2). The impact at 5 mm/s is 0.6 N (20 %); the rest is the tool at rest on
-        // acrylic: the velocity observer (needed against the encoder noise at b_d ≈ 430 N s/m)
-        // lags the joints' stiction and the force swings at ≈ 12 Hz. Achieved: peak below
-        // 5.5 N (AIC: 31 N).
+        // 68 % (d = 2), peak at t = 5.02 s, when the slide starts: the joints' breakaway is a
+        // step disturbance along n that the 7 rad/s observer learns in ≈ 0.1 s (+1.8 N, beyond
+        // the integral's 0.5 N band); before it, at rest, the friction feedforward evaluated at
+        // the noisy measured velocity moves the force ±1 N (docs/controller.md). Achieved: peak
+        // below 5.5 N (AIC: 31 N).
         assert!(n.peak_n <= 5.5, "d = {d}: {n:?}");
         // Goal after the switch to foam ≤ 0.3 s recovery: missed, 3.0 s: the ±2 % band at
         // 3 N is ±0.06 N, one F/T resolution step; the true force (SD 0.016 N on the foam)
         // leaves it for single samples — with a noiseless sensor it is back in 0.25 s.
-        // ≤ 10 % overshoot of the recovery: met (3.7 % / 2.6 %).
-        // (seed 1: 3.00 / 3.04 s.)
-        assert!(!n.later_settle_s.is_empty() && later_settle(&n, 0) <= 3.2, "d = {d}: {n:?}");
+        // ≤ 10 % overshoot of the recovery: met (4.2 % / 2.3 %).
+        // (seed 1: 3.00 / 3.49 s; 3.00 / 3.04 s before the integral release — the time of the
+        // last single-sample exit from ±0.06 N, see docs/controller.md.)
+        assert!(!n.later_settle_s.is_empty() && later_settle(&n, 0) <= 3.6, "d = {d}: {n:?}");
         assert!(n.later_recovery_overshoot_pct[0] <= 10.0, "d = {d}: {n:?}");
+    }
+}
+
+/// Every seed of the table ends in contact on the foam at f_d (the table's medians hid two
+/// failures): at d = 2 seed 3 lifted off the acrylic for good (the velocity observer, slow at
+/// the stiff schedule, kept +2 mm/s into the surface while the tool rose at up to 30 mm/s;
+/// fixed by the fast velocity gain off the surface), and with that fix alone seeds 2, 3 and 4
+/// at d = 1 ended at 1 N on the foam (an integral of −2 N from the wander on acrylic, frozen
+/// outside the 0.5 N band; fixed by releasing it after 0.2 s outside the band).
+#[test]
+fn two_material_every_seed_ends_tracking_on_the_foam() {
+    for seed in 1..=5 {
+        for d in [1, 2] {
+            let n = run_seed("two-material", None, "scheduled", d, 1.0, seed);
+            assert!(n.ss_error_n.abs() <= 0.05 && n.peak_n <= 5.5, "seed {seed} d = {d}: {n:?}");
+        }
     }
 }
 
