@@ -26,9 +26,11 @@
 //!    own correction; the training samples' corrections saw other folds, a small leak the
 //!    README states), and the per-joint forward selection runs again with
 //!    `inertial_parameters` as a candidate beside the others. It is named on the joints where
-//!    it passes the usual per-joint rule; its one column counts as the joint's share of the
-//!    shared base parameters, ⌈r / N⌉, in the information criteria (the forward selection
-//!    compares it with a 1-parameter offset or a 3-parameter `position_torque` fairly).
+//!    it passes the usual per-joint rule (its one column counts 1 there: the base parameters
+//!    were counted in the stage's BIC). When the forward selection chooses among significant
+//!    candidates, the column counts as the joint's share of the shared base parameters,
+//!    ⌈r / N⌉, so that it is compared with a 1-parameter offset or a 3-parameter
+//!    `position_torque` by what each explanation costs.
 //!
 //! The reported δβ is refitted in the same way on the second pass's final models (the
 //! effects selected beside `inertial_parameters`, without its column): a first-pass model

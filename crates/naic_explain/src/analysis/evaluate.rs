@@ -7,7 +7,6 @@ use super::gram::{fold_grams, sum};
 use super::scan::scan_grid;
 use super::solve::{heldout, solve};
 use super::{Eval, JointSamples, NominalShape, ScanParam, Structure, VALIDATION_FOLD};
-use crate::catalogue::Effect;
 use nalgebra::DMatrix;
 
 /// The fit chosen among the configurations: (SSR, configuration index, θ).
@@ -29,9 +28,7 @@ pub fn evaluate(js: &JointSamples, st: &Structure, scan: &[ScanParam], sh: &Nomi
     let fold_ssr = score_folds(&grams, &folds);
     let fold_structure = folds.iter().map(|f| configs[f.1].clone()).collect();
     let fold_theta = folds.into_iter().map(|f| f.2).collect();
-    // the inertial column stands for the joint's share of the shared base parameters
-    let n_shared = if st.has(Effect::InertialParameters) { js.inertial_params.saturating_sub(1) } else { 0 };
-    let n_shape = st.n_shape() + n_shared;
+    let n_shape = st.n_shape();
     let val_n = js.fold.iter().filter(|&&f| f == VALIDATION_FOLD).count();
     let val_ssr = if val_n > 0 { heldout(&grams[full.1][k_folds], &full.2) } else { 0.0 };
     Eval {

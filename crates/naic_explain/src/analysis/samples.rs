@@ -53,10 +53,9 @@ pub struct JointSamples {
     /// `inertial_parameters`: per sample, `Y_B,j δβ` of the correction fitted without the
     /// sample's fold (empty until the all-joint stage finds it, [`crate::inertial`]).
     pub inertial: Vec<f64>,
-    /// `inertial_parameters`: the parameters its one column stands for in the information
-    /// criterion — this joint's share of the r base parameters the joints share, ⌈r / N⌉
-    /// (set with `inertial`). Counted as 1, a 36-parameter correction fitted to one joint's
-    /// constant offset through the gravity columns tied with the 1-parameter offset.
+    /// `inertial_parameters`: the parameters its one column stands for when the forward
+    /// selection chooses among significant candidates (`Candidate::heldout_bic`) — this
+    /// joint's share of the r base parameters the joints share, ⌈r / N⌉ (set with `inertial`).
     pub inertial_params: usize,
     /// `delay` (time series): q⃛, and the rate and second rate of the rigid-body torque
     /// (see [`crate::prepare::Prepared::dtau_rb`]).
