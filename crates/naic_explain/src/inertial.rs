@@ -392,7 +392,7 @@ fn specific_beside_base(grams: &[Vec<DMatrix<f64>>], r: usize, own: &[Vec<Col>],
                 let wins = cur.heldout[j].iter().zip(&w.heldout[j]).filter(|(a, b)| a < b).count();
                 let bic = if cur.whole[j] > 0.0 && w.whole[j] > 0.0 { n_eff[j] * (cur.whole[j] / w.whole[j]).ln() + n_eff[j].ln() } else { 0.0 };
                 let earns = gain >= o.min_gain && wins >= o.min_fold_wins && bic < 0.0;
-                if !earns && weakest.map_or(true, |(g, _, _)| gain < g) {
+                if !earns && weakest.is_none_or(|(g, _, _)| gain < g) {
                     weakest = Some((gain, j, pos));
                 }
             }
