@@ -90,18 +90,11 @@ for cid, kw, dflt in [
 GRID.append(("noise_only-1h-200Hz", dict(effect=None, excitation="stepped", duration_s=3600.0, rate_hz=200.0), False))
 GRID.append(("stribeck-1h-200Hz", dict(effect="stribeck", excitation="stepped", duration_s=3600.0, rate_hz=200.0), False))
 
-# Cases where the full sweep (20 seeds, explain14 branch's naic at 2026-12-02, docs/explain.md
-# "Issue 14, second round") missed the goal: id -> (reason with the numbers, a failing seed: the
-# one the default run uses)
-KNOWN_FAILS = {
-    'torque_offset-base': ("18/20 seeds pass (goal ≥ 19); named first 18/20, first instead {'inertial_parameters': 1, "
-                           "'position_torque': 1} (a constant offset on joint 2 or 6 that a position-dependent term also fits "
-                           "over ptp's few poses)", 8),
-    'inertial_parameters-base': ("13/20 seeds pass (goal ≥ 19); named first 13/20, first instead {'position_torque': 7}: a changed "
-                                 "link mass is a gravity-torque error, which the per-joint position_torque (cogging or gravity-model "
-                                 "error) also explains; where inertial_parameters is named its rigid-body error left is 0.5 % median, "
-                                 "7.8 % worst (goal ≤ 20 %)", 1),
-}
+# Cases where the full sweep (20 seeds) missed the goal: id -> (reason with the numbers, a
+# failing seed: the one the default run uses). Empty since issue 14's third round (inert14
+# branch, docs/explain.md "Issue 14, third round"): `torque_offset-base` went 18 → 19/20 and
+# `inertial_parameters-base` 13 → 20/20.
+KNOWN_FAILS = {}
 
 
 def _seeds(cid):

@@ -26,8 +26,9 @@
 //! Forward selection: of the significant candidates the one with the lowest held-out BIC
 //! (n_eff·ln of the held-out SSR ratio + ln(n_eff) per parameter) is added to the joint's
 //! model (where two explain the same residual about equally, the one with fewer
-//! parameters), the rest are re-scored against the extended model, until none is
-//! significant.
+//! parameters; `inertial_parameters` counts its share of the base parameters the joints
+//! share there, see [`crate::inertial`]), the rest are re-scored against the extended
+//! model, until none is significant.
 //!
 //! # Layout
 //! `structure.rs` (columns, scanned parameters, a joint model), `samples.rs` (the samples of

@@ -53,6 +53,10 @@ pub struct JointSamples {
     /// `inertial_parameters`: per sample, `Y_B,j δβ` of the correction fitted without the
     /// sample's fold (empty until the all-joint stage finds it, [`crate::inertial`]).
     pub inertial: Vec<f64>,
+    /// `inertial_parameters`: the parameters its one column stands for when the forward
+    /// selection chooses among significant candidates (`Candidate::heldout_bic`) — this
+    /// joint's share of the r base parameters the joints share, ⌈r / N⌉ (set with `inertial`).
+    pub inertial_params: usize,
     /// `delay` (time series): q⃛, and the rate and second rate of the rigid-body torque
     /// (see [`crate::prepare::Prepared::dtau_rb`]).
     pub jerk: Vec<f64>,
@@ -210,6 +214,7 @@ impl JointSamples {
             h_grid: self.h_grid.clone(),
             coupled: self.coupled,
             inertial: pick(&self.inertial),
+            inertial_params: self.inertial_params,
             jerk: pick(&self.jerk),
             dtau_rb: pick(&self.dtau_rb),
             ddtau_rb: pick(&self.ddtau_rb),

@@ -29,8 +29,10 @@ pub(crate) fn inertial_stage(
     progress(0.95, "inertial_parameters: base parameters on all joints");
     let fit = inertial::fit(model, prep, val_prep, joints, results, shapes, &opts.analysis, true);
     if fit.significant {
+        let share = fit.base_columns.len().div_ceil(joints.len().max(1));
         for (js, c) in joints.iter_mut().zip(&fit.corrections) {
             js.inertial = c.clone();
+            js.inertial_params = share;
         }
         *results = analyse_all(joints, shapes, &opts.analysis, opts.threads, &|f, w| progress(0.95 + 0.05 * f, w));
         // the estimate beside the effects that survived the second pass

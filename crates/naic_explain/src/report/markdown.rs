@@ -175,6 +175,15 @@ pub(super) fn inertial_md(v: &Value, s: &mut String) {
     if ip["significant"].as_bool() != Some(true) {
         return;
     }
+    if let Some(a) = ip["first_pass_effects_set_aside"].as_array().filter(|a| !a.is_empty()) {
+        let list: Vec<String> = a.iter().map(|x| format!("`{}` on {}", x["effect"].as_str().unwrap_or("?"), x["target"].as_str().unwrap_or("?"))).collect();
+        let _ = writeln!(
+            s,
+            "Set aside beside the base parameters (found by the per-joint catalogue first, no longer significant beside them: \
+             a stand-in for the link inertials): {}.\n",
+            list.join(", ")
+        );
+    }
     let _ = writeln!(s, "| base parameter | URDF | identified |\n| --- | --- | --- |");
     if let Some(b) = ip["base_parameters"].as_object() {
         for (n, d) in b {
