@@ -16,6 +16,7 @@ use crate::{explain_points, report, ExplainError, ExplainOptions};
 use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
 use naic_ident::{fit, FitForm, FitOptions, FrictionData};
 use naic_core::model::Model;
+use naic_core::rng::SplitMix64;
 use naic_core::pipeline::control::force_law::Mode;
 use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::{runner, scenario};
@@ -44,29 +45,24 @@ pub fn experiment_speeds(j: usize) -> Vec<f64> {
     speeds
 }
 
-/// The noise stream of [`points_from_truth`]: SplitMix64 + Box–Muller, the generator that
+/// The noise stream of [`points_from_truth`]: `naic_core::rng::SplitMix64` + Box–Muller, the generator that
 /// `crate::generate` had before the seeded data moved to the workspace's one RNG,
 /// `naic_core::rng` (issue 17). It stays here only so that the closed-loop table
 /// (`docs/explain.md`, `tests/io.rs`) keeps its numbers: with `naic_core::rng` drawing the
 /// same 2 % noise, the `flat` scenario's extended compensation lands 2.002 % from the
 /// true-friction one (1.3334 vs 1.3072 N), just outside the 2 % that
 /// `closed_loop_extended_matches_true_compensation` asserts.
-struct PointNoise(u64);
+struct PointNoise(SplitMix64);
 
 impl PointNoise {
     fn new(seed: u64) -> Self {
-        Self(seed ^ 0x9E37_79B9_7F4A_7C15)
+        Self(SplitMix64(seed ^ 0x9E37_79B9_7F4A_7C15))
     }
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
+    /// Box–Muller on the stream's own pairs (`u1` floored, not `1 − u`), kept so that the
+    /// seeded points, and the table in docs/explain.md, stay as they are.
     fn normal(&mut self) -> f64 {
-        let u1 = self.uniform().max(1e-300);
-        let u2 = self.uniform();
+        let u1 = self.0.uniform().max(1e-300);
+        let u2 = self.0.uniform();
         (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
     }
 }
