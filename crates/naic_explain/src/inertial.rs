@@ -243,12 +243,8 @@ pub fn fit(
     // inertias that still earn their place beside Y_B: one that the first pass took as a
     // stand-in for a link's inertia is left to δβ.
     let (used, set_aside) = if significant && nominal_only {
-        let (active, set_aside) = specific_beside_base(&grams, r, &own, &n_eff, o);
-        if set_aside.is_empty() {
-            (with, set_aside)
-        } else {
-            (joint_fit(&grams, r, &active, kf), set_aside)
-        }
+        let (fit, _, set_aside) = specific_beside_base(&grams, r, &own, &n_eff, o, with);
+        (fit, set_aside)
     } else {
         (with, vec![])
     };
@@ -371,12 +367,21 @@ fn joint_fit(grams: &[Vec<DMatrix<f64>>], r: usize, active: &[Vec<usize>], kf: u
 /// is not tested: one point mass at the tool is itself a rigid-body change (a direction of
 /// δβ on every joint), so it could never earn a place beside `Y_B`; found first (one
 /// parameter, agreed by ≥ 2 joints), it stays, and δβ takes what is beyond it.
-fn specific_beside_base(grams: &[Vec<DMatrix<f64>>], r: usize, own: &[Vec<Col>], n_eff: &[f64], o: &AnalysisOptions) -> (Vec<Vec<usize>>, Vec<(usize, Col)>) {
+/// `all` is the fit with every column of `own` active; returns the fit with the columns that
+/// are left, those columns (indices into `own`) and the ones set aside.
+fn specific_beside_base(
+    grams: &[Vec<DMatrix<f64>>],
+    r: usize,
+    own: &[Vec<Col>],
+    n_eff: &[f64],
+    o: &AnalysisOptions,
+    all: JointFit,
+) -> (JointFit, Vec<Vec<usize>>, Vec<(usize, Col)>) {
     let kf = o.folds;
     let mut active: Vec<Vec<usize>> = own.iter().map(|c| (0..c.len()).collect()).collect();
     let mut dropped = Vec::new();
+    let mut cur = all;
     loop {
-        let cur = joint_fit(grams, r, &active, kf);
         // (gain, joint, position in active) of the weakest column that fails the rule
         let mut weakest: Option<(f64, usize, usize)> = None;
         for j in 0..active.len() {
@@ -397,9 +402,10 @@ fn specific_beside_base(grams: &[Vec<DMatrix<f64>>], r: usize, own: &[Vec<Col>],
                 }
             }
         }
-        let Some((_, j, pos)) = weakest else { return (active, dropped) };
+        let Some((_, j, pos)) = weakest else { return (cur, active, dropped) };
         dropped.push((j, own[j][active[j][pos]]));
         active[j].remove(pos);
+        cur = joint_fit(grams, r, &active, kf);
     }
 }
 
@@ -670,7 +676,9 @@ mod tests {
                 })
                 .collect();
             let grams = grams_of(&[2, 1], |j, i| rows[j][i].clone());
-            specific_beside_base(&grams, 2, &own, &[200.0, 200.0], &AnalysisOptions::default())
+            let all = joint_fit(&grams, 2, &[vec![0, 1], vec![0]], AnalysisOptions::default().folds);
+            let (_, active, dropped) = specific_beside_base(&grams, 2, &own, &[200.0, 200.0], &AnalysisOptions::default(), all);
+            (active, dropped)
         };
         // the rotor column is base column 1 on joint 1: nothing beside Y_B, set aside
         let (active, dropped) = run(true);
