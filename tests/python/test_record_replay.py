@@ -87,7 +87,12 @@ def test_record_replay_record(naic_bin, tmp_path):
     src = tmp_path / "src.mcap"
     rec = tmp_path / "rec.mcap"
     subprocess.run([str(naic_bin), "bag", "write-sample", str(src), "--seconds", "3"], check=True, capture_output=True)
-    replay_and_record(naic_bin, src, rec, TOPICS, 9, ru.fresh_domain(17))
+    err = replay_and_record(naic_bin, src, rec, TOPICS, 9, ru.fresh_domain(17))
+    # A normal end of both tools logs no error (RustDDS's "Cannot remove Writer ...
+    # Disconnected" while the participant was torn down used to be printed as one).
+    assert "naic record: wrote" in err, err[-2000:]
+    errors = [line for line in err.splitlines() if line.startswith("[ERROR]")]
+    assert not errors, errors
     a, b = load(src), load(rec)
     assert set(b) == set(TOPICS)
     for t in TOPICS:

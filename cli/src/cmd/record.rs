@@ -16,7 +16,6 @@ use ros2_client::{QosProfile, Subscription};
 use std::collections::HashMap;
 use std::hash::Hash;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// The topics `naic record` takes by default, with their types.
@@ -69,21 +68,6 @@ pub struct ReplayArgs {
     /// Wait this long before the first message so subscribers can discover the publishers [s].
     #[arg(long, default_value_t = 1.0)]
     pub delay: f64,
-}
-
-static STOP: AtomicBool = AtomicBool::new(false);
-
-extern "C" fn on_signal(_: libc::c_int) {
-    STOP.store(true, Ordering::SeqCst);
-}
-
-/// Ctrl-C / SIGTERM set [`STOP`] instead of killing the process, so the bag gets finished.
-fn catch_signals() {
-    // SAFETY: installing an async-signal-safe handler that only stores an atomic.
-    unsafe {
-        libc::signal(libc::SIGINT, on_signal as *const () as libc::sighandler_t);
-        libc::signal(libc::SIGTERM, on_signal as *const () as libc::sighandler_t);
-    }
 }
 
 fn ros_err(e: naic_ros::RosError) -> CliError {
@@ -207,7 +191,7 @@ pub fn record(a: RecordArgs) -> CliResult {
             _ => sub!(Clock, Ck),
         });
     }
-    catch_signals();
+    naic_ros::install_signal_handlers(); // Ctrl-C / SIGTERM: finish the bag, then exit
     eprintln!(
         "naic record: recording {} to {} ({})",
         wanted.iter().map(|(t, _)| t.as_str()).collect::<Vec<_>>().join(" "),
@@ -228,7 +212,7 @@ pub fn record(a: RecordArgs) -> CliResult {
     const LINGER: Duration = Duration::from_secs(3);
     let mut stopping: Option<(Instant, Instant)> = None; // (stop asked, last message taken)
     'run: loop {
-        let stop = STOP.load(Ordering::SeqCst) || deadline.is_some_and(|d| t0.elapsed() >= d);
+        let stop = naic_ros::shutdown_requested() || deadline.is_some_and(|d| t0.elapsed() >= d);
         if stop && stopping.is_none() {
             stopping = Some((Instant::now(), Instant::now()));
         }
@@ -273,6 +257,7 @@ pub fn record(a: RecordArgs) -> CliResult {
     }
     let n = w.message_count();
     let finished = w.finish().map_err(bag_err);
+    naic_ros::request_shutdown(); // the run is over: RustDDS's teardown complaints are not news
     drop(subs);
     drop(node);
     result?;
@@ -402,7 +387,7 @@ pub fn replay(a: ReplayArgs) -> CliResult {
     if msgs.is_empty() {
         return Err(CliError::usage(format!("no messages to replay after --start {} s", a.start)));
     }
-    catch_signals();
+    naic_ros::install_signal_handlers(); // Ctrl-C / SIGTERM: finish the bag, then exit
     eprintln!(
         "naic replay: {} messages on {} topic(s) at {}x{}",
         msgs.len(),
@@ -416,7 +401,7 @@ pub fn replay(a: ReplayArgs) -> CliResult {
     loop {
         let t0 = Instant::now();
         for msg in &msgs {
-            if STOP.load(Ordering::SeqCst) {
+            if naic_ros::shutdown_requested() {
                 break;
             }
             let due = Duration::from_secs_f64((msg.log_time - t_first) as f64 * 1e-9 / a.rate);
@@ -435,12 +420,13 @@ pub fn replay(a: ReplayArgs) -> CliResult {
                 errors += 1;
             }
         }
-        if !a.looped || STOP.load(Ordering::SeqCst) {
+        if !a.looped || naic_ros::shutdown_requested() {
             break;
         }
     }
     // Let reliable writers deliver the tail before the participant goes away.
     std::thread::sleep(Duration::from_millis(300));
+    naic_ros::request_shutdown();
     drop(pubs);
     drop(node);
     if errors > 0 {

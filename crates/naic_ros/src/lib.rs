@@ -103,6 +103,13 @@ pub fn shutdown_requested() -> bool {
 
 static SHUTDOWN: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
+/// Ask for shutdown from code (a tool whose run ended, e.g. `naic record --duration`): the
+/// same flag SIGINT/SIGTERM set. From then on the DDS internals' complaints while the
+/// participant is torn down are not logged (see `log.rs`).
+pub fn request_shutdown() {
+    SHUTDOWN.store(true, std::sync::atomic::Ordering::Relaxed);
+}
+
 /// Install SIGINT/SIGTERM handlers that set [`shutdown_requested`].
 pub fn install_signal_handlers() {
     extern "C" fn on_signal(_: libc::c_int) {
