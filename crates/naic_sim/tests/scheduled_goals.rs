@@ -117,13 +117,15 @@ fn acrylic_hard_surface() {
 fn two_material_switch() {
     for d in [1, 2] {
         let n = run("two-material", "scheduled", d, 1.0);
-        // Goal ≤ 10 % at first contact (acrylic, f_d = 3 N, approach 5 mm/s): missed, 66 % (d = 1),
-        // 68 % (d = 2), peak at t = 5.02 s, when the slide starts: the joints' breakaway is a
-        // step disturbance along n that the 7 rad/s observer learns in ≈ 0.1 s (+1.8 N, beyond
-        // the integral's 0.5 N band); before it, at rest, the friction feedforward evaluated at
-        // the noisy measured velocity moves the force ±1 N (docs/controller.md). Achieved: peak
-        // below 5.5 N (AIC: 31 N).
-        assert!(n.peak_n <= 5.5, "d = {d}: {n:?}");
+        // Goal ≤ 10 % at first contact (acrylic, f_d = 3 N, approach 5 mm/s): missed, medians
+        // 39 % (d = 1), 54 % (d = 2) (66 / 68 % before the force observer; seed 1: 37.2 / 39.8 %,
+        // peak 4.12 / 4.19 N, was 65.8 %, 4.97 N). The "contact" phase lasts until the foam; its
+        // peak is at the slide start (t ≈ 5.01 s: the joints' breakaway is a step disturbance
+        // along n, now observed through the force at 200 rad/s instead of the velocity
+        // observer's 7 rad/s) or in the wander at rest before it (the friction feedforward
+        // evaluated at the noisy measured velocity moves the force ±1 N, docs/controller.md).
+        // Achieved: peak ≤ 4.4 N (was ≤ 5.5 N; AIC: 31 N); the gap to the goal is ≈ 0.8 N.
+        assert!(n.peak_n <= 4.4, "d = {d}: {n:?}");
         // Goal after the switch to foam ≤ 0.3 s recovery: missed, 3.0 s: the ±2 % band at
         // 3 N is ±0.06 N, one F/T resolution step; the true force (SD 0.016 N on the foam)
         // leaves it for single samples — with a noiseless sensor it is back in 0.25 s.
