@@ -197,6 +197,10 @@ enum DiscoveryTimerEvent {
   PublishParticipantMessage,
   #[cfg(feature = "security")]
   CachedSecureMessageResend,
+  // naic patch (PATCHED.md): one-shot re-announcement of every local
+  // user-defined reader and writer (a new SEDP sample each) after a new remote
+  // participant was discovered. See `process_discovered_participant_data`.
+  RepublishLocalEndpoints,
 }
 
 // Enum indicating if secure discovery allows normal discovery to process
@@ -302,6 +306,16 @@ impl Discovery {
   const PARTICIPANT_CLEANUP_PERIOD: StdDuration = StdDuration::from_secs(2);
   const TOPIC_CLEANUP_PERIOD: StdDuration = StdDuration::from_secs(60); // timer for cleaning up inactive topics
   const SPDP_PUBLISH_PERIOD: StdDuration = StdDuration::from_secs(10);
+  // naic patch (PATCHED.md): when the local endpoints are announced again after
+  // a new remote participant was discovered. A remote that had not yet matched
+  // our SEDP writers when our first announcements went out can drop them, and
+  // a remote that acknowledged such a sample without delivering it is never
+  // repaired (seen with Fast DDS: the drops were within 40 ms before its
+  // match). 100 ms is past that window on a lightly loaded machine; 1 s covers
+  // a remote whose match is delayed by load. Each is one new sample per local
+  // endpoint, so a missed one costs nothing but the extra traffic.
+  const SEDP_REPUBLISH_DELAYS: [StdDuration; 2] =
+    [StdDuration::from_millis(100), StdDuration::from_secs(1)];
   const CHECK_PARTICIPANT_MESSAGES: StdDuration = StdDuration::from_secs(1);
   #[cfg(feature = "security")]
   const CACHED_SECURE_DISCOVERY_MESSAGE_RESEND_PERIOD: StdDuration = StdDuration::from_secs(1);
@@ -896,6 +910,10 @@ impl Discovery {
                     DiscoveryTimerEvent::CachedSecureMessageResend,
                   );
                 }
+                // naic patch (PATCHED.md): one-shot, does not reschedule.
+                DiscoveryTimerEvent::RepublishLocalEndpoints => {
+                  self.sedp_republish_local_user_endpoints();
+                }
               }
             }
           }
@@ -1083,6 +1101,15 @@ impl Discovery {
           StdDuration::from_millis(10),
           DiscoveryTimerEvent::SendParticipantInfo { reschedule: false },
         );
+        // naic patch (PATCHED.md): announce our user endpoints to it again, in
+        // case it dropped our first announcements before it matched our SEDP
+        // writers.
+        for delay in Self::SEDP_REPUBLISH_DELAYS {
+          self
+            .discovery_timer
+            .borrow_mut()
+            .set_timeout(delay, DiscoveryTimerEvent::RepublishLocalEndpoints);
+        }
       }
 
       // This may be a rediscovery of a previously seen participant that
@@ -1827,6 +1854,24 @@ impl Discovery {
         }
       }
     }
+  }
+
+  // naic patch (PATCHED.md): publish the SEDP data of every local user-defined
+  // reader and writer again, as the new samples (new sequence numbers) that
+  // `add_local_reader` / `add_local_writer` wrote when each was created. A
+  // remote that matched our SEDP writers after those first samples went out,
+  // and lost them, learns our endpoints from these; a remote that already knows
+  // them takes them as an unchanged update. Built-in endpoints are skipped by
+  // the `sedp_publish_single_user_*` functions, as on creation.
+  fn sedp_republish_local_user_endpoints(&self) {
+    let db = discovery_db_read(&self.discovery_db);
+    for reader_data in db.get_all_local_topic_readers() {
+      self.sedp_publish_single_user_reader(reader_data);
+    }
+    for writer_data in db.get_all_local_topic_writers() {
+      self.sedp_publish_single_user_writer(writer_data);
+    }
+    debug!("Re-published the SEDP data of the local user-defined readers and writers");
   }
 
   fn add_local_writer(&self, guid: GUID) {
