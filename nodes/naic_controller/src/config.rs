@@ -29,6 +29,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
     let axis = FORCE_AXES[c.force_axis.axis + if c.force_axis.sign < 0.0 { 3 } else { 0 }];
     // The reference stage's defaults (naic_core), so the numbers live in one place.
     let rd = ReferenceParams::new("base_link", c.force_axis, 10.0);
+    let ap = &fl.scheduled.approach;
     vec![
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model (URDF with 'tip' and 'ft_sensor' frames)").read_only(),
         ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed", "scheduled"], "Force law on the force axis: NAIC (eq 10-15), AIC (eq 9), fixed impedance (eq 8) or 'scheduled' (impedance scheduled from an online stiffness estimate k_e_hat, reported in /naic/params; not a paper law)"),
@@ -51,6 +52,11 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
             "Position reference: a paper task's trajectory (naic_core::task), or 'none' (start pose moved approach_depth along n)").read_only(),
         ParamSpec::double("approach_depth", 0.05, -0.5, 0.5, "With scenario 'none': free-space target = start tip position moved this far along n [m]"),
         ParamSpec::double("approach_speed", fl.scheduled.approach.max_speed, 1.0e-3, 0.5, "Mode 'scheduled': speed limit of the free-space approach along n [m/s] (a velocity servo toward the reference, robust to model error); the first contact adds k_e * approach_speed * (d + 1/2) * T before the loop reacts (50 000 N/m, 2 cycles of delay: 1.25 N per 10 mm/s)"),
+        ParamSpec::boolean("use_expected_surface", ap.expected_surface.is_some(), "Mode 'scheduled': slow to approach_band_speed within approach_band of the surface at expected_surface (false: approach_speed all the way)"),
+        ParamSpec::double("expected_surface", ap.expected_surface.unwrap_or(0.0), -2.0, 2.0, "Mode 'scheduled', with use_expected_surface: the surface's coordinate on the force axis's base-frame axis [m] (force_axis '-z': the table top's z in base_frame)"),
+        ParamSpec::double("approach_band", ap.band, 0.0, 0.5, "Mode 'scheduled', with use_expected_surface: distance before the expected surface where the approach slows [m]"),
+        ParamSpec::double("approach_band_speed", ap.speed, 1.0e-4, 0.5, "Mode 'scheduled', with use_expected_surface: approach speed along n inside approach_band [m/s]"),
+        ParamSpec::double("force_observer", fl.scheduled.force_observer, 0.0, 2000.0, "Mode 'scheduled': bandwidth of the disturbance observer that reads the force on stiff surfaces [rad/s] (0: off, the velocity observer alone)"),
         ParamSpec::string("base_frame", "base_link", "With scenario 'none': the only header.frame_id accepted on /naic/target_pose and /naic/desired_wrench (the URDF's root link)"),
         ParamSpec::double("max_speed", rd.linear.max_speed, 1.0e-4, 2.0, "With scenario 'none': speed limit of the position reference [m/s]"),
         ParamSpec::double("max_accel", rd.linear.max_accel, 1.0e-3, 20.0, "With scenario 'none': acceleration limit of the position reference [m/s^2]"),
@@ -111,7 +117,12 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
         sigma_margin: p.f64("sigma_margin"),
         ..base.control.force_law
     };
-    c.control.force_law.scheduled.approach.max_speed = p.f64("approach_speed");
+    let sch = &mut c.control.force_law.scheduled;
+    sch.approach.max_speed = p.f64("approach_speed");
+    sch.approach.expected_surface = p.bool("use_expected_surface").then(|| p.f64("expected_surface"));
+    sch.approach.band = p.f64("approach_band");
+    sch.approach.speed = p.f64("approach_band_speed");
+    sch.force_observer = p.f64("force_observer");
     c.control.contact = ContactDetect {
         enter_n: p.f64("contact_threshold"),
         exit_n: p.f64("contact_exit_force"),
@@ -253,5 +264,39 @@ mod tests {
         c.control.force_law.mode = Mode::Scheduled;
         c.control.force_law.scheduled.approach.max_speed = 0.0;
         assert!(c.control.validate().unwrap_err().to_string().contains("max_speed"));
+    }
+
+    #[test]
+    fn the_expected_surface_and_the_force_observer_reach_the_scheduled_law() {
+        let (t, b) = table();
+        let set = |kv: &[(&str, V)]| t.set_atomically(&kv.iter().map(|(n, v)| (n.to_string(), v.clone())).collect::<Vec<_>>());
+        let sch = |t: &ParamTable| t.with(|p| controller_params(p, &b)).unwrap().control.force_law.scheduled;
+        // Off by default: the core's default (no expected surface), whatever the coordinate.
+        assert_eq!(b.control.force_law.scheduled.approach.expected_surface, None);
+        set(&[("expected_surface", V::Double(0.08))]).unwrap();
+        assert_eq!(sch(&t).approach.expected_surface, None);
+        set(&[
+            ("use_expected_surface", V::Boolean(true)),
+            ("approach_band", V::Double(0.02)),
+            ("approach_band_speed", V::Double(0.003)),
+            ("force_observer", V::Double(0.0)),
+        ])
+        .unwrap();
+        let s = sch(&t);
+        assert_eq!(s.approach.expected_surface, Some(0.08));
+        assert_eq!((s.approach.band, s.approach.speed, s.force_observer), (0.02, 0.003, 0.0));
+        // Everything else stays the core's.
+        let mut expect = b.control.force_law.scheduled;
+        expect.approach.expected_surface = Some(0.08);
+        expect.approach.band = 0.02;
+        expect.approach.speed = 0.003;
+        expect.force_observer = 0.0;
+        assert_eq!(s, expect);
+        for (name, bad) in [("expected_surface", 3.0), ("approach_band", -0.01), ("approach_band_speed", 0.0), ("force_observer", -1.0), ("force_observer", f64::NAN)] {
+            assert!(set(&[(name, V::Double(bad))]).is_err(), "{name} = {bad} accepted");
+        }
+        assert_eq!(sch(&t), expect, "a rejected set changed the law");
+        set(&[("use_expected_surface", V::Boolean(false))]).unwrap();
+        assert_eq!(sch(&t).approach.expected_surface, None);
     }
 }
