@@ -63,6 +63,15 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
         rclpy.spin_until_future_complete(n, f, timeout_sec=10)
         g = ctl.get_parameters(["mode"])
         rclpy.spin_until_future_complete(n, g, timeout_sec=10)
+        # The scheduled law's approach and force-observer parameters are served, and a bad
+        # value is refused with a reason.
+        names = ["use_expected_surface", "expected_surface", "approach_band", "approach_band_speed", "force_observer"]
+        h = ctl.get_parameters(names)
+        rclpy.spin_until_future_complete(n, h, timeout_sec=10)
+        bad = ctl.set_parameters([Parameter("approach_band_speed", value=0.0)])
+        rclpy.spin_until_future_complete(n, bad, timeout_sec=10)
+        hv = [v.bool_value if v.type == 1 else v.double_value for v in h.result().values]
+        badr = bad.result().results[0]
         # While paused the controller re-sends the report of the same (start) sample; the
         # new mode shows from the first new sample on.
         got.clear()
@@ -76,13 +85,18 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
             if seen and seen[-1][0] > 4.5:
                 break
         print(json.dumps(dict(first=first, ok=[x.successful for x in f.result().results + r.result().results],
-                              mode_param=g.result().values[0].string_value, seen=seen)))
+                              mode_param=g.result().values[0].string_value, seen=seen,
+                         approach=dict(zip(names, hv)), bad=[badr.successful, badr.reason])))
     """)
     m = ru.run_in_overlay(["-c", script], domain, overlay, 300, stop=launch, pythonpath=[ru.ROOT / "tests/ros"])
     assert m["first"]["mode"] == "naic"
     # The switch happened at the start, in free space (paused driver, simulated t = 0).
     assert m["first"]["t"] < 0.1, m["first"]
     assert m["ok"] == [True, True] and m["mode_param"] == "scheduled", (m["ok"], m["mode_param"])
+    # Defaults: no expected surface (a speed limit alone), the core's band, speed and observer.
+    assert m["approach"] == dict(use_expected_surface=False, expected_surface=0.0, approach_band=0.01,
+                                 approach_band_speed=0.005, force_observer=200.0), m["approach"]
+    assert m["bad"][0] is False and "approach_band_speed" in m["bad"][1], m["bad"]
     seen = m["seen"]
     assert seen and seen[-1][0] > 4.5, seen[-3:]
     # Every new sample after the switch is handled by the scheduled law.
