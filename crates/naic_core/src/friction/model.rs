@@ -133,31 +133,6 @@ impl JointFriction {
         }
     }
 
-    /// Friction torque with its direction from one velocity and its Stribeck magnitude from
-    /// another: `sgn(dir)·g(|mag|) + f_v·dir` (sgn → tanh(dir/v_s) with `v_s = Some(..)`; the
-    /// per-direction law's branches weighted by `(1 ± s)/2` as in [`Self::tau_f_smooth`]).
-    /// With `dir = mag` it is [`Self::tau_f`] (`v_s = None`) or [`Self::tau_f_smooth`].
-    /// For a feedforward whose direction comes from a reference velocity (noise-free) while
-    /// the breakaway level `f_b` of a joint that sticks comes from its measured speed.
-    #[inline]
-    pub fn tau_f_directed(&self, dir: f64, mag: f64, v_s: Option<f64>) -> f64 {
-        let s = match v_s {
-            Some(v_s) => (dir / v_s).tanh(),
-            None if dir == 0.0 || dir.is_nan() => 0.0,
-            None => dir.signum(),
-        };
-        match self {
-            Self::CoulombViscous { f_c, f_v } => f_c * s + f_v * dir,
-            Self::Stribeck(p) => p.magnitude(mag) * s + p.f_v * dir,
-            Self::StribeckPerDirection { positive, negative } => {
-                let w_pos = 0.5 * (1.0 + s);
-                let w_neg = 0.5 * (1.0 - s);
-                s * (w_pos * positive.magnitude(mag) + w_neg * negative.magnitude(mag))
-                    + (w_pos * positive.f_v + w_neg * negative.f_v) * dir
-            }
-        }
-    }
-
     /// [`Self::tau_f_smooth`] (bit-identical) and its slope ∂τ_f/∂q̇ in N·m·s/rad, analytic,
     /// for implicit integrators. For the per-direction law the branch whose weight
     /// (1 ± s)/2 is exactly 0 (|q̇| ≳ 19 v_s, where tanh rounds to ±1) is not evaluated.
@@ -320,26 +295,6 @@ impl FrictionModel {
                 (j.tau_f(qdot), (j.tau_f(qdot + d) - j.tau_f(qdot - d)) / (2.0 * d))
             }
         }
-    }
-
-    /// Friction torques of all joints with the direction of `dir` and the Stribeck magnitude
-    /// at `mag` ([`JointFriction::tau_f_directed`], this model's smoothing), into `tau_f`
-    /// (no allocation). All three slices must have `n_joints()` entries.
-    pub fn tau_f_directed_into(&self, dir: &[f64], mag: &[f64], tau_f: &mut [f64]) -> Result<(), FrictionError> {
-        let n = self.joints.len();
-        for (what, len) in [("dir", dir.len()), ("mag", mag.len()), ("tau_f", tau_f.len())] {
-            if len != n {
-                return Err(FrictionError::Length { what, expected: n, found: len });
-            }
-        }
-        let v_s = match self.smoothing {
-            Smoothing::Exact => None,
-            Smoothing::Tanh { v_s } => Some(v_s),
-        };
-        for (((out, j), &d), &m) in tau_f.iter_mut().zip(&self.joints).zip(dir).zip(mag) {
-            *out = j.tau_f_directed(d, m, v_s);
-        }
-        Ok(())
     }
 
     /// Friction torques of all joints written into `tau_f` (no allocation).

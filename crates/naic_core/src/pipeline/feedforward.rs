@@ -67,19 +67,6 @@ pub fn blend(b: &ReferenceBlend, dq: &JointVec, dq_ref: &JointVec) -> JointVec {
     })
 }
 
-/// One cycle with the friction law's direction from `dq_dir` and its Stribeck magnitude at
-/// the measured `dq`: `τ_ctrl + sgn(q̇_dir)·g(q̇) + f_v q̇_dir` (module docs; a joint that
-/// sticks while its reference moves gets the breakaway level `f_b`, not `g(q̇_ref)`). With
-/// `dq_dir = dq` it is [`step`]. A model with a joint count other than [`N_JOINTS`] adds
-/// nothing.
-pub fn step_directed(model: &FrictionModel, dq_dir: &JointVec, dq: &JointVec, tau_ctrl: &JointVec) -> JointVec {
-    let mut tau_f = [0.0; N_JOINTS];
-    if model.tau_f_directed_into(dq_dir, dq, &mut tau_f).is_err() {
-        return *tau_ctrl;
-    }
-    std::array::from_fn(|i| tau_ctrl[i] + tau_f[i])
-}
-
 /// One cycle: `τ_ctrl + τ_f(q̇)`. A model with a joint count other than [`N_JOINTS`]
 /// adds nothing.
 pub fn step(model: &FrictionModel, dq: &JointVec, tau_ctrl: &JointVec) -> JointVec {

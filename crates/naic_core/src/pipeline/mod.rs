@@ -99,8 +99,7 @@ pub fn step(
     // velocity the controller names (the measured one, or the scheduled law's blend with
     // the reference: feedforward.rs).
     let tau_ff = match (&p.friction, control.status.fault) {
-        (Some(f), None) if control.dq_ff == control.dq => feedforward::step(f, &control.dq, &control.tau),
-        (Some(f), None) => feedforward::step_directed(f, &control.dq_ff, &control.dq, &control.tau),
+        (Some(f), None) => feedforward::step(f, &control.dq_ff, &control.tau),
         _ => control.tau,
     };
     let (as_, report) = actuate::step(&p.actuate, &s.actuate, &tau_ff);
