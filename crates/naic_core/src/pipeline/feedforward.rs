@@ -19,26 +19,22 @@
 //! the law is evaluated at,
 //!
 //! ```text
-//! q̇_ff,i = w_i q̇_i + (1 − w_i) q̇_ref,i,   w_i = max(ρ(q̇_i), ρ(q̇_ref,i)),   ρ(v) = clamp((|v| − v_lo) / (v_hi − v_lo), 0, 1)
+//! q̇_ff,i = w_i q̇_i + (1 − w_i) q̇_ref,i,   w_i = clamp((|q̇_i| − v_lo) / (v_hi − v_lo), 0, 1)
 //! ```
 //!
 //! with `q̇_ref = J⁻¹ Ẋ_ref` the joint velocity of the twist the controller commands (the
 //! controller computes it, [`super::controller::ControlOutputs::dq_ff`]): the measured
-//! velocity as before wherever the joint or its reference moves above the noise
-//! (`≥ v_hi`: a motion the reference does not know, an impact, a slip, or a joint that
-//! follows the reference), the reference's only near rest (both below `v_lo`), so a joint
+//! velocity where the joint moves well above the noise (`|q̇| ≥ v_hi`: a motion the
+//! reference does not know, an impact, a slip), the reference's below `v_lo`, so a joint
 //! at rest with a reference at rest gets no feedforward whatever its velocity noise.
-//! (Evaluated at the reference also where the reference moves, round 5's try 2 in
-//! docs/controller.md, the joints the reference moves but that stick lose the measured
-//! velocity's dither, and the slope at d = 2 settled later.)
 
 use crate::friction::FrictionModel;
 use crate::pipeline::ConfigError;
 use crate::{JointVec, N_JOINTS};
 
 /// The blend of measured and reference joint velocity for the friction feedforward
-/// (module docs): the reference velocity where both the measured and the reference speed
-/// are below `v_lo` [rad/s], the measured one where either is above `v_hi`, linear in between.
+/// (module docs): below `v_lo` [rad/s] of measured speed the reference velocity, above
+/// `v_hi` the measured one, linear in between.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReferenceBlend {
     pub v_lo: f64,
@@ -59,16 +55,14 @@ impl ReferenceBlend {
 }
 
 /// The joint velocity the friction law is evaluated at (module docs): per joint the
-/// measured `dq` where `|dq|` or `|dq_ref|` is at least `v_hi`, the reference `dq_ref`
-/// where both are at most `v_lo`, linear in between. A non-finite `dq_ref` entry gives the
-/// measured velocity.
+/// measured `dq` where `|dq| ≥ v_hi`, the reference `dq_ref` where `|dq| ≤ v_lo`,
+/// linear in between. A non-finite `dq_ref` entry gives the measured velocity.
 pub fn blend(b: &ReferenceBlend, dq: &JointVec, dq_ref: &JointVec) -> JointVec {
     std::array::from_fn(|i| {
         if !dq_ref[i].is_finite() {
             return dq[i];
         }
-        let w = |v: f64| ((v.abs() - b.v_lo) / (b.v_hi - b.v_lo)).clamp(0.0, 1.0);
-        let w = w(dq[i]).max(w(dq_ref[i]));
+        let w = ((dq[i].abs() - b.v_lo) / (b.v_hi - b.v_lo)).clamp(0.0, 1.0);
         w * dq[i] + (1.0 - w) * dq_ref[i]
     })
 }
@@ -102,19 +96,19 @@ mod tests {
     }
 
     #[test]
-    fn the_blend_takes_the_reference_only_near_rest() {
+    fn the_blend_takes_the_reference_near_rest_and_the_measurement_in_motion() {
         let b = ReferenceBlend { v_lo: 0.004, v_hi: 0.008 };
-        let dq = [0.003, -0.003, 0.006, 0.02, 0.002, 0.001];
-        let dq_ref = [0.0, 0.01, 0.001, -0.05, 0.006, f64::NAN];
+        let dq = [0.003, -0.003, 0.006, 0.02, -0.02, 0.001];
+        let dq_ref = [0.0, 0.01, 0.01, -0.05, 0.0, f64::NAN];
         let v = blend(&b, &dq, &dq_ref);
-        // Both at rest (the measurement within the noise): the reference.
+        // Noise-sized measured velocity: the reference, whatever its sign.
         assert_eq!(v[0], 0.0);
-        // The reference moves: the measured velocity, as without the blend.
-        assert_eq!(v[1], -0.003);
+        assert_eq!(v[1], 0.01);
+        // Half-way through the band: the mean.
+        assert!((v[2] - 0.5 * (0.006 + 0.01)).abs() < 1e-15, "{}", v[2]);
+        // Well above the noise: the measured velocity, even against the reference.
         assert_eq!(v[3], 0.02);
-        // Half-way through the band (measured, reference at rest): the mean.
-        assert!((v[2] - 0.5 * (0.006 + 0.001)).abs() < 1e-15, "{}", v[2]);
-        assert!((v[4] - 0.5 * (0.002 + 0.006)).abs() < 1e-15, "{}", v[4]);
+        assert_eq!(v[4], -0.02);
         // No reference: the measured velocity.
         assert_eq!(v[5], 0.001);
         // At rest with a reference at rest, noise does not reach the friction torque.
