@@ -271,10 +271,8 @@ pub struct TaskOutputs {
     pub retracting: bool,
     /// The twist the controller means the tip to move at (base frame): the reference's
     /// `Ẋ_d = Ė + Ẋ`, along the force axis the retraction speed while retracting and, in
-    /// scheduled mode, out of contact the approach servo's target speed
-    /// ([`scheduled::approach_target`]), in contact the law's velocity observer `v̄` (the
-    /// commanded accelerations integrated, corrected slowly by the measurement:
-    /// [`scheduled::predictor::Observer`]). The scheduled law's friction feedforward is
+    /// scheduled mode out of contact, the approach servo's target speed
+    /// ([`scheduled::approach_target`]). The scheduled law's friction feedforward is
     /// evaluated at its joint velocity ([`crate::pipeline::feedforward::blend`]).
     pub v_ref: Vector6<f64>,
 }
@@ -394,7 +392,6 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         // The shared law state reports the scheduled weights (Status, /naic/params).
         next.law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: sched.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
         out.v[ax] = u.a_d[ax] - sign * r.e_ddot;
-        out.v_ref[ax] = sign * sched.observer.v;
         out.k_d = 0.0;
         out.law = ForceLawOutputs {
             e_ddot: r.e_ddot,

@@ -140,7 +140,8 @@ pub struct ScheduledParams {
     /// ([`crate::pipeline::feedforward::blend`]): the controller reports
     /// `J⁻¹ Ẋ_ref` blended with the measured joint velocity as the velocity the friction
     /// law is evaluated at; `Ẋ_ref` is the reference's twist with, along n, the approach
-    /// servo's target speed out of contact and the law's velocity observer `v̄` in contact. Why: at the measured velocity the feedforward turns the encoders' noise at
+    /// servo's target speed out of contact and the reference's (0 in every scenario) in
+    /// contact. Why: at the measured velocity the feedforward turns the encoders' noise at
     /// rest into ±f_b of torque chatter (joint 1: ±12 N·m), which moved the tool by tens of
     /// µm on acrylic (two-material's wander at rest, 1.5–3.7 N against f_d = 3 N). `None`:
     /// the measured velocity, as for the paper's laws.
