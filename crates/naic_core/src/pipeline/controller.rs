@@ -35,7 +35,6 @@ use super::control::force_law::Mode;
 use super::ConfigError;
 use super::control::{self, ControlParams, ControlState, Phase, TaskInputs};
 use super::estimate::{self, TareState, ToolParams};
-use super::feedforward;
 use super::sense::{self, Fault, RawMeasurements, SenseParams, SenseState};
 use crate::dynamics::{self, Damping};
 use crate::model::{Data6, FrameId, Model};
@@ -203,10 +202,6 @@ pub struct ControlOutputs {
     pub tau: JointVec,
     /// The (median-filtered) joint velocity this cycle used [rad/s].
     pub dq: JointVec,
-    /// The joint velocity the friction feedforward is to be evaluated at [rad/s]: `dq`, or
-    /// with the scheduled law's `friction_reference` the blend of `dq` and the reference
-    /// twist's joint velocity `J⁻¹ Ẋ_ref` ([`super::feedforward::blend`]).
-    pub dq_ff: JointVec,
     pub status: Status,
 }
 
@@ -270,15 +265,6 @@ pub fn step(
     let (qdd, damped) = dynamics::solve_damped(&j, &(out.v - jdot_qdot), &p.damping);
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
     let tau = tau_id + j.transpose() * f_e;
-    // The friction feedforward's velocity: on the reference for the scheduled law
-    // (feedforward.rs), the measured one otherwise.
-    let dq_ff = match (p.control.force_law.mode, &p.control.force_law.scheduled.friction_reference) {
-        (Mode::Scheduled, Some(b)) => {
-            let (dq_ref, _) = dynamics::solve_damped(&j, &out.v_ref, &p.damping);
-            feedforward::blend(b, &sensed.dq, &dq_ref.into())
-        }
-        _ => sensed.dq,
-    };
 
     let law = &next.control.law;
     let status = Status {
@@ -307,7 +293,7 @@ pub fn step(
         jacobian_damped: damped,
         force_limited: out.retracting,
     };
-    (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, dq_ff, status })
+    (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, status })
 }
 
 /// The safe hold: gravity compensation + joint damping at the last valid state.
@@ -367,7 +353,7 @@ fn hold(
         jacobian_damped: false,
         force_limited: false,
     };
-    (next, ControlOutputs { tau, dq: [0.0; N_JOINTS], dq_ff: [0.0; N_JOINTS], status })
+    (next, ControlOutputs { tau, dq: [0.0; N_JOINTS], status })
 }
 
 impl ControllerParams {

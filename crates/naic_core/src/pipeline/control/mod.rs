@@ -269,12 +269,6 @@ pub struct TaskOutputs {
     pub law: ForceLawOutputs,
     /// The force limit was exceeded: the tool is retracting, or latched off the surface.
     pub retracting: bool,
-    /// The twist the controller means the tip to move at (base frame): the reference's
-    /// `Ẋ_d = Ė + Ẋ`, along the force axis the retraction speed while retracting and, in
-    /// scheduled mode out of contact, the approach servo's target speed
-    /// ([`scheduled::approach_target`]). The scheduled law's friction feedforward is
-    /// evaluated at its joint velocity ([`crate::pipeline::feedforward::blend`]).
-    pub v_ref: Vector6<f64>,
 }
 
 /// `(k̂_e, confidence)` of the scheduled law's estimator (the oracle's known k_e if set).
@@ -310,7 +304,6 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
     let sign = p.force_axis.sign;
     let f_ext = sign * u.f_e[ax];
     let mut next = *s;
-    let mut v_ref = u.e_dot + u.x_dot;
 
     // Force limit: stop pushing, leave contact, back off along −n for a while.
     if f_ext > p.force_limit.limit_n {
@@ -338,8 +331,7 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
             next.retract_hold = Some(u.e[ax]);
         }
         let law = ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() };
-        v_ref[ax] = -sign * p.force_limit.retract_speed;
-        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true, v_ref });
+        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true });
     }
     if let Some(e_hold) = next.retract_hold {
         // Latched: free-space impedance on every axis, the force axis about the held offset.
@@ -348,7 +340,7 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         held.e[ax] -= e_hold;
         let v = eq6(imp, &imp.k_free, &held);
         let law = ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() };
-        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true, v_ref });
+        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true });
     }
 
     // Phase transitions (a hold ends in free space: contact is re-detected).
@@ -379,7 +371,6 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         k_d: k[ax],
         law: ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() },
         retracting: false,
-        v_ref,
     };
     let scheduled = p.force_law.mode == Mode::Scheduled;
     if contact && scheduled {
@@ -422,10 +413,9 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
             v_d: sign * (u.e_dot[ax] + u.x_dot[ax]),
             a_d: sign * u.a_d[ax],
         };
-        let surface_n = a.expected_surface.map_or(f64::NAN, |z| sign * z);
         let (a_n, e) = scheduled::approach_accel(
             a,
-            surface_n,
+            a.expected_surface.map_or(f64::NAN, |z| sign * z),
             sign * u.p[ax],
             sign * u.x_dot[ax],
             free,
@@ -435,7 +425,6 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         );
         next.sched.approach_integral = e;
         out.v[ax] = sign * a_n;
-        out.v_ref[ax] = sign * scheduled::approach_target(a, surface_n, sign * u.p[ax], &free);
     }
     if scheduled {
         let e = estimator_report(&p.force_law.scheduled, &next.sched);
