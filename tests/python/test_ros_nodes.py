@@ -495,27 +495,32 @@ def test_ros_cpu_affinity_pins_every_thread(bins):
         assert p.stop() == 0, p.output()[-2000:]
 
 
-def test_ros_lockstep_chain_equals_the_in_process_simulation(bins, tmp_path):
+@pytest.mark.parametrize("mode", ["naic", "scheduled"])
+def test_ros_lockstep_chain_equals_the_in_process_simulation(bins, tmp_path, mode):
     """The nodes are thin shells around the step functions: the three processes in lockstep
     over DDS apply the same joint torques, cycle by cycle, as `naic sim` running the same
-    pipeline in one process (flat scenario, NAIC, same seed), through the approach and the
-    first contact at about 1.5 s. The in-process pipeline has no torque-rate limit, so
+    pipeline in one process (flat scenario, NAIC and the scheduled law, same seed), through
+    the approach and the first contact at about 1.5 s. The scheduled law's friction
+    feedforward runs at the velocity the controller names on /naic/effort's second row: a
+    friction node that used the measured velocity instead would differ by newton-metres at
+    rest. The in-process pipeline has no torque-rate limit, so
     friction_compensation's is opened up here. A shell bug (a stage left out, a sign, a
     one-cycle shift, the wrong wrench or velocity) changes the torque by newtons; the two
     agree to about 2e-4 N m (largest on joint 6 near rest, where the tanh-smoothed friction
     feedforward amplifies velocity differences ~1e-9 rad/s by 1/v_s = 1000)."""
     import csv
     sim = tmp_path / "sim"
-    out = subprocess.run([str(bins / "naic"), "sim", "--controller", "naic", "--duration", "2", "--out", str(sim)],
+    out = subprocess.run([str(bins / "naic"), "sim", "--controller", mode, "--duration", "2", "--out", str(sim)],
                          cwd=ru.ROOT, capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
-    rows = list(csv.DictReader(open(sim / "naic.truth.csv")))
+    rows = list(csv.DictReader(open(sim / f"{mode}.truth.csv")))
     ref = {round(float(r["t"]) * 1000): [float(r[f"tau{i}"]) for i in range(1, 7)] for r in rows}
     assert any(r["phase"] == "1" for r in rows), "the in-process run never made contact"
 
     domain = ru.fresh_domain(180)
     launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true",
-                      "-p", "friction_compensation:torque_rate_limit:=1000.0"], ru.ros_env(domain))
+                      "-p", "friction_compensation:torque_rate_limit:=1000.0", "-p", f"naic_controller:mode:={mode}"],
+                     ru.ros_env(domain))
     r = ru.RclpyDomain(domain, "naic_equivalence_test")
     got = {}
     try:

@@ -26,32 +26,76 @@ pub const JOINT_NAMES: [&str; N_JOINTS] = ["joint1", "joint2", "joint3", "joint4
 /// chain latency (`naic bench chain`).
 pub fn effort_msg(tau: &[f64], source_stamp_ns: Option<i64>) -> Float64MultiArray {
     let mut m = Float64MultiArray::default();
-    set_effort_msg(&mut m, tau, source_stamp_ns);
+    set_effort_msg(&mut m, tau, source_stamp_ns, None);
     m
 }
+
+/// The label of the first dimension of a `/naic/effort` that also carries the friction
+/// feedforward's joint velocity (2 × 6: torques, then velocities).
+const EFFORT_AND_VELOCITY: &str = "effort,friction_velocity";
 
 /// [`effort_msg`] written into `m` in place: once `m`'s label and data have reached their
 /// size (the first cycle), this allocates nothing. ros2-client's `Publisher::publish`
 /// takes the message by value, so the shells publish a clone of this buffer: that clone
 /// (the label `String`, the dimension and data `Vec`s) is the one allocation per
 /// published message the API forces.
-pub fn set_effort_msg(m: &mut Float64MultiArray, tau: &[f64], source_stamp_ns: Option<i64>) {
+///
+/// With `friction_velocity` (the controller's `ControlOutputs::dq_ff`, the scheduled law's
+/// velocity for the friction feedforward) the array is 2 × 6: dimension 0
+/// `effort,friction_velocity` (size 2, stride 12), dimension 1 `joints` (size 6, stride 6),
+/// the torques first. A reader of six torques ([`effort_values`]) reads the first row as
+/// before; the friction node reads the second with [`effort_friction_velocity`].
+pub fn set_effort_msg(m: &mut Float64MultiArray, tau: &[f64], source_stamp_ns: Option<i64>, friction_velocity: Option<&JointVec>) {
     use std::fmt::Write;
-    if m.layout.dim.len() != 1 {
-        m.layout.dim.clear();
-        m.layout.dim.push(MultiArrayDimension::default());
+    let dims = if friction_velocity.is_some() { 2 } else { 1 };
+    if m.layout.dim.len() != dims {
+        m.layout.dim.resize(dims, MultiArrayDimension::default());
     }
+    let n = tau.len() as u32;
     let d = &mut m.layout.dim[0];
     d.label.clear();
-    d.label.push_str("joints");
+    d.label.push_str(if dims == 2 { EFFORT_AND_VELOCITY } else { "joints" });
     if let Some(ns) = source_stamp_ns {
         let _ = write!(d.label, ";stamp_ns={ns}");
     }
-    d.size = tau.len() as u32;
-    d.stride = tau.len() as u32;
+    d.size = if dims == 2 { 2 } else { n };
+    d.stride = dims as u32 * n;
+    if dims == 2 {
+        let j = &mut m.layout.dim[1];
+        j.label.clear();
+        j.label.push_str("joints");
+        j.size = n;
+        j.stride = n;
+    }
     m.layout.data_offset = 0;
     m.data.clear();
     m.data.extend_from_slice(tau);
+    if let Some(v) = friction_velocity {
+        m.data.extend_from_slice(v);
+    }
+}
+
+/// The joint velocity a `/naic/effort` names for the friction feedforward (its second row,
+/// [`set_effort_msg`]) into `out`: `Ok(false)` when it carries torques only (evaluate at
+/// the measured velocity), an error when the second row is short or not finite.
+pub fn effort_friction_velocity(m: &Float64MultiArray, out: &mut JointVec) -> Result<bool, EffortError> {
+    let two_rows = m.layout.dim.len() == 2
+        && m.layout.dim[0].size == 2
+        && m.layout.dim[0].label.split(';').next() == Some(EFFORT_AND_VELOCITY);
+    if !two_rows {
+        return Ok(false);
+    }
+    let off = m.layout.data_offset as usize + N_JOINTS;
+    if m.data.len() < off + N_JOINTS {
+        return Err(EffortError::TooFew(m.data.len().saturating_sub(off)));
+    }
+    for (o, v) in out.iter_mut().zip(&m.data[off..off + N_JOINTS]) {
+        if !v.is_finite() {
+            return Err(EffortError::NonFinite(*v));
+        }
+        *o = *v;
+    }
+    Ok(true)
 }
 
 /// The `/joint_states` stamp a command was computed from, if it carries one.
@@ -114,10 +158,41 @@ mod tests {
     #[test]
     fn the_effort_buffer_is_rewritten_without_allocating() {
         let mut m = effort_msg(&[0.0; 6], Some(i64::MAX));
-        let (_, n) = crate::alloc_check::counted(|| set_effort_msg(&mut m, &[2.0; 6], Some(1_700_000_000_000_000_123)));
+        let (_, n) = crate::alloc_check::counted(|| set_effort_msg(&mut m, &[2.0; 6], Some(1_700_000_000_000_000_123), None));
         assert_eq!(n, 0);
         assert_eq!(m, effort_msg(&[2.0; 6], Some(1_700_000_000_000_000_123)));
-        set_effort_msg(&mut m, &[3.0; 6], None);
+        set_effort_msg(&mut m, &[3.0; 6], None, None);
+        assert_eq!(m, effort_msg(&[3.0; 6], None));
+    }
+
+    #[test]
+    fn the_friction_velocity_travels_as_a_second_row() {
+        let v = [0.1, -0.2, 0.0, 0.3, 0.004, -0.5];
+        let mut m = effort_msg(&[0.0; 6], None);
+        set_effort_msg(&mut m, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0], Some(42), Some(&v));
+        assert_eq!(m.data.len(), 12);
+        assert_eq!((m.layout.dim[0].size, m.layout.dim[0].stride, m.layout.dim[1].size), (2, 12, 6));
+        // Readers of the torques and of the stamp see what they saw before.
+        let mut t = [0.0; 6];
+        effort_values(&m, &mut t).unwrap();
+        assert_eq!(t, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        assert_eq!(effort_source_stamp(&m), Some(42));
+        let mut got = [9.0; 6];
+        assert_eq!(effort_friction_velocity(&m, &mut got), Ok(true));
+        assert_eq!(got, v);
+        // Rewritten in place without allocating once at size.
+        let (_, n) = crate::alloc_check::counted(|| set_effort_msg(&mut m, &[2.0; 6], Some(43), Some(&v)));
+        assert_eq!(n, 0);
+        // Torques only: no velocity named.
+        assert_eq!(effort_friction_velocity(&effort_msg(&[1.0; 6], Some(1)), &mut got), Ok(false));
+        // A second row that is short or not finite is refused, naming the problem.
+        let mut bad = m.clone();
+        bad.data[8] = f64::INFINITY;
+        assert!(effort_friction_velocity(&bad, &mut got).unwrap_err().to_string().contains("non-finite"));
+        bad.data.truncate(9);
+        assert!(matches!(effort_friction_velocity(&bad, &mut got), Err(EffortError::TooFew(3))));
+        // Back to one row.
+        set_effort_msg(&mut m, &[3.0; 6], None, None);
         assert_eq!(m, effort_msg(&[3.0; 6], None));
     }
 }

@@ -45,6 +45,9 @@ pub struct Params {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Pending {
     tau: JointVec,
+    /// The velocity the command names for the feedforward (the scheduled law's; `None`:
+    /// the measured one).
+    dq_ff: Option<JointVec>,
     src: Option<i64>,
     /// Give up waiting at this wall time [ns] (then: no feedforward this cycle).
     until_ns: i64,
@@ -127,12 +130,17 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64) -> (State, Outbox
     }
     if let Some(m) = inbox.command {
         let mut tau = [0.0; N_JOINTS];
-        if let Err(e) = msgs::effort_values(m, &mut tau) {
-            if s.warn.ready(now_ns) {
-                out.event = Some(Event::BadCommand(e));
+        let mut dq_ff = [0.0; N_JOINTS];
+        let named = msgs::effort_values(m, &mut tau).and_then(|()| msgs::effort_friction_velocity(m, &mut dq_ff));
+        let named = match named {
+            Ok(named) => named,
+            Err(e) => {
+                if s.warn.ready(now_ns) {
+                    out.event = Some(Event::BadCommand(e));
+                }
+                return (s, out);
             }
-            return (s, out);
-        }
+        };
         let src = msgs::effort_source_stamp(m);
         if let Some(tau) = src.and_then(|st| s.replay.get(st)) {
             // A repeated stamp: the same answer, no state advances.
@@ -142,7 +150,7 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64) -> (State, Outbox
         }
         let first = s.dq_stamp_ns.is_none() && s.effort_meas.is_none();
         let wait = if first { naic_ros::timebase::FIRST_PAIR_TIMEOUT_NS } else { p.joint_state_timeout_ns };
-        s.pending = Some(Pending { tau, src, until_ns: now_ns.saturating_add(wait) });
+        s.pending = Some(Pending { tau, dq_ff: named.then_some(dq_ff), src, until_ns: now_ns.saturating_add(wait) });
     }
     let Some(cmd) = s.pending else { return (s, out) };
     let sim = p.time.is_sim() && cmd.src.is_some();
@@ -153,7 +161,10 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64) -> (State, Outbox
     }
     s.pending = None;
     let fresh = if sim { s.dq_stamp_ns == cmd.src } else { now_ns.saturating_sub(s.dq_rx_ns) <= p.joint_state_timeout_ns };
-    let tau = if p.enabled && fresh { feedforward::step(&p.friction, &s.dq, &cmd.tau) } else { cmd.tau };
+    // At the velocity the controller names (the scheduled law's, `/naic/effort`'s second
+    // row), else at the measured one.
+    let dq = cmd.dq_ff.as_ref().unwrap_or(&s.dq);
+    let tau = if p.enabled && fresh { feedforward::step(&p.friction, dq, &cmd.tau) } else { cmd.tau };
     // Smooth take-over (first command, or after a gap in which the driver held the arm
     // itself): the rate limit starts from the torque the arm has now.
     let t_ns = if sim { cmd.src.unwrap_or_default() } else { now_ns };
@@ -329,6 +340,32 @@ mod tests {
         let (s, _) = run(&p, &s, Inbox { joint_states: Some(&js(3000, ORDER, [0.0; 6], [-50.0; 6])), ..Default::default() }, 70 * MS);
         let (_, o) = run(&p, &s, Inbox { command: Some(&effort_msg(&[1.0; 6], Some(3000))), ..Default::default() }, 70 * MS);
         assert_eq!(o.command.unwrap().0, feedforward::step(&p.friction, &[0.0; 6], &[1.0; 6]), "not restarted from -50");
+    }
+
+    #[test]
+    fn a_command_that_names_a_velocity_gets_its_feedforward_there() {
+        // The scheduled law sends the velocity of its friction feedforward as /naic/effort's
+        // second row: the node evaluates the friction at it, not at the measured velocity.
+        let p = params(TimeBase::Sim);
+        let measured = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+        let named = [0.5, -0.5, 0.0, 0.0, 0.0, 0.0];
+        let want = feedforward::step(&p.friction, &named, &[1.0; 6]);
+        // The arm has that torque now, so the take-over's rate limit passes it unchanged.
+        let (s, _) = run(&p, &State::default(), Inbox { joint_states: Some(&js(2000, ORDER, measured, want)), ..Default::default() }, MS);
+        let mut cmd = effort_msg(&[1.0; 6], Some(2000));
+        naic_ros::msgs::set_effort_msg(&mut cmd, &[1.0; 6], Some(2000), Some(&named));
+        let (_, o) = run(&p, &s, Inbox { command: Some(&cmd), ..Default::default() }, MS);
+        let tau = o.command.unwrap().0;
+        assert_eq!(tau, want);
+        // The same command without the second row: the measured velocity, another torque.
+        let (_, o) = run(&p, &s, Inbox { command: Some(&effort_msg(&[1.0; 6], Some(2000))), ..Default::default() }, MS);
+        assert_ne!(o.command.unwrap().0, want, "the named velocity made no difference");
+        // A named velocity that is not finite: the command is refused, with the reason.
+        let mut bad = cmd.clone();
+        bad.data[7] = f64::NAN;
+        let (_, o) = run(&p, &s, Inbox { command: Some(&bad), ..Default::default() }, MS);
+        assert_eq!(o.command, None);
+        assert!(matches!(o.event, Some(Event::BadCommand(EffortError::NonFinite(_)))), "{:?}", o.event);
     }
 
     #[test]

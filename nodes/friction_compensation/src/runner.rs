@@ -75,7 +75,7 @@ impl Runner {
             out = self.step(core::Inbox { joint_states: js.as_ref(), ..Default::default() }, now);
         }
         let (tau, src) = out.command?;
-        msgs::set_effort_msg(&mut self.cmd, &tau, src);
+        msgs::set_effort_msg(&mut self.cmd, &tau, src, None);
         Some(&self.cmd)
     }
 }

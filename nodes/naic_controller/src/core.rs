@@ -122,6 +122,7 @@ pub struct ActiveReference {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Answer {
     tau: Option<JointVec>,
+    friction_velocity: Option<JointVec>,
     report: Report,
 }
 
@@ -224,6 +225,9 @@ pub struct Events {
 pub struct Outbox {
     /// `/naic/effort`: torque and the `/joint_states` stamp it answers.
     pub effort: Option<(JointVec, i64)>,
+    /// With the effort, the joint velocity the friction node is to evaluate its
+    /// feedforward at (`ControlOutputs::dq_ff`: the scheduled law's); `None`: the measured one.
+    pub friction_velocity: Option<JointVec>,
     /// `/naic/params`.
     pub report: Option<Report>,
     /// Lockstep: a joint state waits for the wrench of its stamp; step again with each
@@ -254,6 +258,7 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
             // A repeated stamp: the same command, and in simulated time the same report
             // (a paused or waiting driver keeps /naic/params alive for late subscribers).
             out.effort = a.tau.map(|t| (t, stamp));
+            out.friction_velocity = a.friction_velocity;
             out.report = p.settings.time.is_sim().then_some(a.report);
             s.pending = None;
             return (s, out);
@@ -366,6 +371,7 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
     // Never publish a non-finite torque: skip the cycle (the driver holds after 20 ms).
     let tau = finite(&o.tau);
     out.effort = tau.map(|t| (t, j.stamp_ns));
+    out.friction_velocity = o.dq_ff.filter(|_| tau.is_some());
     out.events.non_finite_torque = tau.is_none();
     let fault = match (st.fault, st.force_limited) {
         (Some(f), _) => Some(FaultReport::Sensor(f)),
@@ -373,7 +379,7 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
         (None, false) => None,
     };
     let report = Report { stamp_ns: j.stamp_ns, status: st, fault, reference: active };
-    s.replay.store(j.stamp_ns, Answer { tau, report });
+    s.replay.store(j.stamp_ns, Answer { tau, friction_velocity: out.friction_velocity, report });
     out.report = Some(report);
 }
 

@@ -109,7 +109,7 @@ impl Runner {
         }
         log_events(&out.events, self.p.settings.force_limit);
         if let Some((tau, stamp)) = out.effort {
-            msgs::set_effort_msg(&mut self.effort, &tau, Some(stamp));
+            msgs::set_effort_msg(&mut self.effort, &tau, Some(stamp), out.friction_velocity.as_ref());
         }
         if let Some(r) = &out.report {
             fill_report(&mut self.report, r);

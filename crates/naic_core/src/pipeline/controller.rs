@@ -35,6 +35,7 @@ use super::control::force_law::Mode;
 use super::ConfigError;
 use super::control::{self, ControlParams, ControlState, Phase, TaskInputs};
 use super::estimate::{self, TareState, ToolParams};
+use super::feedforward;
 use super::sense::{self, Fault, RawMeasurements, SenseParams, SenseState};
 use crate::dynamics::{self, Damping};
 use crate::model::{Data6, FrameId, Model};
@@ -202,6 +203,12 @@ pub struct ControlOutputs {
     pub tau: JointVec,
     /// The (median-filtered) joint velocity this cycle used [rad/s].
     pub dq: JointVec,
+    /// The joint velocity the friction feedforward is to be evaluated at [rad/s], when the
+    /// law names one: with the scheduled law's `friction_reference`, the blend of `dq` and
+    /// the reference twist's joint velocity `J⁻¹ Ẋ_ref` ([`super::feedforward::blend`]).
+    /// `None`: at `dq` (the paper's laws). Over DDS it travels with the torque on
+    /// `/naic/effort` to the friction node (`naic_ros::msgs::set_effort_msg`).
+    pub dq_ff: Option<JointVec>,
     pub status: Status,
 }
 
@@ -265,6 +272,15 @@ pub fn step(
     let (qdd, damped) = dynamics::solve_damped(&j, &(out.v - jdot_qdot), &p.damping);
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
     let tau = tau_id + j.transpose() * f_e;
+    // The friction feedforward's velocity: on the reference for the scheduled law
+    // (feedforward.rs), the measured one otherwise.
+    let dq_ff = match (p.control.force_law.mode, &p.control.force_law.scheduled.friction_reference) {
+        (Mode::Scheduled, Some(b)) => {
+            let (dq_ref, _) = dynamics::solve_damped(&j, &out.v_ref, &p.damping);
+            Some(feedforward::blend(b, &sensed.dq, &dq_ref.into()))
+        }
+        _ => None,
+    };
 
     let law = &next.control.law;
     let status = Status {
@@ -293,7 +309,7 @@ pub fn step(
         jacobian_damped: damped,
         force_limited: out.retracting,
     };
-    (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, status })
+    (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, dq_ff, status })
 }
 
 /// The safe hold: gravity compensation + joint damping at the last valid state.
@@ -353,7 +369,7 @@ fn hold(
         jacobian_damped: false,
         force_limited: false,
     };
-    (next, ControlOutputs { tau, dq: [0.0; N_JOINTS], status })
+    (next, ControlOutputs { tau, dq: [0.0; N_JOINTS], dq_ff: None, status })
 }
 
 impl ControllerParams {

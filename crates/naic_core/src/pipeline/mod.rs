@@ -95,9 +95,11 @@ pub fn step(
     ws: &mut controller::Workspace,
 ) -> (PipelineState, PipelineOutputs) {
     let (cs, control) = controller::step(&p.controller, &s.controller, m, r, ws);
-    // Friction feedforward only while the measurements are valid (not in the hold).
+    // Friction feedforward only while the measurements are valid (not in the hold), at the
+    // velocity the controller names (the measured one, or the scheduled law's blend with
+    // the reference: feedforward.rs).
     let tau_ff = match (&p.friction, control.status.fault) {
-        (Some(f), None) => feedforward::step(f, &control.dq, &control.tau),
+        (Some(f), None) => feedforward::step(f, control.dq_ff.as_ref().unwrap_or(&control.dq), &control.tau),
         _ => control.tau,
     };
     let (as_, report) = actuate::step(&p.actuate, &s.actuate, &tau_ff);

@@ -133,7 +133,7 @@ impl Chain {
         }
         let report = out.report;
         if let Some((tau, src)) = out.effort {
-            msgs::set_effort_msg(&mut self.effort, &tau, Some(src));
+            msgs::set_effort_msg(&mut self.effort, &tau, Some(src), out.friction_velocity.as_ref());
             let f = |s: &mut fc::State, inbox: fc::Inbox, now: i64| {
                 let (next, out) = fc::step(&self.fp, s, &inbox, now);
                 *s = next;
@@ -148,7 +148,7 @@ impl Chain {
                 o = f(&mut self.fs, fc::Inbox::default(), until);
             }
             if let Some((tau, src)) = o.command {
-                msgs::set_effort_msg(&mut self.cmd, &tau, src);
+                msgs::set_effort_msg(&mut self.cmd, &tau, src, None);
                 assert!(drv::receive(&mut self.cmds, &self.cmd, stamp).is_none());
             }
         }

@@ -269,6 +269,14 @@ pub struct TaskOutputs {
     pub law: ForceLawOutputs,
     /// The force limit was exceeded: the tool is retracting, or latched off the surface.
     pub retracting: bool,
+    /// The twist the controller means the tip to move at (base frame): the reference's
+    /// `Ẋ_d = Ė + Ẋ`, along the force axis the retraction speed while retracting and, in
+    /// scheduled mode, out of contact the approach servo's target speed
+    /// ([`scheduled::approach_target`]), in contact the law's velocity observer `v̄` (the
+    /// commanded accelerations integrated, corrected slowly by the measurement:
+    /// [`scheduled::predictor::Observer`]). The scheduled law's friction feedforward is
+    /// evaluated at its joint velocity ([`crate::pipeline::feedforward::blend`]).
+    pub v_ref: Vector6<f64>,
 }
 
 /// `(k̂_e, confidence)` of the scheduled law's estimator (the oracle's known k_e if set).
@@ -304,6 +312,7 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
     let sign = p.force_axis.sign;
     let f_ext = sign * u.f_e[ax];
     let mut next = *s;
+    let mut v_ref = u.e_dot + u.x_dot;
 
     // Force limit: stop pushing, leave contact, back off along −n for a while.
     if f_ext > p.force_limit.limit_n {
@@ -331,7 +340,8 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
             next.retract_hold = Some(u.e[ax]);
         }
         let law = ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() };
-        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true });
+        v_ref[ax] = -sign * p.force_limit.retract_speed;
+        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true, v_ref });
     }
     if let Some(e_hold) = next.retract_hold {
         // Latched: free-space impedance on every axis, the force axis about the held offset.
@@ -340,7 +350,7 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         held.e[ax] -= e_hold;
         let v = eq6(imp, &imp.k_free, &held);
         let law = ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() };
-        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true });
+        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true, v_ref });
     }
 
     // Phase transitions (a hold ends in free space: contact is re-detected).
@@ -371,6 +381,7 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         k_d: k[ax],
         law: ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() },
         retracting: false,
+        v_ref,
     };
     let scheduled = p.force_law.mode == Mode::Scheduled;
     if contact && scheduled {
@@ -383,6 +394,7 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         // The shared law state reports the scheduled weights (Status, /naic/params).
         next.law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: sched.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
         out.v[ax] = u.a_d[ax] - sign * r.e_ddot;
+        out.v_ref[ax] = sign * sched.observer.v;
         out.k_d = 0.0;
         out.law = ForceLawOutputs {
             e_ddot: r.e_ddot,
@@ -413,9 +425,10 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
             v_d: sign * (u.e_dot[ax] + u.x_dot[ax]),
             a_d: sign * u.a_d[ax],
         };
+        let surface_n = a.expected_surface.map_or(f64::NAN, |z| sign * z);
         let (a_n, e) = scheduled::approach_accel(
             a,
-            a.expected_surface.map_or(f64::NAN, |z| sign * z),
+            surface_n,
             sign * u.p[ax],
             sign * u.x_dot[ax],
             free,
@@ -425,6 +438,7 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         );
         next.sched.approach_integral = e;
         out.v[ax] = sign * a_n;
+        out.v_ref[ax] = sign * scheduled::approach_target(a, surface_n, sign * u.p[ax], &free);
     }
     if scheduled {
         let e = estimator_report(&p.force_law.scheduled, &next.sched);

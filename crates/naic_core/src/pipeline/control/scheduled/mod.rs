@@ -59,6 +59,8 @@ use learning::{Learning, LearningParams};
 use predictor::{ForceObserver, History, Observer};
 use schedule::{Gains, ScheduleParams};
 
+use crate::pipeline::feedforward::ReferenceBlend;
+
 /// Approach near an expected surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ApproachParams {
@@ -134,6 +136,15 @@ pub struct ScheduledParams {
     pub force_observer_k_min: f64,
     pub force_observer_confidence: f64,
     pub force_observer_age: f64,
+    /// Joint friction feedforward on the reference velocity
+    /// ([`crate::pipeline::feedforward::blend`]): the controller reports
+    /// `J⁻¹ Ẋ_ref` blended with the measured joint velocity as the velocity the friction
+    /// law is evaluated at; `Ẋ_ref` is the reference's twist with, along n, the approach
+    /// servo's target speed out of contact and the law's velocity observer `v̄` in contact. Why: at the measured velocity the feedforward turns the encoders' noise at
+    /// rest into ±f_b of torque chatter (joint 1: ±12 N·m), which moved the tool by tens of
+    /// µm on acrylic (two-material's wander at rest, 1.5–3.7 N against f_d = 3 N). `None`:
+    /// the measured velocity, as for the paper's laws.
+    pub friction_reference: Option<ReferenceBlend>,
 }
 
 
@@ -156,6 +167,7 @@ impl Default for ScheduledParams {
             force_observer_k_min: 10_000.0,
             force_observer_confidence: 0.9,
             force_observer_age: 0.15,
+            friction_reference: Some(ReferenceBlend { v_lo: 0.004, v_hi: 0.008 }),
         }
     }
 }
@@ -198,6 +210,9 @@ impl ScheduledParams {
                     self.force_observer_k_min, self.force_observer_age, self.force_observer_confidence
                 ),
             ));
+        }
+        if let Some(b) = &self.friction_reference {
+            b.validate()?;
         }
         if !(0.0..=1.0).contains(&self.disturbance_feedforward) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled disturbance_feedforward", self.disturbance_feedforward, "must be in [0, 1]"));
@@ -468,13 +483,17 @@ pub fn approach_accel(
     period: f64,
 ) -> (f64, f64) {
     let w = free.b / free.m;
-    let mut v_t = (free.v_d + free.k / free.b * free.e).clamp(-a.max_speed, a.max_speed);
-    if surface_n.is_finite() && surface_n - x <= a.band {
-        v_t = v_t.min(a.speed);
-    }
+    let v_t = approach_target(a, surface_n, x, &free);
     let a_i = (integral + 0.25 * w * w * period * (v_t - x_dot)).clamp(-a.integral_limit, a.integral_limit);
     let out = free.a_d + w * (v_t - x_dot) + a_i;
     if out.is_finite() && a_i.is_finite() { (out, a_i) } else { (a_impedance, 0.0) }
+}
+
+/// The target speed `v_t` along n of [`approach_accel`]: `clamp(ẋ_d + (k/b) e, ±max_speed)`,
+/// at most `speed` within `band` of the expected surface (`surface_n`, NaN: none).
+pub fn approach_target(a: &ApproachParams, surface_n: f64, x: f64, free: &ApproachAxis) -> f64 {
+    let v_t = (free.v_d + free.k / free.b * free.e).clamp(-a.max_speed, a.max_speed);
+    if surface_n.is_finite() && surface_n - x <= a.band { v_t.min(a.speed) } else { v_t }
 }
 
 /// The free-space impedance and the reference along n, for [`approach_accel`].
