@@ -85,16 +85,7 @@ pub fn effort_friction_velocity(m: &Float64MultiArray, out: &mut JointVec) -> Re
     if !two_rows {
         return Ok(false);
     }
-    let off = m.layout.data_offset as usize + N_JOINTS;
-    if m.data.len() < off + N_JOINTS {
-        return Err(EffortError::TooFew(m.data.len().saturating_sub(off)));
-    }
-    for (o, v) in out.iter_mut().zip(&m.data[off..off + N_JOINTS]) {
-        if !v.is_finite() {
-            return Err(EffortError::NonFinite(*v));
-        }
-        *o = *v;
-    }
+    six_finite(&m.data, m.layout.data_offset as usize + N_JOINTS, out)?;
     Ok(true)
 }
 
@@ -124,11 +115,15 @@ impl std::fmt::Display for EffortError {
 
 /// Check a 6-joint torque command: six finite numbers, data_offset 0.
 pub fn effort_values(m: &Float64MultiArray, out: &mut JointVec) -> Result<(), EffortError> {
-    let off = m.layout.data_offset as usize;
-    if m.data.len() < off + N_JOINTS {
-        return Err(EffortError::TooFew(m.data.len().saturating_sub(off)));
+    six_finite(&m.data, m.layout.data_offset as usize, out)
+}
+
+/// `data[off..off + 6]` into `out` when all six are there and finite.
+fn six_finite(data: &[f64], off: usize, out: &mut JointVec) -> Result<(), EffortError> {
+    if data.len() < off + N_JOINTS {
+        return Err(EffortError::TooFew(data.len().saturating_sub(off)));
     }
-    for (o, v) in out.iter_mut().zip(&m.data[off..off + N_JOINTS]) {
+    for (o, v) in out.iter_mut().zip(&data[off..off + N_JOINTS]) {
         if !v.is_finite() {
             return Err(EffortError::NonFinite(*v));
         }
