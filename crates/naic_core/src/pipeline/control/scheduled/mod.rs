@@ -38,7 +38,7 @@
 //! were integrated and overshot 5–8 %) and is clamped to `|I| ≤ integral_limit_n` (the
 //! contact-force limit) as for AIC. It works on the measured error (no model in it). An
 //! error that stays outside the band longer than `integral_release` (a stall, a large model
-//! error) is integrated at the band edge's rate ([`integral_outside_band`]).
+//! error) is integrated at the band edge's rate ([`integral_step`]).
 //!
 //! # The contact transition
 //!
@@ -118,7 +118,7 @@ pub struct ScheduledParams {
     /// (the commanded acceleration along n gets `− disturbance_feedforward · w̄`).
     pub disturbance_feedforward: f64,
     /// Time outside the integral band after which the integral integrates the error clipped
-    /// to the band's edge ([`integral_outside_band`]) [s]: longer than the transients the
+    /// to the band's edge ([`integral_step`]) [s]: longer than the transients the
     /// proportional path settles (≤ 0.15 s), so it never shapes a step or a contact. A model mass error 0.8 carries
     /// a real disturbance in `I`; leaking it at once overshot flat's 10 → 20 N step by 6.9 %
     /// (2.3 % without).
@@ -404,14 +404,11 @@ pub fn step(
     next.history.push(u.xdd_d - e_ddot - w_ff);
     // The integral works on the measured error (slow; no model in it).
     let band = p.integral_band_n.max(p.integral_band_fraction * u.f_d.abs());
-    if e_f.abs() <= band && !e.jump {
-        next.integral = (s.integral - gains.sigma * e_f).clamp(-integral_limit_n, integral_limit_n);
-    }
-    // A persistent error outside the band (longer than any transient the proportional path
-    // settles) is integrated at the band edge's rate ([`integral_outside_band`]).
+    // Inside the band, and outside it once the error has stayed there longer than any
+    // transient the proportional path settles ([`integral_step`]).
     next.outside_band = if e_f.abs() <= band { 0 } else { s.outside_band.saturating_add(1) };
-    if !e.jump && next.outside_band as f64 * period > p.integral_release {
-        next.integral = integral_outside_band(s.integral, gains.sigma, e_f, band, integral_limit_n);
+    if !e.jump && (next.outside_band == 0 || next.outside_band as f64 * period > p.integral_release) {
+        next.integral = integral_step(s.integral, gains.sigma, e_f, band, integral_limit_n);
     }
     // The contact-force feedforward of eq 6 uses the delayed f_ext: correct it to f̂.
     let ff = if n_x > 0 { (f_hat - u.f_ext) / sp.apparent_mass } else { 0.0 };
@@ -429,9 +426,9 @@ pub fn step(
     (next, out)
 }
 
-/// After `integral_release` outside the integral's band: `I − σ·clamp(e_f, ±band)`, clamped
-/// to `±limit`. At most the band edge's step per cycle, always in the direction that
-/// reduces the error, so
+/// One step of the integral: `I − σ·clamp(e_f, ±band)`, clamped to `±limit` (inside the
+/// band `I − σ e_f`). Outside the band (after `integral_release`) at most the band edge's
+/// step per cycle, always in the direction that reduces the error, so
 /// - a stale `I` that itself holds the force outside the band is released (two-material,
 ///   seed 2, d = 1: `I` = −2.03 N left by the stick-slip wander on acrylic held the force at
 ///   0.97 N on the foam against f_d = 3 N until the end, the band never re-entered);
@@ -439,7 +436,7 @@ pub fn step(
 ///   joints 1, 5 and 6 stuck in static friction held the force at 9.27 N against 10 N in 3
 ///   of 5 seeds while the integral only leaked towards zero; with this 0.005 N).
 /// It can wind up where the error cannot be removed, up to `limit` (the contact-force limit).
-fn integral_outside_band(integral: f64, sigma: f64, e_f: f64, band: f64, limit: f64) -> f64 {
+fn integral_step(integral: f64, sigma: f64, e_f: f64, band: f64, limit: f64) -> f64 {
     (integral - sigma * e_f.clamp(-band, band)).clamp(-limit, limit)
 }
 
@@ -577,14 +574,14 @@ mod tests {
     #[test]
     fn outside_the_band_the_integral_reduces_the_error_at_the_band_edge_rate() {
         // A shortfall of 0.73 N (band 0.5 N, σ = 0.02): I grows by σ·0.5 per cycle.
-        assert!((integral_outside_band(0.0, 0.02, -0.73, 0.5, 50.0) - 0.01).abs() < 1e-15);
+        assert!((integral_step(0.0, 0.02, -0.73, 0.5, 50.0) - 0.01).abs() < 1e-15);
         // A stale negative I with the force too low is released, and passes zero if need be.
-        assert!((integral_outside_band(-2.0, 0.02, -2.0, 0.5, 50.0) - -1.99).abs() < 1e-15);
-        assert!((integral_outside_band(-0.005, 0.02, -2.0, 0.5, 50.0) - 0.005).abs() < 1e-15);
+        assert!((integral_step(-2.0, 0.02, -2.0, 0.5, 50.0) - -1.99).abs() < 1e-15);
+        assert!((integral_step(-0.005, 0.02, -2.0, 0.5, 50.0) - 0.005).abs() < 1e-15);
         // Too much force: I falls.
-        assert!(integral_outside_band(1.0, 0.02, 3.0, 0.5, 50.0) < 1.0);
+        assert!(integral_step(1.0, 0.02, 3.0, 0.5, 50.0) < 1.0);
         // Never beyond the limit.
-        assert_eq!(integral_outside_band(49.999, 0.02, -10.0, 0.5, 50.0), 50.0);
+        assert_eq!(integral_step(49.999, 0.02, -10.0, 0.5, 50.0), 50.0);
     }
 
     /// The seed-3 lift-off on two-material (d = 2): on acrylic the schedule is stiff and the
