@@ -9,6 +9,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 
+# Each stage prints when it starts and how long the run has taken so far, so a slow
+# or stuck stage can be told from the log alone.
+started=$SECONDS
+stage() { echo "== $* ($(date -u +%H:%M:%S) UTC, $((SECONDS - started)) s in)"; }
+
 venv=${NAIC_VENV:-$root/.venv}
 if [ ! -x "$venv/bin/python" ]; then
     echo "== creating Python venv $venv"
@@ -29,11 +34,14 @@ export NAIC_PYTHON=$venv/bin/python
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_LOCALHOST_ONLY=1
 
-echo "== building (release)"
+stage "building (release)"
 cargo build --release --workspace --all-targets
 
-echo "== Rust tests"
+stage "Rust tests"
 cargo test --release --workspace
 
-echo "== Python cross-checks"
-"$venv/bin/python" -m pytest -q tests/python
+stage "Python cross-checks"
+# A test that hangs fails after its timeout (pytest-timeout, SIGALRM: the run goes on
+# with the next test) instead of holding the whole run; the slowest tests are listed.
+"$venv/bin/python" -m pytest -q -rfE --durations=25 --timeout=420 tests/python
+stage "done"
