@@ -7,6 +7,9 @@ private, loopback-only domain; naic_controller and then friction_compensation ar
   and never keeps the old torque;
 * the restarted node takes over without a torque step above friction_compensation's
   torque_rate_limit, both on /joint_effort_cmd and in the torque the driver applies;
+* the arm stays calm through both take-overs (joint speeds far below the controller's
+  plausibility limit), and the controller reports the friction node's outage: its force law
+  is held meanwhile instead of adapting against the driver's hold;
 * no process panics; the survivors exit 0 on SIGINT;
 * when `naic record` exists, a recording running through the faults keeps every message
   it received (its bag holds what it reports and has no gap beyond the outages).
@@ -46,10 +49,12 @@ def _excess(a, b, lim):
 RATE_LIMIT = _rate_limit()
 COMMAND_TIMEOUT = 0.020  # params/jk5_sim_driver.yaml command_timeout [s]
 TAKEOVER_GAP = 0.020  # friction_compensation takeover_gap default [s]
-# The driver runs at 250 Hz here so that this test's single rclpy reader keeps up with every
-# /joint_states and /joint_effort_cmd on a loaded 2-core machine (at 1 kHz it drops samples
-# and the per-message checks below become guesses). The 20 ms watchdog is 5 cycles.
-RATE = 250.0
+# The driver runs at its default 1 kHz, the rate the controller's gains are made for. (At
+# 250 Hz, which this test once used so that its rclpy reader would drop fewer samples, the
+# default NAIC chain is unstable: joints at 3-8 rad/s and torques at the effort limits from
+# the start, and the rate-limit check failed on a quiet machine in 5 of 6 runs.) Samples
+# this reader drops are allowed for: commands are compared by the states they answer.
+RATE = 1000.0
 PERIOD_NS = int(1e9 / RATE)
 
 
@@ -181,32 +186,32 @@ def _effort_limits():
     return [float(joints[f"joint{i}"].find("limit").get("effort")) for i in range(1, 7)]
 
 
-def _state_at(js_sorted, stamps, src):
-    """The newest driver state at or before `src` (within 3 ms): the torque applied then."""
-    k = bisect.bisect_right(stamps, src) - 1
-    if k < 0 or src - stamps[k] > PERIOD_NS * 3 // 2:
-        return None
-    return js_sorted[k]
-
-
 def test_process_fault_every_command_moves_by_at_most_the_rate_limit(run):
     """Every /joint_effort_cmd, over the whole run with both outages, is within the rate
     limit of the previous command, or (after a gap: a restarted node, or the driver holding
-    meanwhile) within the rate limit of the torque the driver applied in the state the
-    command was computed from. The first command after each restart is checked by the
+    meanwhile) within the rate limit of the torque the driver applied in a state the node
+    can have re-seeded from: its newest /joint_states when the command went out, i.e. one
+    from the command's source state (two cycles of slack before it) to its arrival here,
+    at most command_timeout later. The first command after each restart is checked by the
     second rule explicitly."""
     js_sorted = sorted((m for _, m in run["js"]), key=_stamp_ns)
     stamps = [_stamp_ns(m) for m in js_sorted]
-    cmds = [m for _, m in run["cmds"]]
-    def slack(src):
-        """How much the applied torque itself moved in the two cycles up to the source state (the
-        driver's hold torque follows the speed): the node may have seen a newer or older one."""
-        near = [m.effort for m in js_sorted[bisect.bisect_left(stamps, src - 2 * PERIOD_NS):
-                                            bisect.bisect_right(stamps, src)]]
-        return 0.05 + max((max(c) - min(c) for c in zip(*near)), default=0.0)
     lim = _effort_limits()
+
+    def from_applied(cmd, t_rx):
+        """Smallest excess of `cmd` over the rate limit from the applied torque of a state
+        the node can have re-seeded from; None when this reader has no such state."""
+        src = _src_ns(cmd)
+        lo = bisect.bisect_left(stamps, src - 2 * PERIOD_NS)
+        hi = bisect.bisect_right(stamps, min(t_rx * 1e9, src + COMMAND_TIMEOUT * 1e9))
+        if lo >= hi:
+            return None
+        return min(_excess(cmd.data, [min(max(e, -l), l) for e, l in zip(st.effort, lim)], RATE_LIMIT)
+                   for st in js_sorted[lo:hi])
+
+    cmds = run["cmds"]
     bad, unverified, from_state = [], 0, 0
-    for a, b in zip(cmds, cmds[1:]):
+    for (_, a), (t_b, b) in zip(cmds, cmds[1:]):
         assert all(math.isfinite(x) for x in b.data)
         assert all(abs(x) <= l + 1e-9 for x, l in zip(b.data, lim)), list(b.data)
         # Commands carry distinct, increasing source stamps; this reader may miss some under
@@ -214,35 +219,44 @@ def test_process_fault_every_command_moves_by_at_most_the_rate_limit(run):
         k = max(1, round((_src_ns(b) - _src_ns(a)) / PERIOD_NS))
         if _excess(a.data, b.data, [k * l for l in RATE_LIMIT]) <= 1e-9:
             continue
-        st = _state_at(js_sorted, stamps, _src_ns(b))
-        if st is None:
+        jump = from_applied(b, t_b)
+        if jump is None:
             unverified += 1
             continue
         from_state += 1
-        # Re-seeded from the applied torque, which the saturation then bounds.
-        target = [min(max(e, -l), l) for e, l in zip(st.effort, lim)]
-        jump = _excess(b.data, target, RATE_LIMIT)  # beyond each joint's own limit
-        if jump > slack(_src_ns(b)):
-            bad.append((jump, slack(_src_ns(b)), list(st.effort), list(b.data)))
-    firsts = [next(m for t, m in run["cmds"] if t > ev["restart"]) for ev in run["events"].values()]
+        if jump > 1e-6:
+            bad.append((round(jump, 3), _src_ns(b), list(a.data), list(b.data)))
+    firsts = [next((t, m) for t, m in cmds if t > ev["restart"]) for ev in run["events"].values()]
     checked = 0
-    for k, cmd in enumerate(firsts):
-        st = _state_at(js_sorted, stamps, _src_ns(cmd))
-        if st is None:
+    for k, (t, cmd) in enumerate(firsts):
+        jump = from_applied(cmd, t)
+        if jump is None:
             print(f"restart {k}: source state not received by this reader (dropped under load)")
             continue
         checked += 1
-        target = [min(max(e, -l), l) for e, l in zip(st.effort, lim)]
-        jump = _excess(cmd.data, target, RATE_LIMIT)
-        sl = slack(_src_ns(cmd))
-        print(f"restart {k}: first command {jump:+.3f} N m beyond the per-joint rate limit from the applied torque "
-              f"(its own motion {sl - 0.05:.3f})")
-        assert jump <= sl, f"restart {k}: first command {jump:.3f} N m beyond the rate limit from the applied torque"
+        print(f"restart {k}: first command {jump:+.3f} N m beyond the per-joint rate limit from the applied torque")
+        assert jump <= 1e-6, f"restart {k}: first command {jump:.3f} N m beyond the rate limit from the applied torque"
     if checked == 0:
         pytest.skip("this reader dropped the source states of both restarts (loaded machine): not verified")
     print(f"{len(cmds)} commands; {from_state} re-seeded from the applied torque; {unverified} unverifiable")
-    assert not bad, f"{len(bad)} commands jumped: {bad[:3]}"
+    assert not bad, f"{len(bad)} commands jumped (excess, source stamp, previous, command): {bad[:3]}"
     assert unverified <= max(5, len(cmds) // 200), unverified
+
+
+def test_process_fault_takeovers_keep_the_arm_calm_and_the_outage_is_reported(run):
+    """Through both outages and take-overs the joints stay far below the controller's
+    plausibility limit (6.28 rad/s). Before the controller held its force law while its
+    commands did not reach the arm, the friction node's take-over after a 1 s outage spun
+    joint 4 at 8-10 rad/s (NAIC had walked m_d to its 0.05 kg floor and sigma to 0.29
+    against the driver's hold); since, the largest joint speed of the run is about 0.6 rad/s."""
+    js = [m for _, m in run["js"]]
+    assert len(js) > 5000, len(js)
+    fastest = max(max(abs(v) for v in m.velocity) for m in js)
+    print(f"largest joint speed over the run: {fastest:.2f} rad/s")
+    assert fastest < 2.0, f"a joint reached {fastest:.2f} rad/s"
+    log = run["logs"]["naic_controller"]
+    assert "no /joint_effort_cmd answering the joint states" in log, log[-3000:]
+    assert "answers the joint states again" in log, log[-3000:]
 
 
 def test_process_fault_recording_keeps_everything_it_received(run):

@@ -194,6 +194,10 @@ pub fn run(a: &LaunchArgs) -> CliResult {
         seen.has_effort = copy_opt(&mut seen.effort, out.effort);
         seen.has_report = copy_opt(&mut seen.report, out.report);
         seen.has_cmd = copy_opt(&mut seen.cmd, cmd);
+        // What reaches the driver (the controller's actuation supervision, as over DDS).
+        if let Some(m) = cmd {
+            cr.actuated(m);
+        }
         if dr.p.lockstep {
             observers.offer_every(&seen);
         } else {

@@ -64,6 +64,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::double("max_angular_accel", rd.angular.max_accel, 1.0e-3, 60.0, "With scenario 'none': angular acceleration limit of the orientation reference [rad/s^2]"),
         ParamSpec::double("max_force_rate", rd.max_force_rate, 0.1, 1.0e4, "With scenario 'none': fastest change of the force reference from /naic/desired_wrench [N/s]"),
         ParamSpec::double("reference_timeout", rd.timeout, 0.001, 60.0, "With scenario 'none': a reference topic silent this long [s] is stale; its last target is held"),
+        ParamSpec::double("actuation_timeout", 0.02, 0.001, 10.0, "When the newest /joint_effort_cmd answers a joint state older than this [s] (friction_compensation down: the driver holds the arm), the force law is reset as by a safe hold (contact re-detected when commands reach the arm again), and /naic/params reports it (wall clock only; the driver's command_timeout)"),
         ParamSpec::double("control_period", fl.lambda, 1.0e-5, 0.1, "Expected control period lambda [s] (the driver's 1/rate)"),
         ParamSpec::double("tool_mass", base.tool.mass, 0.0, 10.0, "Mass of sensor half + rod beyond the measuring plane [kg] (authors' MJCF)"),
         ParamSpec::doubles("tool_com", base.tool.com.as_slice(), -1.0, 1.0, "Tool centre of mass in the ft_sensor frame [m]"),
@@ -153,6 +154,7 @@ pub fn settings(p: &ParamView) -> Settings {
         force_limit: p.f64("force_limit"),
         approach_depth: p.f64("approach_depth"),
         time: TimeBase::from_use_sim_time(p.bool("use_sim_time")),
+        actuation_timeout_ns: (p.f64("actuation_timeout") * 1e9).round() as i64,
     }
 }
 

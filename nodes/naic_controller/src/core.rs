@@ -21,7 +21,7 @@ use naic_core::{
 };
 use naic_ros::{
     joints::{finite, JointMap, JointSample, Layout},
-    msgs::{JointState, PoseStamped, WrenchStamped, JOINT_NAMES},
+    msgs::{self, Float64MultiArray, JointState, PoseStamped, WrenchStamped, JOINT_NAMES},
     replay::Replay,
     throttle::Throttle,
     timebase::{TimeBase, FIRST_PAIR_TIMEOUT_NS},
@@ -46,6 +46,11 @@ pub struct Settings {
     /// With no scenario: free-space target = start tip position moved this far along n [m].
     pub approach_depth: f64,
     pub time: TimeBase,
+    /// Wall-clock time base: when the newest `/joint_effort_cmd` answers a joint state
+    /// older than this [ns], the torque is not reaching the arm (friction_compensation is
+    /// down and the driver holds the arm itself): the force law is in the state of a safe
+    /// hold (`ControlState::hold`) until it does again.
+    pub actuation_timeout_ns: i64,
 }
 
 /// Everything the step reads and never changes (changed by [`set_params`] only).
@@ -81,6 +86,9 @@ pub enum FaultReport {
     Sensor(Fault),
     /// Above `force_limit` [N]: retracting, then latched off the surface.
     ForceLimit(f64),
+    /// No `/joint_effort_cmd` answers the joint states of the last [ms]: the driver holds
+    /// the arm, and the force law is in the state of a safe hold.
+    NotActuated(f64),
 }
 
 impl std::fmt::Display for FaultReport {
@@ -90,6 +98,10 @@ impl std::fmt::Display for FaultReport {
             FaultReport::ForceLimit(l) => write!(
                 f,
                 "force above force_limit ({l} N): retracting, then holding off the surface until a parameter is set"
+            ),
+            FaultReport::NotActuated(ms) => write!(
+                f,
+                "no /joint_effort_cmd for {ms:.0} ms (friction_compensation down?): the driver holds the arm; force control restarts in free space (contact re-detected) when commands reach it again"
             ),
         }
     }
@@ -156,6 +168,11 @@ pub struct State {
     start: Option<(Vector3<f64>, UnitQuaternion<f64>)>,
     was_force_limited: bool,
     prev_fault_count: u32,
+    /// Newest `/joint_states` stamp a `/joint_effort_cmd` answered [ns] (`None`: none seen;
+    /// a chain without friction_compensation, or before its first command).
+    actuated_src_ns: Option<i64>,
+    /// The last cycle's torque did not reach the arm.
+    not_actuated: bool,
     fault_log: Throttle,
     replay: Replay<Answer>,
     /// The reference stage (scenario none), from the first valid joint state on.
@@ -178,6 +195,8 @@ impl State {
             start: None,
             was_force_limited: false,
             prev_fault_count: 0,
+            actuated_src_ns: None,
+            not_actuated: false,
             fault_log: Throttle::default(),
             replay: Replay::default(),
             reference: None,
@@ -197,6 +216,9 @@ pub struct Inbox<'a> {
     pub target_pose: Option<&'a PoseStamped>,
     /// `/naic/desired_wrench` (scenario none).
     pub desired_wrench: Option<&'a WrenchStamped>,
+    /// `/joint_effort_cmd`: the torque friction_compensation sent the driver; its source
+    /// stamp says which joint state it answers (actuation supervision).
+    pub actuated: Option<&'a Float64MultiArray>,
 }
 
 /// Things for the shell to log (each at most once per step).
@@ -212,12 +234,23 @@ pub struct Events {
     pub fault: Option<(Fault, u32)>,
     /// The controller produced a non-finite torque: not published.
     pub non_finite_torque: bool,
+    /// The torque stopped reaching the arm, or reaches it again.
+    pub actuation: Option<Actuation>,
     /// A `/naic/target_pose` sample was refused (rate-limited): why, refusals so far.
     pub target_rejected: Option<(Rejection, u32)>,
     /// A `/naic/desired_wrench` sample was refused (rate-limited): why, refusals so far.
     pub wrench_rejected: Option<(Rejection, u32)>,
     /// A reference sample came before the first joint state (no start pose yet): ignored.
     pub reference_too_early: bool,
+}
+
+/// A change of the actuation supervision (logged once per change).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Actuation {
+    /// No `/joint_effort_cmd` answered the joint states of this long [ms]: held.
+    Lost(f64),
+    /// Commands reach the arm again: force control restarts from the hold.
+    Restored,
 }
 
 /// What one step produces.
@@ -248,6 +281,9 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
             _ => now_ns,
         };
         s.wrench = Some(WrenchIn { w: [f.x, f.y, f.z, t.x, t.y, t.z], stamp_ns, rx_ns });
+    }
+    if let Some(src) = inbox.actuated.and_then(msgs::effort_source_stamp) {
+        s.actuated_src_ns = Some(s.actuated_src_ns.map_or(src, |a| a.max(src)));
     }
     if inbox.target_pose.is_some() || inbox.desired_wrench.is_some() {
         take_reference_samples(p, &mut s, inbox, now_ns, &mut out);
@@ -351,7 +387,23 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
         }
     };
     s.last_t = m.t;
-    let (next, o) = controller::step(&p.controller, &s.ctl, &m, &reference, ws);
+    // Actuation supervision (wall clock only: in lockstep the driver cannot step without a
+    // command, and a slow DDS reader must not change a deterministic run).
+    let lag_ns = s.actuated_src_ns.filter(|_| !time.is_sim()).map(|a| j.stamp_ns.saturating_sub(a));
+    let not_actuated = lag_ns.is_some_and(|l| l > p.settings.actuation_timeout_ns);
+    let (mut next, o) = controller::step(&p.controller, &s.ctl, &m, &reference, ws);
+    if not_actuated {
+        // The torque does not reach the arm: the force error says nothing about the law, and
+        // a law that went on adapting against the driver's hold (NAIC: m_d to its floor, σ
+        // past the eq-9 bound) shook the arm when commands came back. The driver holds the
+        // arm, so the law is where the controller's own safe hold leaves it: configured
+        // weights, free space next, contact re-detected.
+        next.control = next.control.hold(&p.controller.params().control);
+    }
+    if not_actuated != s.not_actuated {
+        out.events.actuation = Some(if not_actuated { Actuation::Lost(lag_ns.unwrap_or(0) as f64 * 1e-6) } else { Actuation::Restored });
+    }
+    s.not_actuated = not_actuated;
     s.ctl = next;
     s.cycles += 1;
     let st = o.status;
@@ -376,7 +428,7 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
     let fault = match (st.fault, st.force_limited) {
         (Some(f), _) => Some(FaultReport::Sensor(f)),
         (None, true) => Some(FaultReport::ForceLimit(p.settings.force_limit)),
-        (None, false) => None,
+        (None, false) => lag_ns.filter(|_| not_actuated).map(|l| FaultReport::NotActuated(l as f64 * 1e-6)),
     };
     let report = Report { stamp_ns: j.stamp_ns, status: st, fault, reference: active };
     s.replay.store(j.stamp_ns, Answer { tau, friction_velocity: out.friction_velocity, report });

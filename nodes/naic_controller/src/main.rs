@@ -1,7 +1,7 @@
 //! `naic_controller`: the fixed / AIC / NAIC force-tracking controller as a ROS 2 node.
 //!
-//! Subscribes `/joint_states` and `/wrench` (and, with `scenario: none`, the reference
-//! topics); publishes the torque on `/naic/effort` and the controller's state on
+//! Subscribes `/joint_states`, `/wrench`, `/joint_effort_cmd` (what reaches the driver:
+//! actuation supervision) and, with `scenario: none`, the reference topics; publishes the torque on `/naic/effort` and the controller's state on
 //! `/naic/params`. All it does with the messages is the library's
 //! (`naic_controller::runner`, over the pure `core`); this shell only moves them.
 
@@ -31,6 +31,8 @@ fn run() -> Result<(), RosError> {
     let mut r = Runner::new(setup, &node.params);
     let mut js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let w_sub = node.subscription::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_SUB)?;
+    // What reaches the driver: without it for actuation_timeout, the force law is frozen.
+    let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     // The reference topics: the real-robot setting (scenario 'none') only.
     let refs = ReferenceSubs::new(&mut node, &r)?;
     let effort_pub = node.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, node.params.with(data_qos).0)?;
@@ -45,6 +47,9 @@ fn run() -> Result<(), RosError> {
         r.reload(&node.params);
         while let Ok(Some((w, _))) = w_sub.take() {
             r.wrench(&w);
+        }
+        if let Some(c) = take_newest(&cmd_sub) {
+            r.actuated(&c);
         }
         if let Some(refs) = &refs {
             refs.feed(&mut r);

@@ -84,6 +84,11 @@ impl Runner {
         out
     }
 
+    /// A `/joint_effort_cmd` sample: which joint state the torque reaching the arm answers.
+    pub fn actuated(&mut self, m: &Float64MultiArray) {
+        self.step(core::Inbox { actuated: Some(m), ..Default::default() }, wall_ns());
+    }
+
     /// A `/wrench` sample (the newest one is used by the next cycle).
     pub fn wrench(&mut self, w: &WrenchStamped) {
         self.step(core::Inbox { wrench: Some(w), ..Default::default() }, wall_ns());
@@ -163,6 +168,13 @@ pub fn log_events(e: &core::Events, force_limit: f64) {
     }
     if e.non_finite_torque {
         log::error!("controller produced a non-finite torque; not published");
+    }
+    match e.actuation {
+        Some(core::Actuation::Lost(ms)) => log::warn!(
+            "no /joint_effort_cmd answering the joint states for {ms:.0} ms (friction_compensation down?): the driver holds the arm; force control restarts in free space when commands reach it again"
+        ),
+        Some(core::Actuation::Restored) => log::info!("/joint_effort_cmd answers the joint states again: force control restarts in free space (contact re-detected)"),
+        None => {}
     }
 }
 

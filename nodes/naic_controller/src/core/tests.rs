@@ -28,7 +28,7 @@ fn base(model: &Model) -> ControllerParams {
 }
 
 fn settings(time: TimeBase) -> Settings {
-    Settings { desired_force: 10.0, force_limit: 50.0, approach_depth: 0.05, time }
+    Settings { desired_force: 10.0, force_limit: 50.0, approach_depth: 0.05, time, actuation_timeout_ns: 20 * 1_000_000 }
 }
 
 fn params(time: TimeBase) -> Params {
@@ -524,4 +524,96 @@ fn desired_force_is_the_default_until_a_desired_wrench_arrives() {
     );
     assert!((fd[25] - 7.5).abs() < 0.15, "{}", fd[25]);
     assert_eq!(*fd.last().unwrap(), 5.0);
+}
+
+/// One 1 kHz cycle at `k` ms of wall time (stamps = arrival): the wrench with `fz`, a
+/// `/joint_effort_cmd` answering the state of `answered` ms if given, then the joint state.
+fn wall_cycle(p: &Params, s: &State, k: i64, fz: f64, answered: Option<i64>) -> (State, Outbox) {
+    let (s, _) = run(p, s, Inbox { wrench: Some(&wrench(k * MS, fz)), ..Default::default() }, k * MS);
+    let cmd = answered.map(|a| naic_ros::msgs::effort_msg(&[0.0; N_JOINTS], Some(a * MS)));
+    let (s, _) = run(p, &s, Inbox { actuated: cmd.as_ref(), ..Default::default() }, k * MS);
+    run(p, &s, Inbox { joint_states: Some(&js(k * MS, ORDER)), ..Default::default() }, k * MS)
+}
+
+/// Free space with every command applied, then pushing with `fz` until contact; returns the
+/// state in contact and the cycle it was reached at (`None`: this sign is not a push).
+fn into_contact(p: &Params, fz: f64) -> Option<(State, i64)> {
+    let mut s = State::new(p);
+    for k in 1..=400 {
+        let f = if k <= 300 { 0.0 } else { fz };
+        let (next, o) = wall_cycle(p, &s, k, f, Some(k - 1));
+        s = next;
+        if o.report.unwrap().status.phase == Phase::Contact {
+            return Some((s, k));
+        }
+    }
+    None
+}
+
+#[test]
+fn without_joint_effort_cmd_the_force_law_is_held_and_restarts_when_commands_return() {
+    // friction_compensation killed: the controller keeps running on the joint states while
+    // the driver holds the arm; a law that went on adapting (NAIC: m_d to its floor, sigma
+    // beyond the eq-9 bound) shook the arm when a restarted friction node applied it.
+    let p = params(TimeBase::Wall);
+    let (fz, (mut s, k0)) = [-15.0, 15.0]
+        .into_iter()
+        .find_map(|f| into_contact(&p, f).map(|c| (f, c)))
+        .expect("neither sign of the wrench made contact");
+    let law = |s: &State| s.ctl.control;
+    // Commands applied: the law adapts (the precondition of the check below).
+    let mut changed = 0;
+    let mut k = k0;
+    for _ in 0..30 {
+        k += 1;
+        let (next, o) = wall_cycle(&p, &s, k, fz, Some(k - 1));
+        assert_eq!(o.report.unwrap().fault, None);
+        changed += (law(&next) != law(&s)) as u32;
+        s = next;
+    }
+    assert!(changed >= 25, "the law changed in only {changed} of 30 cycles in contact");
+    // No more /joint_effort_cmd: for actuation_timeout (20 ms) nothing changes, then the law
+    // is in the state of a safe hold (configured weights) and it is reported; the rest of
+    // the controller (filters) goes on.
+    let cp = p.controller.params().control;
+    assert_ne!(law(&s), law(&s).hold(&cp), "the precondition: a law that has adapted");
+    let last = k - 1; // the newest state a command answered
+    let mut lost = 0;
+    for _ in 0..60 {
+        k += 1;
+        let (next, o) = wall_cycle(&p, &s, k, fz, None);
+        let r = o.report.unwrap();
+        let lag = k - last;
+        if lag > 20 {
+            assert_eq!(law(&next), law(&next).hold(&cp), "{lag} ms after the last applied command: not the hold's law");
+            assert_eq!(law(&next).law, law(&s).hold(&cp).law, "{lag} ms: the weights moved");
+            assert_ne!(next.ctl.sense, s.ctl.sense, "the sense stage stopped");
+            match r.fault {
+                Some(FaultReport::NotActuated(ms)) => assert!((ms - lag as f64).abs() < 1e-6, "{ms} vs {lag}"),
+                f => panic!("{lag} ms without a command: report {f:?}"),
+            }
+            lost += matches!(o.events.actuation, Some(Actuation::Lost(ms)) if ms == 21.0) as u32;
+        } else {
+            assert_eq!(r.fault, None, "{lag} ms");
+            assert_eq!(o.events.actuation, None);
+        }
+        s = next;
+    }
+    assert_eq!(lost, 1, "the loss is logged once");
+    assert!(FaultReport::NotActuated(25.0).to_string().contains("no /joint_effort_cmd for 25 ms"));
+    // Commands reach the arm again: the hold ends, contact is re-detected (still pushing).
+    k += 1;
+    let (next, o) = wall_cycle(&p, &s, k, fz, Some(k - 1));
+    let r = o.report.unwrap();
+    assert_eq!((r.fault, o.events.actuation, r.status.phase), (None, Some(Actuation::Restored), Phase::Contact));
+    assert_ne!(law(&next), law(&next).hold(&cp));
+    // In simulated time (lockstep) the supervision is off: the same gap changes nothing.
+    let ps = params(TimeBase::Sim);
+    let mut s = State::new(&ps);
+    for k in 1..=100 {
+        let answered = (k < 50).then_some(k - 1);
+        let (next, o) = wall_cycle(&ps, &s, k, 0.0, answered);
+        assert!(o.report.unwrap().fault.is_none() && o.events.actuation.is_none(), "sim time, {k} ms");
+        s = next;
+    }
 }
