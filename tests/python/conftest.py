@@ -38,3 +38,45 @@ def _release_ros_domains():
     ru = sys.modules.get("rostest_util")
     if ru is not None and hasattr(ru, "release_domains"):
         ru.release_domains()
+
+
+def _own_processes():
+    """pid -> executable of the live processes started from this checkout's target/ (the
+    nodes, `naic`): a test must not leave one behind."""
+    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")).resolve()
+    found = {}
+    for d in pathlib.Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            exe = pathlib.Path(os.readlink(d / "exe"))
+        except OSError:
+            continue  # gone, or not ours to read
+        if target in exe.parents and exe.parent.name == "release":
+            found[int(d.name)] = exe.name
+    return found
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _no_process_left_behind(request):
+    """After each test file (its module fixtures torn down: some keep a launch running
+    for all their tests), a node or `naic` process it started and left running (a failed
+    test whose clean-up did not finish, a launcher that lost a child) is killed and the
+    file's last test errors with its name. An orphaned 1 kHz chain at SCHED_FIFO priority
+    would slow every later test of the run."""
+    before = set(_own_processes())
+    yield
+    import signal
+    import time
+    left = {}
+    for _ in range(50):  # processes asked to stop just now get up to 5 s to exit
+        left = {p: n for p, n in _own_processes().items() if p not in before}
+        if not left:
+            return
+        time.sleep(0.1)
+    for pid in left:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+    pytest.fail(f"{request.module.__name__} left processes running (killed now): {sorted(left.items())}", pytrace=False)
