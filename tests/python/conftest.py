@@ -26,7 +26,7 @@ def shared():
 @pytest.fixture(scope="session")
 def naic_bin():
     """Path of the release `naic` binary (built by tests/run_all.sh)."""
-    subprocess.run(["cargo", "build", "--release", "-q", "--bin", "naic"], cwd=ROOT, check=True)
+    subprocess.run(["cargo", "build", "--release", "-q", "--workspace", "--bins"], cwd=ROOT, check=True)
     target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
     return target / "release" / "naic"
 

@@ -39,7 +39,7 @@ FRAMES = ["tip", "ft_sensor"]
 
 @pytest.fixture(scope="module")
 def dump_bin(root):
-    subprocess.run(["cargo", "build", "--release", "-q", "-p", "naic_core", "--example", "dump_dynamics"],
+    subprocess.run(["cargo", "build", "--release", "-q", "--workspace", "--example", "dump_dynamics"],
                    cwd=root, check=True)
     target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", root / "target"))
     return target / "release" / "examples" / "dump_dynamics"
