@@ -191,9 +191,10 @@ def test_process_fault_every_command_moves_by_at_most_the_rate_limit(run):
     limit of the previous command, or (after a gap: a restarted node, or the driver holding
     meanwhile) within the rate limit of the torque the driver applied in a state the node
     can have re-seeded from: its newest /joint_states when the command went out, i.e. one
-    from the command's source state (two cycles of slack before it) to its arrival here,
-    at most command_timeout later. The first command after each restart is checked by the
-    second rule explicitly."""
+    from the command's source state (two cycles of slack before it) to the command's
+    arrival here (under load the node can take a command late, and then re-seeds from a
+    state well after its source: seen 20+ ms). The first command after each restart is
+    checked by the second rule explicitly."""
     js_sorted = sorted((m for _, m in run["js"]), key=_stamp_ns)
     stamps = [_stamp_ns(m) for m in js_sorted]
     lim = _effort_limits()
@@ -203,7 +204,7 @@ def test_process_fault_every_command_moves_by_at_most_the_rate_limit(run):
         the node can have re-seeded from; None when this reader has no such state."""
         src = _src_ns(cmd)
         lo = bisect.bisect_left(stamps, src - 2 * PERIOD_NS)
-        hi = bisect.bisect_right(stamps, min(t_rx * 1e9, src + COMMAND_TIMEOUT * 1e9))
+        hi = bisect.bisect_right(stamps, t_rx * 1e9)
         if lo >= hi:
             return None
         return min(_excess(cmd.data, [min(max(e, -l), l) for e, l in zip(st.effort, lim)], RATE_LIMIT)
