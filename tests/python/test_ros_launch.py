@@ -94,7 +94,10 @@ def _check_held(res, ev):
     speed = max(abs(v) for s in tail for v in s[3])
     print(f"{ev['node']} dead {(t_end - t_kill) * 1e-9:.2f} s: joints moved at most {moved:.4f} rad, "
           f"|qdot| <= {speed:.4f} rad/s at the end; {len(js)} states seen")
-    assert moved < FALL_RAD, f"{ev['node']} killed: the arm moved {moved:.3f} rad while held"
+    at_kill = min(js, key=lambda x: abs(x[1] - t_kill))
+    per_joint = [round(max(abs(s[2][i] - q0[i]) for s in settled), 4) for i in range(len(q0))]
+    assert moved < FALL_RAD, (f"{ev['node']} killed: the arm moved {moved:.3f} rad while held (per joint {per_joint}; "
+                              f"joint speeds at the kill {[round(v, 3) for v in at_kill[3]]})")
     assert speed < FALL_SPEED, f"{ev['node']} killed: still moving at {speed:.3f} rad/s"
 
 
@@ -147,16 +150,20 @@ def test_ros_launch_without_respawn_keeps_the_driver_holding(bins, overlay, tmp_
     lf.write_text(f"naic_controller: {{respawn: true, respawn_delay: {DELAY}}}\nfriction_compensation: {{respawn: false}}\n")
     plan = [["friction_compensation", "dead"], ["naic_controller", "respawn"]]
     res, launch = _probe(bins, overlay, ["--launch-file", str(lf)], plan)
-    fc, ctl = res["events"]
-    assert fc["new_pid"] is None, f"friction_compensation was respawned: {fc}"
-    assert launch.alive(), launch.output()[-3000:]
-    assert "friction_compensation" not in ctl["children_end"], ctl["children_end"]
-    _check_held(res, fc)
-    # The controller came back (its report flows) but the arm stays held: no commands.
-    assert ctl["t_respawn_ns"], ctl
-    t = ctl["t_respawn_ns"]
-    assert sum(1 for p in res["params"] if p[1] > t) > 100, "no /naic/params from the respawned controller"
-    assert not any(c[1] is not None and c[1] > fc["t_kill_ns"] + 50_000_000 for c in res["cmds"])
+    try:
+        fc, ctl = res["events"]
+        assert fc["new_pid"] is None, f"friction_compensation was respawned: {fc}"
+        assert launch.alive(), launch.output()[-3000:]
+        assert "friction_compensation" not in ctl["children_end"], ctl["children_end"]
+        _check_held(res, fc)
+        # The controller came back (its report flows) but the arm stays held: no commands.
+        assert ctl["t_respawn_ns"], ctl
+        t = ctl["t_respawn_ns"]
+        assert sum(1 for p in res["params"] if p[1] > t) > 100, "no /naic/params from the respawned controller"
+        assert not any(c[1] is not None and c[1] > fc["t_kill_ns"] + 50_000_000 for c in res["cmds"])
+    except BaseException:
+        launch.stop(timeout=15)  # a failed check must not leave the chain running for later tests
+        raise
     launch.p.send_signal(signal.SIGTERM)
     launch.p.wait(timeout=30)
     rc = launch.stop()
