@@ -1,8 +1,8 @@
 //! `naic_controller`: the fixed / AIC / NAIC force-tracking controller as a ROS 2 node.
 //!
 //! Subscribes `/joint_states`, `/wrench`, `/joint_effort_cmd` (what reaches the driver:
-//! actuation supervision) and, with `scenario: none`, the reference topics; publishes the torque on `/naic/effort` and the controller's state on
-//! `/naic/params`. All it does with the messages is the library's
+//! actuation supervision) and, with `scenario: none`, the reference topics; publishes the
+//! torque on `/naic/effort` and the controller's state on `/naic/params`. All it does with the messages is the library's
 //! (`naic_controller::runner`, over the pure `core`); this shell only moves them.
 
 use std::time::Duration;
@@ -31,7 +31,7 @@ fn run() -> Result<(), RosError> {
     let mut r = Runner::new(setup, &node.params);
     let mut js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let w_sub = node.subscription::<WrenchStamped>("wrench", msgs::WRENCH_STAMPED, QOS_SUB)?;
-    // What reaches the driver: without it for actuation_timeout, the force law is frozen.
+    // What reaches the driver: without it for actuation_timeout, the force law is held.
     let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     // The reference topics: the real-robot setting (scenario 'none') only.
     let refs = ReferenceSubs::new(&mut node, &r)?;
