@@ -36,6 +36,9 @@ pub struct Params {
     /// After a gap in the commands longer than this, the rate limit restarts from the
     /// measured joint torque [ns].
     pub takeover_gap_ns: i64,
+    /// After a take-over the command is blended from the measured torque over this time
+    /// [ns] ([`actuate::Blend`]), ahead of the rate limit; 0: the rate limit alone.
+    pub takeover_blend_ns: i64,
     pub actuate: actuate::ActuateParams,
     /// The velocity filter (the controller's sense stage; the wrench is not used here).
     pub sense: SenseParams,
@@ -65,6 +68,8 @@ pub struct State {
     /// Torque the driver applies now (`/joint_states` effort).
     effort_meas: Option<JointVec>,
     actuate: actuate::ActuateState,
+    /// The take-over blend under way, if any.
+    blend: Option<actuate::Blend>,
     /// When the last command went out (node time base) [ns].
     last_pub_ns: i64,
     replay: Replay<JointVec>,
@@ -84,6 +89,7 @@ impl Default for State {
             dq_stamp_ns: None,
             effort_meas: None,
             actuate: actuate::ActuateState::default(),
+            blend: None,
             last_pub_ns: i64::MIN,
             replay: Replay::default(),
             pending: None,
@@ -170,11 +176,24 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64) -> (State, Outbox
     let t_ns = if sim { cmd.src.unwrap_or_default() } else { now_ns };
     if !s.actuate.started || t_ns.saturating_sub(s.last_pub_ns) > p.takeover_gap_ns {
         match s.effort_meas {
-            Some(e) => s.actuate = actuate::ActuateState { tau_prev: e, started: true },
+            Some(e) => {
+                s.actuate = actuate::ActuateState { tau_prev: e, started: true };
+                s.blend = Some(actuate::Blend { from: e, t0_ns: t_ns });
+            }
             // Not yet known what the arm gets: publish nothing (the driver holds).
             None => return (s, out),
         }
     }
+    let tau = match s.blend {
+        Some(b) => {
+            let (tau, done) = b.apply(&tau, t_ns, p.takeover_blend_ns);
+            if done {
+                s.blend = None;
+            }
+            tau
+        }
+        None => tau,
+    };
     let (a, r) = actuate::step(&p.actuate, &s.actuate, &tau);
     s.actuate = a;
     if finite(&r.tau).is_some() {
@@ -242,6 +261,7 @@ mod tests {
             time,
             joint_state_timeout_ns: 20 * MS,
             takeover_gap_ns: 20 * MS,
+            takeover_blend_ns: 0,
             actuate: actuate::ActuateParams { effort_limit: [100.0; 6], max_delta: [10.0; 6] },
             sense: SenseParams {
                 wrench_max: [f64::INFINITY; 6],
@@ -313,6 +333,31 @@ mod tests {
         let (s, o) = run(&p, &s, Inbox { command: Some(&far), ..Default::default() }, 30 * MS);
         assert_eq!(o.command.unwrap().0, [6.0; 6], "measured -4 + 10");
         assert_eq!(s.published, 3);
+    }
+
+    #[test]
+    fn a_take_over_blends_from_the_measured_effort_to_the_command() {
+        let mut p = params(TimeBase::Wall);
+        p.enabled = false;
+        p.takeover_blend_ns = 10 * MS;
+        p.actuate.max_delta = [1000.0; 6]; // the blend alone
+        let far = effort_msg(&[53.0; 6], None);
+        let cmd = |s: &State, t: i64| run(&p, s, Inbox { command: Some(&far), ..Default::default() }, t);
+        let (s, _) = run(&p, &State::default(), Inbox { joint_states: Some(&js(1, ORDER, [0.0; 6], [3.0; 6])), ..Default::default() }, MS);
+        let (s, o) = cmd(&s, 2 * MS);
+        assert_eq!(o.command.unwrap().0, [3.0; 6], "the take-over starts at the arm's torque");
+        let (s, o) = cmd(&s, 7 * MS);
+        assert_eq!(o.command.unwrap().0, [28.0; 6], "halfway through the blend");
+        let (s, o) = cmd(&s, 12 * MS);
+        assert_eq!(o.command.unwrap().0, [53.0; 6], "the command itself once the blend is over");
+        let (s, o) = cmd(&s, 13 * MS);
+        assert_eq!(o.command.unwrap().0, [53.0; 6]);
+        // After a gap (the driver held the arm) a new blend starts from its torque.
+        let (s, _) = run(&p, &s, Inbox { joint_states: Some(&js(2, ORDER, [0.0; 6], [-7.0; 6])), ..Default::default() }, 40 * MS);
+        let (s, o) = cmd(&s, 40 * MS);
+        assert_eq!(o.command.unwrap().0, [-7.0; 6]);
+        let (_, o) = cmd(&s, 45 * MS);
+        assert_eq!(o.command.unwrap().0, [23.0; 6]);
     }
 
     #[test]

@@ -129,7 +129,8 @@ mod tests {
 
     #[test]
     fn nothing_before_a_measured_torque_then_the_take_over_starts_from_it() {
-        let (mut r, _) = runner(&["use_sim_time:=true"]);
+        // The rate limit alone (no take-over blend).
+        let (mut r, _) = runner(&["use_sim_time:=true", "takeover_blend:=0.0"]);
         assert!(r.command(&effort_msg(&[30.0; 6], Some(0)), |_| None).is_none(), "no measured torque yet: nothing is sent");
         // The joint state of the command's stamp comes while the command waits for it.
         let mut asked = 0;
@@ -147,7 +148,7 @@ mod tests {
 
     #[test]
     fn an_accepted_parameter_applies_at_the_next_reload() {
-        let (mut r, table) = runner(&[]);
+        let (mut r, table) = runner(&["takeover_blend:=0.0"]);
         r.joint_states(&js(0, 0.0));
         assert!(r.p.enabled);
         table.set_atomically(&[("enabled".into(), ParameterValue::Boolean(false))]).unwrap();

@@ -3,6 +3,9 @@
 //! * A non-finite torque is never passed on: the previous command is held.
 //! * Per-joint rate limit: |τ(t) − τ(t−λ)| ≤ `max_delta` [N·m per cycle].
 //! * Per-joint saturation at the effort limit.
+//! * [`Blend`]: after a take-over (a node that starts, or restarts after the driver held
+//!   the arm), the command moves from the torque the arm had to the controller's over a
+//!   set time, ahead of the rate limit.
 
 use crate::{JointVec, N_JOINTS};
 
@@ -33,6 +36,32 @@ pub struct ActuateReport {
     pub rate_limited: [bool; N_JOINTS],
     /// The input had a NaN or Inf; the previous command was held.
     pub rejected_non_finite: bool,
+}
+
+/// A take-over blend: `τ = τ_from + α(x)·(τ_cmd − τ_from)`, `x = (t − t0)/duration`,
+/// `α = 3x² − 2x³` (smoothstep: the torque's rate is zero at both ends and at most
+/// 1.5·|τ_cmd − τ_from|/duration in between). It follows the command as it moves, so the
+/// output is the command itself once `x ≥ 1`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Blend {
+    /// The torque the arm had at the take-over [N·m].
+    pub from: JointVec,
+    /// When the take-over happened [ns, the caller's time base].
+    pub t0_ns: i64,
+}
+
+impl Blend {
+    /// The blended torque at `t_ns`, and whether the blend has ended (`duration_ns` ≤ 0:
+    /// at once).
+    pub fn apply(&self, tau: &JointVec, t_ns: i64, duration_ns: i64) -> (JointVec, bool) {
+        let x = if duration_ns > 0 { t_ns.saturating_sub(self.t0_ns) as f64 / duration_ns as f64 } else { 1.0 };
+        if x >= 1.0 {
+            return (*tau, true);
+        }
+        let x = x.max(0.0);
+        let a = x * x * (3.0 - 2.0 * x);
+        (std::array::from_fn(|i| self.from[i] + a * (tau[i] - self.from[i])), false)
+    }
 }
 
 /// Per-joint saturation: `|τ_i| ≤ limit_i`. Returns the torque and which joints were
@@ -92,6 +121,23 @@ mod tests {
         assert_eq!(r.tau, s.tau_prev);
         assert_eq!(s2, s);
         assert!(r.tau.iter().all(|t| t.is_finite()));
+    }
+
+    #[test]
+    fn a_blend_starts_at_the_old_torque_follows_the_command_and_ends_on_it() {
+        let b = Blend { from: [10.0; 6], t0_ns: 1_000 };
+        let cmd = [-30.0, 10.0, 50.0, 0.0, 0.0, 0.0];
+        assert_eq!(b.apply(&cmd, 1_000, 100), ([10.0; 6], false));
+        let (mid, done) = b.apply(&cmd, 1_050, 100);
+        assert!(!done);
+        assert_eq!(&mid[..3], &[-10.0, 10.0, 30.0], "halfway: α(0.5) = 0.5");
+        // Early on it moves slowly (smoothstep): 10 % of the time, 2.8 % of the way.
+        let (early, _) = b.apply(&cmd, 1_010, 100);
+        assert!((early[0] - (10.0 - 40.0 * 0.028)).abs() < 1e-12, "{early:?}");
+        assert_eq!(b.apply(&cmd, 1_100, 100), (cmd, true));
+        assert_eq!(b.apply(&cmd, 1_000, 0), (cmd, true), "duration 0: no blend");
+        // A stamp before the take-over (a late message) is clamped to the start.
+        assert_eq!(b.apply(&cmd, 900, 100).0, [10.0; 6]);
     }
 
     #[test]
