@@ -84,8 +84,11 @@ class Slide:
         self.n = rclpy.create_node("naic_slide_example")
         if a.use_sim_time:
             self.n.set_parameters([Parameter("use_sim_time", value=True)])
-        self.pose_pub = self.n.create_publisher(PoseStamped, "/naic/target_pose", 10)
-        self.wrench_pub = self.n.create_publisher(WrenchStamped, "/naic/desired_wrench", 10)
+        # Reliable with a history of 1000 (1 s at 1 kHz): a subscriber that falls behind for
+        # a moment (naic record on a loaded machine) gets the lost samples re-sent; with the
+        # default 10 a recorder starved for over 10 ms lost some.
+        self.pose_pub = self.n.create_publisher(PoseStamped, "/naic/target_pose", 1000)
+        self.wrench_pub = self.n.create_publisher(WrenchStamped, "/naic/desired_wrench", 1000)
         self.js = None
         self.last = None
         # The newest /naic/params only (the contact phase): the force error is read from the

@@ -46,7 +46,7 @@ def test_example_slides_with_the_force_profile(tmp_path):
     assert s["desired_forces_seen"] == [5.0, 10.0], s
     assert not s["faults"], s
     print(f"slide over DDS: max |e_f| {s['max_abs_force_error_n']:.3f} N, RMS {s['rms_force_error_n']:.3f} N, "
-          f"{s['slide_samples']} sliding samples")
+          f"{s['slide_samples']} sliding samples, naic record's reported losses {s['recorder_lost']}")
     # Issue #16's goal: |e_f| <= 0.5 N while sliding (the example runs the scheduled law).
     assert s["max_abs_force_error_n"] <= 0.5, s
     assert s["rms_force_error_n"] <= 0.15, s

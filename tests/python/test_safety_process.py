@@ -280,9 +280,11 @@ def test_process_fault_recording_keeps_everything_it_received(run):
         counts, last_t, gaps = {}, {}, {}
         for schema, ch, msg in make_reader(f).iter_messages():
             counts[ch.topic] = counts.get(ch.topic, 0) + 1
+            # By publish time (the DDS source timestamp): when the publisher sent it. The
+            # log time is when the recorder took it, which a starved recorder delays.
             if ch.topic in last_t:
-                gaps[ch.topic] = max(gaps.get(ch.topic, 0.0), (msg.log_time - last_t[ch.topic]) * 1e-9)
-            last_t[ch.topic] = msg.log_time
+                gaps[ch.topic] = max(gaps.get(ch.topic, 0.0), (msg.publish_time - last_t[ch.topic]) * 1e-9)
+            last_t[ch.topic] = msg.publish_time
             if ch.topic == "/joint_effort_cmd":
                 bag_src.add(_src_ns(decode(ch.message_encoding, schema)(msg.data)))
     n = sum(counts.values())

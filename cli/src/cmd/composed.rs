@@ -36,7 +36,7 @@ use naic_ros::{
     context::{create_context, DdsSettings},
     handoff::Handoff,
     msgs::{self, Clock, Float64MultiArray, JointState, NaicParams, WrenchStamped},
-    node::{apply_scheduling, data_qos, QOS_PUB},
+    node::{apply_scheduling, data_qos, pub_qos},
     time::wall_ns,
     ParamTable, RosArgs, RosError, RosNode,
 };
@@ -128,9 +128,9 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     let (d_qos, c_qos, f_qos) = (dn.params.with(data_qos).0, cn.params.with(data_qos).0, fnode.params.with(data_qos).0);
     let js_pub = dn.publisher("joint_states", msgs::JOINT_STATE, d_qos.clone()).map_err(dds)?;
     let w_pub = dn.publisher("wrench", msgs::WRENCH_STAMPED, d_qos).map_err(dds)?;
-    let clock_pub = dn.publisher("/clock", msgs::CLOCK, QOS_PUB).map_err(dds)?;
+    let clock_pub = dn.publisher("/clock", msgs::CLOCK, dn.params.with(pub_qos)).map_err(dds)?;
     let effort_pub = cn.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, c_qos).map_err(dds)?;
-    let params_pub = cn.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, QOS_PUB).map_err(dds)?;
+    let params_pub = cn.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, cn.params.with(pub_qos)).map_err(dds)?;
     let cmd_pub = fnode.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, f_qos).map_err(dds)?;
     eprintln!("naic launch: composed {dname}, {fname}, {cname} in one process (pid {})", std::process::id());
 

@@ -3,7 +3,9 @@
 //! The recorder subscribes the naic topics with their known types, stamps each message
 //! with its receive time (`log_time`) and the DDS source timestamp (`publish_time`, the
 //! receive time when the writer sent none), and writes them with [`naic_bag::BagWriter`]
-//! (flushed about every second, so a crash loses at most about a second). The replayer
+//! (flushed about every second, so a crash loses at most about a second) on a thread of
+//! its own: a write that blocks on the disk never keeps the recorder from taking messages
+//! out of its DDS readers before their history overflows. The replayer
 //! publishes a bag's messages with their original spacing (scaled by `--rate`).
 use super::{CliError, CliResult};
 use naic_bag::{Bag, BagWriter, Qos, TopicId};
@@ -83,14 +85,18 @@ fn bag_err(e: naic_bag::BagError) -> CliError {
 }
 
 /// Subscription QoS for recording: reliable (lost UDP packets are resent while the writer
-/// still holds them) with a deep history so a burst is not overwritten before it is taken.
+/// still holds them) with a deep history so a burst is not overwritten before it is taken:
+/// 10 s at 1 kHz per topic, as deep as the nodes' history in simulated time
+/// (`naic_ros::node::SIM_TIME_HISTORY`). With 1000 (1 s) a recorder starved of CPU at load
+/// 7-9 behind a lockstep chain lost 28-47 % of `/naic/params` (docs/bags.md).
 /// A reliable reader does not match best-effort writers: `--best-effort` records those.
+const RECORD_HISTORY: usize = naic_ros::node::SIM_TIME_HISTORY;
 const QOS_RECORD: QosProfile = QosProfile::subscription_default()
     .reliability(Reliability::Reliable { when_full: WhenFull::Wait(Duration::from_millis(10)) })
-    .history(History::KeepLast { depth: 1000 });
+    .history(History::KeepLast { depth: RECORD_HISTORY });
 const QOS_RECORD_BEST_EFFORT: QosProfile = QosProfile::subscription_default()
     .reliability(Reliability::BestEffort)
-    .history(History::KeepLast { depth: 1000 });
+    .history(History::KeepLast { depth: RECORD_HISTORY });
 /// Publisher QoS for replay: reliable, deep history so a slow subscriber can catch up; when
 /// the send window is full, wait (up to 1 s) rather than drop the message.
 const QOS_REPLAY: QosProfile = QosProfile::publisher_default()
@@ -191,6 +197,7 @@ pub fn record(a: RecordArgs) -> CliResult {
             _ => sub!(Clock, Ck),
         });
     }
+    let (tx, writer) = spawn_writer(w)?;
     naic_ros::install_signal_handlers(); // Ctrl-C / SIGTERM: finish the bag, then exit
     eprintln!(
         "naic record: recording {} to {} ({})",
@@ -203,7 +210,6 @@ pub fn record(a: RecordArgs) -> CliResult {
     );
     let t0 = Instant::now();
     let deadline = a.duration.map(Duration::from_secs_f64);
-    let mut result = Ok(());
     let mut gaps = SeqGaps::new(subs.len());
     // On Ctrl-C or at the deadline the recorder keeps taking what arrives until nothing new
     // came for QUIET (at most LINGER): a recorder behind a fast lockstep chain holds up to a
@@ -226,9 +232,10 @@ pub fn record(a: RecordArgs) -> CliResult {
                         gaps.see(i, info.publisher_gid(), info.sequence_number());
                         let recv = naic_ros::time::wall_ns().max(0) as u64;
                         let publ = info.source_timestamp().map(|t| t.to_nanos().max(0) as u64).unwrap_or(recv);
-                        if let Err(e) = w.write($id, &msg, recv, publ) {
-                            result = Err(bag_err(e));
-                            break 'run;
+                        let mut cdr = Vec::with_capacity(256);
+                        naic_msgs::cdr::encode_into(&msg, &mut cdr);
+                        if tx.send(Taken { topic: $id, cdr, recv, publ }).is_err() {
+                            break 'run; // the writer stopped on an error: reported below
                         }
                     }
                 };
@@ -242,10 +249,6 @@ pub fn record(a: RecordArgs) -> CliResult {
                 Sub::Ps(s, id) => drain!(s, *id),
             }
         }
-        if let Err(e) = w.flush_if_due() {
-            result = Err(bag_err(e));
-            break;
-        }
         if let Some((asked, last_taken)) = stopping.as_mut() {
             if taken > 0 {
                 *last_taken = Instant::now();
@@ -255,13 +258,12 @@ pub fn record(a: RecordArgs) -> CliResult {
             }
         }
     }
-    let n = w.message_count();
-    let finished = w.finish().map_err(bag_err);
+    drop(tx); // the writer drains what it was given, then finishes the bag
+    let written = writer.join().unwrap_or_else(|_| Err(CliError::failure("naic record: the bag writer thread panicked")));
     naic_ros::request_shutdown(); // the run is over: RustDDS's teardown complaints are not news
     drop(subs);
     drop(node);
-    result?;
-    finished?;
+    let n = written?;
     eprintln!("naic record: wrote {n} messages to {}", out.display());
     for ((topic, _), lost) in wanted.iter().zip(&gaps.lost) {
         if *lost > 0 {
@@ -272,6 +274,42 @@ pub fn record(a: RecordArgs) -> CliResult {
         }
     }
     Ok(())
+}
+
+/// A message the recorder took, serialized, on its way to the bag writer.
+struct Taken {
+    topic: TopicId,
+    cdr: Vec<u8>,
+    recv: u64,
+    publ: u64,
+}
+
+/// The bag writer's thread: writes what the recorder takes (flushing about every second,
+/// also when nothing comes) until the sender is dropped, then finishes the bag. Returns the
+/// number of messages written, or the first write error (the recorder then stops: its next
+/// send fails).
+#[allow(clippy::type_complexity)]
+fn spawn_writer(
+    mut w: BagWriter,
+) -> Result<(std::sync::mpsc::Sender<Taken>, std::thread::JoinHandle<Result<u64, CliError>>), CliError> {
+    let (tx, rx) = std::sync::mpsc::channel::<Taken>();
+    let handle = std::thread::Builder::new()
+        .name("bag-writer".into())
+        .spawn(move || {
+            use std::sync::mpsc::RecvTimeoutError;
+            loop {
+                match rx.recv_timeout(Duration::from_millis(100)) {
+                    Ok(t) => w.write_cdr(t.topic, &t.cdr, t.recv, t.publ).map_err(bag_err)?,
+                    Err(RecvTimeoutError::Timeout) => w.flush_if_due().map_err(bag_err)?,
+                    Err(RecvTimeoutError::Disconnected) => break,
+                }
+            }
+            let n = w.message_count();
+            w.finish().map_err(bag_err)?;
+            Ok(n)
+        })
+        .map_err(|e| CliError::failure(format!("naic record: cannot start the bag writer thread: {e}")))?;
+    Ok((tx, handle))
 }
 
 /// Messages a publisher sent that never reached the recorder, per topic: gaps in each

@@ -53,15 +53,37 @@ pub const QOS_SUB_RELIABLE: QosProfile = QosProfile::publisher_default()
 pub const QOS_SENSOR_DATA: QosProfile =
     QosProfile::publisher_default().reliability(Reliability::BestEffort).history(History::KeepLast { depth: 5 });
 
+/// History depth of the reliable publishers in simulated time (`use_sim_time`, what
+/// `naic launch --lockstep` sets on every node): 10 s of simulated time at 1 kHz. A lockstep
+/// chain runs faster than real time, and an observer that falls behind on a loaded machine
+/// finds the samples still there: RustDDS's reliable writer holds at most its history
+/// depth of samples a matched reader has not acknowledged, and with depth 10 `naic record`
+/// lost 40-47 % of `/naic/params` behind a lockstep chain under load (docs/bags.md). In
+/// real time the depth stays 10: an observer that lags real time by seconds is behind
+/// anyway, and the 1 kHz nodes keep their caches small.
+pub const SIM_TIME_HISTORY: usize = 10_000;
+
+/// [`QOS_PUB`] with the history for the node's time base (simulated: `use_sim_time`, or
+/// the driver's `lockstep`: [`SIM_TIME_HISTORY`]): `/naic/params`, `/clock` and the
+/// reliable data topics.
+pub fn pub_qos(p: &crate::ParamView) -> QosProfile {
+    let lockstep = matches!(p.get("lockstep"), Some(ParameterValue::Boolean(true)));
+    if p.bool("use_sim_time") || lockstep {
+        QOS_PUB.history(History::KeepLast { depth: SIM_TIME_HISTORY })
+    } else {
+        QOS_PUB
+    }
+}
+
 /// The QoS of the chain's data topics from the node's `data_qos` parameter: (publishers,
-/// the driver's command subscription). Reliable: [`QOS_PUB`] and [`QOS_SUB_RELIABLE`];
+/// the driver's command subscription). Reliable: [`pub_qos`] and [`QOS_SUB_RELIABLE`];
 /// `sensor_data`: [`QOS_SENSOR_DATA`] for both (a reliable reader does not match a
 /// best-effort writer). The other subscriptions are best effort either way ([`QOS_SUB`]).
 pub fn data_qos(p: &crate::ParamView) -> (QosProfile, QosProfile) {
     if p.str("data_qos") == "sensor_data" {
         (QOS_SENSOR_DATA, QOS_SENSOR_DATA)
     } else {
-        (QOS_PUB, QOS_SUB_RELIABLE)
+        (pub_qos(p), QOS_SUB_RELIABLE)
     }
 }
 

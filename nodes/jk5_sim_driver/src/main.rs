@@ -15,7 +15,7 @@ use jk5_sim_driver::{
 };
 use naic_ros::{
     msgs::{self, Clock, Float64MultiArray, JointState, WrenchStamped},
-    node::{data_qos, Pub, QOS_PUB, QOS_SUB},
+    node::{data_qos, pub_qos, Pub, QOS_SUB},
     wait::spawn_receiver,
     RosArgs, RosError, RosNode,
 };
@@ -54,7 +54,7 @@ fn run() -> Result<(), RosError> {
     let out = StatePub(
         node.publisher("wrench", msgs::WRENCH_STAMPED, data_pub.clone())?,
         node.publisher("joint_states", msgs::JOINT_STATE, data_pub)?,
-        node.publisher("/clock", msgs::CLOCK, QOS_PUB)?,
+        node.publisher("/clock", msgs::CLOCK, node.params.with(pub_qos))?,
     );
     // The command subscription is reliable only in lockstep (every command counts there).
     // In real time a late command is worthless, and a reliable reader would cost the chain:

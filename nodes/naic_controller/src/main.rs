@@ -10,7 +10,7 @@ use std::time::Duration;
 use naic_controller::{runner::{ReferenceSubs, Runner}, setup::{Setup, NODE}};
 use naic_ros::{
     msgs::{self, Float64MultiArray, JointState, NaicParams, WrenchStamped},
-    node::{data_qos, QOS_PUB, QOS_SUB},
+    node::{data_qos, pub_qos, QOS_SUB},
     wait::{take_newest, take_until, Waiter},
     RosArgs, RosError, RosNode,
 };
@@ -36,7 +36,7 @@ fn run() -> Result<(), RosError> {
     // The reference topics: the real-robot setting (scenario 'none') only.
     let refs = ReferenceSubs::new(&mut node, &r)?;
     let effort_pub = node.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, node.params.with(data_qos).0)?;
-    let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, QOS_PUB)?;
+    let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, node.params.with(pub_qos))?;
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut js_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 
