@@ -58,7 +58,7 @@ pub const QOS_SENSOR_DATA: QosProfile =
 /// chain runs faster than real time, and an observer that falls behind on a loaded machine
 /// finds the samples still there: RustDDS's reliable writer holds at most its history
 /// depth of samples a matched reader has not acknowledged, and with depth 10 `naic record`
-/// lost 40-47 % of `/naic/params` behind a lockstep chain under load (docs/bags.md). In
+/// lost 28-47 % of `/naic/params` behind a lockstep chain under load (docs/bags.md). In
 /// real time the depth stays 10: an observer that lags real time by seconds is behind
 /// anyway, and the 1 kHz nodes keep their caches small.
 pub const SIM_TIME_HISTORY: usize = 10_000;
