@@ -225,7 +225,7 @@ def main():
         s.spin(lambda: time.time() - t_wait > 2.0)
     finally:
         rec.send_signal(signal.SIGINT)
-        rec.wait(timeout=30)
+        rec.wait(timeout=60)  # it catches up with the stop for up to 35 s (naic record)
         rec_log.close()
     rec_text = (out / "record.log").read_text()
     sys.stderr.write(rec_text)

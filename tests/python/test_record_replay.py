@@ -131,7 +131,7 @@ def test_record_pose_stamped_target_pose(naic_bin, tmp_path):
         r.spin(1.0)
     finally:
         r.close()
-        assert rec.stop(timeout=15) == 0, rec.output()[-2000:]
+        assert rec.stop(timeout=45) == 0, rec.output()[-2000:]
 
     def fields(m):
         p, o = m.pose.position, m.pose.orientation

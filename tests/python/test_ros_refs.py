@@ -236,19 +236,17 @@ def test_ros_refs_composed_follows_the_reference_topics(bins, tmp_path):
         dev.append((p[0] - tx, p[1] - ty))
         covered.append(p[0])
     travel = max(covered) - min(covered) if covered else 0.0
-    ru.xfail_if_recorder_lost(s, "/joint_states", travel < 0.5 * length,
-                              f"the bag covers {travel * 1e3:.1f} mm of the {length * 1e3:.0f} mm slide (its tail ends at "
-                              f"{t_last:.3f} s, the targets at {targets[-1][0]:.3f} s)")
+    ru.assert_bag_complete(s, "/joint_states", travel < 0.5 * length,
+                           f"the bag covers {travel * 1e3:.1f} mm of the {length * 1e3:.0f} mm slide (its tail ends at "
+                           f"{t_last:.3f} s, the targets at {targets[-1][0]:.3f} s)")
     worst_x = max(abs(d[0]) for d in dev)
     worst_y = max(abs(d[1]) for d in dev)
     # 10 mm/s: the tip within 5 mm of the target along x (it lags ~0.3 mm and runs up to
     # 3 mm ahead at the end in process), 2 mm across.
     assert worst_x < 0.005 and worst_y < 0.002, (worst_x, worst_y, travel)
-    # 1 kHz of /naic/params while sliding, read from the bag. A recorder behind the chain on a
-    # loaded machine loses messages; it must then say so (docs/bags.md), and the bag's
-    # checks cannot be made.
-    ru.xfail_if_recorder_lost(s, "/naic/params", s["slide_samples"] <= 0.9 * 1000 * length / speed,
-                              f"the bag has {s['slide_samples']} sliding samples")
+    # 1 kHz of /naic/params while sliding, every message in the bag (docs/bags.md).
+    ru.assert_bag_complete(s, "/naic/params", s["slide_samples"] <= 0.9 * 1000 * length / speed,
+                           f"the bag has {s['slide_samples']} sliding samples")
     assert s["phases_in_contact"] == s["slide_samples"], s
     assert s["desired_forces_seen"] == [5.0, 10.0], s
     assert not s["faults"], s

@@ -118,7 +118,7 @@ def run(tmp_path_factory):
         r.close()
         codes = {}
         if rec:
-            codes["record"] = rec.stop(timeout=20)
+            codes["record"] = rec.stop(timeout=45)
         for name in ("jk5_sim_driver", "naic_controller", "friction_compensation"):
             codes[name] = procs[name][-1].stop(timeout=15)
     logs = {name: "\n".join(p.output() for p in ps) for name, ps in procs.items()}

@@ -211,27 +211,35 @@ pub fn record(a: RecordArgs) -> CliResult {
     let t0 = Instant::now();
     let deadline = a.duration.map(Duration::from_secs_f64);
     let mut gaps = SeqGaps::new(subs.len());
-    // On Ctrl-C or at the deadline the recorder keeps taking what arrives until nothing new
-    // came for QUIET (at most LINGER): a recorder behind a fast lockstep chain holds up to a
-    // second of messages, and reliable repairs of the last ones are still in flight.
-    const QUIET: Duration = Duration::from_millis(200);
-    const LINGER: Duration = Duration::from_secs(3);
-    let mut stopping: Option<(Instant, Instant)> = None; // (stop asked, last message taken)
+    // On Ctrl-C or at the deadline the recorder catches up with the moment it was asked to
+    // stop ([`CatchUp`]): a recorder behind a lockstep chain on a loaded machine holds
+    // seconds of messages in its readers, and reliable repairs of the last ones are still in
+    // flight. Past CATCH_UP_MAX it stops writing and counts what it still finds from before
+    // the stop as lost (for at most COUNT_MAX more), so nothing is left behind unreported.
+    const CATCH_UP_MAX: Duration = Duration::from_secs(30);
+    const COUNT_MAX: Duration = Duration::from_secs(5);
+    let mut catch_up: Option<CatchUp> = None;
+    let mut counting_only = false;
     'run: loop {
         let stop = naic_ros::shutdown_requested() || deadline.is_some_and(|d| t0.elapsed() >= d);
-        if stop && stopping.is_none() {
-            stopping = Some((Instant::now(), Instant::now()));
+        if stop && catch_up.is_none() {
+            catch_up = Some(CatchUp::new(subs.len(), naic_ros::time::wall_ns().max(0) as u64));
         }
-        waiter.wait(Some(Duration::from_millis(if stopping.is_some() { 20 } else { 50 })));
-        let mut taken = 0usize;
+        waiter.wait(Some(Duration::from_millis(if catch_up.is_some() { 20 } else { 50 })));
         for (i, s) in subs.iter().enumerate() {
             macro_rules! drain {
                 ($sub:expr, $id:expr) => {
                     while let Ok(Some((msg, info))) = $sub.take() {
-                        taken += 1;
                         gaps.see(i, info.publisher_gid(), info.sequence_number());
                         let recv = naic_ros::time::wall_ns().max(0) as u64;
                         let publ = info.source_timestamp().map(|t| t.to_nanos().max(0) as u64).unwrap_or(recv);
+                        if let Some(c) = catch_up.as_mut() {
+                            c.saw(i, publ);
+                            if counting_only {
+                                gaps.lost[i] += u64::from(publ <= c.stop_ns);
+                                continue;
+                            }
+                        }
                         let mut cdr = Vec::with_capacity(256);
                         naic_msgs::cdr::encode_into(&msg, &mut cdr);
                         if tx.send(Taken { topic: $id, cdr, recv, publ }).is_err() {
@@ -249,11 +257,24 @@ pub fn record(a: RecordArgs) -> CliResult {
                 Sub::Ps(s, id) => drain!(s, *id),
             }
         }
-        if let Some((asked, last_taken)) = stopping.as_mut() {
-            if taken > 0 {
-                *last_taken = Instant::now();
+        if let Some(c) = &catch_up {
+            if c.finished() {
+                break;
             }
-            if last_taken.elapsed() >= QUIET || asked.elapsed() >= LINGER {
+            let waited = c.asked.elapsed();
+            if !counting_only && waited >= CATCH_UP_MAX {
+                counting_only = true;
+                for ((topic, _), done) in wanted.iter().zip(&c.done) {
+                    if !*done {
+                        eprintln!(
+                            "naic record: {topic}: not caught up {} s after the stop; what it still holds from before \
+                             the stop is counted as lost, not written",
+                            CATCH_UP_MAX.as_secs()
+                        );
+                    }
+                }
+            }
+            if waited >= CATCH_UP_MAX + COUNT_MAX {
                 break;
             }
         }
@@ -274,6 +295,35 @@ pub fn record(a: RecordArgs) -> CliResult {
         }
     }
     Ok(())
+}
+
+/// The recorder's catching up after a stop: each topic is done once it has delivered a
+/// message published after the stop, or has had nothing for `QUIET` (a topic that went
+/// silent, or whose last messages were repaired meanwhile).
+struct CatchUp {
+    /// The stop [ns, wall clock: the publishers' source timestamps are compared with it].
+    stop_ns: u64,
+    asked: Instant,
+    done: Vec<bool>,
+    last_taken: Vec<Instant>,
+}
+
+impl CatchUp {
+    const QUIET: Duration = Duration::from_millis(200);
+
+    fn new(topics: usize, stop_ns: u64) -> Self {
+        let now = Instant::now();
+        CatchUp { stop_ns, asked: now, done: vec![false; topics], last_taken: vec![now; topics] }
+    }
+
+    fn saw(&mut self, topic: usize, publ: u64) {
+        self.last_taken[topic] = Instant::now();
+        self.done[topic] |= publ > self.stop_ns;
+    }
+
+    fn finished(&self) -> bool {
+        self.done.iter().zip(&self.last_taken).all(|(d, t)| *d || t.elapsed() >= Self::QUIET)
+    }
 }
 
 /// A message the recorder took, serialized, on its way to the bag writer.
@@ -336,8 +386,9 @@ impl<G: Hash + Eq> SeqGaps<G> {
 }
 
 #[cfg(test)]
-mod seq_gap_tests {
-    use super::SeqGaps;
+mod tests {
+    use super::{CatchUp, SeqGaps};
+    use std::time::Duration;
 
     #[test]
     fn gaps_are_counted_per_topic_and_publisher() {
@@ -354,6 +405,24 @@ mod seq_gap_tests {
         assert_eq!(g.lost, vec![3, 1]);
         g.see(0, 'a', 8); // a repeat is not a loss
         assert_eq!(g.lost, vec![3, 1]);
+    }
+
+    #[test]
+    fn catching_up_ends_when_every_topic_is_past_the_stop_or_quiet() {
+        let mut c = CatchUp::new(2, 1_000);
+        assert!(!c.finished(), "nothing taken yet, not quiet yet");
+        c.saw(0, 900); // from before the stop: more may follow
+        c.saw(1, 1_001);
+        assert!(!c.finished());
+        c.saw(0, 1_000);
+        assert!(!c.finished(), "published at the stop is not after it");
+        c.saw(0, 1_500);
+        assert!(c.finished());
+        // A topic that went silent is done after QUIET.
+        let mut c = CatchUp::new(2, 1_000);
+        c.saw(1, 2_000);
+        std::thread::sleep(CatchUp::QUIET + Duration::from_millis(20));
+        assert!(c.finished());
     }
 }
 
