@@ -81,6 +81,8 @@ def run(tmp_path_factory):
     ctl_args = [str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml"]
     fc_args = [str(bins / "friction_compensation"), "--ros-args", "--params-file",
                "params/friction_compensation.yaml"]
+    if os.environ.get("NAIC_TAKEOVER_BLEND"):  # to compare take-overs (docs/nodes.md, "The take-over blend")
+        fc_args += ["-p", f"takeover_blend:={float(os.environ['NAIC_TAKEOVER_BLEND'])}"]
     procs = {"naic_controller": [ru.Proc(ctl_args, env)], "friction_compensation": [ru.Proc(fc_args, env)]}
     rec = None
     bag = tmp_path_factory.mktemp("rec") / "faults.mcap"
@@ -264,6 +266,28 @@ def test_process_fault_takeovers_keep_the_arm_calm_and_the_outage_is_reported(ru
     log = run["logs"]["naic_controller"]
     assert "no /joint_effort_cmd answering the joint states" in log, log[-3000:]
     assert "answers the joint states again" in log, log[-3000:]
+
+
+def test_process_fault_takeover_torque_report(run):
+    """The applied torque over the 300 ms after each restarted node's first command, printed
+    (the numbers of docs/nodes.md, "The take-over blend"; compare with NAIC_TAKEOVER_BLEND=0.0
+    and with a window before each kill, NAIC_TAKEOVER_WINDOW=before). Asserts only that the
+    window is there and that the arm got finite torques within its effort limits."""
+    lim = _effort_limits()
+    js = sorted((m for _, m in run["js"]), key=_stamp_ns)
+    for node, ev in run["events"].items():
+        first = next(m for t, m in run["cmds"] if t > ev["restart"])
+        t0 = int((ev["kill"] - 0.4) * 1e9) if os.environ.get("NAIC_TAKEOVER_WINDOW") == "before" else _src_ns(first)
+        w = [m for m in js if t0 <= _stamp_ns(m) <= t0 + 300_000_000]
+        assert len(w) > 250, (node, len(w))
+        eff = [list(m.effort) for m in w]
+        assert all(math.isfinite(x) and abs(x) <= l + 1e-9 for e in eff for x, l in zip(e, lim)), node
+        steps = [max(abs(a - b) for a, b in zip(e1, e0)) for e0, e1 in zip(eff, eff[1:])]
+        peak = [round(max(abs(e[j]) for e in eff), 1) for j in range(6)]
+        fastest = max(max(abs(v) for v in m.velocity) for m in w)
+        print(f"{node}: takeover_blend {os.environ.get('NAIC_TAKEOVER_BLEND', 'default')}: peak |tau| per joint {peak} "
+              f"N m, largest change between applied states {max(steps):.2f} N m, {sum(x > 5.0 for x in steps)} "
+              f"changes > 5 N m, largest joint speed {fastest:.2f} rad/s")
 
 
 def test_process_fault_recording_keeps_everything_it_received(run):
