@@ -270,8 +270,9 @@ def test_process_fault_takeovers_keep_the_arm_calm_and_the_outage_is_reported(ru
 
 def test_process_fault_takeover_torque_report(run):
     """The applied torque over the 300 ms after each restarted node's first command, printed
-    (the numbers of docs/nodes.md, "The take-over blend"; compare with NAIC_TAKEOVER_BLEND=0.0
-    and with a window before each kill, NAIC_TAKEOVER_WINDOW=before). Asserts only that the
+    (the numbers of docs/nodes.md, "The take-over blend"; the default is no blend, compare
+    with NAIC_TAKEOVER_BLEND=0.1 and with a window before each kill,
+    NAIC_TAKEOVER_WINDOW=before). Asserts only that the
     window is there and that the arm got finite torques within its effort limits."""
     lim = _effort_limits()
     js = sorted((m for _, m in run["js"]), key=_stamp_ns)

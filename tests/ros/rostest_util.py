@@ -126,6 +126,13 @@ class Proc:
     def alive(self):
         return self.p.poll() is None
 
+    def wait_end(self, timeout):
+        """Wait up to `timeout` s for the process to end by itself (`naic launch --duration`)."""
+        try:
+            self.p.wait(timeout)
+        except subprocess.TimeoutExpired:
+            pass
+
     def stop(self, timeout=10.0):
         """SIGINT, wait; returns the exit code (kills and returns None if it hangs)."""
         if self.p.poll() is None:

@@ -77,6 +77,8 @@ pub struct State {
     warn: Throttle,
     /// Commands published.
     pub published: u64,
+    /// Take-overs (the first command and each one after a gap longer than `takeover_gap`).
+    pub takeovers: u64,
 }
 
 impl Default for State {
@@ -95,6 +97,7 @@ impl Default for State {
             pending: None,
             warn: Throttle::default(),
             published: 0,
+            takeovers: 0,
         }
     }
 }
@@ -179,6 +182,7 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64) -> (State, Outbox
             Some(e) => {
                 s.actuate = actuate::ActuateState { tau_prev: e, started: true };
                 s.blend = Some(actuate::Blend { from: e, t0_ns: t_ns });
+                s.takeovers += 1;
             }
             // Not yet known what the arm gets: publish nothing (the driver holds).
             None => return (s, out),
@@ -341,23 +345,27 @@ mod tests {
         p.enabled = false;
         p.takeover_blend_ns = 10 * MS;
         p.actuate.max_delta = [1000.0; 6]; // the blend alone
-        let far = effort_msg(&[53.0; 6], None);
-        let cmd = |s: &State, t: i64| run(&p, s, Inbox { command: Some(&far), ..Default::default() }, t);
+        let at = |v: f64| effort_msg(&[v; 6], None);
+        let cmd = |s: &State, v: f64, t: i64| run(&p, s, Inbox { command: Some(&at(v)), ..Default::default() }, t);
         let (s, _) = run(&p, &State::default(), Inbox { joint_states: Some(&js(1, ORDER, [0.0; 6], [3.0; 6])), ..Default::default() }, MS);
-        let (s, o) = cmd(&s, 2 * MS);
+        let (s, o) = cmd(&s, 53.0, 2 * MS);
         assert_eq!(o.command.unwrap().0, [3.0; 6], "the take-over starts at the arm's torque");
-        let (s, o) = cmd(&s, 7 * MS);
+        let (s, o) = cmd(&s, 53.0, 7 * MS);
         assert_eq!(o.command.unwrap().0, [28.0; 6], "halfway through the blend");
-        let (s, o) = cmd(&s, 12 * MS);
+        let (s, o) = cmd(&s, 43.0, 7 * MS);
+        assert_eq!(o.command.unwrap().0, [23.0; 6], "halfway: half of the command's change");
+        let (s, o) = cmd(&s, 53.0, 12 * MS);
         assert_eq!(o.command.unwrap().0, [53.0; 6], "the command itself once the blend is over");
-        let (s, o) = cmd(&s, 13 * MS);
+        let (s, o) = cmd(&s, 53.0, 13 * MS);
         assert_eq!(o.command.unwrap().0, [53.0; 6]);
+        assert_eq!(s.takeovers, 1);
         // After a gap (the driver held the arm) a new blend starts from its torque.
         let (s, _) = run(&p, &s, Inbox { joint_states: Some(&js(2, ORDER, [0.0; 6], [-7.0; 6])), ..Default::default() }, 40 * MS);
-        let (s, o) = cmd(&s, 40 * MS);
+        let (s, o) = cmd(&s, 53.0, 40 * MS);
         assert_eq!(o.command.unwrap().0, [-7.0; 6]);
-        let (_, o) = cmd(&s, 45 * MS);
+        let (s, o) = cmd(&s, 53.0, 45 * MS);
         assert_eq!(o.command.unwrap().0, [23.0; 6]);
+        assert_eq!(s.takeovers, 2);
     }
 
     #[test]

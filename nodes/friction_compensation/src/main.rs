@@ -56,6 +56,6 @@ fn run() -> Result<(), RosError> {
             let _ = cmd_pub.publish(m.clone());
         }
     }
-    log::info!("stopped after {} commands", r.s.published);
+    log::info!("stopped after {} commands and {} take-overs", r.s.published, r.s.takeovers);
     Ok(())
 }

@@ -305,6 +305,9 @@ impl DPEventLoop {
       let poll_timeout = timeout_until(ev_wrapper.shared_timer.borrow().next_deadline(), idle_cap);
       match ev_wrapper.poll.poll(&mut events, Some(poll_timeout)) {
         Ok(_) => {}
+        // naic patch: a signal (also SIGCONT after a stop: Ctrl-Z, fg) interrupts epoll_wait
+        // with EINTR; that is no reason to end the participant's event loop.
+        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
         Err(e) => {
           error!("dp_event_loop poll failed: {e:?}");
           break;
