@@ -119,6 +119,24 @@ pub fn node_binary(name: &str) -> Result<PathBuf, CliError> {
 pub struct NodeProcess {
     pub name: String,
     pub child: Child,
+    /// The threads copying its stdout and stderr (done at the end of its output).
+    copying: Vec<std::thread::JoinHandle<()>>,
+}
+
+impl NodeProcess {
+    /// After the process has exited: wait up to `within` for its last lines to be copied.
+    /// Without this a launch that stopped its nodes could exit before the copying threads
+    /// had written what the nodes printed last (seen under load: the driver's stop report
+    /// missing from a lockstep test's log).
+    fn drain(&mut self, within: Duration) {
+        let t0 = Instant::now();
+        while self.copying.iter().any(|h| !h.is_finished()) && t0.elapsed() < within {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        for h in self.copying.drain(..).filter(|h| h.is_finished()) {
+            let _ = h.join();
+        }
+    }
 }
 
 /// Spawn one node binary with `args`, its stdout/stderr prefixed by `[name]` on our stderr.
@@ -144,25 +162,32 @@ pub fn spawn_node(name: &str, bin: &Path, args: &[String], envs: &[(String, Stri
     let mut child = cmd
         .spawn()
         .map_err(|e| CliError::failure(format!("cannot start {}: {e}", bin.display())))?;
+    let mut copying = vec![];
     for stream in [child.stdout.take().map(|s| Box::new(s) as Box<dyn std::io::Read + Send>),
                    child.stderr.take().map(|s| Box::new(s) as Box<dyn std::io::Read + Send>)]
         .into_iter()
         .flatten()
     {
         let prefix = format!("[{name}] ");
-        std::thread::spawn(move || {
+        copying.push(std::thread::spawn(move || {
             for line in BufReader::new(stream).lines().map_while(Result::ok) {
                 let mut err = std::io::stderr().lock();
                 let _ = writeln!(err, "{prefix}{line}");
             }
-        });
+        }));
     }
-    Ok(NodeProcess { name: name.to_string(), child })
+    Ok(NodeProcess { name: name.to_string(), child, copying })
 }
 
-/// Stop one process: SIGINT, wait up to `grace`, then SIGKILL. Returns its exit status
-/// and whether it had to be killed.
+/// Stop one process: SIGINT, wait up to `grace`, then SIGKILL; then its last lines are
+/// copied (at most 2 s more). Returns its exit status and whether it had to be killed.
 fn stop_one(p: &mut NodeProcess, grace: Duration) -> (Option<ExitStatus>, bool) {
+    let r = stop_child(p, grace);
+    p.drain(Duration::from_secs(2));
+    r
+}
+
+fn stop_child(p: &mut NodeProcess, grace: Duration) -> (Option<ExitStatus>, bool) {
     if let Ok(Some(st)) = p.child.try_wait() {
         return (Some(st), false);
     }
@@ -564,6 +589,19 @@ pub fn run(a: LaunchArgs) -> CliResult {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_stopped_node_s_last_lines_are_copied_before_stop_all_returns() {
+        // A "node" that prints 50 lines when it gets SIGINT, then exits.
+        let script = "trap 'i=0; while [ $i -lt 50 ]; do echo last line $i; i=$((i+1)); done; exit 0' INT; \
+                      echo ready; while :; do sleep 0.01; done";
+        let mut p = spawn_node("printer", Path::new("/bin/sh"), &["-c".to_string(), script.to_string()], &[]).unwrap();
+        std::thread::sleep(Duration::from_millis(200));
+        assert_eq!(p.copying.len(), 2, "one copying thread each for stdout and stderr");
+        let killed = stop_all(std::slice::from_mut(&mut p), Duration::from_secs(10));
+        assert!(killed.is_empty(), "the script should exit on SIGINT");
+        assert!(p.copying.is_empty(), "stop_all returned while {} copying threads were still running", p.copying.len());
+    }
 
     #[test]
     fn supervision_rule() {
