@@ -126,8 +126,8 @@ pub struct NodeProcess {
 impl NodeProcess {
     /// After the process has exited: wait up to `within` for its last lines to be copied.
     /// Without this a launch that stopped its nodes could exit before the copying threads
-    /// had written what the nodes printed last (seen under load: the driver's stop report
-    /// missing from a lockstep test's log).
+    /// had written what the nodes printed last (which fits, unproven, a loaded lockstep test
+    /// whose log lacked the driver's stop report; docs/nodes.md).
     fn drain(&mut self, within: Duration) {
         let t0 = Instant::now();
         while self.copying.iter().any(|h| !h.is_finished()) && t0.elapsed() < within {
