@@ -218,14 +218,14 @@ pub fn record(a: RecordArgs) -> CliResult {
     // the stop as lost (for at most COUNT_MAX more), so nothing is left behind unreported.
     const CATCH_UP_MAX: Duration = Duration::from_secs(30);
     const COUNT_MAX: Duration = Duration::from_secs(5);
-    let mut catch_up: Option<CatchUp> = None;
+    let mut catch_up = CatchUp::new(subs.len());
     let mut counting_only = false;
     'run: loop {
         let stop = naic_ros::shutdown_requested() || deadline.is_some_and(|d| t0.elapsed() >= d);
-        if stop && catch_up.is_none() {
-            catch_up = Some(CatchUp::new(subs.len(), naic_ros::time::wall_ns().max(0) as u64));
+        if stop && !catch_up.stopping() {
+            catch_up.stop(naic_ros::time::wall_ns().max(0) as u64, Instant::now());
         }
-        waiter.wait(Some(Duration::from_millis(if catch_up.is_some() { 20 } else { 50 })));
+        waiter.wait(Some(Duration::from_millis(if catch_up.stopping() { 20 } else { 50 })));
         for (i, s) in subs.iter().enumerate() {
             macro_rules! drain {
                 ($sub:expr, $id:expr) => {
@@ -233,12 +233,10 @@ pub fn record(a: RecordArgs) -> CliResult {
                         gaps.see(i, info.publisher_gid(), info.sequence_number());
                         let recv = naic_ros::time::wall_ns().max(0) as u64;
                         let publ = info.source_timestamp().map(|t| t.to_nanos().max(0) as u64).unwrap_or(recv);
-                        if let Some(c) = catch_up.as_mut() {
-                            c.saw(i, publ);
-                            if counting_only {
-                                gaps.lost[i] += u64::from(publ <= c.stop_ns);
-                                continue;
-                            }
+                        let before_stop = catch_up.saw(i, publ, recv, Instant::now());
+                        if counting_only {
+                            gaps.lost[i] += u64::from(before_stop);
+                            continue;
                         }
                         let mut cdr = Vec::with_capacity(256);
                         naic_msgs::cdr::encode_into(&msg, &mut cdr);
@@ -257,14 +255,13 @@ pub fn record(a: RecordArgs) -> CliResult {
                 Sub::Ps(s, id) => drain!(s, *id),
             }
         }
-        if let Some(c) = &catch_up {
-            if c.finished() {
+        if let Some(waited) = catch_up.since_stop(Instant::now()) {
+            if catch_up.finished(Instant::now()) {
                 break;
             }
-            let waited = c.asked.elapsed();
             if !counting_only && waited >= CATCH_UP_MAX {
                 counting_only = true;
-                for ((topic, _), done) in wanted.iter().zip(&c.done) {
+                for ((topic, _), done) in wanted.iter().zip(&catch_up.done) {
                     if !*done {
                         eprintln!(
                             "naic record: {topic}: not caught up {} s after the stop; what it still holds from before \
@@ -276,6 +273,14 @@ pub fn record(a: RecordArgs) -> CliResult {
             }
             if waited >= CATCH_UP_MAX + COUNT_MAX {
                 break;
+            }
+        }
+    }
+    if let Some(waited) = catch_up.since_stop(Instant::now()) {
+        eprintln!("naic record: stopped; took what was published before the stop for {:.1} s after it", waited.as_secs_f64());
+        for ((topic, _), q) in wanted.iter().zip(catch_up.quiet_report()) {
+            if let Some(line) = q {
+                eprintln!("naic record: {topic}: {line}");
             }
         }
     }
@@ -297,32 +302,92 @@ pub fn record(a: RecordArgs) -> CliResult {
     Ok(())
 }
 
-/// The recorder's catching up after a stop: each topic is done once it has delivered a
-/// message published after the stop, or has had nothing for `QUIET` (a topic that went
-/// silent, or whose last messages were repaired meanwhile).
+/// The recorder's catching up after a stop. Each topic is done once it has delivered a
+/// message published after the stop, or once it is quiet: nothing taken for `QUIET`, and at
+/// least its lag plus `QUIET` since the stop, where the lag is how late its last message
+/// came (receive minus publish time). A recorder seconds behind a chain whose deliveries
+/// pause (a starved process, or repairs after lost packets) still has the messages published
+/// before the stop coming; a topic whose publisher stopped before the stop has none. `QUIET`
+/// is longer than the writers' slow heartbeat (1 s, `HEARTBEAT_PERIOD_SLOW` in RustDDS), after
+/// which a reader learns of a lost last sample and has it repaired. (A 0.2 s quiet with no
+/// lag ended a loaded run's recording while messages 4.6 s old were still on their way:
+/// docs/bags.md.)
 struct CatchUp {
-    /// The stop [ns, wall clock: the publishers' source timestamps are compared with it].
-    stop_ns: u64,
-    asked: Instant,
+    /// The stop [ns, wall clock: the publishers' source timestamps are compared with it] and
+    /// when it was asked; `None` while recording.
+    stop: Option<(u64, Instant)>,
     done: Vec<bool>,
-    last_taken: Vec<Instant>,
+    last_taken: Vec<Option<Instant>>,
+    /// Receive minus publish time of each topic's last message.
+    lag: Vec<Duration>,
+    /// Publish time [ns, wall clock] of each topic's last message.
+    last_publ: Vec<Option<u64>>,
 }
 
 impl CatchUp {
-    const QUIET: Duration = Duration::from_millis(200);
+    const QUIET: Duration = Duration::from_millis(1200);
 
-    fn new(topics: usize, stop_ns: u64) -> Self {
-        let now = Instant::now();
-        CatchUp { stop_ns, asked: now, done: vec![false; topics], last_taken: vec![now; topics] }
+    fn new(topics: usize) -> Self {
+        CatchUp {
+            stop: None,
+            done: vec![false; topics],
+            last_taken: vec![None; topics],
+            lag: vec![Duration::ZERO; topics],
+            last_publ: vec![None; topics],
+        }
     }
 
-    fn saw(&mut self, topic: usize, publ: u64) {
-        self.last_taken[topic] = Instant::now();
-        self.done[topic] |= publ > self.stop_ns;
+    fn stop(&mut self, stop_ns: u64, now: Instant) {
+        self.stop = Some((stop_ns, now));
     }
 
-    fn finished(&self) -> bool {
-        self.done.iter().zip(&self.last_taken).all(|(d, t)| *d || t.elapsed() >= Self::QUIET)
+    fn stopping(&self) -> bool {
+        self.stop.is_some()
+    }
+
+    fn since_stop(&self, now: Instant) -> Option<Duration> {
+        self.stop.map(|(_, asked)| now.saturating_duration_since(asked))
+    }
+
+    /// A message of `topic` was taken at `now` (`recv`, wall clock [ns]), published at
+    /// `publ`. Returns whether it was published at or before the stop (always while recording).
+    fn saw(&mut self, topic: usize, publ: u64, recv: u64, now: Instant) -> bool {
+        self.last_taken[topic] = Some(now);
+        self.lag[topic] = Duration::from_nanos(recv.saturating_sub(publ));
+        self.last_publ[topic] = Some(publ);
+        let after = self.stop.is_some_and(|(stop_ns, _)| publ > stop_ns);
+        self.done[topic] |= after;
+        !after
+    }
+
+    fn quiet(&self, topic: usize, now: Instant) -> bool {
+        let Some((_, asked)) = self.stop else { return false };
+        let silent_since = self.last_taken[topic].map_or(asked, |t| t.max(asked));
+        now.saturating_duration_since(silent_since) >= Self::QUIET
+            && now.saturating_duration_since(asked) >= self.lag[topic] + Self::QUIET
+    }
+
+    fn finished(&self, now: Instant) -> bool {
+        self.stop.is_some() && (0..self.done.len()).all(|i| self.done[i] || self.quiet(i, now))
+    }
+
+    /// For each topic that ended quiet rather than past the stop: how long before the stop
+    /// its last message was published (or that it had none), so that a stream whose end is
+    /// missing is not silent.
+    fn quiet_report(&self) -> Vec<Option<String>> {
+        let stop_ns = self.stop.map_or(0, |(s, _)| s);
+        (0..self.done.len())
+            .map(|i| {
+                (!self.done[i]).then(|| match self.last_publ[i] {
+                    None => "nothing received".to_string(),
+                    Some(p) => format!(
+                        "nothing published after {:.3} s before the stop reached the recorder (its publishers \
+                         stopped, or the end of its stream is missing)",
+                        stop_ns.saturating_sub(p) as f64 * 1e-9
+                    ),
+                })
+            })
+            .collect()
     }
 }
 
@@ -388,7 +453,7 @@ impl<G: Hash + Eq> SeqGaps<G> {
 #[cfg(test)]
 mod tests {
     use super::{CatchUp, SeqGaps};
-    use std::time::Duration;
+    use std::time::{Duration, Instant};
 
     #[test]
     fn gaps_are_counted_per_topic_and_publisher() {
@@ -409,20 +474,44 @@ mod tests {
 
     #[test]
     fn catching_up_ends_when_every_topic_is_past_the_stop_or_quiet() {
-        let mut c = CatchUp::new(2, 1_000);
-        assert!(!c.finished(), "nothing taken yet, not quiet yet");
-        c.saw(0, 900); // from before the stop: more may follow
-        c.saw(1, 1_001);
-        assert!(!c.finished());
-        c.saw(0, 1_000);
-        assert!(!c.finished(), "published at the stop is not after it");
-        c.saw(0, 1_500);
-        assert!(c.finished());
+        let t0 = Instant::now();
+        let ms = |n: u64| t0 + Duration::from_millis(n);
+        let mut c = CatchUp::new(2);
+        assert!(c.saw(0, 500, 600, t0), "while recording every message is from before the stop");
+        assert!(!c.finished(t0), "not stopping yet");
+        c.stop(1_000, t0);
+        assert!(!c.finished(t0), "nothing taken since the stop, not quiet yet");
+        assert!(c.saw(0, 900, 1_100, t0), "from before the stop: more may follow");
+        assert!(!c.saw(1, 1_001, 1_100, t0));
+        assert!(!c.finished(t0));
+        assert!(c.saw(0, 1_000, 1_100, t0), "published at the stop is not after it");
+        assert!(!c.finished(t0));
+        c.saw(0, 1_500, 1_600, t0);
+        assert!(c.finished(t0));
+        assert_eq!(c.quiet_report(), vec![None, None]);
         // A topic that went silent is done after QUIET.
-        let mut c = CatchUp::new(2, 1_000);
-        c.saw(1, 2_000);
-        std::thread::sleep(CatchUp::QUIET + Duration::from_millis(20));
-        assert!(c.finished());
+        let mut c = CatchUp::new(2);
+        c.saw(0, 0, 1_000, t0); // 1 us late
+        c.stop(1_000, t0);
+        c.saw(1, 2_000, 2_000, t0);
+        assert!(!c.finished(ms(1_100)));
+        assert!(!c.finished(ms(1_200)), "topic 0's lag (1 us) is part of its quiet time");
+        assert!(c.finished(ms(1_201)));
+        let r = c.quiet_report();
+        assert!(r[0].as_deref().is_some_and(|l| l.contains("0.000 s before the stop")), "{r:?}");
+        assert_eq!(r[1], None);
+        // A topic 4.6 s behind is not quiet after QUIET: what was published before the stop
+        // is still on its way (the loaded run of docs/bags.md); it is after its lag + QUIET.
+        let mut c = CatchUp::new(1);
+        c.saw(0, 182_380_000_000, 186_960_000_000, t0);
+        c.stop(187_700_000_000, ms(740));
+        assert!(!c.finished(ms(740 + 1_200)), "quiet for longer than QUIET, but 4.6 s behind");
+        assert!(!c.finished(ms(740 + 4_580 + 1_100)));
+        assert!(c.finished(ms(740 + 4_580 + 1_200)));
+        // ... and anything it takes meanwhile restarts the quiet time.
+        c.saw(0, 183_000_000_000, 187_700_000_000, ms(5_000));
+        assert!(!c.finished(ms(6_000)));
+        assert!(c.finished(ms(740 + 4_700 + 1_200).max(ms(6_200))));
     }
 }
 
