@@ -80,9 +80,7 @@ def run(tmp_path_factory):
     env = ru.ros_env(domain)
     ctl_args = [str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml"]
     fc_args = [str(bins / "friction_compensation"), "--ros-args", "--params-file",
-               "params/friction_compensation.yaml"]
-    if os.environ.get("NAIC_TAKEOVER_BLEND"):  # to compare take-overs (docs/nodes.md, "The take-over blend")
-        fc_args += ["-p", f"takeover_blend:={float(os.environ['NAIC_TAKEOVER_BLEND'])}"]
+               "params/friction_compensation.yaml", *ru.takeover_blend_override()]
     procs = {"naic_controller": [ru.Proc(ctl_args, env)], "friction_compensation": [ru.Proc(fc_args, env)]}
     rec = None
     bag = tmp_path_factory.mktemp("rec") / "faults.mcap"

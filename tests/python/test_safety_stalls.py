@@ -59,9 +59,7 @@ def test_cpu_stalls_make_take_overs_and_no_joint_spins(bins):
     cpu = _chain_cpu()
     if cpu < 0 or cpu not in os.sched_getaffinity(0):
         pytest.skip(f"the chain is not pinned to a CPU of this machine (cpu_affinity {cpu})")
-    extra = []
-    if "NAIC_TAKEOVER_BLEND" in os.environ:
-        extra = ["-p", f"friction_compensation:takeover_blend:={float(os.environ['NAIC_TAKEOVER_BLEND'])}"]
+    extra = ru.takeover_blend_override("friction_compensation:")
     domain = ru.fresh_domain(235)
     launch = ru.Proc([str(bins / "naic"), "launch", "--duration", "30", *extra], ru.ros_env(domain))
     try:

@@ -50,6 +50,14 @@ def _domain_port_free(domain):
         s.close()
 
 
+def takeover_blend_override(node_prefix=""):
+    """`-p [node:]takeover_blend:=X` when NAIC_TAKEOVER_BLEND=X is set (to compare take-overs
+    with a blend; docs/nodes.md, "The blend is off by default"), else nothing. `node_prefix`
+    is "friction_compensation:" for `naic launch`, "" for the node itself."""
+    v = os.environ.get("NAIC_TAKEOVER_BLEND")
+    return ["-p", f"{node_prefix}takeover_blend:={float(v)}"] if v else []
+
+
 def fresh_domain(offset=0):
     """A domain id no one else on this machine uses right now: 101..231 (ids up to 232 fit
     the RTPS port mapping; low ids are what people use by hand). Concurrent test runs (other
