@@ -113,6 +113,14 @@ def run(tmp_path_factory):
             assert r.spin_until(lambda: any(t > events[node]["restart"] for t, _ in cmds), 30), \
                 f"{node} did not take over:\n{procs[node][-1].output()[-3000:]}"
             events[node]["resumed"] = next(t for t, _ in cmds if t > events[node]["restart"])
+            if rec and node == "friction_compensation":
+                # naic record's own rediscovery of the restarted node, seconds after rclpy's
+                # under load (docs/nodes.md): wait for its "new publisher" line, so that the
+                # bag can hold commands of both processes; the recording test fails if it
+                # never came.
+                new_pub = "naic record: /joint_effort_cmd: receiving from a new publisher"
+                if r.spin_until(lambda: rec.output().count(new_pub) >= 2, 30):
+                    events[node]["recorder_matched"] = time.time()
             r.spin(3.0)
     finally:
         r.close()
@@ -334,6 +342,10 @@ def test_process_fault_recording_keeps_everything_it_received(run):
         f"{(first_src - rclpy_first_src) * 1e-9:.2f} s of commands later, taken "
         f"{first_log_after_cut * 1e-9 - fc['resumed']:.2f} s later")
     print(f"naic record's first command of the restarted friction node: {rematch} than rclpy's")
+    assert "recorder_matched" in fc, (f"naic record did not receive from the restarted friction node within 30 s of "
+                                      f"rclpy (no second 'new publisher' line for /joint_effort_cmd):\n{log[-1500:]}")
+    print(f"naic record's 'new publisher' line for the restarted friction node came "
+          f"{fc['recorder_matched'] - fc['resumed']:.2f} s after rclpy's first command of it")
     missing, judged = 0, 0
     for part in (lambda x: x < cut, lambda x: x >= cut):
         recorded = [x for x in bag_src if part(x)]

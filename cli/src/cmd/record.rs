@@ -230,7 +230,11 @@ pub fn record(a: RecordArgs) -> CliResult {
             macro_rules! drain {
                 ($sub:expr, $id:expr) => {
                     while let Ok(Some((msg, info))) = $sub.take() {
-                        gaps.see(i, info.publisher_gid(), info.sequence_number());
+                        if gaps.see(i, info.publisher_gid(), info.sequence_number()) {
+                            // As rosbag2 says what it subscribed to: a restarted node is a
+                            // new publisher, and rediscovering it can take seconds under load.
+                            eprintln!("naic record: {}: receiving from a new publisher ({:?})", wanted[i].0, info.publisher_gid());
+                        }
                         let recv = naic_ros::time::wall_ns().max(0) as u64;
                         let publ = info.source_timestamp().map(|t| t.to_nanos().max(0) as u64).unwrap_or(recv);
                         let before_stop = catch_up.saw(i, publ, recv, Instant::now());
@@ -441,11 +445,16 @@ impl<G: Hash + Eq> SeqGaps<G> {
         SeqGaps { last: HashMap::new(), lost: vec![0; topics] }
     }
 
-    fn see(&mut self, topic: usize, publisher: G, seq: i64) {
-        if let Some(prev) = self.last.insert((topic, publisher), seq) {
-            if seq > prev + 1 {
-                self.lost[topic] += (seq - prev - 1) as u64;
+    /// Returns whether this is the first message of `publisher` on `topic`.
+    fn see(&mut self, topic: usize, publisher: G, seq: i64) -> bool {
+        match self.last.insert((topic, publisher), seq) {
+            Some(prev) => {
+                if seq > prev + 1 {
+                    self.lost[topic] += (seq - prev - 1) as u64;
+                }
+                false
             }
+            None => true,
         }
     }
 }
@@ -458,17 +467,17 @@ mod tests {
     #[test]
     fn gaps_are_counted_per_topic_and_publisher() {
         let mut g = SeqGaps::new(2);
-        for seq in [1, 2, 3, 7, 8] {
-            g.see(0, 'a', seq); // 4, 5, 6 lost
-        }
-        for seq in [10, 11, 12] {
-            g.see(0, 'b', seq); // a second publisher starts at its own number: nothing lost
-        }
-        for seq in [1, 3] {
-            g.see(1, 'a', seq); // same publisher id on another topic: its own sequence
-        }
+        let firsts = |g: &mut SeqGaps<char>, topic, p, seqs: &[i64]| -> Vec<bool> {
+            seqs.iter().map(|&s| g.see(topic, p, s)).collect()
+        };
+        // 4, 5, 6 lost; only the first message is a new publisher's
+        assert_eq!(firsts(&mut g, 0, 'a', &[1, 2, 3, 7, 8]), [true, false, false, false, false]);
+        // a second publisher starts at its own number: nothing lost
+        assert_eq!(firsts(&mut g, 0, 'b', &[10, 11, 12]), [true, false, false]);
+        // same publisher id on another topic: its own sequence
+        assert_eq!(firsts(&mut g, 1, 'a', &[1, 3]), [true, false]);
         assert_eq!(g.lost, vec![3, 1]);
-        g.see(0, 'a', 8); // a repeat is not a loss
+        assert!(!g.see(0, 'a', 8)); // a repeat is not a loss
         assert_eq!(g.lost, vec![3, 1]);
     }
 
