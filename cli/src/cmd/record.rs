@@ -259,8 +259,9 @@ pub fn record(a: RecordArgs) -> CliResult {
                 Sub::Ps(s, id) => drain!(s, *id),
             }
         }
-        if let Some(waited) = catch_up.since_stop(Instant::now()) {
-            if catch_up.finished(Instant::now()) {
+        let now = Instant::now();
+        if let Some(waited) = catch_up.since_stop(now) {
+            if catch_up.finished(now) {
                 break;
             }
             if !counting_only && waited >= CATCH_UP_MAX {
