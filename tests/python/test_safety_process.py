@@ -309,7 +309,6 @@ def test_process_fault_recording_keeps_everything_it_received(run):
     decode, bag_src = DecoderFactory().decoder_for, set()
     fc = run["events"]["friction_compensation"]
     cut = (fc["kill"] + fc["restart"]) / 2 * 1e9  # between the two friction processes
-    first_log_after_cut = None  # when the recorder took the restarted process's first command
     with open(run["bag"], "rb") as f:
         counts, last_t, gaps = {}, {}, {}
         for schema, ch, msg in make_reader(f).iter_messages():
@@ -320,10 +319,7 @@ def test_process_fault_recording_keeps_everything_it_received(run):
                 gaps[ch.topic] = max(gaps.get(ch.topic, 0.0), (msg.publish_time - last_t[ch.topic]) * 1e-9)
             last_t[ch.topic] = msg.publish_time
             if ch.topic == "/joint_effort_cmd":
-                src = _src_ns(decode(ch.message_encoding, schema)(msg.data))
-                bag_src.add(src)
-                if src >= cut and (first_log_after_cut is None or msg.log_time < first_log_after_cut):
-                    first_log_after_cut = msg.log_time
+                bag_src.add(_src_ns(decode(ch.message_encoding, schema)(msg.data)))
     n = sum(counts.values())
     assert f"wrote {n} messages" in log, log[-2000:]
     # Every command rclpy saw from a friction node the recorder had matched (between the
@@ -335,12 +331,10 @@ def test_process_fault_recording_keeps_everything_it_received(run):
     lost = int(m.group(1)) if m else 0
     # How long after rclpy the recorder had the restarted friction node: the first of its
     # commands in the bag against rclpy's first, by source stamp (what the recorder missed
-    # while it had not matched it), and by when each took it (that adds the recorder's lag).
+    # while it had not matched it).
     first_src = min((x for x in bag_src if x >= cut), default=None)
     rclpy_first_src = min((_src_ns(m) for _, m in run["cmds"] if _src_ns(m) >= cut), default=None)
-    rematch = "never" if first_src is None else (
-        f"{(first_src - rclpy_first_src) * 1e-9:.2f} s of commands later, taken "
-        f"{first_log_after_cut * 1e-9 - fc['resumed']:.2f} s later")
+    rematch = "never" if first_src is None else f"{(first_src - rclpy_first_src) * 1e-9:.2f} s of commands later"
     print(f"naic record's first command of the restarted friction node: {rematch} than rclpy's")
     assert "recorder_matched" in fc, (f"naic record did not receive from the restarted friction node within 30 s of "
                                       f"rclpy (no second 'new publisher' line for /joint_effort_cmd):\n{log[-1500:]}")
@@ -349,9 +343,8 @@ def test_process_fault_recording_keeps_everything_it_received(run):
     missing, judged = 0, 0
     for part in (lambda x: x < cut, lambda x: x >= cut):
         recorded = [x for x in bag_src if part(x)]
-        assert recorded, (f"the bag has no command from one of the friction node's processes (recorder's "
-                          f"rematch: {rematch}, rclpy's restart-to-stop time {fc['resumed'] - fc['restart']:.2f} s "
-                          f"+ 3 s):\n{log[-1500:]}")
+        assert recorded, (f"the bag has no command from one of the friction node's processes (the restarted "
+                          f"one's first: {rematch} than rclpy's):\n{log[-1500:]}")
         lo, hi = min(recorded), max(recorded)
         mine = [_src_ns(c) for _, c in run["cmds"] if lo <= _src_ns(c) <= hi]
         judged += len(mine)
