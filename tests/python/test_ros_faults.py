@@ -4,6 +4,7 @@ naic_controller and sends NaN, absurd and missing sensor data. The controller mu
 when the data is valid again. Loopback only, private domain.
 """
 import os
+import re
 import sys
 import time
 
@@ -145,7 +146,28 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
                  for (_, c0, s0), (_, c1, s1) in zip(new, new[1:])]
         assert sum(1 for _, n, _, _ in steps if n == 1) > 200, f"{len(steps)} steps, too few between consecutive states"
         bad = [(round(d, 3), n, s0, s1) for d, n, s0, s1 in steps if d > n * 1.0 + 1e-9]
-        assert not bad, f"command steps above 1 N m per cycle at take-over (step, cycles, stamps): {bad[:5]}"
+        if bad:
+            # A stall of the node longer than takeover_gap (20 ms; a loaded machine makes them)
+            # is a new take-over: the rate limit restarts from the arm's torque (the driver held
+            # it meanwhile), so that step may exceed the limit. The node counts its take-overs
+            # (its stop line; the first is the restart's): every step beyond the limit must be
+            # one of the others, and land within a step (+ 0.5 N m, as below) of a torque the
+            # arm had between the state before it and 0.1 s after the state it answers (the node
+            # restarts from the newest state it has). SIGSTOPs of 25 ms made such steps of
+            # 1.6-62 N m over 1-27 cycles; a loaded run one of 33 N m over 27 cycles.
+            def near_held(c, s0, s1):
+                held = [e for _, e, st in js if s0 * 1e-9 <= st <= s1 * 1e-9 + 0.1]
+                return bool(held) and min(max(abs(a - b) for a, b in zip(c, e)) for e in held) <= 1.5
+            cmd_of = {st: c for _, c, st in new}
+            fc = procs["friction_compensation"]
+            assert fc.stop() == 0, fc.output()[-2000:]
+            m = re.search(r"stopped after \d+ commands and (\d+) take-overs", fc.output())
+            assert m, f"friction_compensation's stop line is missing:\n{fc.output()[-2000:]}"
+            retakes = int(m.group(1)) - 1
+            far = [b for b in bad if b[2] is None or b[3] is None or not near_held(cmd_of[b[3]], b[2], b[3])]
+            assert len(bad) <= retakes and not far, \
+                (f"command steps above 1 N m per cycle at take-over (step, cycles, stamps): {bad[:5]}; the node made "
+                 f"{retakes} take-overs after its restart; not near a held torque: {far[:5]}")
         # The arm's torque, cycle by cycle (stamp order): the first cycle that applies one
         # of the new node's commands (command j: under load the driver may take a later
         # one of several that arrived in one cycle), and the hold torque of the cycle
@@ -159,7 +181,7 @@ def test_ros_fault_friction_node_killed_and_restarted_takes_over_smoothly():
         # + 0.5: the hold torque moves a little between the state the node started from
         # and the cycle before its command landed.
         assert first <= (j + 1) * 1.0 + 0.5, f"command {j} lands {first:.3f} N m away from the held torque"
-        assert all(p.alive() for p in procs.values())
+        assert all(p.alive() for n, p in procs.items() if not (bad and n == "friction_compensation"))
     finally:
         r.close()
         for n, p in procs.items():
