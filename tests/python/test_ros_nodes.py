@@ -369,11 +369,12 @@ def test_ros_new_desired_force_is_followed(bins):
     assert abs(mean - 15.0) < 0.5 and stats["median_err"] < 1.0 and stats["p95_err"] < 3.0, stats
 
 
-def _lockstep_trace(bins, domain, until_s, extra=()):
+def _lockstep_trace(bins, domain, until_s, extra=(), stall_controller=False):
     """`naic launch --lockstep` with the driver paused; an rclpy probe subscribes
     /naic/params, waits until it is matched, resumes the driver (parameter `paused`) and
     returns {stamp_ns: (phase, measured_force, m_d, b_d, sigma, e_f, fault)} for stamps
-    <= until_s."""
+    <= until_s. With `stall_controller` the controller is stopped for 5 ms every 30 ms
+    (SIGSTOP) for the whole run."""
     overlay = ru.naic_msgs_env()
     script = textwrap.dedent(f"""
         import json, time, rclpy
@@ -410,7 +411,13 @@ def _lockstep_trace(bins, domain, until_s, extra=()):
     """)
     launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true", *extra],
                      ru.ros_env(domain))
-    got = ru.run_in_overlay(["-c", script], domain, overlay, 120, stop=launch, pythonpath=[ru.ROOT / "tests/ros"])
+    stalls = ru.NodeStalls(launch, "naic_controller") if stall_controller else None
+    try:
+        got = ru.run_in_overlay(["-c", script], domain, overlay, 120, stop=launch, pythonpath=[ru.ROOT / "tests/ros"])
+    finally:
+        if stalls is not None:
+            stalls.close()
+    assert stalls is None or stalls.error is None, stalls.error
     return {int(k): v for k, v in got.items()}, launch.output()
 
 
@@ -421,9 +428,12 @@ def test_ros_lockstep_closed_loop_is_deterministic(bins):
     controller pairs each joint state with the wrench of the same stamp. Machine load only
     changes how fast simulated time runs, not the result. 3 simulated seconds cover the
     approach, first contact (≈ 1.5 s) and NAIC adapting."""
-    # Run a: the driver gives up waiting after 1 ms, so states are published again and
-    # answered twice many times; run b: the default 20 ms.
-    a, log_a = _lockstep_trace(bins, ru.fresh_domain(140), 3.0, ["-p", "jk5_sim_driver:command_timeout:=0.001"])
+    # Run a: the driver gives up waiting after 1 ms and the controller is stopped for 5 ms
+    # every 30 ms, so states are published again and answered twice many times (on a quiet
+    # machine with the nodes at SCHED_FIFO the chain alone never took 1 ms: CI of 912c3f3);
+    # run b: the default 20 ms, no stalls.
+    a, log_a = _lockstep_trace(bins, ru.fresh_domain(140), 3.0, ["-p", "jk5_sim_driver:command_timeout:=0.001"],
+                               stall_controller=True)
     b, log_b = _lockstep_trace(bins, ru.fresh_domain(150), 3.0)
     m = re.search(r"lockstep: (\d+) commands computed from an earlier state were dropped", log_a)
     assert m and int(m.group(1)) > 0, "run a never published a state twice: " + log_a[-1500:]

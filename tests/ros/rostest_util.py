@@ -155,6 +155,52 @@ class Proc:
         return self.p.returncode
 
 
+class NodeStalls:
+    """Stops a node of a `naic launch` (found by its "started NODE (pid N)" line) for
+    `stop_s` every `period_s` (SIGSTOP, SIGCONT) from a thread until `close()`: a stall the
+    test makes itself, so a precondition that needs one does not depend on the machine's
+    load. `count` is the number of stops made."""
+
+    def __init__(self, launch, node, stop_s=0.005, period_s=0.03, find_timeout=20.0):
+        self.launch, self.node, self.stop_s, self.period_s = launch, node, stop_s, period_s
+        self.find_timeout = find_timeout
+        self.count, self.error = 0, None
+        self.done = threading.Event()
+        self.t = threading.Thread(target=self._run, daemon=True)
+        self.t.start()
+
+    def _run(self):
+        import re
+        pat = re.compile(rf"started {re.escape(self.node)} \(pid (\d+)\)")
+        t0 = time.monotonic()
+        m = None
+        while m is None and not self.done.is_set() and time.monotonic() - t0 < self.find_timeout:
+            m = pat.search(self.launch.output())
+            time.sleep(0.01)
+        if m is None:
+            self.error = f"no 'started {self.node} (pid N)' line from naic launch within {self.find_timeout} s"
+            return
+        pid = int(m.group(1))
+        while not self.done.wait(self.period_s - self.stop_s):
+            try:
+                os.kill(pid, signal.SIGSTOP)
+                time.sleep(self.stop_s)
+            except ProcessLookupError:
+                return
+            finally:
+                try:
+                    os.kill(pid, signal.SIGCONT)
+                except ProcessLookupError:
+                    pass
+            self.count += 1
+
+    def close(self):
+        """Stop stalling (the node is left running) and return the number of stops."""
+        self.done.set()
+        self.t.join(5.0)
+        return self.count
+
+
 def naic_msgs_env():
     """Build msgs/naic_msgs with colcon (cached) and return the env overlay for rclpy."""
     venv = os.environ.get("NAIC_VENV") or str(pathlib.Path(sys.executable).parents[1])
