@@ -44,7 +44,7 @@ use crate::{
     cache_change::CacheChange,
     duration::Duration,
     entity::RTPSEntity,
-    guid::{EntityId, GuidPrefix, GUID},
+    guid::{EntityId, EntityKind, GuidPrefix, GUID},
     locator::Locator,
     sequence_number::{FragmentNumber, SequenceNumber},
     time::Timestamp,
@@ -2075,6 +2075,26 @@ impl Writer {
     let mut is_new = false;
     let is_volatile = self.qos().is_volatile(); // Get this in advance to work with the borrow checker
                                                 // Capture the interface set once; resolution consults current observations.
+    // naic patch (PATCHED.md, "Late joiners of a KeepLast writer"): the samples a
+    // late-joining reader of a non-volatile KeepLast(depth) writer without key must
+    // not get, i.e. all but the newest `depth`. The history keeps older samples
+    // until every matched reader acknowledged them, and without this a new reader
+    // got all of them, oldest first, after newer information it may have had from
+    // elsewhere (ros_discovery_info: rclpy's graph went back to a participant's
+    // start-up node lists for tens of ms).
+    let superseded_up_to = match self.qos().history {
+      Some(History::KeepLast { depth })
+        if !is_volatile
+          && depth > 0
+          && self.my_guid.entity_id.entity_kind == EntityKind::WRITER_NO_KEY_USER_DEFINED =>
+      {
+        let last = self.send_buffer.last_change_sequence_number();
+        let first = self.send_buffer.first_change_sequence_number();
+        let up_to = last - SequenceNumber::from(i64::from(depth));
+        (up_to >= first && up_to >= SequenceNumber::new(1)).then_some(up_to)
+      }
+      _ => None,
+    };
     let multicast_ifaces = self.udp_sender.multicast_interfaces();
     let selector = DefaultRouteSelector::new(self.prefer_loopback_same_host);
     self
@@ -2102,6 +2122,9 @@ impl Writer {
           // before matching with this reader. Therefore we set the reader as pending GAP
           // for all existing sequence numbers
           new_proxy.set_pending_gap_up_to(self.send_buffer.last_change_sequence_number());
+        } else if let Some(up_to) = superseded_up_to {
+          // naic patch: see `superseded_up_to` above.
+          new_proxy.set_pending_gap_up_to(up_to);
         }
         new_proxy.resolve_send_route(
           &self.interface_observations.borrow(),
