@@ -145,6 +145,12 @@ fn two_material_switch() {
         let bound = if d == 1 { 0.3 } else { 0.85 };
         assert!(!n.later_settle_s.is_empty() && later_settle(&n, 0) <= bound, "d = {d}: {n:?}");
         assert!(n.later_recovery_overshoot_pct[0] <= 10.0, "d = {d}: {n:?}");
+        // The goal itself is on the median of the table's seeds 1–5 (single samples of F/T
+        // noise decide single seeds, above): asserted as the goal.
+        let mut recovery: Vec<f64> =
+            (1..=5).map(|seed| later_settle(&run_seed("two-material", None, "scheduled", d, 1.0, seed), 0)).collect();
+        recovery.sort_by(f64::total_cmp);
+        assert!(recovery[2] <= 0.3, "d = {d}: recovery after the switch to foam, seeds 1-5 sorted: {recovery:?}");
     }
 }
 
