@@ -66,6 +66,10 @@ pub struct SimArgs {
     /// Scale the controller's dynamic model (every mass and inertia) by F, e.g. 0.8 or 1.25 [default: 1].
     #[arg(long, value_name = "F", allow_hyphen_values = true)]
     pub model_mass_error: Option<f64>,
+    /// The scheduled law's (and oracle's) contact threshold [N]: it enters contact when the
+    /// measured force exceeds this; the paper's laws keep 1 N [default: 0.5].
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub scheduled_contact_threshold: Option<f64>,
     /// Seed of the simulated noise and sensor bias [default: 1].
     #[arg(long)]
     pub seed: Option<u64>,
@@ -328,6 +332,7 @@ pub fn run(a: SimArgs) -> CliResult {
             ("--gamma", a.gamma.is_some()),
             ("--sigma-margin", a.sigma_margin.is_some()),
             ("--median-window", a.median_window.is_some()),
+            ("--scheduled-contact-threshold", a.scheduled_contact_threshold.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
             return Err(CliError::usage(format!("--table runs every scenario, controller and delay with the default settings: drop {flag}")));
@@ -396,6 +401,15 @@ pub fn run(a: SimArgs) -> CliResult {
             return Err(CliError::usage(format!("--model-mass-error {f}: must be a positive factor (1 = exact model)")));
         }
         settings.model_mass_error = f;
+    }
+    if let Some(t) = a.scheduled_contact_threshold {
+        if !(t >= settings.contact_exit_n && t < settings.force_limit_n && t.is_finite()) {
+            return Err(CliError::usage(format!(
+                "--scheduled-contact-threshold {t}: must be in [{}, {}) N (the exit force to the force limit)",
+                settings.contact_exit_n, settings.force_limit_n
+            )));
+        }
+        settings.scheduled_contact_enter_n = t;
     }
     let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;

@@ -28,8 +28,10 @@ pub struct LoopSettings {
     pub median_window: usize,
     /// Free-space samples for the F/T tare at start.
     pub tare_samples: u32,
-    /// Contact detection thresholds [N].
+    /// Contact detection thresholds [N]: enter (the paper's laws), enter (the scheduled law
+    /// and `oracle`, `ContactDetect::scheduled_enter_n`), exit.
     pub contact_enter_n: f64,
+    pub scheduled_contact_enter_n: f64,
     pub contact_exit_n: f64,
     /// Safety force limit [N]: above it the controller retracts (`inf` disables).
     pub force_limit_n: f64,
@@ -55,6 +57,7 @@ impl Default for LoopSettings {
             median_window: 5,
             tare_samples: 100,
             contact_enter_n: 1.0,
+            scheduled_contact_enter_n: naic_core::pipeline::control::SCHEDULED_CONTACT_ENTER_N,
             contact_exit_n: 0.2,
             force_limit_n: 50.0,
             delay_cycles: 0,
@@ -116,6 +119,7 @@ impl PipelineController {
         c.force_law.lambda = scenario.task.dt;
         c.force_law.sigma_margin = settings.sigma_margin;
         c.contact.enter_n = settings.contact_enter_n;
+        c.contact.scheduled_enter_n = settings.scheduled_contact_enter_n;
         c.contact.exit_n = settings.contact_exit_n;
         c.force_limit.limit_n = settings.force_limit_n;
         c.force_law.integral_limit_n = settings.force_limit_n;

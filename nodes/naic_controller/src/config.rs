@@ -43,6 +43,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::double("sigma_margin", fl.sigma_margin, 0.01, 1.0e9, "NAIC keeps sigma <= sigma_margin * lambda * b_d / m_d (fraction of the force-loop stability limit)"),
         ParamSpec::choice("force_axis", axis, &FORCE_AXES, "Direction n in the base frame along which the tool pushes ('-z': down onto a table)"),
         ParamSpec::double("contact_threshold", c.contact.enter_n, 0.01, 100.0, "Enter contact when the measured force along n exceeds this [N]"),
+        ParamSpec::double("scheduled_contact_threshold", c.contact.scheduled_enter_n, 0.01, 100.0, "Mode 'scheduled': enter contact when the measured force along n exceeds this [N] (8 sigma of the F/T noise, where its stiffness estimator starts; contact_threshold is for the paper's laws)"),
         ParamSpec::double("contact_exit_force", c.contact.exit_n, 0.0, 100.0, "Leave contact below this force [N] (after contact_exit_cycles)"),
         ParamSpec::int("contact_exit_cycles", c.contact.exit_cycles as i64, 0, 100_000, "Leave contact after this many cycles below contact_exit_force (0: contact latches, as in the paper)"),
         ParamSpec::double("force_limit", 50.0, 0.1, 500.0, "Above this measured force [N] the controller stops pushing, backs off along -n and stays off the surface until any parameter is set"),
@@ -126,6 +127,7 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
     sch.force_observer = p.f64("force_observer");
     c.control.contact = ContactDetect {
         enter_n: p.f64("contact_threshold"),
+        scheduled_enter_n: p.f64("scheduled_contact_threshold"),
         exit_n: p.f64("contact_exit_force"),
         exit_cycles: p.i64("contact_exit_cycles") as u32,
     };
@@ -181,6 +183,10 @@ pub fn check(base: ControllerParams) -> SetCheck {
         let (ct, fl, fd) = (p.f64("contact_threshold"), p.f64("force_limit"), p.f64("desired_force"));
         if ct >= fl {
             return Err(format!("contact_threshold ({ct} N) must be below force_limit ({fl} N)").into());
+        }
+        let sct = p.f64("scheduled_contact_threshold");
+        if sct >= fl {
+            return Err(format!("scheduled_contact_threshold ({sct} N) must be below force_limit ({fl} N)").into());
         }
         if fd >= fl {
             return Err(format!("desired_force ({fd} N) must be below force_limit ({fl} N)").into());
@@ -245,6 +251,28 @@ mod tests {
         assert_eq!(cp.control.force_law.mode, Mode::Scheduled);
         // Its own settings are the core's defaults (one place).
         assert_eq!(cp.control.force_law.scheduled, b.control.force_law.scheduled);
+    }
+
+    /// The scheduled law's contact threshold is its own parameter (the paper's laws keep
+    /// `contact_threshold`), with the core's default, and bad values are refused.
+    #[test]
+    fn the_scheduled_contact_threshold_is_a_parameter_of_its_own() {
+        let (t, b) = table();
+        let set = |n: &str, v: V| t.set_atomically(&[(n.to_string(), v)]);
+        let contact = |t: &ParamTable| t.with(|p| controller_params(p, &b)).unwrap().control.contact;
+        assert_eq!(contact(&t).scheduled_enter_n, naic_core::pipeline::control::SCHEDULED_CONTACT_ENTER_N);
+        assert_eq!(contact(&t).enter_n, 1.0);
+        set("scheduled_contact_threshold", V::Double(0.8)).unwrap();
+        assert_eq!((contact(&t).scheduled_enter_n, contact(&t).enter_n), (0.8, 1.0));
+        // Below the exit force, at or above the force limit, out of range, NaN: refused.
+        let e = set("scheduled_contact_threshold", V::Double(0.1)).unwrap_err().to_string();
+        assert!(e.contains("scheduled_contact_threshold"), "{e}");
+        let e = set("scheduled_contact_threshold", V::Double(60.0)).unwrap_err().to_string();
+        assert!(e.contains("force_limit") && e.contains("60"), "{e}");
+        for bad in [0.0, -1.0, 200.0, f64::NAN] {
+            assert!(set("scheduled_contact_threshold", V::Double(bad)).is_err(), "{bad} accepted");
+        }
+        assert_eq!(contact(&t).scheduled_enter_n, 0.8, "a rejected set changed it");
     }
 
     #[test]

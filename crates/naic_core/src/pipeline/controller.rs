@@ -408,7 +408,7 @@ impl ControllerParams {
                     integral_limit_n: 50.0,
                     scheduled: Default::default(),
                 },
-                contact: ContactDetect { enter_n: 1.0, exit_n: 0.2, exit_cycles: 0 },
+                contact: ContactDetect { enter_n: 1.0, scheduled_enter_n: control::SCHEDULED_CONTACT_ENTER_N, exit_n: 0.2, exit_cycles: 0 },
                 force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
             },
             hold_damping: [5.0; N_JOINTS],

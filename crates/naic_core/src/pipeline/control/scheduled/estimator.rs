@@ -31,7 +31,21 @@
 //!   does), which the following cycles refine.
 //!
 //! The schedule uses the upper confidence value `k̂_e + 2σ_k`, so an
-//! unconverged estimate errs on the stiff, over-damped side.
+//! unconverged estimate errs on the stiff, over-damped side
+//! ([`EstimatorState::stiff_side`]).
+//!
+//! # After a jump to a softer surface
+//!
+//! A jump detected with a *negative* innovation (the force fell at the same depth) says
+//! the new surface is softer than the one the estimate had, so the re-opened estimator's
+//! stiff side is capped at the stiff side before the jump (`k_cap`), not at the prior's
+//! `k̂ + 2σ_k` (5000 + 2 × 50 000 N/m, the schedule's `k_max`). Why: on `two-material`
+//! (acrylic → foam, 50 000 → 1000 N/m) the force falls to ≈ 0.1 N at the switch, below
+//! `f_min_n`, so the estimator gets no data until the tool has sunk 0.5 mm into the foam;
+//! scheduled for `k_max` (b_d = 857 N·s/m) the tool sank at `e_f / b_d` ≈ 3.4 mm/s and the
+//! force stayed below 0.5 N for 110 ms (seed 1, d = 1); capped at the acrylic's upper value
+//! (≈ 34 000 N/m, b_d ≈ 290 N·s/m) for 30 ms. A jump with a positive innovation (stiffer),
+//! an estimate `k̂` above the cap, or a new contact removes the cap.
 
 /// Estimator settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,6 +130,18 @@ pub struct EstimatorState {
     pub surprise: u32,
     /// Jumps detected since start.
     pub jumps: u32,
+    /// Upper bound on the stiff side after a jump to a softer surface (module docs): the
+    /// stiff side before that jump. `None`: no bound (first contact, or a stiffer surface).
+    pub k_cap: Option<f64>,
+}
+
+impl EstimatorState {
+    /// The stiffness the schedule uses: the upper confidence value `k̂ + 2σ_k` of `e` (this
+    /// state's estimate), at most [`Self::k_cap`].
+    pub fn stiff_side(&self, e: &Estimate) -> f64 {
+        let up = e.k_e + 2.0 * e.k_std;
+        self.k_cap.map_or(up, |c| up.min(c))
+    }
 }
 
 /// What the estimator reports for one cycle.
@@ -137,9 +163,9 @@ pub struct Estimate {
     pub excited: bool,
 }
 
-/// Start of a contact at position `x` with measured force `f`: θ = (k_prior, f), P = P₀.
+/// Start of a contact at position `x` with measured force `f`: θ = (k_prior, f), P = P₀, no cap.
 pub fn start(p: &EstimatorParams, jumps: u32, x: f64, f: f64) -> EstimatorState {
-    EstimatorState { theta: [p.k_prior, f], p: p.p0(), x0: x, surprise: 0, jumps }
+    EstimatorState { theta: [p.k_prior, f], p: p.p0(), x0: x, surprise: 0, jumps, k_cap: None }
 }
 
 /// The estimate read from a state.
@@ -163,11 +189,15 @@ pub fn step(p: &EstimatorParams, s: &EstimatorState, x: f64, x_dot: f64, f: f64)
     let threshold = p.jump_min_n.max(p.jump_fraction * f.abs());
     n.surprise = if eps.abs() > threshold { s.surprise + 1 } else { 0 };
     if n.surprise >= p.jump_cycles {
-        // Re-open: the surface stays where it was, the stiffness changed.
+        // Re-open: the surface stays where it was, the stiffness changed. Softer (the force
+        // fell at this depth): the stiff side stays below the one before (module docs).
         let before = estimate(p, s);
         let depth = x - before.x_e;
         let mut fresh = start(p, s.jumps + 1, s.x0, f);
         fresh.x0 = s.x0;
+        if eps < 0.0 {
+            fresh.k_cap = Some(s.stiff_side(&before));
+        }
         if depth > 1e-5 && f > 0.0 {
             let k = f / depth;
             fresh.theta = [k, k * (s.x0 - before.x_e)];
@@ -209,7 +239,11 @@ pub fn step(p: &EstimatorParams, s: &EstimatorState, x: f64, x_dot: f64, f: f64)
     np[1] = np[1].clamp(-lim, lim);
     n.p = np;
     if !(n.theta[0].is_finite() && n.theta[1].is_finite()) {
-        n = start(p, s.jumps, s.x0, f);
+        n = EstimatorState { k_cap: s.k_cap, ..start(p, s.jumps, s.x0, f) };
+    }
+    if n.k_cap.is_some_and(|c| n.theta[0] > c) {
+        // The estimate itself says stiffer than before the jump: the cap's premise is gone.
+        n.k_cap = None;
     }
     let mut e = estimate(p, &n);
     e.innovation = eps;
@@ -319,6 +353,55 @@ mod tests {
             assert!(detected.is_some_and(|i| i < p.jump_cycles as usize), "{k1}→{k2}: not detected in 5 cycles");
             assert!(s.jumps >= 1);
         }
+    }
+
+    /// After a jump to a softer surface the stiff side stays below the one before the jump
+    /// (not the prior's k̂ + 2σ_k) while the estimate converges on the new surface; a jump
+    /// to a stiffer one, or a new contact, removes the cap.
+    #[test]
+    fn a_softening_jump_caps_the_stiff_side_at_the_one_before() {
+        let p = EstimatorParams::default();
+        let (e, mut s) = contact_run_state(50_000.0, 0.0, 300, &p);
+        let before = s.stiff_side(e.last().unwrap());
+        assert!(s.k_cap.is_none() && before < 60_000.0, "{before}");
+        // Acrylic → foam (1000 N/m, the same surface position x_e = 0): at the depth of the
+        // acrylic the force falls to 0.2 N, then the tool sinks 3 mm in 0.1 s.
+        let x_at = |i: usize| 10.0 / 50_000.0 + 3e-3 * (i as f64 / 100.0).min(1.0);
+        let mut jumped = false;
+        for i in 0..300 {
+            let x = x_at(i);
+            let v = (x_at(i + 1) - x) / 1e-3;
+            let (n, e) = step(&p, &s, x, v, 1000.0 * x + noise(500 + i, p.noise_n));
+            s = n;
+            jumped |= e.jump;
+            if jumped {
+                assert!(s.stiff_side(&e) <= before, "cycle {i}: {e:?}");
+                if i < 5 {
+                    // The re-opened estimate alone would schedule the prior's uncertainty.
+                    assert!(e.k_e + 2.0 * e.k_std > 90_000.0, "{e:?}");
+                    assert_eq!(s.stiff_side(&e), before);
+                }
+            }
+            assert!(jumped || i < 3, "no jump in 3 cycles");
+        }
+        let e = estimate(&p, &s);
+        assert!(s.stiff_side(&e) < 1500.0 && (e.k_e - 1000.0).abs() < 100.0, "{e:?}");
+        assert_eq!(s.k_cap, Some(before));
+        // Stiffer again (50 000 N/m at the same depth): a jump the other way, no cap.
+        let x = x_at(300);
+        for i in 0..5 {
+            s = step(&p, &s, x, 0.0, 50_000.0 * x + noise(900 + i, p.noise_n)).0;
+        }
+        assert!(s.jumps >= 2 && s.k_cap.is_none(), "{s:?}");
+        assert!(start(&p, 3, 0.0, 1.0).k_cap.is_none());
+        // An estimate above the cap (the data say stiffer, no jump detected) drops it too.
+        let mut t = start(&p, 1, 0.0, 1.0);
+        t.k_cap = Some(1000.0);
+        for i in 0..50 {
+            let x = 1e-4 * i as f64;
+            t = step(&p, &t, x, 0.1, 1.0 + 5000.0 * x + noise(950 + i, p.noise_n)).0;
+        }
+        assert!(t.k_cap.is_none() && t.theta[0] > 1000.0, "{t:?}");
     }
 
     #[test]

@@ -141,10 +141,15 @@ pub struct ScheduledParams {
     /// ([`crate::pipeline::feedforward::blend`]): the controller reports
     /// `J⁻¹ Ẋ_ref` blended with the measured joint velocity as the velocity the friction
     /// law is evaluated at; `Ẋ_ref` is the reference's twist with, along n, the approach
-    /// servo's target speed out of contact and the law's velocity observer `v̄` in contact. Why: at the measured velocity the feedforward turns the encoders' noise at
+    /// servo's target speed out of contact and the law's velocity observer `v̄` in contact
+    /// where the observer runs (the reference's velocity where it is off and `v̄` would be the
+    /// raw encoder velocity: [`ScheduledOutputs::v_bar`]). Why: at the measured velocity the feedforward turns the encoders' noise at
     /// rest into ±f_b of torque chatter (joint 1: ±12 N·m), which moved the tool by tens of
-    /// µm on acrylic (two-material's wander at rest, 1.5–3.7 N against f_d = 3 N). `None`:
-    /// the measured velocity, as for the paper's laws.
+    /// µm on acrylic (two-material's wander at rest, 1.5–3.7 N against f_d = 3 N); through the
+    /// raw velocity along n the same noise flipped the feedforward of joint 4, which creeps
+    /// at ≈ 2 mrad/s while the tool slides on the foam (±3.3 N·m, force dips of up to
+    /// 0.09 N against f_d = 3 N; docs/controller.md, round 6). `None`: the measured velocity,
+    /// as for the paper's laws.
     pub friction_reference: Option<ReferenceBlend>,
 }
 
@@ -341,6 +346,13 @@ pub struct ScheduledOutputs {
     pub gamma_bound: f64,
     pub gamma_clipped: bool,
     pub weights_projected: bool,
+    /// The velocity observer's `v̄` along n [m/s] where the observer runs; `None` where it is
+    /// off (soft surfaces: [`ScheduledParams::observer_bandwidth`] is 0) and `v̄` is the
+    /// measured velocity itself. The friction feedforward's reference along n
+    /// (`TaskOutputs::v_ref` in the control stage) is `v̄` where it is observed, the
+    /// reference's velocity where it is not: the encoders' noise, mapped through `J⁻¹`, must
+    /// not choose the direction of a joint's friction compensation near rest.
+    pub v_bar: Option<f64>,
 }
 
 /// One contact cycle. Pure: `(params, state, inputs) -> (state, outputs)`;
@@ -357,7 +369,7 @@ pub fn step(
     let (est, e) = estimator::step(&p.estimator, &s.est, u.x, u.x_dot, u.f_ext);
     next.est = est;
     let sp = &p.schedule;
-    let k_sched = s.k_known.unwrap_or(e.k_e + 2.0 * e.k_std);
+    let k_sched = s.k_known.unwrap_or(est.stiff_side(&e));
     let g = schedule::schedule(sp, k_sched, period);
     // The present state from the delayed measurements and the commands since (predictor.rs).
     let (n_x, n_v) = sp.horizons();
@@ -422,6 +434,7 @@ pub fn step(
         gamma_bound: rep.gamma_bound,
         gamma_clipped: rep.gamma_clipped,
         weights_projected: rep.projected,
+        v_bar: (w_slow > 0.0).then_some(ob.v),
     };
     (next, out)
 }
