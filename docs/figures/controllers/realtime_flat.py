@@ -16,7 +16,10 @@ def metrics(path):
     f = [float(r["measured_force"]) for r in rows]
     fd = [float(r["desired_force"]) for r in rows]
     ph = [int(r["phase"]) for r in rows]
-    ic = next((i for i, p in enumerate(ph) if p == 1), None)
+    # Contact: the first sample in the controller's contact phase at or above 1 N (the
+    # paper's threshold), so that laws entering contact at another force (the scheduled
+    # law's 0.5 N) are measured from the same point of the rise.
+    ic = next((i for i, p in enumerate(ph) if p == 1 and f[i] >= 1.0), None)
     if ic is None:
         return dict(file=path, contact=None)
     f_d = fd[ic]
