@@ -97,7 +97,16 @@ def test_ros_sensor_faults_hold_and_resume_in_either_mode(bins, composed):
     /joint_effort_cmd, and force control resumes when the sensor is healthy again. In one
     process the fault goes through the in-process path; in three, through DDS."""
     domain = ru.fresh_domain(220 if composed else 225)
-    launch = ru.Proc([str(bins / "naic"), "launch", *(["--composed"] if composed else [])], ru.ros_env(domain))
+    # The velocity median off (window 1) in both nodes: this test is about the fault
+    # handling, and the real-time chain is now and then two cycles late, where the paper's
+    # 5-sample median (two more cycles of lag on the velocity the impedance damps) leaves
+    # the paper's laws no margin: in process at `--delay-cycles 2` fixed, AIC and NAIC
+    # drive joint 2 between its +-100 N m limits from the start and NAIC spins joint 4 at
+    # 7-9 rad/s, past the 6.28 rad/s plausibility limit this test asserts against (twice in
+    # CI). Window 1: joint 4 below 0.8 rad/s in every law (docs/nodes.md, "The second
+    # cycle of delay").
+    median_off = ["-p", "naic_controller:median_window:=1", "-p", "friction_compensation:median_window:=1"]
+    launch = ru.Proc([str(bins / "naic"), "launch", *(["--composed"] if composed else []), *median_off], ru.ros_env(domain))
     res = ru.run_in_overlay([ru.ROOT / "tests/ros/sensor_fault_probe.py"], domain, ru.naic_msgs_env(), 180, stop=launch)
     assert not res["errors"], res
     assert "panicked" not in launch.output()
