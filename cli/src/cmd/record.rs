@@ -35,8 +35,8 @@ pub const NAIC_TOPICS: [(&str, &str); 8] = [
 
 #[derive(clap::Args)]
 pub struct RecordArgs {
-    /// Topics to record (default: all naic topics).
-    #[arg(long, num_args = 1..)]
+    /// Topics to record, space- or comma-separated (default: all naic topics).
+    #[arg(long, num_args = 1.., value_delimiter = ',')]
     pub topics: Vec<String>,
     /// Output file (default: runs/naic_<UTC time>.mcap).
     #[arg(long)]
@@ -58,8 +58,8 @@ pub struct ReplayArgs {
     /// Speed factor (2 = twice as fast).
     #[arg(long, default_value_t = 1.0)]
     pub rate: f64,
-    /// Only these topics (default: all topics of known types).
-    #[arg(long, num_args = 1..)]
+    /// Only these topics, space- or comma-separated (default: all topics of known types).
+    #[arg(long, num_args = 1.., value_delimiter = ',')]
     pub topics: Vec<String>,
     /// Start over when the end is reached, until Ctrl-C.
     #[arg(long = "loop")]
@@ -462,8 +462,23 @@ impl<G: Hash + Eq> SeqGaps<G> {
 
 #[cfg(test)]
 mod tests {
-    use super::{CatchUp, SeqGaps};
+    use super::{CatchUp, RecordArgs, SeqGaps};
+    use clap::Parser;
     use std::time::{Duration, Instant};
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        a: RecordArgs,
+    }
+
+    #[test]
+    fn topics_may_be_given_with_spaces_or_commas() {
+        let topics = |args: &[&str]| Cli::try_parse_from(args).map(|c| c.a.topics).map_err(|e| e.to_string());
+        let want = vec!["/naic/params".to_string(), "/joint_effort_cmd".into()];
+        assert_eq!(topics(&["naic", "--topics", "/naic/params", "/joint_effort_cmd"]), Ok(want.clone()));
+        assert_eq!(topics(&["naic", "--topics", "/naic/params,/joint_effort_cmd"]), Ok(want));
+    }
 
     #[test]
     fn gaps_are_counted_per_topic_and_publisher() {
