@@ -2,7 +2,8 @@
 //! loop delay 1 and 2 and with the controller's model mass off by 0.8 and 1.25.
 //!
 //! The issue's goals are medians of 5 seeds; these tests run seed 1 only (run time: one
-//! 5–10 s simulated run per case, a few seconds in all in release). Where a goal is met
+//! 5–10 s simulated run per case, a few seconds in all in release), except two-material's,
+//! whose goals are asserted on the median of seeds 1–5 as in the table. Where a goal is met
 //! the test asserts the goal. Where it is missed the test asserts what is achieved, with
 //! a comment giving the goal and the gap (docs/controller.md, "Which controller to use"), and
 //! `issue_12_goals` (ignored) asserts the goals themselves: it fails until they are met.
@@ -115,42 +116,47 @@ fn acrylic_hard_surface() {
     }
 }
 
+/// The median of seeds 1–5 (the table's), "never" (∞) if more than half never settle.
+fn median5(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[2]
+}
+
 #[test]
 fn two_material_switch() {
     for d in [1, 2] {
-        let n = run("two-material", "scheduled", d, 1.0);
-        // Goal ≤ 10 % at first contact (acrylic, f_d = 3 N, approach 5 mm/s). The "contact"
-        // phase lasts until the foam; its peak is at the slide start (t ≈ 5.01 s: the joints'
-        // breakaway is a step disturbance along n, observed through the force at 200 rad/s) or
-        // in the wander at rest before it. Since round 5 (the friction feedforward at the
-        // reference velocity near rest, docs/controller.md) that wander is gone: met at d = 1
-        // (median 7.8 %; seed 1 7.8 %, peak 3.24 N), missed at d = 2 (median 13.1 %; seed 1
-        // 14.9 %, 3.45 N). Before round 5 39 / 54 %, peak 4.12 / 4.19 N (seed 1).
-        if d == 1 {
-            assert!(n.contact_overshoot_pct <= 10.0, "d = {d}: {n:?}");
-        } else {
-            assert!(n.peak_n <= 3.6, "d = {d}: {n:?}");
-        }
+        let runs: Vec<RunSummary> = (1..=5).map(|seed| run_seed("two-material", None, "scheduled", d, 1.0, seed)).collect();
+        let n = &runs[0];
+        // Goal ≤ 10 % at first contact (acrylic, f_d = 3 N, approach 5 mm/s), on the median of
+        // seeds 1–5 as in the table: met at d = 1 and 2 (8.7 / 8.2 %) since the tangential
+        // reference's start is shaped in contact (`reference_shaping`, docs/controller.md).
+        // The "contact" phase lasts until the foam; its peak was at the slide start (t ≈ 5.01 s:
+        // the joints' breakaway is a step disturbance along n, faster than the force loop
+        // behind the delay): 8.5 / 13.4 % before (seed 5 at d = 2: 4.23 N at 5.114 s, 3.41 N
+        // shaped). Single seeds are not the goal: seed 1 at d = 1 peaks at 3.35 N (11.6 %) at
+        // 5.38 s, in the slide; over seeds 1–10 the median is 10.8 / 13.6 % (10.1 / 13.3 %
+        // unshaped: at d = 2 the first 0.3 s after contact alone peak at 3.14–3.74 N in seeds 1–10).
+        let overshoot = median5(runs.iter().map(|r| r.contact_overshoot_pct).collect());
+        assert!(overshoot <= 10.0, "d = {d}: first-contact overshoot, median of seeds 1-5 {overshoot} %");
         // Goal after the switch to foam ≤ 0.3 s recovery: met since round 5 (medians 0.297 /
-        // 0.264 s, since the softening-jump cap 0.197 / 0.193 s). Before round 5 3.0 / 3.5 s
-        // (seed 1): the force at rest wandered by single samples out of the ±0.06 N band (one
-        // F/T count at 3 N). Seed 1 at d = 1: 0.168 s (0.297 s before the cap). Seed 1 at
-        // d = 2 misses it: 0.819 s, because of one sample of the true force at 2.937 N
-        // (7.265 s, 3 mN outside the band, F/T noise through the force loop on the foam,
-        // SD 0.014 N; the force is back within ±2 % 0.19 s after the switch); before the
-        // 0.5 N contact entry, the cap and the feedforward fix it was 0.230 s, with the
-        // smallest sample of the same stretch at 2.940 N, on the band's edge. Achieved:
-        // ≤ 0.85 s.
-        // ≤ 10 % overshoot of the recovery: met (medians 4.7 % / 5.1 %).
-        let bound = if d == 1 { 0.3 } else { 0.85 };
-        assert!(!n.later_settle_s.is_empty() && later_settle(&n, 0) <= bound, "d = {d}: {n:?}");
+        // 0.264 s, since the softening-jump cap 0.197 / 0.193 s, with the shaping 0.191 /
+        // 0.203 s). Seed 1 meets it at d = 1 and 2 (0.189 / 0.180 s); before the shaping seed 1
+        // at d = 2 took 0.819 s: one sample of F/T noise through the force loop on the foam
+        // (SD 0.014 N) 3 mN outside the ±0.06 N band long after the force was back.
+        assert!(!n.later_settle_s.is_empty() && later_settle(n, 0) <= 0.3, "d = {d}: {n:?}");
         assert!(n.later_recovery_overshoot_pct[0] <= 10.0, "d = {d}: {n:?}");
-        // The goal itself is on the median of the table's seeds 1–5 (single samples of F/T
-        // noise decide single seeds, above): asserted as the goal.
-        let mut recovery: Vec<f64> =
-            (1..=5).map(|seed| later_settle(&run_seed("two-material", None, "scheduled", d, 1.0, seed), 0)).collect();
-        recovery.sort_by(f64::total_cmp);
-        assert!(recovery[2] <= 0.3, "d = {d}: recovery after the switch to foam, seeds 1-5 sorted: {recovery:?}");
+        // The goal itself on the median of the table's seeds 1–5 (single samples of F/T noise
+        // decide single seeds, above): asserted as the goal.
+        let recovery = median5(runs.iter().map(|r| later_settle(r, 0)).collect());
+        assert!(recovery <= 0.3, "d = {d}: recovery after the switch to foam, median of seeds 1-5 {recovery} s");
+        // Goal: settling within 1.5× of `oracle` in every phase (medians of seeds 1–5): met at
+        // d = 1 and 2 since the shaping (d = 2: never vs 3.033 s before; 3.179 vs 3.144 s and
+        // 0.203 vs 0.145 s with it).
+        let oracle: Vec<RunSummary> = (1..=5).map(|seed| run_seed("two-material", None, "oracle", d, 1.0, seed)).collect();
+        for (phase, of) in [("contact", &(|r: &RunSummary| settle(r)) as &dyn Fn(&RunSummary) -> f64), ("foam", &|r: &RunSummary| later_settle(r, 0))] {
+            let (law, best) = (median5(runs.iter().map(of).collect()), median5(oracle.iter().map(of).collect()));
+            assert!(law <= 1.5 * best, "d = {d}, {phase}: settling {law} s against oracle's {best} s");
+        }
     }
 }
 
@@ -237,7 +243,7 @@ fn stiffness_sweep() {
 }
 
 #[test]
-#[ignore = "issue 12 goals not all met (docs/controller.md 'Goals of issue 12'): two-material, acrylic settling at mass error 0.8, the stiffness sweep at 20 000 and 50 000 N/m"]
+#[ignore = "issue 12 goals not all met (docs/controller.md 'Goals of issue 12'): acrylic settling at mass error 0.8, the stiffness sweep at 20 000 and 50 000 N/m"]
 fn issue_12_goals() {
     let mut missed = Vec::new();
     for d in [1, 2] {
@@ -257,8 +263,13 @@ fn issue_12_goals() {
         if !(f.peak_n <= 12.0 && settle(&f) <= 0.05 && f.late_p2p_n <= 0.4) {
             missed.push(format!("acrylic d={d}"));
         }
-        let f = run("two-material", "scheduled", d, 1.0);
-        if !(f.contact_overshoot_pct <= 10.0 && later_settle(&f, 0) <= 0.3 && f.later_recovery_overshoot_pct[0] <= 10.0) {
+        // Two-material's goals on the median of seeds 1–5, as in the table (seed 1 alone peaks
+        // at 11.6 % at d = 1, in the slide).
+        let runs: Vec<RunSummary> = (1..=5).map(|seed| run_seed("two-material", None, "scheduled", d, 1.0, seed)).collect();
+        let ovs = median5(runs.iter().map(|r| r.contact_overshoot_pct).collect());
+        let rec = median5(runs.iter().map(|r| later_settle(r, 0)).collect());
+        let rec_ovs = median5(runs.iter().map(|r| r.later_recovery_overshoot_pct[0]).collect());
+        if !(ovs <= 10.0 && rec <= 0.3 && rec_ovs <= 10.0) {
             missed.push(format!("two-material d={d}"));
         }
         let f = run("slope", "scheduled", d, 1.0);

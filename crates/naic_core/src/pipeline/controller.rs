@@ -254,6 +254,36 @@ pub fn step(
     let j = *dynamics::frame_jacobian(&c.model, &mut ws.data, &q, c.tip);
     let jdot_qdot = dynamics::frame_jdot_qdot(&c.model, &mut ws.data, &q, &dq, c.tip);
     let x_dot = j * dq;
+    // The scheduled law shapes the tangential reference's velocity in contact
+    // (scheduled::shape_reference); out of contact it passes unchanged.
+    let mut shaped = *r;
+    let fl = &p.control.force_law;
+    if fl.mode == Mode::Scheduled && fl.scheduled.reference_shaping > 0.0 {
+        let v_d: Vector3<f64> = r.v_d.fixed_rows::<3>(0).into();
+        let on = control::scheduled::Shaper::on(&v_d);
+        let sh = match (s.control.phase, s.control.sched.shaper) {
+            (Phase::Contact, Some(sh)) => sh,
+            _ => on,
+        };
+        if s.control.phase == Phase::Contact {
+            let (pd, vd, ad, sh) = control::scheduled::shape_reference(
+                fl.scheduled.reference_shaping,
+                fl.lambda,
+                p.control.force_axis.axis,
+                &sh,
+                &r.p_d,
+                &v_d,
+                &r.a_d.fixed_rows::<3>(0).into(),
+            );
+            shaped.p_d = pd;
+            shaped.v_d.fixed_rows_mut::<3>(0).copy_from(&vd);
+            shaped.a_d.fixed_rows_mut::<3>(0).copy_from(&ad);
+            next.control.sched.shaper = Some(sh);
+        } else {
+            next.control.sched.shaper = Some(on);
+        }
+    }
+    let r = &shaped;
     let e_p = r.p_d - tip.trans;
     let e_r = orientation_error(&r.r_d, &tip.rot);
     let task = TaskInputs {
@@ -265,8 +295,10 @@ pub fn step(
         f_e,
         f_d: r.f_d,
     };
+    let shaper = next.control.sched.shaper;
     let (control_state, out) = control::step(&p.control, &s.control, &task);
     next.control = control_state;
+    next.control.sched.shaper = shaper;
 
     // Eq 6 → τ: J q̈* = V − J̇q̇, τ = RNEA(q, q̇, q̈*) + Jᵀ F_e.
     let (qdd, damped) = dynamics::solve_damped(&j, &(out.v - jdot_qdot), &p.damping);

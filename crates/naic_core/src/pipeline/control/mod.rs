@@ -251,7 +251,7 @@ impl ControlState {
     /// spins joint 4 past its 6.28 rad/s limit (`nodes/naic_controller/tests/faults_in_process.rs`).
     pub fn hold(&self, p: &ControlParams) -> Self {
         let fresh = Self::new(p);
-        let sched = ScheduledState { k_known: self.sched.k_known, ..fresh.sched };
+        let sched = ScheduledState { k_known: self.sched.k_known, shaper: self.sched.shaper, ..fresh.sched };
         Self { phase: Phase::Hold, below_exit: 0, law: fresh.law, sched, ..*self }
     }
 
