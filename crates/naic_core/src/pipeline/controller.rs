@@ -257,20 +257,17 @@ pub fn step(
     // The scheduled law shapes the tangential reference's velocity in contact
     // (scheduled::shape_reference); out of contact it passes unchanged.
     let mut shaped = *r;
+    let mut shaper = s.control.sched.shaper;
     let fl = &p.control.force_law;
     if fl.mode == Mode::Scheduled && fl.scheduled.reference_shaping > 0.0 {
         let v_d: Vector3<f64> = r.v_d.fixed_rows::<3>(0).into();
         let on = control::scheduled::Shaper::on(&v_d);
-        let sh = match (s.control.phase, s.control.sched.shaper) {
-            (Phase::Contact, Some(sh)) => sh,
-            _ => on,
-        };
-        if s.control.phase == Phase::Contact {
+        shaper = Some(if s.control.phase == Phase::Contact {
             let (pd, vd, ad, sh) = control::scheduled::shape_reference(
                 fl.scheduled.reference_shaping,
                 fl.lambda,
                 p.control.force_axis.axis,
-                &sh,
+                &s.control.sched.shaper.unwrap_or(on),
                 &r.p_d,
                 &v_d,
                 &r.a_d.fixed_rows::<3>(0).into(),
@@ -278,10 +275,10 @@ pub fn step(
             shaped.p_d = pd;
             shaped.v_d.fixed_rows_mut::<3>(0).copy_from(&vd);
             shaped.a_d.fixed_rows_mut::<3>(0).copy_from(&ad);
-            next.control.sched.shaper = Some(sh);
+            sh
         } else {
-            next.control.sched.shaper = Some(on);
-        }
+            on
+        });
     }
     let r = &shaped;
     let e_p = r.p_d - tip.trans;
@@ -295,7 +292,6 @@ pub fn step(
         f_e,
         f_d: r.f_d,
     };
-    let shaper = next.control.sched.shaper;
     let (control_state, out) = control::step(&p.control, &s.control, &task);
     next.control = control_state;
     next.control.sched.shaper = shaper;
