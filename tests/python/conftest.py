@@ -74,9 +74,30 @@ def _no_process_left_behind(request):
         if not left:
             return
         time.sleep(0.1)
+    threads = {pid: _thread_states(pid) for pid in left}
     for pid in left:
         try:
             os.kill(pid, signal.SIGKILL)
         except OSError:
             pass
-    pytest.fail(f"{request.module.__name__} left processes running (killed now): {sorted(left.items())}", pytrace=False)
+    pytest.fail(f"{request.module.__name__} left processes running (killed now): {sorted(left.items())}; "
+                f"their threads (name, state, CPU time [s], CPU, policy, priority): {threads}", pytrace=False)
+
+
+def _thread_states(pid):
+    """Each thread of `pid` as (name, state, CPU time [s], last CPU, policy, RT priority),
+    from /proc: a chain that cannot stop because one SCHED_FIFO thread never blocks shows
+    that thread in state R with the CPU time (docs/nodes.md, "A start-up freeze")."""
+    policies = {0: "other", 1: "fifo", 2: "rr", 3: "batch", 5: "idle"}
+    out = []
+    tick = os.sysconf("SC_CLK_TCK")
+    for d in sorted(pathlib.Path(f"/proc/{pid}/task").glob("*")):
+        try:
+            stat = (d / "stat").read_text()
+        except OSError:
+            continue
+        name = stat[stat.index("(") + 1:stat.rindex(")")]
+        f = stat[stat.rindex(")") + 2:].split()  # f[0] is field 3 (state)
+        cpu_s = (int(f[11]) + int(f[12])) / tick
+        out.append((name, f[0], round(cpu_s, 2), int(f[36]), policies.get(int(f[38]), f[38]), int(f[37])))
+    return out
