@@ -83,11 +83,7 @@ fn run_job(ctx: &Ctx, j: &Job) -> Result<RunResult, CliError> {
 /// Median of the values; `None` entries (never settled) count as +∞.
 fn median_opt(v: &[Option<f64>]) -> Option<f64> {
     let mut x: Vec<f64> = v.iter().map(|o| o.unwrap_or(f64::INFINITY)).collect();
-    if x.is_empty() {
-        return None;
-    }
-    x.sort_by(f64::total_cmp);
-    let m = if x.len() % 2 == 1 { x[x.len() / 2] } else { 0.5 * (x[x.len() / 2 - 1] + x[x.len() / 2]) };
+    let m = naic_sim::metrics::median(&mut x);
     m.is_finite().then_some(m)
 }
 

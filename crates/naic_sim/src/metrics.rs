@@ -246,14 +246,26 @@ mod tests {
 }
 
 /// `median [min–max]` of optional values over seeds, with how many never settled.
+/// Median of `v` (sorted in place): the middle value, the mean of the middle two for an even
+/// count, NaN for none; `+∞` entries (a phase that never settles) count as values. (statrs's
+/// `OrderStatistics::median` panics on an empty slice.)
+pub fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => v[n / 2],
+        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
 pub fn fmt_spread(vals: &[Option<f64>], decimals: usize) -> String {
     let mut v: Vec<f64> = vals.iter().flatten().copied().collect();
     let never = vals.len() - v.len();
     if v.is_empty() {
         return format!("never ({never}/{})", vals.len());
     }
-    v.sort_by(f64::total_cmp);
-    let med = if v.len() % 2 == 1 { v[v.len() / 2] } else { 0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2]) };
+    let med = median(&mut v);
     let mut s = format!("{med:.decimals$} [{:.decimals$}–{:.decimals$}]", v[0], v[v.len() - 1]);
     if never > 0 {
         s.push_str(&format!(", never in {never}/{}", vals.len()));
@@ -274,11 +286,7 @@ pub fn spread_table(files: &[MetricsFile], with_header: bool) -> String {
         let cms: Vec<&ControllerMetrics> = files.iter().filter_map(|f| f.controllers.get(*name)).collect();
         let n_ph = cms.iter().map(|c| c.phases.len()).min().unwrap_or(0);
         let contact: Vec<Option<f64>> = cms.iter().map(|c| c.contact_time_s).collect();
-        let med = |v: Vec<f64>| {
-            let mut v = v;
-            v.sort_by(f64::total_cmp);
-            if v.is_empty() { f64::NAN } else if v.len() % 2 == 1 { v[v.len() / 2] } else { 0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2]) }
-        };
+        let med = |mut v: Vec<f64>| median(&mut v);
         let contact_med = med(contact.iter().flatten().copied().collect());
         for i in 0..n_ph {
             let ph: Vec<&PhaseMetrics> = cms.iter().map(|c| &c.phases[i]).collect();
@@ -311,5 +319,8 @@ mod spread_tests {
         assert_eq!(fmt_spread(&[Some(1.0), Some(3.0), Some(2.0)], 1), "2.0 [1.0–3.0]");
         assert_eq!(fmt_spread(&[Some(1.0), None, Some(2.0), Some(4.0)], 1), "2.0 [1.0–4.0], never in 1/4");
         assert_eq!(fmt_spread(&[None, None], 3), "never (2/2)");
+        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(&mut [f64::INFINITY, 0.2, f64::INFINITY]), f64::INFINITY, "most never settled");
+        assert!(median(&mut []).is_nan());
     }
 }

@@ -211,10 +211,7 @@ pub fn bench_closed_loop<C: Controller + Clone>(
         (state, obs) = plant::step(p, &state, &tau, &mut ws);
     }
     let (state0, obs0, c0) = (state, obs, c.clone());
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
+    let median = |mut v: Vec<f64>| crate::metrics::median(&mut v);
     // recorded once, outside the timed loops
     let mut taus = Vec::with_capacity(steps);
     let mut meas = Vec::with_capacity(steps);
