@@ -62,7 +62,7 @@ def _no_process_left_behind(request):
     """After each test file (its module fixtures torn down: some keep a launch running
     for all their tests), a node or `naic` process it started and left running (a failed
     test whose clean-up did not finish, a launcher that lost a child) is killed and the
-    file's last test errors with its name. An orphaned 1 kHz chain at SCHED_FIFO priority
+    file's last test errors with its name. An orphaned 1 kHz chain at real-time priority
     would slow every later test of the run."""
     before = set(_own_processes())
     yield
@@ -86,7 +86,7 @@ def _no_process_left_behind(request):
 
 def _thread_states(pid):
     """Each thread of `pid` as (name, state, CPU time [s], last CPU, policy, RT priority),
-    from /proc: a chain that cannot stop because one SCHED_FIFO thread never blocks shows
+    from /proc: a chain that cannot stop because one real-time thread never blocks shows
     that thread in state R with the CPU time (docs/nodes.md, "A start-up freeze")."""
     policies = {0: "other", 1: "fifo", 2: "rr", 3: "batch", 5: "idle"}
     out = []

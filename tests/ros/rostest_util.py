@@ -215,7 +215,7 @@ def naic_msgs_env():
     return env
 
 
-OBSERVER_PRIORITY = 10  # SCHED_RR, below the nodes' SCHED_FIFO 50 (params/ realtime_priority)
+OBSERVER_PRIORITY = 10  # SCHED_RR, below the nodes' SCHED_RR 50 (params/ realtime_priority)
 _warned_priority = []
 
 

@@ -34,7 +34,7 @@ pub struct ChainArgs {
     /// Only the Rust chain.
     #[arg(long)]
     pub skip_rclpy: bool,
-    /// SCHED_FIFO priority for the Rust nodes (0: normal scheduling, as the rclpy chain;
+    /// SCHED_RR priority for the Rust nodes (0: normal scheduling, as the rclpy chain;
     /// overrides params/).
     #[arg(long, default_value_t = 0)]
     pub realtime_priority: u8,
@@ -53,7 +53,7 @@ pub struct ChainArgs {
     pub composed: bool,
     /// Also measure the machine's floor right after the chains, each for the same duration, at
     /// the same priority, on the same CPU: `cyclictest` (rt-tests, if installed; how often a
-    /// lone SCHED_FIFO thread woke up late), and a 1 kHz loop in this process that does the
+    /// lone SCHED_RR thread woke up late), and a 1 kHz loop in this process that does the
     /// chain's median latency in fixed CPU work after each wake-up (how often that work ended
     /// after the next deadline). The honest references for the missed cycles.
     #[arg(long)]
@@ -218,7 +218,7 @@ fn rclpy_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError>
     }
 }
 
-/// The floor: `cyclictest -m -p P -i 1000 -D S -a CPU`, one SCHED_FIFO thread waking every
+/// The floor: `cyclictest -m -p P --policy=rr -i 1000 -D S -a CPU`, one SCHED_RR thread waking every
 /// millisecond and nothing else. Late wake-ups are counted over thresholds, and converted to
 /// the cycles a chain whose median is `chain_median_us` would have missed: a wake-up L late
 /// leaves the chain `1000 - L` µs, and cyclictest skips the periods it slept through, so a
@@ -228,7 +228,7 @@ fn floor(a: &ChainArgs, dir: &Path, chain_median_us: f64) -> Result<serde_json::
     let mut args = vec!["-m".to_string(), "-q".into(), "-i".into(), "1000".into(), "-D".into(), format!("{}", a.duration.ceil() as u64)];
     args.extend(["-h".into(), "20000".into(), format!("--histfile={}", hist.display())]);
     if a.realtime_priority > 0 {
-        args.extend(["-p".into(), a.realtime_priority.to_string()]);
+        args.extend(["-p".into(), a.realtime_priority.to_string(), "--policy=rr".into()]);
     }
     match a.cpu.unwrap_or(1) {
         -1 => {}
@@ -291,7 +291,7 @@ fn floor(a: &ChainArgs, dir: &Path, chain_median_us: f64) -> Result<serde_json::
     }))
 }
 
-/// The floor for a job with work: a SCHED_FIFO thread (the chain's priority and CPU) that
+/// The floor for a job with work: a SCHED_RR thread (the chain's priority and CPU) that
 /// wakes every 1 ms (absolute deadlines, overdue periods run back to back, as the driver's
 /// loop) and then does `work_us` of fixed CPU work (an iteration count calibrated before, on
 /// the fastest of 30 tries). A cycle whose work ends after the next deadline is an overrun:
@@ -308,18 +308,11 @@ fn work_floor(a: &ChainArgs, work_us: f64) -> Result<serde_json::Value, CliError
     }
     let (prio, cpu, seconds) = (a.realtime_priority as i32, a.cpu.unwrap_or(1), a.duration);
     let t = std::thread::spawn(move || -> Result<serde_json::Value, FloorError> {
-        // SAFETY: scheduling calls for the calling thread with valid arguments.
-        unsafe {
-            if cpu >= 0 {
-                let mut set: libc::cpu_set_t = std::mem::zeroed();
-                libc::CPU_SET(cpu as usize, &mut set);
-                if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
-                    return Err(FloorError::Pin { cpu, problem: std::io::Error::last_os_error().to_string() });
-                }
-            }
-            if prio > 0 && libc::sched_setscheduler(0, libc::SCHED_FIFO, &libc::sched_param { sched_priority: prio }) != 0 {
-                return Err(FloorError::Fifo { priority: prio, problem: std::io::Error::last_os_error().to_string() });
-            }
+        if cpu >= 0 {
+            naic_ros::node::pin_to_cpu(cpu as usize).map_err(|e| FloorError::Pin { cpu, problem: e.to_string() })?;
+        }
+        if prio > 0 {
+            naic_ros::node::set_realtime(prio).map_err(|e| FloorError::Realtime { priority: prio, problem: e.to_string() })?;
         }
         let calib = 20_000u64;
         let best = (0..30)
@@ -365,7 +358,7 @@ fn work_floor(a: &ChainArgs, work_us: f64) -> Result<serde_json::Value, CliError
         };
         let n = wake.len();
         Ok(serde_json::json!({
-            "what": format!("1 kHz SCHED_FIFO {prio} loop on CPU {cpu}, {work_us:.0} us of fixed work per cycle, overruns = work ended after the next deadline"),
+            "what": format!("1 kHz SCHED_RR {prio} loop on CPU {cpu}, {work_us:.0} us of fixed work per cycle, overruns = work ended after the next deadline"),
             "cycles": n,
             "work_iterations": iters,
             "overruns": overruns,
@@ -387,8 +380,8 @@ fn work_floor(a: &ChainArgs, work_us: f64) -> Result<serde_json::Value, CliError
 enum FloorError {
     #[error("cannot pin to CPU {cpu}: {problem} (--cpu -1: no pinning)")]
     Pin { cpu: i64, problem: String },
-    #[error("cannot use SCHED_FIFO {priority}: {problem} (needs CAP_SYS_NICE or an rtprio limit; --realtime-priority 0: normal scheduling)")]
-    Fifo { priority: i32, problem: String },
+    #[error("cannot use SCHED_RR {priority}: {problem} (needs CAP_SYS_NICE or an rtprio limit; --realtime-priority 0: normal scheduling)")]
+    Realtime { priority: i32, problem: String },
 }
 
 fn machine() -> serde_json::Value {
@@ -483,7 +476,7 @@ mod tests {
     fn floor_errors_name_the_setting_and_the_flag_that_avoids_it() {
         let m = FloorError::Pin { cpu: 7, problem: "Invalid argument (os error 22)".into() }.to_string();
         assert!(m.contains("CPU 7") && m.contains("os error 22") && m.contains("--cpu -1"), "{m}");
-        let m = FloorError::Fifo { priority: 80, problem: "Operation not permitted (os error 1)".into() }.to_string();
-        assert!(m.contains("SCHED_FIFO 80") && m.contains("CAP_SYS_NICE") && m.contains("--realtime-priority 0"), "{m}");
+        let m = FloorError::Realtime { priority: 80, problem: "Operation not permitted (os error 1)".into() }.to_string();
+        assert!(m.contains("SCHED_RR 80") && m.contains("CAP_SYS_NICE") && m.contains("--realtime-priority 0"), "{m}");
     }
 }

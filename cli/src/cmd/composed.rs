@@ -98,6 +98,7 @@ struct Deadlines {
 }
 
 pub fn run(a: &LaunchArgs) -> CliResult {
+    let started = std::time::Instant::now();
     if a.respawn {
         return Err(CliError::usage(
             "--respawn with --composed: the three nodes share one process, so a crash ends them all \
@@ -249,5 +250,6 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     });
     dr.finish(&cmds, &dn.params, extra);
     drop((fnode, cn, dn));
+    naic_ros::threads::warn_busy_threads("naic launch --composed", started.elapsed());
     Ok(())
 }

@@ -30,6 +30,7 @@ pub mod joints;
 pub mod params_file;
 pub mod replay;
 mod reply;
+pub mod threads;
 pub mod throttle;
 pub mod time;
 pub mod timebase;
@@ -83,7 +84,10 @@ impl RosError {
 
 /// Run a node's `main` body: print errors as one line naming the node, exit with its code.
 pub fn run_main(node_name: &str, f: impl FnOnce() -> Result<(), RosError>) -> ! {
-    match f() {
+    let started = std::time::Instant::now();
+    let r = f();
+    threads::warn_busy_threads(node_name, started.elapsed());
+    match r {
         Ok(()) => std::process::exit(0),
         Err(RosError::Help(u)) => {
             println!("{u}");

@@ -541,46 +541,61 @@ pub type Pub<M> = Publisher<M>;
 pub fn apply_scheduling(p: &crate::ParamView) {
     let prio = p.i64("realtime_priority");
     if prio > 0 {
-        set_realtime(prio as i32);
+        match set_realtime(prio as i32) {
+            Ok(()) => log::info!("running with {REALTIME_POLICY} priority {prio}"),
+            Err(e) => log::warn!("realtime_priority {prio}: cannot use {REALTIME_POLICY} ({e}); running with normal scheduling"),
+        }
     }
     let cpu = p.i64("cpu_affinity");
     if cpu >= 0 {
-        pin_to_cpu(cpu as usize);
+        let n = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+        match pin_to_cpu(cpu as usize) {
+            Ok(()) => log::info!("pinned to CPU {cpu}"),
+            Err(e) => log::warn!(
+                "cpu_affinity {cpu}: cannot pin to that CPU ({e}; this machine has {n} CPUs, 0..{}); running unpinned",
+                n.saturating_sub(1)
+            ),
+        }
     }
 }
 
-/// Pin the calling thread (and the threads it creates afterwards) to one CPU.
-fn pin_to_cpu(cpu: usize) {
-    let n = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+/// The real-time policy of `realtime_priority`, as messages name it.
+pub const REALTIME_POLICY: &str = "SCHED_RR";
+
+/// Pin the calling thread (and the threads it creates afterwards) to one CPU
+/// (`cpu` < 1024 = CPU_SETSIZE, else an error).
+pub fn pin_to_cpu(cpu: usize) -> std::io::Result<()> {
+    if cpu >= 1024 {
+        return Err(std::io::Error::from_raw_os_error(libc::EINVAL));
+    }
     // SAFETY: a zeroed cpu_set_t is a valid empty set; CPU_SET stays within its bounds
-    // (cpu < 1024 = CPU_SETSIZE by the parameter's range).
+    // (cpu < 1024 = CPU_SETSIZE, checked above).
     let r = unsafe {
         let mut set: libc::cpu_set_t = std::mem::zeroed();
         libc::CPU_SET(cpu, &mut set);
         libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
     };
     if r != 0 {
-        log::warn!(
-            "cpu_affinity {cpu}: cannot pin to that CPU ({}; this machine has {n} CPUs, 0..{}); running unpinned",
-            std::io::Error::last_os_error(),
-            n.saturating_sub(1)
-        );
-    } else {
-        log::info!("pinned to CPU {cpu}");
+        return Err(std::io::Error::last_os_error());
     }
+    Ok(())
 }
 
-/// SCHED_FIFO for the calling thread (and the threads it creates afterwards).
-fn set_realtime(priority: i32) {
+/// SCHED_RR at `priority` for the calling thread (and the threads it creates afterwards).
+///
+/// Round-robin, not FIFO: for threads that block every cycle (all of a node's) the two are
+/// the same, since a policy only differs for a thread that runs a whole time slice
+/// (`/proc/sys/kernel/sched_rr_timeslice_ms`, 100 ms) without blocking. Under FIFO such a
+/// thread keeps its CPU from every other thread of its priority for ever, and RT throttling
+/// gives the CPU's 5 % to normal threads only: a chain pinned to one CPU at one priority
+/// froze that way once while starting (docs/nodes.md, "A start-up freeze"), the driver's
+/// watchdog and hold with it. Under RR the others get the CPU every time slice, so the
+/// driver's hold still runs.
+pub fn set_realtime(priority: i32) -> std::io::Result<()> {
     let param = libc::sched_param { sched_priority: priority };
     // SAFETY: valid sched_param for the calling thread (pid 0).
-    let r = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
-    if r != 0 {
-        log::warn!(
-            "realtime_priority {priority}: cannot use SCHED_FIFO ({}); running with normal scheduling",
-            std::io::Error::last_os_error()
-        );
-    } else {
-        log::info!("running with SCHED_FIFO priority {priority}");
+    if unsafe { libc::sched_setscheduler(0, libc::SCHED_RR, &param) } != 0 {
+        return Err(std::io::Error::last_os_error());
     }
+    Ok(())
 }

@@ -415,7 +415,7 @@ impl ParamTable {
                     0,
                     0,
                     98,
-                    "SCHED_FIFO priority of all the node's threads (0: normal scheduling); needs CAP_SYS_NICE",
+                    "SCHED_RR priority of all the node's threads (0: normal scheduling); needs CAP_SYS_NICE",
                 )
                 .read_only(),
             );
