@@ -3,7 +3,7 @@
 //! the first contact to `WINDOW` after it.
 //!
 //! ```text
-//! cargo run --release -p naic_sim --example contact_trace -- SCENARIO CONTROLLER D SEED_FROM SEED_TO [WINDOW_S] [CSV_DIR] [PRE_S]
+//! cargo run --release -p naic_sim --example contact_trace -- SCENARIO CONTROLLER D SEED_FROM SEED_TO [WINDOW_S] [CSV_DIR] [PRE_S] [MASS_ERROR]
 //! ```
 //! Prints one summary line per seed (contact time, the first-contact peak in the window and
 //! when); with `CSV_DIR` also writes `CSV_DIR/<scenario>-<controller>-d<D>-s<seed>.csv`.
@@ -26,13 +26,14 @@ fn main() {
     let window: f64 = a.get(6).map_or(0.3, |s| s.parse().unwrap());
     let dir = a.get(7);
     let pre: f64 = a.get(8).map_or(0.02, |s| s.parse().unwrap());
+    let mass: f64 = a.get(9).map_or(1.0, |s| s.parse().unwrap());
     let m = model();
     let tool = (0.424, Vector3::new(0.0, 0.0, 0.015));
     for seed in s0..=s1 {
         let mut s = scenario::preset(sc, &m).unwrap();
         s.seed = seed;
         let plant = scenario::plant_for(&s, m.clone(), Some(table1_friction()), tool).unwrap();
-        let settings = LoopSettings { delay_cycles: d, ..LoopSettings::default() };
+        let settings = LoopSettings { delay_cycles: d, model_mass_error: mass, ..LoopSettings::default() };
         let mut c = PipelineController::by_name(ctl, &s, &m, Some(table1_friction()), tool, &settings).unwrap();
         let mut rows: Vec<(f64, String)> = vec![];
         let mut tracer = Tracer { inner: &mut c, rows: &mut rows, t: 0.0, dt: s.task.dt };
@@ -58,7 +59,7 @@ fn main() {
             tpk * 1e3,
             r.metrics.phases.first().map_or(f64::NAN, |p| p.overshoot_pct)
         );
-        if let Some(dir) = dir {
+        if let Some(dir) = dir.filter(|d| !d.is_empty()) {
             let mut out = String::from("t_ms,f_true,z_um,vz_mm_s,f_meas,phase,k_hat,k_std,conf,m_d,b_d,integral,v_bar,w_bar,w_force,cycles,a_I,tau2,tau3\n");
             let tr: std::collections::BTreeMap<i64, &String> = rows.iter().map(|(t, s)| ((t * 1e6).round() as i64, s)).collect();
             for (k, x) in rec.iter().enumerate() {
