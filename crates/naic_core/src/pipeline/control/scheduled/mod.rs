@@ -79,15 +79,11 @@ pub struct ApproachParams {
     pub max_speed: f64,
     /// Limit of the approach servo's integral, as an acceleration [m/s²] (anti-windup).
     pub integral_limit: f64,
-    /// Scale δ [m/s²] below which the approach servo's integral `a_I` is taken for the joints'
-    /// stick-slip rather than a model error when it primes the observers' disturbance estimate
-    /// at contact ([`approach_prior`]: `w̄ = −a_I (1 − e^{−(a_I/δ)²})`; 0: `−a_I` itself).
-    pub prior_deadband: f64,
 }
 
 impl Default for ApproachParams {
     fn default() -> Self {
-        Self { expected_surface: None, band: 0.01, speed: 0.005, max_speed: 0.25, integral_limit: 5.0, prior_deadband: PRIOR_DEADBAND_DEFAULT }
+        Self { expected_surface: None, band: 0.01, speed: 0.005, max_speed: 0.25, integral_limit: 5.0 }
     }
 }
 
@@ -253,9 +249,6 @@ impl ScheduledParams {
         if !(a.integral_limit >= 0.0 && a.integral_limit.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("approach integral_limit", a.integral_limit, "m/s² must be finite and >= 0"));
         }
-        if !(a.prior_deadband >= 0.0 && a.prior_deadband.is_finite()) {
-            return Err(crate::pipeline::ConfigError::invalid("approach prior_deadband", a.prior_deadband, "m/s² must be finite and >= 0 (0: off)"));
-        }
         Ok(())
     }
 }
@@ -321,19 +314,17 @@ impl ScheduledState {
     }
 
     /// A new contact at position `x` with force `f`: the estimator restarts (keeping its
-    /// jump count), the integral is cleared, the learned corrections are kept; the observers'
-    /// `w̄` starts from the approach servo's integral, less its stick-slip ([`approach_prior`]).
+    /// jump count), the integral is cleared, the learned corrections are kept.
     pub fn rearm(&self, p: &ScheduledParams, x: f64, f: f64) -> Self {
-        let prior = approach_prior(self.approach_integral, p.approach.prior_deadband);
         Self {
             est: estimator::start(&p.estimator, self.est.jumps, x, f),
             integral: 0.0,
             learning: self.learning.rearm(),
-            observer: Observer::primed(-prior),
+            observer: Observer::primed(-self.approach_integral),
             contact_cycles: 0,
             approach_integral: 0.0,
             outside_band: 0,
-            force_observer: ForceObserver::primed(-prior),
+            force_observer: ForceObserver::primed(-self.approach_integral),
             ..*self
         }
     }
@@ -584,38 +575,6 @@ pub fn approach_accel(
     if out.is_finite() && a_i.is_finite() { (out, a_i) } else { (a_impedance, 0.0) }
 }
 
-/// Default of [`ApproachParams::prior_deadband`] [m/s²]: about twice the largest stick-slip
-/// residual of the approach servo's integral at contact with the exact model (0.17 m/s², seeds
-/// 1–50 of two-material, acrylic and flat at d = 1 and 2), about a fifth of the smallest model error
-/// (1.57 m/s², flat at mass error 1.25; 2.0–2.2 m/s² at 0.8).
-pub const PRIOR_DEADBAND_DEFAULT: f64 = 0.3;
-
-/// The disturbance the approach servo found, as the prior of the observers' `w̄` at contact
-/// (`w̄ = −approach_prior(a_I, δ)`):
-///
-/// ```text
-/// approach_prior(a_I, δ) = a_I (1 − e^{−(a_I/δ)²})      (δ ≤ 0: a_I)
-/// ```
-///
-/// The integral `a_I` of the approach servo ([`approach_accel`]) carries two things: a model
-/// error, a steady acceleration that persists in contact (the dynamic model × 0.8 / 1.25:
-/// −2.0 to −2.2 / +1.6 to +1.8 m/s²), and, at the expected surface's 5 mm/s, the residual of
-/// the joints' stick-slip (the tip's speed swings between −3 and 12 mm/s in the band; |a_I| ≤
-/// 0.17 m/s², changing sign within 0.1–0.3 s), which is gone once the tool rests on the
-/// surface (the force observer finds |w| ≤ 0.06 m/s² there). Primed with the stick-slip part,
-/// the velocity observer, whose `w̄` learns at ω_o ≈ 8 rad/s on acrylic (the noise budget),
-/// carries a wrong `w̄` into `v̄`: a bias of a few mm/s, ≈ 1 N through b_d ≈ 400 N·s/m, which
-/// the integral takes up and gives back when the force observer engages at 0.15 s
-/// (two-material, d = 2, seeds 7, 8, 10: w̄ = −0.13 / +0.10 / +0.12 m/s², v̄ −3.6 / +3.1 /
-/// +3.7 mm/s with the tool at rest, `I` −1.19 / +1.55 / +1.73 N, a climb to 3.35–3.73 N after
-/// 0.14–0.23 s; docs/controller.md, round 8). The factor passes a model error of 3δ or more
-/// unchanged (≥ 1 − e⁻⁹) and keeps at most 22 % of a residual below δ/2. A non-finite `a_I`
-/// gives 0.
-pub fn approach_prior(a_i: f64, deadband: f64) -> f64 {
-    let w = if deadband > 0.0 { a_i * (1.0 - (-(a_i / deadband).powi(2)).exp()) } else { a_i };
-    if w.is_finite() { w } else { 0.0 }
-}
-
 /// The target speed `v_t` along n of [`approach_accel`]: `clamp(ẋ_d + (k/b) e, ±max_speed)`,
 /// at most `speed` within `band` of the expected surface (`surface_n`, NaN: none).
 pub fn approach_target(a: &ApproachParams, surface_n: f64, x: f64, free: &ApproachAxis) -> f64 {
@@ -818,24 +777,6 @@ mod tests {
         assert!((far - 40.0 * a.max_speed - 400.0 * 1e-3 * a.max_speed).abs() < 1e-9, "{far}");
         // Non-finite: the impedance's acceleration.
         assert_eq!(approach_accel(&a, 0.0, -0.05, f64::NAN, free(0.04), 3.0, 0.0, 1e-3), (3.0, 0.0));
-    }
-
-    /// The prior of `w̄` at contact: a model error (mass error 0.8 / 1.25: −2.1 / +1.6 m/s²)
-    /// passes unchanged, the approach's stick-slip residual (≤ 0.17 m/s² with the exact model)
-    /// is cut to under a third, the sign is kept, and δ = 0 is the integral itself.
-    #[test]
-    fn the_contact_prior_keeps_a_model_error_and_drops_the_stick_slip() {
-        let d = PRIOR_DEADBAND_DEFAULT;
-        for a in [-2.1, 1.57, 0.9] {
-            assert!((approach_prior(a, d) - a).abs() <= 1e-3 * a.abs(), "{a}: {}", approach_prior(a, d));
-        }
-        for a in [-0.17, -0.13, 0.1, 0.05] {
-            let w = approach_prior(a, d);
-            assert!(w.signum() == a.signum() && w.abs() < 0.3 * a.abs(), "{a}: {w}");
-        }
-        assert_eq!(approach_prior(0.0, d), 0.0);
-        assert_eq!(approach_prior(0.13, 0.0), 0.13);
-        assert_eq!(approach_prior(f64::NAN, d), 0.0);
     }
 
     /// A point mass along n under a constant disturbance acceleration (the dynamic model × 1.25
