@@ -169,6 +169,12 @@ impl PipelineController {
         self.pipeline.controller.params()
     }
 
+    /// The pipeline's state after the last step (read-only: traces of the law's internals,
+    /// e.g. `examples/contact_trace.rs`).
+    pub fn state(&self) -> &naic_core::pipeline::PipelineState {
+        &self.state
+    }
+
     /// Change the parameters mid-run by the node's policy
     /// (`naic_core::pipeline::param_change`: the NAIC weights restart when the force law or
     /// impedance changed; any change ends a force-limit retraction). Not in the 1 kHz path.
