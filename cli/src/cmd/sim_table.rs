@@ -1,7 +1,8 @@
 //! `naic sim --table --out DIR`: the docs/controller.md "Which controller to use" table in one
 //! command (issue 12): every controller × goal scenario × loop delay 1 and 2, medians over
 //! `--seeds` seeds (default 5); the same for the scheduled law and its oracle under a model
-//! mass error of 0.8 and 1.25; the stiffness sweep on `flat` (500 … 50 000 N/m, one
+//! mass error of 0.8 and 1.25 (the issue's) and 0.95 and 1.05 (a check beside them); the
+//! stiffness sweep on `flat` (500 … 50 000 N/m, one
 //! parameter set); the goals of the issue checked against the medians; SVG plots.
 //!
 //! Writes `DIR/table.md` (all tables and the goals, markdown), `DIR/sweep.svg`,
@@ -30,6 +31,13 @@ pub const TABLE_SCENARIOS: [&str; 6] = ["flat", "foam", "stiffness-step", "acryl
 pub const DELAYS: [usize; 2] = [1, 2];
 /// Model mass errors of the robustness table (scheduled and oracle, delay 1).
 pub const MASS_ERRORS: [f64; 2] = [0.8, 1.25];
+/// Small model mass errors, a check beside the issue's (same runs and goals as
+/// [`MASS_ERRORS`]): a real arm's model is off by a few percent, neither exact nor 20 %
+/// off. A change fitted to the exact model can lose here while the issue's goals hold
+/// (round 8 of issue 12, docs/controller.md).
+pub const SMALL_MASS_ERRORS: [f64; 2] = [0.95, 1.05];
+/// Every model mass error of the robustness table, in order.
+const ALL_MASS_ERRORS: [f64; 4] = [MASS_ERRORS[0], SMALL_MASS_ERRORS[0], SMALL_MASS_ERRORS[1], MASS_ERRORS[1]];
 /// The stiffness sweep on `flat` [N/m].
 pub const SWEEP_K: [f64; 6] = [500.0, 1000.0, 2000.0, 5000.0, 20_000.0, 50_000.0];
 
@@ -329,7 +337,7 @@ pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&P
                     jobs.push(Job { scenario: sc, controller: c, delay: d, mass_error: 1.0, stiffness: None, seed });
                 }
             }
-            for f in MASS_ERRORS {
+            for f in ALL_MASS_ERRORS {
                 for c in ["scheduled", "oracle"] {
                     jobs.push(Job { scenario: sc, controller: c, delay: 1, mass_error: f, stiffness: None, seed });
                 }
@@ -377,7 +385,7 @@ pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&P
     let _ = writeln!(md, "\nModel mass error (the controller's model with every mass and inertia × F), d = 1:\n");
     md.push_str(&HEADER.replace("| d |", "| F |"));
     for sc in TABLE_SCENARIOS {
-        for f in MASS_ERRORS {
+        for f in ALL_MASS_ERRORS {
             for c in ["scheduled", "oracle"] {
                 let cl = cell(&select(&done, |x| x.scenario == sc && x.controller == c && x.model_mass_error == f));
                 md.push_str(&row(sc, &f.to_string(), c, &cl));
@@ -420,6 +428,18 @@ pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&P
     let met = rg.iter().filter(|g| g.met).count();
     let _ = writeln!(md, "\nThe same goals under model mass error (d = 1) and over the stiffness sweep (flat's goals at each k_e): {met} of {} met.\n\n| goal | measured | met |\n|---|---|---|", rg.len());
     for g in &rg {
+        let _ = writeln!(md, "| {} | {} | {} |", g.what, g.measured, if g.met { "yes" } else { "**no**" });
+    }
+    let mut small = Vec::new();
+    for f in SMALL_MASS_ERRORS {
+        for sc in TABLE_SCENARIOS {
+            let c = cell(&select(&done, |x| x.scenario == sc && x.controller == "scheduled" && x.model_mass_error == f));
+            small.extend(scenario_goals(sc, &format!("F = {f}, d = 1"), &c.median));
+        }
+    }
+    let met = small.iter().filter(|g| g.met).count();
+    let _ = writeln!(md, "\nA check beside the issue's goals: the same goals at a small model mass error (d = 1): {met} of {} met.\n\n| goal | measured | met |\n|---|---|---|", small.len());
+    for g in &small {
         let _ = writeln!(md, "| {} | {} | {} |", g.what, g.measured, if g.met { "yes" } else { "**no**" });
     }
     let secs = t0.elapsed().as_secs_f64();
