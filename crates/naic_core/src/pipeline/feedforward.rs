@@ -63,13 +63,19 @@ impl ReferenceBlend {
 /// where both are at most `v_lo`, linear in between. A non-finite `dq_ref` entry gives the
 /// measured velocity.
 pub fn blend(b: &ReferenceBlend, dq: &JointVec, dq_ref: &JointVec) -> JointVec {
+    blend_fast(b, dq, dq, dq_ref)
+}
+
+/// [`blend`] with the weights from the filtered `dq` but the measured part from
+/// `dq_fast` (round 9 in docs/controller.md).
+pub fn blend_fast(b: &ReferenceBlend, dq: &JointVec, dq_fast: &JointVec, dq_ref: &JointVec) -> JointVec {
     std::array::from_fn(|i| {
         if !dq_ref[i].is_finite() {
-            return dq[i];
+            return dq_fast[i];
         }
         let w = |v: f64| ((v.abs() - b.v_lo) / (b.v_hi - b.v_lo)).clamp(0.0, 1.0);
         let w = w(dq[i]).max(w(dq_ref[i]));
-        w * dq[i] + (1.0 - w) * dq_ref[i]
+        w * dq_fast[i] + (1.0 - w) * dq_ref[i]
     })
 }
 
