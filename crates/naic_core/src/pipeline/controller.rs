@@ -305,7 +305,7 @@ pub fn step(
     let dq_ff = match (p.control.force_law.mode, &p.control.force_law.scheduled.friction_reference) {
         (Mode::Scheduled, Some(b)) => {
             let (dq_ref, _) = dynamics::solve_damped(&j, &out.v_ref, &p.damping);
-            Some(feedforward::blend_fast(b, &sensed.dq, &sensed.dq_raw, &dq_ref.into()))
+            Some(feedforward::blend(b, &sensed.dq, &dq_ref.into()))
         }
         _ => None,
     };

@@ -63,23 +63,13 @@ impl ReferenceBlend {
 /// where both are at most `v_lo`, linear in between. A non-finite `dq_ref` entry gives the
 /// measured velocity.
 pub fn blend(b: &ReferenceBlend, dq: &JointVec, dq_ref: &JointVec) -> JointVec {
-    blend_fast(b, dq, dq, dq_ref)
-}
-
-/// [`blend`] with the weights from the filtered `dq` but the measured part from
-/// `dq_fast` (round 9 in docs/controller.md).
-pub fn blend_fast(b: &ReferenceBlend, dq: &JointVec, dq_fast: &JointVec, dq_ref: &JointVec) -> JointVec {
     std::array::from_fn(|i| {
         if !dq_ref[i].is_finite() {
-            return dq_fast[i];
+            return dq[i];
         }
         let w = |v: f64| ((v.abs() - b.v_lo) / (b.v_hi - b.v_lo)).clamp(0.0, 1.0);
-        // The fast velocity only where the filtered one is clear of its noise: from 0 at
-        // `v_hi` to 1 at `2 v_hi` (round 9).
-        let u = ((dq[i].abs() - 2.0 * b.v_hi) / (2.0 * b.v_hi)).clamp(0.0, 1.0);
-        let measured = u * dq_fast[i] + (1.0 - u) * dq[i];
         let w = w(dq[i]).max(w(dq_ref[i]));
-        w * measured + (1.0 - w) * dq_ref[i]
+        w * dq[i] + (1.0 - w) * dq_ref[i]
     })
 }
 

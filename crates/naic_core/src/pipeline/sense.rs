@@ -160,9 +160,6 @@ pub struct Sensed {
     pub q: JointVec,
     /// Median-filtered joint velocity.
     pub dq: JointVec,
-    /// The newest joint velocity unfiltered (two periods younger than `dq` behind the
-    /// 5-sample median): the friction feedforward's velocity where a joint moves (round 9).
-    pub dq_raw: JointVec,
     pub wrench: [f64; 6],
 }
 
@@ -237,7 +234,7 @@ pub fn step(p: &SenseParams, s: &SenseState, m: &RawMeasurements) -> (SenseState
         }
         *out = median(&col, next.len);
     }
-    (next, Ok(Sensed { q: m.q, dq, dq_raw: m.dq, wrench: m.wrench }))
+    (next, Ok(Sensed { q: m.q, dq, wrench: m.wrench }))
 }
 
 #[cfg(test)]
