@@ -73,6 +73,77 @@ pub fn blend(b: &ReferenceBlend, dq: &JointVec, dq_ref: &JointVec) -> JointVec {
     })
 }
 
+/// Where the friction feedforward takes the unfiltered joint velocity instead of the median
+/// (round 10 of issue 12, docs/controller.md): the median is `d + 2` periods old, and on a
+/// Stribeck drop (a negative slope of `τ_f`) that lag leaves part of the drop's negative
+/// damping uncancelled; the unfiltered velocity is `d` periods old.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FastVelocity {
+    /// Per joint, the unfiltered velocity's weight ([`fast_weight`]) rises from 0 where the
+    /// slower of the median and the unfiltered speed is `v_on` [rad/s] to 1 at `2 v_on`, and
+    /// is 0 where they differ in sign: a joint that slides steadily in one direction, not
+    /// one that breaks away from rest or reverses.
+    pub v_on: f64,
+    /// In contact only, from this contact age on [s]; `None`: in and out of contact.
+    pub contact_age: Option<f64>,
+    /// The reference steady: the weight is scaled by `1 − |Ẋ_d − Ẋ_s| / steady_speed`
+    /// (clamped to [0, 1]), `Ẋ_s` the shaped tangential reference velocity (`Ẋ_d` while no
+    /// shaping runs) [m/s]; `None`: not gated on the reference.
+    pub steady_speed: Option<f64>,
+}
+
+impl FastVelocity {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let age_ok = self.contact_age.is_none_or(|a| a >= 0.0 && a.is_finite());
+        let steady_ok = self.steady_speed.is_none_or(|v| v > 0.0 && v.is_finite());
+        if !(self.v_on > 0.0 && self.v_on.is_finite() && age_ok && steady_ok) {
+            return Err(ConfigError::invalid(
+                "friction fast velocity v_on",
+                self.v_on,
+                format!(
+                    "rad/s must be finite and > 0, with contact_age = {:?} s finite and >= 0 and steady_speed = {:?} m/s finite and > 0 (or none)",
+                    self.contact_age, self.steady_speed
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The unfiltered velocity's weight in [0, 1] for one joint ([`FastVelocity::v_on`]):
+/// `clamp((min(|dq|, |dq_raw|) − v_on) / v_on, 0, 1)` where `dq` (the median) and `dq_raw`
+/// have the same sign, 0 otherwise (and for non-finite inputs).
+pub fn fast_weight(v_on: f64, dq: f64, dq_raw: f64) -> f64 {
+    if !(dq * dq_raw > 0.0) {
+        return 0.0;
+    }
+    ((dq.abs().min(dq_raw.abs()) - v_on) / v_on).clamp(0.0, 1.0)
+}
+
+/// [`blend`] with the measured part moved towards the unfiltered velocity by
+/// `gate × fast_weight` per joint: `q̇_m = q̇ + u (q̇_raw − q̇)`, `u = gate · fast_weight(v_on,
+/// q̇, q̇_raw)`; the blend's weights stay on the median `dq`, so a joint at rest with its
+/// reference at rest still gets no feedforward. `gate` in [0, 1] (the contact and reference
+/// gates of [`FastVelocity`]); `gate = 0` is [`blend`] exactly.
+pub fn blend_fast(b: &ReferenceBlend, v_on: f64, gate: f64, dq: &JointVec, dq_raw: &JointVec, dq_ref: &JointVec) -> JointVec {
+    let measured: JointVec = std::array::from_fn(|i| {
+        let u = gate * fast_weight(v_on, dq[i], dq_raw[i]);
+        if u > 0.0 {
+            dq[i] + u * (dq_raw[i] - dq[i])
+        } else {
+            dq[i]
+        }
+    });
+    std::array::from_fn(|i| {
+        if !dq_ref[i].is_finite() {
+            return measured[i];
+        }
+        let w = |v: f64| ((v.abs() - b.v_lo) / (b.v_hi - b.v_lo)).clamp(0.0, 1.0);
+        let w = w(dq[i]).max(w(dq_ref[i]));
+        w * measured[i] + (1.0 - w) * dq_ref[i]
+    })
+}
+
 /// One cycle: `τ_ctrl + τ_f(q̇)`. A model with a joint count other than [`N_JOINTS`]
 /// adds nothing.
 pub fn step(model: &FrictionModel, dq: &JointVec, tau_ctrl: &JointVec) -> JointVec {
@@ -122,6 +193,59 @@ mod tests {
         let m = FrictionModel::new(joints).unwrap();
         let noise = [0.0035, -0.0039, 0.002, -0.001, 0.0, 0.003];
         assert_eq!(step(&m, &blend(&b, &noise, &[0.0; 6]), &[1.0; 6]), [1.0; 6]);
+    }
+
+    #[test]
+    fn the_fast_weight_needs_a_steady_slide_in_one_direction() {
+        let v = 0.016;
+        // Both clearly above the band, same direction: full weight, either sign.
+        assert_eq!(fast_weight(v, 0.05, 0.04), 1.0);
+        assert_eq!(fast_weight(v, -0.05, -0.04), 1.0);
+        // The slower of the two decides: half-way through [v_on, 2 v_on].
+        assert!((fast_weight(v, 0.05, 0.024) - 0.5).abs() < 1e-12);
+        assert!((fast_weight(v, 0.024, 0.05) - 0.5).abs() < 1e-12);
+        // A breakaway from rest (the median still below the band) or a reversal: none.
+        assert_eq!(fast_weight(v, 0.01, 0.06), 0.0);
+        assert_eq!(fast_weight(v, 0.05, -0.04), 0.0);
+        assert_eq!(fast_weight(v, 0.0, 0.05), 0.0);
+        assert_eq!(fast_weight(v, f64::NAN, 0.05), 0.0);
+    }
+
+    #[test]
+    fn the_fast_blend_moves_only_sliding_joints_to_the_unfiltered_velocity() {
+        let b = ReferenceBlend { v_lo: 0.004, v_hi: 0.008 };
+        let dq = [0.05, 0.05, 0.001, -0.05, 0.05, 0.05];
+        let raw = [0.04, -0.02, 0.003, -0.06, 0.024, 0.04];
+        let dq_ref = [0.05, 0.05, 0.0, -0.05, 0.05, f64::NAN];
+        // No gate: exactly the median's blend.
+        assert_eq!(blend_fast(&b, 0.016, 0.0, &dq, &raw, &dq_ref), blend(&b, &dq, &dq_ref));
+        let v = blend_fast(&b, 0.016, 1.0, &dq, &raw, &dq_ref);
+        assert_eq!(v[0], 0.04);
+        assert_eq!(v[1], 0.05, "a reversal stays on the median");
+        assert_eq!(v[2], 0.0, "at rest with the reference at rest: no feedforward");
+        assert_eq!(v[3], -0.06);
+        assert!((v[4] - (0.05 + 0.5 * (0.024 - 0.05))).abs() < 1e-15, "{}", v[4]);
+        assert_eq!(v[5], 0.04, "no reference: the measured part");
+        // Half the gate, half the step.
+        let h = blend_fast(&b, 0.016, 0.5, &dq, &raw, &dq_ref);
+        assert!((h[0] - 0.045).abs() < 1e-15, "{}", h[0]);
+    }
+
+    #[test]
+    fn a_fast_velocity_band_that_is_not_positive_is_refused() {
+        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), steady_speed: Some(0.001) };
+        assert!(ok.validate().is_ok());
+        assert!(FastVelocity { contact_age: None, steady_speed: None, ..ok }.validate().is_ok());
+        for bad in [
+            FastVelocity { v_on: 0.0, ..ok },
+            FastVelocity { v_on: f64::NAN, ..ok },
+            FastVelocity { contact_age: Some(-1.0), ..ok },
+            FastVelocity { steady_speed: Some(0.0), ..ok },
+            FastVelocity { steady_speed: Some(f64::INFINITY), ..ok },
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains("v_on") && e.contains("contact_age"), "{e}");
+        }
     }
 
     #[test]
