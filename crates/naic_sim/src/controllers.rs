@@ -126,7 +126,7 @@ impl PipelineController {
         if mode == Mode::Scheduled {
             // The task's expected surface (acrylic, two-material): the approach slows down near it.
             c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
-            // EXPERIMENT (round 10, not to be kept): NAIC_FAST="v_on,contact_age|-,steady_speed|-".
+            // EXPERIMENT (round 10, not to be kept): NAIC_FAST="v_on,contact_age|-,steady_speed|-[,drop]".
             if let Ok(v) = std::env::var("NAIC_FAST") {
                 let f: Vec<&str> = v.split(',').collect();
                 let opt = |s: &str| s.parse::<f64>().ok();
@@ -134,7 +134,11 @@ impl PipelineController {
                     v_on: opt(f[0]).unwrap_or(0.008),
                     contact_age: f.get(1).and_then(|s| opt(s)),
                     steady_speed: f.get(2).and_then(|s| opt(s)),
+                    drop: if f.get(3) == Some(&"drop") { friction.as_ref().map(naic_core::pipeline::feedforward::drop_bands) } else { None },
                 });
+                if std::env::var("NAIC_FAST_PRINT").is_ok() {
+                    eprintln!("{:?}", c.force_law.scheduled.friction_fast);
+                }
             }
         }
         let mut effort = [0.0; N_JOINTS];

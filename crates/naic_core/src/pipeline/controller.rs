@@ -324,7 +324,7 @@ pub fn step(
                         }
                         _ => 1.0,
                     };
-                    feedforward::blend_fast(b, f.v_on, contact_gate * steady_gate, &sensed.dq, &sensed.dq_raw, &dq_ref)
+                    feedforward::blend_fast(b, f, contact_gate * steady_gate, &sensed.dq, &sensed.dq_raw, &dq_ref)
                 }
                 None => feedforward::blend(b, &sensed.dq, &dq_ref),
             })

@@ -90,6 +90,46 @@ pub struct FastVelocity {
     /// (clamped to [0, 1]), `Ẋ_s` the shaped tangential reference velocity (`Ẋ_d` while no
     /// shaping runs) [m/s]; `None`: not gated on the reference.
     pub steady_speed: Option<f64>,
+    /// Per joint the velocity intervals where the friction law falls with speed (its
+    /// Stribeck drop, [`drop_bands`]): `[lo⁻, hi⁻, lo⁺, hi⁺]` [rad/s], the unfiltered velocity
+    /// only where the median lies in one of them; `None`: at every speed.
+    pub drop: Option<[[f64; 4]; N_JOINTS]>,
+}
+
+/// Per joint the velocity intervals where `model`'s friction torque falls with speed
+/// (`∂τ_f/∂q̇ < 0`, the Stribeck drop's negative damping): `[lo⁻, hi⁻, lo⁺, hi⁺]` [rad/s],
+/// the negative-direction interval (`lo⁻ ≤ hi⁻ < 0`) and the positive one (`0 < lo⁺ ≤ hi⁺`),
+/// each the outermost points of negative slope found on a grid of 1 mrad/s-ish steps from
+/// 0.1 mrad/s to 1 rad/s; `[0; 4]` where there is none (or the model has no such joint).
+/// Not for the 1 kHz path (a few thousand evaluations).
+pub fn drop_bands(model: &FrictionModel) -> [[f64; 4]; N_JOINTS] {
+    std::array::from_fn(|i| {
+        let mut band = [0.0; 4];
+        if i >= model.n_joints() {
+            return band;
+        }
+        for (dir, k) in [(-1.0, 0), (1.0, 2)] {
+            let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+            for n in 0..=4000 {
+                // Logarithmic from 1e-4 to 1 rad/s.
+                let v = 1e-4 * 10f64.powf(4.0 * n as f64 / 4000.0);
+                if model.tau_f_and_slope(i, dir * v).1 < 0.0 {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+            }
+            if lo.is_finite() {
+                band[k] = if dir < 0.0 { -hi } else { lo };
+                band[k + 1] = if dir < 0.0 { -lo } else { hi };
+            }
+        }
+        band
+    })
+}
+
+/// Whether `v` lies in one of the intervals of a [`drop_bands`] entry.
+pub fn in_drop(band: &[f64; 4], v: f64) -> bool {
+    (v < 0.0 && band[0] < band[1] && v >= band[0] && v <= band[1]) || (v > 0.0 && band[2] < band[3] && v >= band[2] && v <= band[3])
 }
 
 impl FastVelocity {
@@ -122,12 +162,15 @@ pub fn fast_weight(v_on: f64, dq: f64, dq_raw: f64) -> f64 {
 
 /// [`blend`] with the measured part moved towards the unfiltered velocity by
 /// `gate × fast_weight` per joint: `q̇_m = q̇ + u (q̇_raw − q̇)`, `u = gate · fast_weight(v_on,
-/// q̇, q̇_raw)`; the blend's weights stay on the median `dq`, so a joint at rest with its
+/// q̇, q̇_raw)` where the median `q̇` lies in the joint's drop band (with `f.drop`); the blend's weights stay on the median `dq`, so a joint at rest with its
 /// reference at rest still gets no feedforward. `gate` in [0, 1] (the contact and reference
 /// gates of [`FastVelocity`]); `gate = 0` is [`blend`] exactly.
-pub fn blend_fast(b: &ReferenceBlend, v_on: f64, gate: f64, dq: &JointVec, dq_raw: &JointVec, dq_ref: &JointVec) -> JointVec {
+pub fn blend_fast(b: &ReferenceBlend, f: &FastVelocity, gate: f64, dq: &JointVec, dq_raw: &JointVec, dq_ref: &JointVec) -> JointVec {
     let measured: JointVec = std::array::from_fn(|i| {
-        let u = gate * fast_weight(v_on, dq[i], dq_raw[i]);
+        if f.drop.is_some_and(|d| !in_drop(&d[i], dq[i])) {
+            return dq[i];
+        }
+        let u = gate * fast_weight(f.v_on, dq[i], dq_raw[i]);
         if u > 0.0 {
             dq[i] + u * (dq_raw[i] - dq[i])
         } else {
@@ -217,9 +260,10 @@ mod tests {
         let dq = [0.05, 0.05, 0.001, -0.05, 0.05, 0.05];
         let raw = [0.04, -0.02, 0.003, -0.06, 0.024, 0.04];
         let dq_ref = [0.05, 0.05, 0.0, -0.05, 0.05, f64::NAN];
+        let f = FastVelocity { v_on: 0.016, contact_age: None, steady_speed: None, drop: None };
         // No gate: exactly the median's blend.
-        assert_eq!(blend_fast(&b, 0.016, 0.0, &dq, &raw, &dq_ref), blend(&b, &dq, &dq_ref));
-        let v = blend_fast(&b, 0.016, 1.0, &dq, &raw, &dq_ref);
+        assert_eq!(blend_fast(&b, &f, 0.0, &dq, &raw, &dq_ref), blend(&b, &dq, &dq_ref));
+        let v = blend_fast(&b, &f, 1.0, &dq, &raw, &dq_ref);
         assert_eq!(v[0], 0.04);
         assert_eq!(v[1], 0.05, "a reversal stays on the median");
         assert_eq!(v[2], 0.0, "at rest with the reference at rest: no feedforward");
@@ -227,13 +271,13 @@ mod tests {
         assert!((v[4] - (0.05 + 0.5 * (0.024 - 0.05))).abs() < 1e-15, "{}", v[4]);
         assert_eq!(v[5], 0.04, "no reference: the measured part");
         // Half the gate, half the step.
-        let h = blend_fast(&b, 0.016, 0.5, &dq, &raw, &dq_ref);
+        let h = blend_fast(&b, &f, 0.5, &dq, &raw, &dq_ref);
         assert!((h[0] - 0.045).abs() < 1e-15, "{}", h[0]);
     }
 
     #[test]
     fn a_fast_velocity_band_that_is_not_positive_is_refused() {
-        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), steady_speed: Some(0.001) };
+        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), steady_speed: Some(0.001), drop: None };
         assert!(ok.validate().is_ok());
         assert!(FastVelocity { contact_age: None, steady_speed: None, ..ok }.validate().is_ok());
         for bad in [
