@@ -12,6 +12,7 @@ use naic_core::pipeline::control::force_law::Mode;
 use naic_core::pipeline::control::ForceAxis;
 use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Status, Workspace};
 use naic_core::pipeline::estimate::ToolParams;
+use naic_core::pipeline::feedforward::FastVelocity;
 use naic_core::pipeline::{self, param_change, ConfigError, Pipeline, PipelineState};
 use naic_core::pipeline::sense::RawMeasurements;
 use naic_core::{JointVec, N_JOINTS};
@@ -126,20 +127,10 @@ impl PipelineController {
         if mode == Mode::Scheduled {
             // The task's expected surface (acrylic, two-material): the approach slows down near it.
             c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
-            // EXPERIMENT (round 10, not to be kept): NAIC_FAST="v_on,contact_age|-,steady_speed|-[,drop]".
-            if let Ok(v) = std::env::var("NAIC_FAST") {
-                let f: Vec<&str> = v.split(',').collect();
-                let opt = |s: &str| s.parse::<f64>().ok();
-                c.force_law.scheduled.friction_fast = Some(naic_core::pipeline::feedforward::FastVelocity {
-                    v_on: opt(f[0]).unwrap_or(0.008),
-                    contact_age: f.get(1).and_then(|s| opt(s)),
-                    steady_speed: f.get(2).and_then(|s| opt(s)),
-                    drop: if f.get(3) == Some(&"drop") { friction.as_ref().map(naic_core::pipeline::feedforward::drop_bands) } else { None },
-                });
-                if std::env::var("NAIC_FAST_PRINT").is_ok() {
-                    eprintln!("{:?}", c.force_law.scheduled.friction_fast);
-                }
-            }
+            // The friction feedforward on the unfiltered velocity in contact where a joint's
+            // law falls with speed (naic_core::pipeline::feedforward::FastVelocity; round 10 of
+            // issue 12, docs/controller.md): the drops are the feedforward model's.
+            c.force_law.scheduled.friction_fast = friction.as_ref().map(FastVelocity::for_model);
         }
         let mut effort = [0.0; N_JOINTS];
         for (e, j) in effort.iter_mut().zip(model.joints()) {

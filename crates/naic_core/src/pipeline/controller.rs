@@ -256,7 +256,6 @@ pub fn step(
     let x_dot = j * dq;
     // The scheduled law shapes the tangential reference's velocity in contact
     // (scheduled::shape_reference); out of contact it passes unchanged.
-    let v_d_orig: Vector3<f64> = r.v_d.fixed_rows::<3>(0).into();
     let mut shaped = *r;
     let mut shaper = s.control.sched.shaper;
     let fl = &p.control.force_law;
@@ -302,29 +301,24 @@ pub fn step(
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
     let tau = tau_id + j.transpose() * f_e;
     // The friction feedforward's velocity: on the reference for the scheduled law
-    // (feedforward.rs), the measured one otherwise.
+    // (feedforward.rs), in contact on the unfiltered velocity in a joint's Stribeck drop
+    // (`friction_fast`), the measured one otherwise.
     let dq_ff = match (p.control.force_law.mode, &p.control.force_law.scheduled.friction_reference) {
         (Mode::Scheduled, Some(b)) => {
             let (dq_ref, _) = dynamics::solve_damped(&j, &out.v_ref, &p.damping);
             let dq_ref = dq_ref.into();
             Some(match &p.control.force_law.scheduled.friction_fast {
                 Some(f) => {
-                    let sc = &next.control.sched;
+                    // In contact from `contact_age` on (round 10: out of contact the fast
+                    // velocity changed the approach's stick-slip and two-material's contact).
                     let in_contact = next.control.phase == Phase::Contact;
-                    let age = sc.contact_cycles as f64 * p.control.force_law.lambda;
-                    let contact_gate = match f.contact_age {
+                    let age = next.control.sched.contact_cycles as f64 * p.control.force_law.lambda;
+                    let gate = match f.contact_age {
                         None => 1.0,
                         Some(a) if in_contact && age >= a => 1.0,
                         Some(_) => 0.0,
                     };
-                    let steady_gate = match (f.steady_speed, &sc.shaper) {
-                        (Some(v), Some(sh)) => {
-                            let lag = (v_d_orig - sh.v).norm();
-                            (1.0 - lag / v).clamp(0.0, 1.0)
-                        }
-                        _ => 1.0,
-                    };
-                    feedforward::blend_fast(b, f, contact_gate * steady_gate, &sensed.dq, &sensed.dq_raw, &dq_ref)
+                    feedforward::blend_fast(b, f, gate, &sensed.dq, &sensed.dq_raw, &dq_ref)
                 }
                 None => feedforward::blend(b, &sensed.dq, &dq_ref),
             })
