@@ -164,8 +164,6 @@ pub struct Sensed {
     /// 5-sample median): the scheduled law's friction feedforward may use it while a joint
     /// slides (`feedforward::FastVelocity`).
     pub dq_raw: JointVec,
-    /// The unfiltered joint velocity of the cycle before (`dq_raw` on the first cycle).
-    pub dq_raw_prev: JointVec,
     pub wrench: [f64; 6],
 }
 
@@ -240,8 +238,7 @@ pub fn step(p: &SenseParams, s: &SenseState, m: &RawMeasurements) -> (SenseState
         }
         *out = median(&col, next.len);
     }
-    let dq_raw_prev = if next.len >= 2 { next.hist[(next.next + 2 * w - 2) % w] } else { m.dq };
-    (next, Ok(Sensed { q: m.q, dq, dq_raw: m.dq, dq_raw_prev, wrench: m.wrench }))
+    (next, Ok(Sensed { q: m.q, dq, dq_raw: m.dq, wrench: m.wrench }))
 }
 
 #[cfg(test)]
