@@ -12,6 +12,7 @@ use naic_core::pipeline::control::force_law::Mode;
 use naic_core::pipeline::control::ForceAxis;
 use naic_core::pipeline::controller::{Controller, ControllerParams, Reference, Status, Workspace};
 use naic_core::pipeline::estimate::ToolParams;
+use naic_core::pipeline::feedforward::FastVelocity;
 use naic_core::pipeline::{self, param_change, ConfigError, Pipeline, PipelineState};
 use naic_core::pipeline::sense::RawMeasurements;
 use naic_core::{JointVec, N_JOINTS};
@@ -126,6 +127,10 @@ impl PipelineController {
         if mode == Mode::Scheduled {
             // The task's expected surface (acrylic, two-material): the approach slows down near it.
             c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
+            // The friction feedforward on the unfiltered velocity in contact where a joint's
+            // law falls with speed (naic_core::pipeline::feedforward::FastVelocity; round 10 of
+            // issue 12, docs/controller.md): the drops are the feedforward model's.
+            c.force_law.scheduled.friction_fast = friction.as_ref().map(FastVelocity::for_model);
         }
         let mut effort = [0.0; N_JOINTS];
         for (e, j) in effort.iter_mut().zip(model.joints()) {

@@ -232,19 +232,26 @@ fn stiffness_sweep() {
                 // Met up to 5000 N/m (seed 1: ≤ 1.4 %, 0.04-0.15 s).
                 assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.15, "k = {k} d = {d}: {n:?}");
                 assert!(n.later_overshoot_pct[0] <= 5.0 && later_settle(&n, 0) <= 0.15, "k = {k} d = {d}: {n:?}");
+            } else if d == 1 {
+                // Met at 20 000 and 50 000 N/m since round 10 (the friction feedforward on the
+                // unfiltered velocity in contact, in joint 4's Stribeck drop; docs/controller.md):
+                // seed 1 1.4 / 1.4 %, ±2 % in 0.027 / 0.077 s (1.2 s before: joint 4 at 46 Hz).
+                assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 0.15, "k = {k} d = {d}: {n:?}");
+                assert!(n.later_overshoot_pct[0] <= 5.0 && later_settle(&n, 0) <= 0.15, "k = {k} d = {d}: {n:?}");
             } else {
-                // Missed at 20 000 and 50 000 N/m: ±2 % settling 1.3-1.5 s (goal 0.15 s), contact
-                // overshoot up to 12 %: the joints' stick-slip while sliding moves the tip along n
-                // by tens of µm, k_e times that is ±0.2-1 N; without joint friction 20 000 N/m
-                // stays within ±2 % after 0.04 s. Achieved: the peak stays ≤ 1.2 f_d.
-                assert!(n.peak_n <= 1.2 * 20.0 && n.contact_overshoot_pct <= 15.0, "k = {k} d = {d}: {n:?}");
+                // d = 2: the overshoots met since round 10 (seed 1: 2.6 / 3.7 % at contact, 1.7 /
+                // 2.6 % at the step); the ±2 % settling after contact missed: 1.06 / 1.29 s
+                // (goal 0.15 s), joint 4's drop still oscillating at 44 Hz behind the unfiltered
+                // velocity's two periods (round 10 item 3). Achieved: within 1.5 s, peak ≤ 1.2 f_d.
+                assert!(n.contact_overshoot_pct <= 5.0 && settle(&n) <= 1.5 && n.peak_n <= 1.2 * 20.0, "k = {k} d = {d}: {n:?}");
+                assert!(n.later_overshoot_pct[0] <= 5.0 && later_settle(&n, 0) <= 0.15, "k = {k} d = {d}: {n:?}");
             }
         }
     }
 }
 
 #[test]
-#[ignore = "issue 12 goals not all met (docs/controller.md 'Goals of issue 12'): acrylic settling at mass error 0.8, the stiffness sweep at 20 000 and 50 000 N/m"]
+#[ignore = "issue 12 goals not all met (docs/controller.md 'Goals of issue 12'): acrylic settling at mass error 0.8, the stiffness sweep at 20 000 and 50 000 N/m at d = 2"]
 fn issue_12_goals() {
     let mut missed = Vec::new();
     for d in [1, 2] {

@@ -301,11 +301,27 @@ pub fn step(
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
     let tau = tau_id + j.transpose() * f_e;
     // The friction feedforward's velocity: on the reference for the scheduled law
-    // (feedforward.rs), the measured one otherwise.
+    // (feedforward.rs), in contact on the unfiltered velocity in a joint's Stribeck drop
+    // (`friction_fast`), the measured one otherwise.
     let dq_ff = match (p.control.force_law.mode, &p.control.force_law.scheduled.friction_reference) {
         (Mode::Scheduled, Some(b)) => {
             let (dq_ref, _) = dynamics::solve_damped(&j, &out.v_ref, &p.damping);
-            Some(feedforward::blend(b, &sensed.dq, &dq_ref.into()))
+            let dq_ref = dq_ref.into();
+            Some(match &p.control.force_law.scheduled.friction_fast {
+                Some(f) => {
+                    // In contact from `contact_age` on (round 10: out of contact the fast
+                    // velocity changed the approach's stick-slip and two-material's contact).
+                    let in_contact = next.control.phase == Phase::Contact;
+                    let age = next.control.sched.contact_cycles as f64 * p.control.force_law.lambda;
+                    let gate = match f.contact_age {
+                        None => 1.0,
+                        Some(a) if in_contact && age >= a => 1.0,
+                        Some(_) => 0.0,
+                    };
+                    feedforward::blend_fast(b, f, gate, &sensed.dq, &sensed.dq_raw, &dq_ref)
+                }
+                None => feedforward::blend(b, &sensed.dq, &dq_ref),
+            })
         }
         _ => None,
     };

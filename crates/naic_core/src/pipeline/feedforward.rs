@@ -73,6 +73,126 @@ pub fn blend(b: &ReferenceBlend, dq: &JointVec, dq_ref: &JointVec) -> JointVec {
     })
 }
 
+/// Where the friction feedforward takes the unfiltered joint velocity instead of the median
+/// (round 10 of issue 12, docs/controller.md): the median is `d + 2` periods old, and on a
+/// Stribeck drop (a negative slope of `τ_f`) that lag leaves part of the drop's negative
+/// damping uncancelled (joint 4 oscillated at 46 Hz while the tool slid on a stiff surface);
+/// the unfiltered velocity is `d` periods old. Only where that is the cause: in contact, in
+/// a joint's drop, sliding steadily in one direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FastVelocity {
+    /// Per joint, the unfiltered velocity's weight ([`fast_weight`]) rises from 0 where the
+    /// slower of the median and the unfiltered speed is `v_on` [rad/s] to 1 at `2 v_on`, and
+    /// is 0 where they differ in sign: a joint that slides steadily in one direction, not
+    /// one that breaks away from rest or reverses.
+    pub v_on: f64,
+    /// In contact only, from this contact age on [s]; `None`: in and out of contact.
+    pub contact_age: Option<f64>,
+    /// Per joint the velocity intervals where the friction law falls with speed (its
+    /// Stribeck drop, [`drop_bands`]): `[lo⁻, hi⁻, lo⁺, hi⁺]` [rad/s], the unfiltered velocity
+    /// only where the median lies in one of them; `None`: at every speed.
+    pub drop: Option<[[f64; 4]; N_JOINTS]>,
+}
+
+impl FastVelocity {
+    /// The setting of the table (round 10): `v_on` = 16 mrad/s (8 σ of the encoders' velocity
+    /// noise, so the sign test does not flip on noise; 8 mrad/s measured the same, 32 mrad/s
+    /// lost the 46 Hz band's lower half), in contact from its start, in `model`'s drops.
+    pub fn for_model(model: &FrictionModel) -> Self {
+        Self { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop_bands(model)) }
+    }
+
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let age_ok = self.contact_age.is_none_or(|a| a >= 0.0 && a.is_finite());
+        let drop_ok = self.drop.is_none_or(|d| d.iter().flatten().all(|v| v.is_finite()));
+        if !(self.v_on > 0.0 && self.v_on.is_finite() && age_ok && drop_ok) {
+            return Err(ConfigError::invalid(
+                "friction fast velocity v_on",
+                self.v_on,
+                format!(
+                    "rad/s must be finite and > 0, with contact_age = {:?} s finite and >= 0 (or none) and finite drop bands",
+                    self.contact_age
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Per joint the velocity intervals where `model`'s friction torque falls with speed
+/// (`∂τ_f/∂q̇ < 0`, the Stribeck drop's negative damping): `[lo⁻, hi⁻, lo⁺, hi⁺]` [rad/s],
+/// the negative-direction interval (`lo⁻ ≤ hi⁻ < 0`) and the positive one (`0 < lo⁺ ≤ hi⁺`),
+/// each the outermost points of negative slope found on a grid of 1 mrad/s-ish steps from
+/// 0.1 mrad/s to 1 rad/s; `[0; 4]` where there is none (or the model has no such joint).
+/// Not for the 1 kHz path (a few thousand evaluations).
+pub fn drop_bands(model: &FrictionModel) -> [[f64; 4]; N_JOINTS] {
+    std::array::from_fn(|i| {
+        let mut band = [0.0; 4];
+        if i >= model.n_joints() {
+            return band;
+        }
+        for (dir, k) in [(-1.0, 0), (1.0, 2)] {
+            let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+            for n in 0..=4000 {
+                // Logarithmic from 1e-4 to 1 rad/s.
+                let v = 1e-4 * 10f64.powf(4.0 * n as f64 / 4000.0);
+                if model.tau_f_and_slope(i, dir * v).1 < 0.0 {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+            }
+            if lo.is_finite() {
+                band[k] = if dir < 0.0 { -hi } else { lo };
+                band[k + 1] = if dir < 0.0 { -lo } else { hi };
+            }
+        }
+        band
+    })
+}
+
+/// Whether `v` lies in one of the intervals of a [`drop_bands`] entry.
+pub fn in_drop(band: &[f64; 4], v: f64) -> bool {
+    (v < 0.0 && band[0] < band[1] && v >= band[0] && v <= band[1]) || (v > 0.0 && band[2] < band[3] && v >= band[2] && v <= band[3])
+}
+
+/// The unfiltered velocity's weight in [0, 1] for one joint ([`FastVelocity::v_on`]):
+/// `clamp((min(|dq|, |dq_raw|) − v_on) / v_on, 0, 1)` where `dq` (the median) and `dq_raw`
+/// have the same sign, 0 otherwise (and for non-finite inputs).
+pub fn fast_weight(v_on: f64, dq: f64, dq_raw: f64) -> f64 {
+    if !(dq * dq_raw > 0.0) {
+        return 0.0;
+    }
+    ((dq.abs().min(dq_raw.abs()) - v_on) / v_on).clamp(0.0, 1.0)
+}
+
+/// [`blend`] with the measured part moved towards the unfiltered velocity by
+/// `gate × fast_weight` per joint: `q̇_m = q̇ + u (q̇_raw − q̇)`, `u = gate · fast_weight(v_on,
+/// q̇, q̇_raw)` where the median `q̇` lies in the joint's drop band (with `f.drop`); the
+/// blend's weights stay on the median `dq`, so a joint at rest with its reference at rest
+/// still gets no feedforward. `gate` in [0, 1] (the contact gate of [`FastVelocity`]);
+/// `gate = 0` is [`blend`] exactly.
+pub fn blend_fast(b: &ReferenceBlend, f: &FastVelocity, gate: f64, dq: &JointVec, dq_raw: &JointVec, dq_ref: &JointVec) -> JointVec {
+    let measured: JointVec = std::array::from_fn(|i| {
+        if f.drop.is_some_and(|d| !in_drop(&d[i], dq[i])) {
+            return dq[i];
+        }
+        let u = gate * fast_weight(f.v_on, dq[i], dq_raw[i]);
+        if u > 0.0 {
+            dq[i] + u * (dq_raw[i] - dq[i])
+        } else {
+            dq[i]
+        }
+    });
+    std::array::from_fn(|i| {
+        if !dq_ref[i].is_finite() {
+            return measured[i];
+        }
+        let w = |v: f64| ((v.abs() - b.v_lo) / (b.v_hi - b.v_lo)).clamp(0.0, 1.0);
+        let w = w(dq[i]).max(w(dq_ref[i]));
+        w * measured[i] + (1.0 - w) * dq_ref[i]
+    })
+}
+
 /// One cycle: `τ_ctrl + τ_f(q̇)`. A model with a joint count other than [`N_JOINTS`]
 /// adds nothing.
 pub fn step(model: &FrictionModel, dq: &JointVec, tau_ctrl: &JointVec) -> JointVec {
@@ -122,6 +242,111 @@ mod tests {
         let m = FrictionModel::new(joints).unwrap();
         let noise = [0.0035, -0.0039, 0.002, -0.001, 0.0, 0.003];
         assert_eq!(step(&m, &blend(&b, &noise, &[0.0; 6]), &[1.0; 6]), [1.0; 6]);
+    }
+
+    #[test]
+    fn the_fast_weight_needs_a_steady_slide_in_one_direction() {
+        let v = 0.016;
+        // Both clearly above the band, same direction: full weight, either sign.
+        assert_eq!(fast_weight(v, 0.05, 0.04), 1.0);
+        assert_eq!(fast_weight(v, -0.05, -0.04), 1.0);
+        // The slower of the two decides: half-way through [v_on, 2 v_on].
+        assert!((fast_weight(v, 0.05, 0.024) - 0.5).abs() < 1e-12);
+        assert!((fast_weight(v, 0.024, 0.05) - 0.5).abs() < 1e-12);
+        // A breakaway from rest (the median still below the band) or a reversal: none.
+        assert_eq!(fast_weight(v, 0.01, 0.06), 0.0);
+        assert_eq!(fast_weight(v, 0.05, -0.04), 0.0);
+        assert_eq!(fast_weight(v, 0.0, 0.05), 0.0);
+        assert_eq!(fast_weight(v, f64::NAN, 0.05), 0.0);
+    }
+
+    #[test]
+    fn the_fast_blend_moves_only_sliding_joints_to_the_unfiltered_velocity() {
+        let b = ReferenceBlend { v_lo: 0.004, v_hi: 0.008 };
+        let dq = [0.05, 0.05, 0.001, -0.05, 0.05, 0.05];
+        let raw = [0.04, -0.02, 0.003, -0.06, 0.024, 0.04];
+        let dq_ref = [0.05, 0.05, 0.0, -0.05, 0.05, f64::NAN];
+        let f = FastVelocity { v_on: 0.016, contact_age: None, drop: None };
+        // No gate: exactly the median's blend.
+        assert_eq!(blend_fast(&b, &f, 0.0, &dq, &raw, &dq_ref), blend(&b, &dq, &dq_ref));
+        let v = blend_fast(&b, &f, 1.0, &dq, &raw, &dq_ref);
+        assert_eq!(v[0], 0.04);
+        assert_eq!(v[1], 0.05, "a reversal stays on the median");
+        assert_eq!(v[2], 0.0, "at rest with the reference at rest: no feedforward");
+        assert_eq!(v[3], -0.06);
+        assert!((v[4] - (0.05 + 0.5 * (0.024 - 0.05))).abs() < 1e-15, "{}", v[4]);
+        assert_eq!(v[5], 0.04, "no reference: the measured part");
+        // Half the gate, half the step.
+        let h = blend_fast(&b, &f, 0.5, &dq, &raw, &dq_ref);
+        assert!((h[0] - 0.045).abs() < 1e-15, "{}", h[0]);
+    }
+
+    #[test]
+    fn a_fast_velocity_band_that_is_not_positive_is_refused() {
+        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), drop: Some([[0.0; 4]; N_JOINTS]) };
+        assert!(ok.validate().is_ok());
+        assert!(FastVelocity { contact_age: None, drop: None, ..ok }.validate().is_ok());
+        let mut nan = [[0.0; 4]; N_JOINTS];
+        nan[3][2] = f64::NAN;
+        for bad in [
+            FastVelocity { v_on: 0.0, ..ok },
+            FastVelocity { v_on: f64::NAN, ..ok },
+            FastVelocity { contact_age: Some(-1.0), ..ok },
+            FastVelocity { contact_age: Some(f64::INFINITY), ..ok },
+            FastVelocity { drop: Some(nan), ..ok },
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains("v_on") && e.contains("contact_age"), "{e}");
+        }
+    }
+
+    #[test]
+    fn the_drop_bands_are_where_the_law_falls_with_speed() {
+        use crate::friction::{Smoothing, StribeckParams};
+        // Table 1's joint 4: a drop from 2.923 to 2.254 N·m over q_s = 0.066 rad/s against
+        // f_v = 3.208 (positive); 3.916 → 3.111 over 0.036 against 2.984 (negative).
+        let j4 = JointFriction::StribeckPerDirection {
+            positive: StribeckParams { f_a: 2.254, f_b: 2.923, q_s: 0.066, f_v: 3.208 },
+            negative: StribeckParams { f_a: 3.111, f_b: 3.916, q_s: 0.036, f_v: 2.984 },
+        };
+        // No drop: the Stribeck level rises (f_b < f_a), or the viscous slope outweighs it.
+        let flat = JointFriction::CoulombViscous { f_c: 2.0, f_v: 1.0 };
+        let rising = JointFriction::Stribeck(StribeckParams { f_a: 5.7, f_b: 5.5, q_s: 0.036, f_v: 22.0 });
+        let m = FrictionModel::new(vec![flat, rising, flat, j4, flat, flat]).unwrap().with_smoothing(Smoothing::Tanh { v_s: 1e-3 }).unwrap();
+        let d = drop_bands(&m);
+        assert_eq!(d[0], [0.0; 4]);
+        assert_eq!(d[1], [0.0; 4]);
+        let [lo_n, hi_n, lo_p, hi_p] = d[3];
+        // The positive drop: slope −2.4 at 0.02, −5.5 at 0.047, +1.9 at 0.12 rad/s (docs/controller.md).
+        assert!(lo_p > 0.005 && lo_p < 0.02 && hi_p > 0.09 && hi_p < 0.12, "{:?}", d[3]);
+        assert!(lo_n < -0.05 && hi_n > -0.01 && hi_n < 0.0, "{:?}", d[3]);
+        for (v, inside) in [(0.047, true), (0.15, false), (0.003, false), (-0.02, true), (-0.2, false), (0.0, false)] {
+            assert_eq!(in_drop(&d[3], v), inside, "{v}");
+            let (_, slope) = m.tau_f_and_slope(3, v);
+            if v != 0.0 && v.abs() > 0.005 {
+                assert_eq!(slope < 0.0, inside, "{v}: slope {slope}");
+            }
+        }
+        assert!(!in_drop(&d[0], 0.047));
+        // The table's setting takes them from the model.
+        let f = FastVelocity::for_model(&m);
+        assert_eq!(f.drop, Some(d));
+        assert!(f.validate().is_ok());
+    }
+
+    #[test]
+    fn outside_its_drop_a_joint_keeps_the_median() {
+        let b = ReferenceBlend { v_lo: 0.004, v_hi: 0.008 };
+        let mut drop = [[0.0; 4]; N_JOINTS];
+        drop[0] = [-0.06, -0.005, 0.01, 0.1];
+        let f = FastVelocity { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop) };
+        let dq = [0.05, 0.05, 0.2, 0.0, 0.0, 0.0];
+        let raw = [0.04, 0.04, 0.19, 0.0, 0.0, 0.0];
+        let dq_ref = [0.05; 6];
+        let v = blend_fast(&b, &f, 1.0, &dq, &raw, &dq_ref);
+        assert_eq!(v[0], 0.04, "in its drop: the unfiltered velocity");
+        assert_eq!(v[1], 0.05, "a joint without a drop: the median");
+        assert_eq!(v[2], 0.2);
     }
 
     #[test]

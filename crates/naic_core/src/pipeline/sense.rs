@@ -160,6 +160,10 @@ pub struct Sensed {
     pub q: JointVec,
     /// Median-filtered joint velocity.
     pub dq: JointVec,
+    /// The newest joint velocity unfiltered (two periods younger than `dq` behind the
+    /// 5-sample median): the scheduled law's friction feedforward may use it while a joint
+    /// slides (`feedforward::FastVelocity`).
+    pub dq_raw: JointVec,
     pub wrench: [f64; 6],
 }
 
@@ -234,7 +238,7 @@ pub fn step(p: &SenseParams, s: &SenseState, m: &RawMeasurements) -> (SenseState
         }
         *out = median(&col, next.len);
     }
-    (next, Ok(Sensed { q: m.q, dq, wrench: m.wrench }))
+    (next, Ok(Sensed { q: m.q, dq, dq_raw: m.dq, wrench: m.wrench }))
 }
 
 #[cfg(test)]

@@ -61,7 +61,7 @@ use learning::{Learning, LearningParams};
 use predictor::{ForceObserver, History, Observer};
 use schedule::{Gains, ScheduleParams};
 
-use crate::pipeline::feedforward::ReferenceBlend;
+use crate::pipeline::feedforward::{FastVelocity, ReferenceBlend};
 
 /// Approach near an expected surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -152,6 +152,15 @@ pub struct ScheduledParams {
     /// 0.09 N against f_d = 3 N; docs/controller.md, round 6). `None`: the measured velocity,
     /// as for the paper's laws.
     pub friction_reference: Option<ReferenceBlend>,
+    /// Where the friction feedforward's measured velocity is the unfiltered one instead of
+    /// the median ([`crate::pipeline::feedforward::FastVelocity`], round 10 of issue 12 in
+    /// docs/controller.md): in contact, in a joint's Stribeck drop. Its drop bands come from
+    /// the friction model, which these parameters do not know: `None` (the default) is the
+    /// median everywhere, as before round 10; the simulator sets
+    /// [`FastVelocity::for_model`] of its feedforward model (the controller node does not
+    /// yet). Only with `friction_reference`. Why: the sweep on flat at 20 000 / 50 000 N/m,
+    /// d = 1, settled in 1.2 s (joint 4's 46 Hz oscillation in its drop); with it 0.03–0.08 s.
+    pub friction_fast: Option<FastVelocity>,
     /// Bandwidth ω [rad/s] of the shaping of the tangential reference in contact (0: off;
     /// [`shape_reference`], applied by [`crate::pipeline::controller::step`] for this law
     /// only): on the translation axes other than the force axis the reference velocity passes
@@ -183,6 +192,7 @@ impl Default for ScheduledParams {
             force_observer_confidence: 0.9,
             force_observer_age: 0.15,
             friction_reference: Some(ReferenceBlend { v_lo: 0.004, v_hi: 0.008 }),
+            friction_fast: None,
             reference_shaping: REFERENCE_SHAPING_DEFAULT,
         }
     }
@@ -229,6 +239,9 @@ impl ScheduledParams {
         }
         if let Some(b) = &self.friction_reference {
             b.validate()?;
+        }
+        if let Some(f) = &self.friction_fast {
+            f.validate()?;
         }
         if !(self.reference_shaping >= 0.0 && self.reference_shaping.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled reference_shaping", self.reference_shaping, "rad/s must be finite and >= 0 (0: off)"));
