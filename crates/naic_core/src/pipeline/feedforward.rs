@@ -63,13 +63,20 @@ impl ReferenceBlend {
 /// where both are at most `v_lo`, linear in between. A non-finite `dq_ref` entry gives the
 /// measured velocity.
 pub fn blend(b: &ReferenceBlend, dq: &JointVec, dq_ref: &JointVec) -> JointVec {
+    mix(b, dq, dq, dq_ref)
+}
+
+/// The blend's mix per joint: `w measured + (1 − w) dq_ref` with the weights `w` of the
+/// median `dq` and of `dq_ref` ([`blend`]: `measured` = `dq`; [`blend_fast`]: `dq` moved
+/// towards the unfiltered velocity). A non-finite `dq_ref` entry gives `measured`.
+fn mix(b: &ReferenceBlend, dq: &JointVec, measured: &JointVec, dq_ref: &JointVec) -> JointVec {
     std::array::from_fn(|i| {
         if !dq_ref[i].is_finite() {
-            return dq[i];
+            return measured[i];
         }
         let w = |v: f64| ((v.abs() - b.v_lo) / (b.v_hi - b.v_lo)).clamp(0.0, 1.0);
         let w = w(dq[i]).max(w(dq_ref[i]));
-        w * dq[i] + (1.0 - w) * dq_ref[i]
+        w * measured[i] + (1.0 - w) * dq_ref[i]
     })
 }
 
@@ -183,14 +190,7 @@ pub fn blend_fast(b: &ReferenceBlend, f: &FastVelocity, gate: f64, dq: &JointVec
             dq[i]
         }
     });
-    std::array::from_fn(|i| {
-        if !dq_ref[i].is_finite() {
-            return measured[i];
-        }
-        let w = |v: f64| ((v.abs() - b.v_lo) / (b.v_hi - b.v_lo)).clamp(0.0, 1.0);
-        let w = w(dq[i]).max(w(dq_ref[i]));
-        w * measured[i] + (1.0 - w) * dq_ref[i]
-    })
+    mix(b, dq, &measured, dq_ref)
 }
 
 /// One cycle: `τ_ctrl + τ_f(q̇)`. A model with a joint count other than [`N_JOINTS`]
