@@ -150,10 +150,16 @@ pub fn spawn_node(name: &str, bin: &Path, args: &[String], envs: &[(String, Stri
         cmd.env(k, v);
     }
     // If naic itself dies (even by SIGKILL), the kernel stops the node too: no orphans.
-    // SAFETY: prctl and setpgid are async-signal-safe; nothing else runs between fork and exec.
+    // SIGINT, with which the launch stops a node, back to its default: a launch started in
+    // the background of a script (`naic launch &`, nohup) inherits it ignored, a node would
+    // too, and a node that is a shell script could not trap it (POSIX), so it would be
+    // killed after the stop timeout instead of stopping cleanly.
+    // SAFETY: prctl, setpgid and signal are async-signal-safe; nothing else runs between
+    // fork and exec.
     unsafe {
         use std::os::unix::process::CommandExt;
         cmd.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
             libc::setpgid(0, 0);
             libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGINT as libc::c_ulong);
             Ok(())
