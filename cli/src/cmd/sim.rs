@@ -7,7 +7,7 @@
 //! joint trajectory: the cross-check against MuJoCo uses it.
 
 use super::{CliError, CliResult};
-use naic_core::friction::{FrictionModel, FrictionParams, Smoothing, DEFAULT_V_S};
+use naic_core::friction::{FrictionModel, FrictionParams};
 use naic_core::model::Model;
 use naic_core::{JointVec, N_JOINTS};
 use naic_core::pipeline::control::force_law::Mode;
@@ -127,13 +127,8 @@ pub fn load_model(path: Option<&Path>) -> Result<Model, CliError> {
 /// The identified friction model, smooth (tanh) variant.
 pub fn load_friction(path: Option<&Path>) -> Result<FrictionModel, CliError> {
     let p = path.map_or_else(|| default_path("params/friction_jk5.yaml"), Path::to_path_buf);
-    let params = FrictionParams::from_yaml_file(&p).map_err(|e| {
-        CliError::usage(format!("--friction {}: {e} (or run with --no-friction)", p.display()))
-    })?;
-    params
-        .to_model()
-        .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S }))
-        .map_err(|e| CliError::usage(format!("--friction {}: {e}", p.display())))
+    FrictionParams::load_feedforward_model(&p)
+        .map_err(|e| CliError::usage(format!("--friction {}: {e} (or run with --no-friction)", p.display())))
 }
 
 fn parse_joints(s: &str, what: &str) -> Result<JointVec, CliError> {

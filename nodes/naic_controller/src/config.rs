@@ -20,6 +20,9 @@ use crate::core::Settings;
 
 pub const FORCE_AXES: [&str; 6] = ["x", "y", "z", "-x", "-y", "-z"];
 
+/// `friction_file`'s default: friction_compensation's and `naic sim`'s (Table 1 of the paper).
+pub const FRICTION_FILE: &str = "params/friction_jk5.yaml";
+
 /// The node's parameters; defaults come from `base` (the core's `paper_defaults` on the
 /// loaded model), so the numbers live in one place.
 pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
@@ -32,6 +35,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
     let ap = &fl.scheduled.approach;
     vec![
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model (URDF with 'tip' and 'ft_sensor' frames)").read_only(),
+        ParamSpec::string("friction_file", FRICTION_FILE, "Mode 'scheduled': the friction model (friction_compensation's friction_file) whose Stribeck drops get the unfiltered joint velocity in contact ('': the median everywhere)").read_only(),
         ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed", "scheduled"], "Force law on the force axis: NAIC (eq 10-15), AIC (eq 9), fixed impedance (eq 8) or 'scheduled' (impedance scheduled from an online stiffness estimate k_e_hat, reported in /naic/params; not a paper law)"),
         ParamSpec::double("desired_force", 10.0, 0.0, 100.0, "f_d [N]: force the tool applies to the environment along the force axis (pushing positive)"),
         ParamSpec::double("learning_rate", fl.gamma, 0.0, 100.0, "gamma of eq 15 (NAIC): requested learning rate, clipped every cycle to the eq-15 bound"),

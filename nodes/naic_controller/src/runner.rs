@@ -228,7 +228,8 @@ mod tests {
     /// parameter table as `RosNode` would build it.
     fn runner(extra: &[&str]) -> (Runner, ParamTable) {
         let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
-        let args = RosArgs::with_params([format!("urdf:={root}/urdf/jk5.urdf")].into_iter().chain(extra.iter().map(|e| e.to_string()))).unwrap();
+        let files = [format!("urdf:={root}/urdf/jk5.urdf"), format!("friction_file:={root}/params/friction_jk5.yaml")];
+        let args = RosArgs::with_params(files.into_iter().chain(extra.iter().map(|e| e.to_string()))).unwrap();
         let setup = Setup::from_args(&args).unwrap();
         let table = ParamTable::new(setup.specs(), Some(setup.check()), &args.overrides(NODE).unwrap()).unwrap();
         (Runner::new(setup, &table), table)

@@ -2,7 +2,9 @@
 //! here, before any DDS participant exists (a bad one exits with code 2, naming it).
 
 use naic_core::{
+    friction::FrictionParams,
     model::Model,
+    pipeline::feedforward::FastVelocity,
     pipeline::{control::force_law::{self, Mode}, controller::{Controller, ControllerParams}},
 };
 use naic_ros::{ParamSpec, ParamTable, RosArgs, RosError};
@@ -26,7 +28,16 @@ impl Setup {
         let model = Model::from_urdf_file(&urdf)
             .map_err(|e| RosError::param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
         // Defaults: the core's paper settings on this model (learning rate: not in the paper).
-        let base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
+        let mut base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
+        // Mode scheduled: the unfiltered velocity in contact in the friction model's Stribeck
+        // drops (round 10 of issue 12, docs/controller.md), as `naic sim` sets it.
+        let friction_file = args.peek_string(NODE, "friction_file", config::FRICTION_FILE)?;
+        if !friction_file.is_empty() {
+            let model = FrictionParams::load_feedforward_model(&friction_file).map_err(|e| {
+                RosError::param(format!("cannot load the friction model '{friction_file}': {e} (set -p friction_file:=PATH, or '' for none)"))
+            })?;
+            base.control.force_law.scheduled.friction_fast = Some(FastVelocity::for_model(&model));
+        }
         let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides(NODE)?)?;
         let bad_model = |e: naic_core::pipeline::ConfigError| RosError::param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
         let cp = table.with(|p| config::controller_params(p, &base))?;

@@ -475,6 +475,14 @@ impl FrictionParams {
         std::fs::write(path, self.to_yaml_string()).map_err(io)
     }
 
+    /// The model of a friction file as the feedforward evaluates it: smooth (tanh,
+    /// [`super::DEFAULT_V_S`]), whatever smoothing the file names. One place for `naic sim`
+    /// and the controller node, whose scheduled law takes its Stribeck drops from it
+    /// (`pipeline::feedforward::FastVelocity::for_model`), so both find the same ones.
+    pub fn load_feedforward_model(path: impl AsRef<Path>) -> Result<FrictionModel, FrictionError> {
+        Self::from_yaml_file(path)?.to_model()?.with_smoothing(Smoothing::Tanh { v_s: super::DEFAULT_V_S })
+    }
+
     /// The evaluable model: joints must be exactly 1..n (any order in the file).
     pub fn to_model(&self) -> Result<FrictionModel, FrictionError> {
         let n = self.joints.len();

@@ -35,9 +35,7 @@ pub fn args(node: &str, extra: &[&str]) -> RosArgs {
     if node == drv_shell::NODE {
         p("lockstep:=true".into());
     }
-    if node != ctl_shell::NODE {
-        p(format!("friction_file:={}", r.join("params/friction_jk5.yaml").display()));
-    }
+    p(format!("friction_file:={}", r.join("params/friction_jk5.yaml").display()));
     for e in extra {
         p(e.to_string());
     }

@@ -157,8 +157,8 @@ pub struct ScheduledParams {
     /// docs/controller.md): in contact, in a joint's Stribeck drop. Its drop bands come from
     /// the friction model, which these parameters do not know: `None` (the default) is the
     /// median everywhere, as before round 10; the simulator sets
-    /// [`FastVelocity::for_model`] of its feedforward model (the controller node does not
-    /// yet). Only with `friction_reference`. Why: the sweep on flat at 20 000 / 50 000 N/m,
+    /// [`FastVelocity::for_model`] of its feedforward model, the controller node that of its
+    /// `friction_file`. Only with `friction_reference`. Why: the sweep on flat at 20 000 / 50 000 N/m,
     /// d = 1, settled in 1.2 s (joint 4's 46 Hz oscillation in its drop); with it 0.03–0.08 s.
     pub friction_fast: Option<FastVelocity>,
     /// Bandwidth ω [rad/s] of the shaping of the tangential reference in contact (0: off;
