@@ -87,6 +87,29 @@ def run(tmp_path_factory):
     if _has_record(bins):
         rec = ru.Proc([str(bins / "naic"), "record", "--topics", "/joint_effort_cmd", "/joint_states",
                        "--out", str(bag)], env)
+    # NAIC_TAKEOVER_DUMP=DIR: every node thread's CPU time every 20 ms, written to DIR with
+    # every state and command rclpy saw (docs/nodes.md, "The take-over failure, caught";
+    # docs/figures/nodes/takeover_dump.py reads them). Off by default.
+    samples, stop_sampler = [], []
+    if os.environ.get("NAIC_TAKEOVER_DUMP"):
+        import glob
+        import threading
+
+        def _sampler():
+            while not stop_sampler:
+                now = time.time()
+                for name, ps in list(procs.items()):
+                    for pr in ps:
+                        for st in glob.glob(f"/proc/{pr.p.pid}/task/*/stat"):
+                            try:
+                                txt = open(st).read()
+                            except OSError:
+                                continue
+                            f = txt[txt.rindex(")") + 2:].split()  # fields from 3 (state) on
+                            samples.append((now, name, pr.p.pid, int(st.split("/")[4]), txt[txt.index("(") + 1:txt.rindex(")")],
+                                            int(f[11]) + int(f[12]), int(f[36]), int(f[38]), int(f[37])))
+                time.sleep(0.02)
+        threading.Thread(target=_sampler, daemon=True).start()
     r = ru.RclpyDomain(domain, "safety_process_test")
     cmds, js = [], []  # (receive time, msg)
     r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd", lambda m: cmds.append((time.time(), m)), 1000)
@@ -132,7 +155,30 @@ def run(tmp_path_factory):
     logs = {name: "\n".join(p.output() for p in ps) for name, ps in procs.items()}
     if rec:
         logs["record"] = rec.output()
-    return {"cmds": cmds, "js": js, "events": events, "codes": codes, "logs": logs, "bag": bag if rec else None}
+    stop_sampler.append(True)
+    run = {"cmds": cmds, "js": js, "events": events, "codes": codes, "logs": logs, "bag": bag if rec else None}
+    if os.environ.get("NAIC_TAKEOVER_DUMP"):
+        _dump(pathlib.Path(os.environ["NAIC_TAKEOVER_DUMP"]), run, samples)
+    return run
+
+
+def _dump(d, run, samples):
+    """The run as CSV files in `d`: js.csv (stamp [s], q, dq, effort), cmd.csv (receive time,
+    source stamp [s], the six torques), threads.csv (time, node, pid, tid, name, CPU ticks,
+    CPU, policy, rt priority), events.txt and each node's log."""
+    d.mkdir(parents=True, exist_ok=True)
+    with open(d / "js.csv", "w") as f:
+        for _, m in run["js"]:
+            f.write(",".join(map(str, [_stamp_ns(m) * 1e-9, *m.position, *m.velocity, *m.effort])) + "\n")
+    with open(d / "cmd.csv", "w") as f:
+        for t, m in run["cmds"]:
+            f.write(",".join(map(str, [t, _src_ns(m) * 1e-9, *m.data[:6]])) + "\n")
+    with open(d / "threads.csv", "w") as f:
+        for x in samples:
+            f.write(",".join(map(str, x)) + "\n")
+    (d / "events.txt").write_text(repr(run["events"]) + "\n")
+    for k, v in run["logs"].items():
+        (d / f"log_{k}.txt").write_text(v)
 
 
 def test_process_fault_nothing_panics_and_survivors_exit_cleanly(run):
