@@ -69,13 +69,16 @@ def _src_ns(m):
     return None
 
 
-# NAIC_TAKEOVER_OBSERVERS=best_effort: rclpy and `naic record` subscribe best effort (an
-# experiment's switch: docs/nodes.md, "Reliable observers"; the tests then judge from what
-# a lossy reader saw, so keep it off for the suite). Default: reliable, as `ros2 topic echo`.
+# NAIC_TAKEOVER_OBSERVERS=best_effort: rclpy and `naic record` subscribe best effort
+# (`rclpy:best_effort` or `record:best_effort`: only that one). An experiment's switch
+# (docs/nodes.md, "Reliable observers"); the tests then judge from what a lossy reader saw,
+# so keep it off for the suite. Default: reliable, as `ros2 topic echo`.
 _OBSERVERS = os.environ.get("NAIC_TAKEOVER_OBSERVERS", "reliable")
-if _OBSERVERS not in ("reliable", "best_effort"):
-    raise ValueError(f"NAIC_TAKEOVER_OBSERVERS={_OBSERVERS!r}: use 'reliable' (the default) or 'best_effort'")
-BEST_EFFORT_OBSERVERS = _OBSERVERS == "best_effort"
+if _OBSERVERS not in ("reliable", "best_effort", "rclpy:best_effort", "record:best_effort"):
+    raise ValueError(f"NAIC_TAKEOVER_OBSERVERS={_OBSERVERS!r}: use 'reliable' (the default), 'best_effort', "
+                     "'rclpy:best_effort' or 'record:best_effort'")
+RCLPY_BEST_EFFORT = _OBSERVERS in ("best_effort", "rclpy:best_effort")
+RECORD_BEST_EFFORT = _OBSERVERS in ("best_effort", "record:best_effort")
 
 
 def _has_record(bins):
@@ -95,7 +98,7 @@ def run(tmp_path_factory):
     bag = tmp_path_factory.mktemp("rec") / "faults.mcap"
     if _has_record(bins):
         rec = ru.Proc([str(bins / "naic"), "record", "--topics", "/joint_effort_cmd", "/joint_states",
-                       "--out", str(bag), *(["--best-effort"] if BEST_EFFORT_OBSERVERS else [])], env)
+                       "--out", str(bag), *(["--best-effort"] if RECORD_BEST_EFFORT else [])], env)
     # NAIC_TAKEOVER_DUMP=DIR: every node thread's CPU time every 20 ms, written to DIR with
     # every state and command rclpy saw (docs/nodes.md, "The take-over failure, caught";
     # docs/figures/nodes/takeover_dump.py reads them). Off by default.
@@ -122,7 +125,7 @@ def run(tmp_path_factory):
     r = ru.RclpyDomain(domain, "safety_process_test")
     cmds, js = [], []  # (receive time, msg)
     qos = 1000  # reliable, keep last 1000
-    if BEST_EFFORT_OBSERVERS:
+    if RCLPY_BEST_EFFORT:
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
     r.node.create_subscription(Float64MultiArray, "/joint_effort_cmd", lambda m: cmds.append((time.time(), m)), qos)

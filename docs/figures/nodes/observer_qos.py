@@ -1,5 +1,5 @@
 """Reads what observer_qos_pairs.sh wrote and prints, per variant (A: reliable observers,
-B: best-effort observers), the driver's own wake-up report over the runs: wake-ups late by
+B: best-effort observers, C / D: only `naic record` / only rclpy best effort), the driver's own wake-up report over the runs: wake-ups late by
 more than 1 ms, runs of missed cycles, the latest wake-up. docs/nodes.md, "Reliable
 observers".
 
@@ -24,10 +24,14 @@ def report(run_dir):
 
 
 def main(out):
-    for v, what in (("A", "reliable observers"), ("B", "best-effort observers")):
+    variants = (("A", "reliable observers"), ("B", "best-effort observers"),
+                ("C", "naic record best effort, rclpy reliable"), ("D", "rclpy best effort, naic record reliable"))
+    found = 0
+    for v, what in variants:
         runs = [r for d in sorted(glob.glob(os.path.join(out, f"{v}[0-9]*/"))) if (r := report(d))]
         if not runs:
-            sys.exit(f"no run of variant {v} with a driver report under {out}")
+            continue
+        found += 1
         late = sorted(r["wakes_late_over_1ms"] for r in runs)
         eps = sorted(r["miss_episodes"] for r in runs)
         mx = sorted(round(r["wake_late_max_us"] / 1e3, 1) for r in runs)
@@ -35,6 +39,8 @@ def main(out):
         print(f"  wake-ups late > 1 ms: median {statistics.median(late)}, sorted {late}")
         print(f"  runs of missed cycles: median {statistics.median(eps)}, sorted {eps}")
         print(f"  latest wake-up [ms]: median {statistics.median(mx)}, sorted {mx}")
+    if not found:
+        sys.exit(f"no run with a driver report under {out}")
 
 
 if __name__ == "__main__":

@@ -1,18 +1,22 @@
 #!/usr/bin/env bash
-# Alternating pairs of tests/python/test_safety_process.py: A with reliable observers (rclpy
-# and `naic record`, the suite's setting), B with best-effort ones; each run's recording
-# goes to OUT/A<i> or OUT/B<i> (NAIC_TAKEOVER_DUMP), the pytest line to OUT/summary.txt.
-# Start a load beside it (docs/nodes.md, "Reliable observers"), then read the driver's own
-# wake-up report with observer_qos.py OUT.
-#   bash docs/figures/nodes/observer_qos_pairs.sh OUT [FIRST LAST]
+# Rotations of tests/python/test_safety_process.py over observer QoS variants: A with
+# reliable observers (rclpy and `naic record`, the suite's setting), B with both best effort,
+# C with only `naic record` best effort, D with only rclpy best effort. Each run's recording
+# goes to OUT/<variant><i> (NAIC_TAKEOVER_DUMP), the pytest line to OUT/summary.txt. Start a
+# load beside it (docs/nodes.md, "Reliable observers"), then read the driver's own wake-up
+# report with observer_qos.py OUT.
+#   bash docs/figures/nodes/observer_qos_pairs.sh OUT [FIRST LAST [VARIANTS]]   (VARIANTS: e.g. "A B")
 set -u
-out=${1:?usage: observer_qos_pairs.sh OUT [FIRST LAST]}
+out=${1:?usage: observer_qos_pairs.sh OUT [FIRST LAST [VARIANTS]]}
 mkdir -p "$out"; out=$(cd "$out" && pwd)
 cd "$(dirname "$0")/../../.."
 py=${NAIC_VENV:-.venv}/bin/python
 for i in $(seq "${2:-1}" "${3:-10}"); do
-  for v in A B; do
-    obs=reliable; [ $v = B ] && obs=best_effort
+  for v in ${4:-A B}; do
+    case $v in
+      A) obs=reliable ;; B) obs=best_effort ;; C) obs=record:best_effort ;; D) obs=rclpy:best_effort ;;
+      *) echo "unknown variant $v (A, B, C or D)" >&2; exit 2 ;;
+    esac
     rm -rf "$out/$v$i"
     NAIC_TAKEOVER_OBSERVERS=$obs NAIC_TAKEOVER_DUMP="$out/$v$i" ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST \
       timeout 600 "$py" -m pytest -q -rfEx --timeout=420 tests/python/test_safety_process.py > "$out/$v$i.out" 2>&1
