@@ -318,7 +318,7 @@ pub fn step(
                         Some(a) if in_contact && age >= a => 1.0,
                         Some(_) => 0.0,
                     };
-                    feedforward::blend_fast(b, f, gate, &sensed.dq, &sensed.dq_raw, &dq_ref)
+                    feedforward::blend_fast(b, f, gate, &sensed.dq, &sensed.dq_raw, &sensed.dq_raw_prev, &dq_ref)
                 }
                 None => feedforward::blend(b, &sensed.dq, &dq_ref),
             })
