@@ -136,6 +136,7 @@ impl PipelineController {
                 let mut it = v.split(',');
                 f.lead = it.next().and_then(|x| x.parse().ok()).unwrap_or(0.0);
                 f.lead_base = it.next().and_then(|x| x.parse().ok()).unwrap_or(1);
+                f.lead_k_min = it.next().and_then(|x| x.parse().ok()).unwrap_or(0.0);
             }
         }
         let mut effort = [0.0; N_JOINTS];

@@ -109,6 +109,10 @@ pub struct FastVelocity {
     /// the encoders' white velocity noise by `√((1 + l/2)² + (l/2)²)` (√5 at `lead` = 2)
     /// instead of `√((1 + l)² + l²)` (√13) over 1.
     pub lead_base: usize,
+    /// The lead only on a surface at least this stiff [N/m] (the schedule's stiffness, known
+    /// or estimated): the drop's oscillation moves the force by `k_e` times the tip's swing,
+    /// so on soft surfaces there is nothing for the lead to gain and only its noise to add.
+    pub lead_k_min: f64,
 }
 
 impl FastVelocity {
@@ -116,13 +120,13 @@ impl FastVelocity {
     /// noise, so the sign test does not flip on noise; 8 mrad/s measured the same, 32 mrad/s
     /// lost the 46 Hz band's lower half), in contact from its start, in `model`'s drops.
     pub fn for_model(model: &FrictionModel) -> Self {
-        Self { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop_bands(model)), lead: 0.0, lead_base: 1 }
+        Self { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop_bands(model)), lead: 0.0, lead_base: 1, lead_k_min: 0.0 }
     }
 
     pub fn validate(&self) -> Result<(), ConfigError> {
         let age_ok = self.contact_age.is_none_or(|a| a >= 0.0 && a.is_finite());
         let drop_ok = self.drop.is_none_or(|d| d.iter().flatten().all(|v| v.is_finite()));
-        let lead_ok = (0.0..=20.0).contains(&self.lead) && (1..=2).contains(&self.lead_base);
+        let lead_ok = (0.0..=20.0).contains(&self.lead) && (1..=2).contains(&self.lead_base) && self.lead_k_min >= 0.0 && self.lead_k_min.is_finite();
         if !(self.v_on > 0.0 && self.v_on.is_finite() && age_ok && drop_ok && lead_ok) {
             return Err(ConfigError::invalid(
                 "friction fast velocity v_on",
@@ -189,16 +193,20 @@ pub fn fast_weight(v_on: f64, dq: f64, dq_raw: f64) -> f64 {
 /// q̇_raw + (lead / base) (q̇_raw − dq_prev[base − 1])` ([`FastVelocity::lead`]; `dq_prev[k −
 /// 1]` the unfiltered velocity k cycles before); the blend's weights stay on the median `dq`,
 /// so a joint at rest with its reference at rest still gets no feedforward. `gate` in
-/// [0, 1] (the contact gate of [`FastVelocity`]); `gate = 0` is [`blend`] exactly.
-pub fn blend_fast(b: &ReferenceBlend, f: &FastVelocity, gate: f64, dq: &JointVec, dq_raw: &JointVec, dq_prev: &[JointVec; 2], dq_ref: &JointVec) -> JointVec {
+/// [0, 1] (the contact gate of [`FastVelocity`]); `gate = 0` is [`blend`] exactly. `k_e`: the
+/// surface's stiffness [N/m] (known or estimated), the lead only where it is at least
+/// `f.lead_k_min`.
+#[allow(clippy::too_many_arguments)]
+pub fn blend_fast(b: &ReferenceBlend, f: &FastVelocity, gate: f64, k_e: f64, dq: &JointVec, dq_raw: &JointVec, dq_prev: &[JointVec; 2], dq_ref: &JointVec) -> JointVec {
     let base = f.lead_base.clamp(1, 2);
+    let lead = if k_e >= f.lead_k_min { f.lead } else { 0.0 };
     let measured: JointVec = std::array::from_fn(|i| {
         if f.drop.is_some_and(|d| !in_drop(&d[i], dq[i])) {
             return dq[i];
         }
         let u = gate * fast_weight(f.v_on, dq[i], dq_raw[i]);
         if u > 0.0 {
-            let fast = dq_raw[i] + f.lead / base as f64 * (dq_raw[i] - dq_prev[base - 1][i]);
+            let fast = dq_raw[i] + lead / base as f64 * (dq_raw[i] - dq_prev[base - 1][i]);
             dq[i] + u * (fast - dq[i])
         } else {
             dq[i]
@@ -280,10 +288,10 @@ mod tests {
         let dq = [0.05, 0.05, 0.001, -0.05, 0.05, 0.05];
         let raw = [0.04, -0.02, 0.003, -0.06, 0.024, 0.04];
         let dq_ref = [0.05, 0.05, 0.0, -0.05, 0.05, f64::NAN];
-        let f = FastVelocity { v_on: 0.016, contact_age: None, drop: None, lead: 0.0, lead_base: 1 };
+        let f = FastVelocity { v_on: 0.016, contact_age: None, drop: None, lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
         // No gate: exactly the median's blend.
-        assert_eq!(blend_fast(&b, &f, 0.0, &dq, &raw, &[raw; 2], &dq_ref), blend(&b, &dq, &dq_ref));
-        let v = blend_fast(&b, &f, 1.0, &dq, &raw, &[raw; 2], &dq_ref);
+        assert_eq!(blend_fast(&b, &f, 0.0, 0.0, &dq, &raw, &[raw; 2], &dq_ref), blend(&b, &dq, &dq_ref));
+        let v = blend_fast(&b, &f, 1.0, 0.0, &dq, &raw, &[raw; 2], &dq_ref);
         assert_eq!(v[0], 0.04);
         assert_eq!(v[1], 0.05, "a reversal stays on the median");
         assert_eq!(v[2], 0.0, "at rest with the reference at rest: no feedforward");
@@ -291,13 +299,13 @@ mod tests {
         assert!((v[4] - (0.05 + 0.5 * (0.024 - 0.05))).abs() < 1e-15, "{}", v[4]);
         assert_eq!(v[5], 0.04, "no reference: the measured part");
         // Half the gate, half the step.
-        let h = blend_fast(&b, &f, 0.5, &dq, &raw, &[raw; 2], &dq_ref);
+        let h = blend_fast(&b, &f, 0.5, 0.0, &dq, &raw, &[raw; 2], &dq_ref);
         assert!((h[0] - 0.045).abs() < 1e-15, "{}", h[0]);
     }
 
     #[test]
     fn a_fast_velocity_band_that_is_not_positive_is_refused() {
-        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), drop: Some([[0.0; 4]; N_JOINTS]), lead: 0.0, lead_base: 1 };
+        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), drop: Some([[0.0; 4]; N_JOINTS]), lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
         assert!(ok.validate().is_ok());
         assert!(FastVelocity { contact_age: None, drop: None, ..ok }.validate().is_ok());
         let mut nan = [[0.0; 4]; N_JOINTS];
@@ -353,11 +361,11 @@ mod tests {
         let b = ReferenceBlend { v_lo: 0.004, v_hi: 0.008 };
         let mut drop = [[0.0; 4]; N_JOINTS];
         drop[0] = [-0.06, -0.005, 0.01, 0.1];
-        let f = FastVelocity { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop), lead: 0.0, lead_base: 1 };
+        let f = FastVelocity { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop), lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
         let dq = [0.05, 0.05, 0.2, 0.0, 0.0, 0.0];
         let raw = [0.04, 0.04, 0.19, 0.0, 0.0, 0.0];
         let dq_ref = [0.05; 6];
-        let v = blend_fast(&b, &f, 1.0, &dq, &raw, &[raw; 2], &dq_ref);
+        let v = blend_fast(&b, &f, 1.0, 0.0, &dq, &raw, &[raw; 2], &dq_ref);
         assert_eq!(v[0], 0.04, "in its drop: the unfiltered velocity");
         assert_eq!(v[1], 0.05, "a joint without a drop: the median");
         assert_eq!(v[2], 0.2);
