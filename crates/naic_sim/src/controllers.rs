@@ -128,16 +128,10 @@ impl PipelineController {
             // The task's expected surface (acrylic, two-material): the approach slows down near it.
             c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
             // The friction feedforward on the unfiltered velocity in contact where a joint's
-            // law falls with speed (naic_core::pipeline::feedforward::FastVelocity; round 10 of
-            // issue 12, docs/controller.md): the drops are the feedforward model's.
+            // law falls with speed, led by 2 periods on stiff surfaces
+            // (naic_core::pipeline::feedforward::FastVelocity; rounds 10 and 11 of issue 12,
+            // docs/controller.md): the drops are the feedforward model's.
             c.force_law.scheduled.friction_fast = friction.as_ref().map(FastVelocity::for_model);
-            // EXPERIMENT (round 11, not for commit): NAIC_LEAD="lead,base" overrides the lead.
-            if let (Some(f), Ok(v)) = (c.force_law.scheduled.friction_fast.as_mut(), std::env::var("NAIC_LEAD")) {
-                let mut it = v.split(',');
-                f.lead = it.next().and_then(|x| x.parse().ok()).unwrap_or(0.0);
-                f.lead_base = it.next().and_then(|x| x.parse().ok()).unwrap_or(1);
-                f.lead_k_min = it.next().and_then(|x| x.parse().ok()).unwrap_or(0.0);
-            }
         }
         let mut effort = [0.0; N_JOINTS];
         for (e, j) in effort.iter_mut().zip(model.joints()) {

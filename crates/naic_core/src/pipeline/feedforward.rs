@@ -118,9 +118,15 @@ pub struct FastVelocity {
 impl FastVelocity {
     /// The setting of the table (round 10): `v_on` = 16 mrad/s (8 σ of the encoders' velocity
     /// noise, so the sign test does not flip on noise; 8 mrad/s measured the same, 32 mrad/s
-    /// lost the 46 Hz band's lower half), in contact from its start, in `model`'s drops.
+    /// lost the 46 Hz band's lower half), in contact from its start, in `model`'s drops; and
+    /// (round 11) led by 2 periods (the loop delay the scheduled law's predictor is designed
+    /// for, `ScheduleParams::delay_cycles`; 1.5 measured the same) over a 2-cycle baseline
+    /// (`q̇_f = 2 q̇_raw − q̇_raw,−2`: noise × √5; over 1 cycle, × √13, acrylic's settling under a
+    /// model error got tails of 0.18–0.26 s) on surfaces of at least 10 000 N/m (the force
+    /// observer's `force_observer_k_min`: the stiff surfaces, where joint 4's drop reached the
+    /// ±2 % band).
     pub fn for_model(model: &FrictionModel) -> Self {
-        Self { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop_bands(model)), lead: 0.0, lead_base: 1, lead_k_min: 0.0 }
+        Self { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop_bands(model)), lead: 2.0, lead_base: 2, lead_k_min: 10_000.0 }
     }
 
     pub fn validate(&self) -> Result<(), ConfigError> {
@@ -301,6 +307,22 @@ mod tests {
         // Half the gate, half the step.
         let h = blend_fast(&b, &f, 0.5, 0.0, &dq, &raw, &[raw; 2], &dq_ref);
         assert!((h[0] - 0.045).abs() < 1e-15, "{}", h[0]);
+        // Led by 2 periods over a 2-cycle baseline on a stiff surface: q̇_f = 2 q̇_raw − q̇_raw,−2
+        // = 2 (0.04) − 0.036 = 0.044 where it slides; nothing where the blend had the median
+        // or the reference; on a surface below `lead_k_min` the unled velocity.
+        let prev = [[0.039, 0.0, 0.0, -0.06, 0.024, 0.04], [0.036, 0.0, 0.0, -0.06, 0.024, 0.04]];
+        let led = FastVelocity { lead: 2.0, lead_base: 2, lead_k_min: 10_000.0, ..f };
+        let l = blend_fast(&b, &led, 1.0, 50_000.0, &dq, &raw, &prev, &dq_ref);
+        assert!((l[0] - 0.044).abs() < 1e-15, "{}", l[0]);
+        assert_eq!(l[1], 0.05);
+        assert_eq!(l[2], 0.0);
+        assert_eq!(l[3], -0.06);
+        // Over a 1-cycle baseline: 0.04 + 2 (0.04 − 0.039) = 0.042.
+        let l1 = blend_fast(&b, &FastVelocity { lead_base: 1, ..led }, 1.0, 50_000.0, &dq, &raw, &prev, &dq_ref);
+        assert!((l1[0] - 0.042).abs() < 1e-15, "{}", l1[0]);
+        // Soft surface (or no estimate yet): no lead.
+        assert_eq!(blend_fast(&b, &led, 1.0, 2000.0, &dq, &raw, &prev, &dq_ref), v);
+        assert_eq!(blend_fast(&b, &led, 1.0, f64::NAN, &dq, &raw, &prev, &dq_ref), v);
     }
 
     #[test]
@@ -316,6 +338,12 @@ mod tests {
             FastVelocity { contact_age: Some(-1.0), ..ok },
             FastVelocity { contact_age: Some(f64::INFINITY), ..ok },
             FastVelocity { drop: Some(nan), ..ok },
+            FastVelocity { lead: -1.0, ..ok },
+            FastVelocity { lead: f64::NAN, ..ok },
+            FastVelocity { lead_base: 0, ..ok },
+            FastVelocity { lead_base: 3, ..ok },
+            FastVelocity { lead_k_min: -1.0, ..ok },
+            FastVelocity { lead_k_min: f64::INFINITY, ..ok },
         ] {
             let e = bad.validate().unwrap_err().to_string();
             assert!(e.contains("v_on") && e.contains("contact_age"), "{e}");

@@ -295,6 +295,26 @@ mod tests {
     }
 
     #[test]
+    fn the_unfiltered_velocity_one_and_two_cycles_back() {
+        for w in [5, 3, 2, 1] {
+            let p = params(w);
+            let mut s = SenseState::default();
+            for k in 0..8 {
+                let mut m = meas(k as f64 * 1e-3);
+                m.dq[0] = 0.5 * k as f64;
+                let (n, out) = step(&p, &s, &m);
+                s = n;
+                let out = out.unwrap();
+                assert_eq!(out.dq_raw[0], 0.5 * k as f64);
+                // c cycles back as far as the history reaches (w samples), the oldest it has beyond.
+                let back = |c: usize| 0.5 * (k - c.min(k).min(w - 1)) as f64;
+                assert_eq!(out.dq_raw_prev[0][0], back(1), "w = {w}, k = {k}");
+                assert_eq!(out.dq_raw_prev[1][0], back(2), "w = {w}, k = {k}");
+            }
+        }
+    }
+
+    #[test]
     fn faults_are_named() {
         let p = params(3);
         let mut m = meas(1.0);
