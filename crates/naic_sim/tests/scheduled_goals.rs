@@ -217,7 +217,7 @@ fn model_mass_error() {
         // docs/controller.md round 5), 0.095 s since the scheduled law's 0.5 N contact entry
         // (median 0.081 s). Since round 11 (the friction feedforward's lead on stiff surfaces)
         // seed 1 settles in 0.199 s: the same slow dip 0.15–0.2 s after contact as before
-        // (9.818 N then, 13 mN inside the ±0.2 N band), now 9.797 N, 3 mN outside, in 2
+        // (9.818 N then, 18 mN inside the ±0.2 N band), now 9.791 N, 9 mN outside, in 2
         // samples; the other seeds 0.032 / 0.053 / 0.058 / 0.056 s (were 0.051 / 0.075 / 0.057 /
         // 0.057 s). So at 0.8 the check is on the median of seeds 1–5, the goal's statistic as
         // in the table: 0.056 s (0.057 s before round 11; 0.081 s when the seed-1 bound of
@@ -247,7 +247,7 @@ fn stiffness_sweep() {
             } else {
                 // Met at 20 000 and 50 000 N/m at d = 1 since round 10 (the friction feedforward
                 // on the unfiltered velocity in contact, in joint 4's Stribeck drop;
-                // docs/controller.md): seed 1 1.4 / 1.4 %, ±2 % in 0.027 / 0.078 s (1.2 s
+                // docs/controller.md): seed 1 1.4 / 1.1 %, ±2 % in 0.027 / 0.078 s (1.2 s
                 // before: joint 4 at 46 Hz); at d = 2 since round 11 (that velocity led by 2
                 // periods on stiff surfaces): seed 1 1.5 / 1.4 %, 0.034 / 0.047 s (1.06 / 1.29 s
                 // before: joint 4's drop still oscillating at 44 Hz behind the unfiltered
