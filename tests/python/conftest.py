@@ -9,6 +9,11 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared"
+# Inherited by every process a test starts (they all get os.environ or a copy of it): what
+# _own_processes tells a test's leftover from a `naic` the user (or another checkout's
+# helper) runs beside the suite from the same target/, which the check must not kill.
+RUN_MARK = f"NAIC_TEST_RUN={os.getpid()}"
+os.environ["NAIC_TEST_RUN"] = str(os.getpid())
 
 
 @pytest.fixture(scope="session")
@@ -41,8 +46,9 @@ def _release_ros_domains():
 
 
 def _own_processes():
-    """pid -> executable of the live processes started from this checkout's target/ (the
-    nodes, `naic`): a test must not leave one behind."""
+    """pid -> executable of the live processes started by this test run (RUN_MARK in their
+    environment) from this checkout's target/ (the nodes, `naic`): a test must not leave one
+    behind."""
     target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")).resolve()
     found = {}
     for d in pathlib.Path("/proc").iterdir():
@@ -52,9 +58,16 @@ def _own_processes():
             exe = pathlib.Path(os.readlink(d / "exe"))
         except OSError:
             continue  # gone, or not ours to read
-        if target in exe.parents and exe.parent.name == "release":
+        if target in exe.parents and exe.parent.name == "release" and _started_here(d):
             found[int(d.name)] = exe.name
     return found
+
+
+def _started_here(proc_dir):
+    try:
+        return RUN_MARK.encode() in (proc_dir / "environ").read_bytes().split(b"\0")
+    except OSError:
+        return False
 
 
 @pytest.fixture(scope="module", autouse=True)

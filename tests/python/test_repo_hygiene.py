@@ -1,7 +1,10 @@
 """Repository hygiene: no committed file names an absolute path of a
 development machine (issue 17: a `source:` line once carried one), and no
 library, node or CLI source returns `Result<_, String>` (issue 17: one error
-style, thiserror types that name the field, the value and the rule)."""
+style, thiserror types that name the field, the value and the rule); and the suite's
+own leftover-process check kills only what the suite started."""
+import os
+import pathlib
 import re
 import subprocess
 
@@ -173,3 +176,19 @@ def test_no_library_node_or_cli_source_returns_a_string_error(root):
         "Result<_, String> in library, node or CLI code: return a thiserror type whose variants name the field, "
         "the value and the rule (e.g. naic_ros::params_file::ParamsFileError):\n" + "\n".join(hits)
     )
+
+
+def test_the_leftover_check_counts_only_processes_this_run_started():
+    """conftest's check after each test file kills what a test left running; a process the
+    user (or another checkout) started beside the suite, without this run's mark in its
+    environment, is not one of them."""
+    import conftest
+    ours = subprocess.Popen(["sleep", "30"], env=dict(os.environ))
+    theirs = subprocess.Popen(["sleep", "30"], env={k: v for k, v in os.environ.items() if k != "NAIC_TEST_RUN"})
+    try:
+        assert conftest._started_here(pathlib.Path(f"/proc/{ours.pid}")), "a process started by the suite lacks its mark"
+        assert not conftest._started_here(pathlib.Path(f"/proc/{theirs.pid}")), "a process without the mark counts as the suite's"
+    finally:
+        for p in (ours, theirs):
+            p.kill()
+            p.wait()
