@@ -318,7 +318,8 @@ pub fn step(
                         Some(a) if in_contact && age >= a => 1.0,
                         Some(_) => 0.0,
                     };
-                    feedforward::blend_fast(b, f, gate, &sensed.dq, &sensed.dq_raw, &dq_ref)
+                    let k_e = next.control.sched.k_known.unwrap_or(out.law.k_e_hat);
+                    feedforward::blend_fast(b, f, gate, k_e, &sensed.dq, &sensed.dq_raw, &sensed.dq_raw_prev, &dq_ref)
                 }
                 None => feedforward::blend(b, &sensed.dq, &dq_ref),
             })

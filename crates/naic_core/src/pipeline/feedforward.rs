@@ -99,26 +99,47 @@ pub struct FastVelocity {
     /// Stribeck drop, [`drop_bands`]): `[lo⁻, hi⁻, lo⁺, hi⁺]` [rad/s], the unfiltered velocity
     /// only where the median lies in one of them; `None`: at every speed.
     pub drop: Option<[[f64; 4]; N_JOINTS]>,
+    /// Periods by which the unfiltered velocity is extrapolated (round 11): `q̇_f = q̇_raw +
+    /// (lead / base) (q̇_raw − q̇_raw,−base)`, `q̇_raw,−base` the unfiltered velocity `base`
+    /// cycles before. The unfiltered velocity is still `d` periods old (and the torque held
+    /// for one more), which at d = 2 left joint 4 oscillating at 44 Hz in its drop (round 10
+    /// item 3). 0: none.
+    pub lead: f64,
+    /// The extrapolation's baseline in cycles, 1 or 2: over 2 cycles the lead multiplies
+    /// the encoders' white velocity noise by `√((1 + l/2)² + (l/2)²)` (√5 at `lead` = 2)
+    /// instead of `√((1 + l)² + l²)` (√13) over 1.
+    pub lead_base: usize,
+    /// The lead only on a surface at least this stiff [N/m] (the schedule's stiffness, known
+    /// or estimated): the drop's oscillation moves the force by `k_e` times the tip's swing,
+    /// so on soft surfaces there is nothing for the lead to gain and only its noise to add.
+    pub lead_k_min: f64,
 }
 
 impl FastVelocity {
     /// The setting of the table (round 10): `v_on` = 16 mrad/s (8 σ of the encoders' velocity
     /// noise, so the sign test does not flip on noise; 8 mrad/s measured the same, 32 mrad/s
-    /// lost the 46 Hz band's lower half), in contact from its start, in `model`'s drops.
+    /// lost the 46 Hz band's lower half), in contact from its start, in `model`'s drops; and
+    /// (round 11) led by 2 periods (the loop delay the scheduled law's predictor is designed
+    /// for, `ScheduleParams::delay_cycles`; 1.5 measured the same) over a 2-cycle baseline
+    /// (`q̇_f = 2 q̇_raw − q̇_raw,−2`: noise × √5; over 1 cycle, × √13, acrylic's settling under a
+    /// model error got tails of 0.18–0.26 s) on surfaces of at least 10 000 N/m (the force
+    /// observer's `force_observer_k_min`: the stiff surfaces, where joint 4's drop reached the
+    /// ±2 % band).
     pub fn for_model(model: &FrictionModel) -> Self {
-        Self { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop_bands(model)) }
+        Self { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop_bands(model)), lead: 2.0, lead_base: 2, lead_k_min: 10_000.0 }
     }
 
     pub fn validate(&self) -> Result<(), ConfigError> {
         let age_ok = self.contact_age.is_none_or(|a| a >= 0.0 && a.is_finite());
         let drop_ok = self.drop.is_none_or(|d| d.iter().flatten().all(|v| v.is_finite()));
-        if !(self.v_on > 0.0 && self.v_on.is_finite() && age_ok && drop_ok) {
+        let lead_ok = (0.0..=20.0).contains(&self.lead) && (1..=2).contains(&self.lead_base) && self.lead_k_min >= 0.0 && self.lead_k_min.is_finite();
+        if !(self.v_on > 0.0 && self.v_on.is_finite() && age_ok && drop_ok && lead_ok) {
             return Err(ConfigError::invalid(
                 "friction fast velocity v_on",
                 self.v_on,
                 format!(
-                    "rad/s must be finite and > 0, with contact_age = {:?} s finite and >= 0 (or none) and finite drop bands",
-                    self.contact_age
+                    "rad/s must be finite and > 0, with contact_age = {:?} s finite and >= 0 (or none), finite drop bands, lead = {} periods in [0, 20] and lead_base = {} cycles in [1, 2]",
+                    self.contact_age, self.lead, self.lead_base
                 ),
             ));
         }
@@ -173,19 +194,26 @@ pub fn fast_weight(v_on: f64, dq: f64, dq_raw: f64) -> f64 {
 }
 
 /// [`blend`] with the measured part moved towards the unfiltered velocity by
-/// `gate × fast_weight` per joint: `q̇_m = q̇ + u (q̇_raw − q̇)`, `u = gate · fast_weight(v_on,
-/// q̇, q̇_raw)` where the median `q̇` lies in the joint's drop band (with `f.drop`); the
-/// blend's weights stay on the median `dq`, so a joint at rest with its reference at rest
-/// still gets no feedforward. `gate` in [0, 1] (the contact gate of [`FastVelocity`]);
-/// `gate = 0` is [`blend`] exactly.
-pub fn blend_fast(b: &ReferenceBlend, f: &FastVelocity, gate: f64, dq: &JointVec, dq_raw: &JointVec, dq_ref: &JointVec) -> JointVec {
+/// `gate × fast_weight` per joint: `q̇_m = q̇ + u (q̇_f − q̇)`, `u = gate · fast_weight(v_on,
+/// q̇, q̇_raw)` where the median `q̇` lies in the joint's drop band (with `f.drop`), `q̇_f =
+/// q̇_raw + (lead / base) (q̇_raw − dq_prev[base − 1])` ([`FastVelocity::lead`]; `dq_prev[k −
+/// 1]` the unfiltered velocity k cycles before); the blend's weights stay on the median `dq`,
+/// so a joint at rest with its reference at rest still gets no feedforward. `gate` in
+/// [0, 1] (the contact gate of [`FastVelocity`]); `gate = 0` is [`blend`] exactly. `k_e`: the
+/// surface's stiffness [N/m] (known or estimated), the lead only where it is at least
+/// `f.lead_k_min`.
+#[allow(clippy::too_many_arguments)]
+pub fn blend_fast(b: &ReferenceBlend, f: &FastVelocity, gate: f64, k_e: f64, dq: &JointVec, dq_raw: &JointVec, dq_prev: &[JointVec; 2], dq_ref: &JointVec) -> JointVec {
+    let base = f.lead_base.clamp(1, 2);
+    let lead = if k_e >= f.lead_k_min { f.lead } else { 0.0 };
     let measured: JointVec = std::array::from_fn(|i| {
         if f.drop.is_some_and(|d| !in_drop(&d[i], dq[i])) {
             return dq[i];
         }
         let u = gate * fast_weight(f.v_on, dq[i], dq_raw[i]);
         if u > 0.0 {
-            dq[i] + u * (dq_raw[i] - dq[i])
+            let fast = dq_raw[i] + lead / base as f64 * (dq_raw[i] - dq_prev[base - 1][i]);
+            dq[i] + u * (fast - dq[i])
         } else {
             dq[i]
         }
@@ -266,10 +294,10 @@ mod tests {
         let dq = [0.05, 0.05, 0.001, -0.05, 0.05, 0.05];
         let raw = [0.04, -0.02, 0.003, -0.06, 0.024, 0.04];
         let dq_ref = [0.05, 0.05, 0.0, -0.05, 0.05, f64::NAN];
-        let f = FastVelocity { v_on: 0.016, contact_age: None, drop: None };
+        let f = FastVelocity { v_on: 0.016, contact_age: None, drop: None, lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
         // No gate: exactly the median's blend.
-        assert_eq!(blend_fast(&b, &f, 0.0, &dq, &raw, &dq_ref), blend(&b, &dq, &dq_ref));
-        let v = blend_fast(&b, &f, 1.0, &dq, &raw, &dq_ref);
+        assert_eq!(blend_fast(&b, &f, 0.0, 0.0, &dq, &raw, &[raw; 2], &dq_ref), blend(&b, &dq, &dq_ref));
+        let v = blend_fast(&b, &f, 1.0, 0.0, &dq, &raw, &[raw; 2], &dq_ref);
         assert_eq!(v[0], 0.04);
         assert_eq!(v[1], 0.05, "a reversal stays on the median");
         assert_eq!(v[2], 0.0, "at rest with the reference at rest: no feedforward");
@@ -277,13 +305,29 @@ mod tests {
         assert!((v[4] - (0.05 + 0.5 * (0.024 - 0.05))).abs() < 1e-15, "{}", v[4]);
         assert_eq!(v[5], 0.04, "no reference: the measured part");
         // Half the gate, half the step.
-        let h = blend_fast(&b, &f, 0.5, &dq, &raw, &dq_ref);
+        let h = blend_fast(&b, &f, 0.5, 0.0, &dq, &raw, &[raw; 2], &dq_ref);
         assert!((h[0] - 0.045).abs() < 1e-15, "{}", h[0]);
+        // Led by 2 periods over a 2-cycle baseline on a stiff surface: q̇_f = 2 q̇_raw − q̇_raw,−2
+        // = 2 (0.04) − 0.036 = 0.044 where it slides; nothing where the blend had the median
+        // or the reference; on a surface below `lead_k_min` the unled velocity.
+        let prev = [[0.039, 0.0, 0.0, -0.06, 0.024, 0.04], [0.036, 0.0, 0.0, -0.06, 0.024, 0.04]];
+        let led = FastVelocity { lead: 2.0, lead_base: 2, lead_k_min: 10_000.0, ..f };
+        let l = blend_fast(&b, &led, 1.0, 50_000.0, &dq, &raw, &prev, &dq_ref);
+        assert!((l[0] - 0.044).abs() < 1e-15, "{}", l[0]);
+        assert_eq!(l[1], 0.05);
+        assert_eq!(l[2], 0.0);
+        assert_eq!(l[3], -0.06);
+        // Over a 1-cycle baseline: 0.04 + 2 (0.04 − 0.039) = 0.042.
+        let l1 = blend_fast(&b, &FastVelocity { lead_base: 1, ..led }, 1.0, 50_000.0, &dq, &raw, &prev, &dq_ref);
+        assert!((l1[0] - 0.042).abs() < 1e-15, "{}", l1[0]);
+        // Soft surface (or no estimate yet): no lead.
+        assert_eq!(blend_fast(&b, &led, 1.0, 2000.0, &dq, &raw, &prev, &dq_ref), v);
+        assert_eq!(blend_fast(&b, &led, 1.0, f64::NAN, &dq, &raw, &prev, &dq_ref), v);
     }
 
     #[test]
     fn a_fast_velocity_band_that_is_not_positive_is_refused() {
-        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), drop: Some([[0.0; 4]; N_JOINTS]) };
+        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), drop: Some([[0.0; 4]; N_JOINTS]), lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
         assert!(ok.validate().is_ok());
         assert!(FastVelocity { contact_age: None, drop: None, ..ok }.validate().is_ok());
         let mut nan = [[0.0; 4]; N_JOINTS];
@@ -294,6 +338,12 @@ mod tests {
             FastVelocity { contact_age: Some(-1.0), ..ok },
             FastVelocity { contact_age: Some(f64::INFINITY), ..ok },
             FastVelocity { drop: Some(nan), ..ok },
+            FastVelocity { lead: -1.0, ..ok },
+            FastVelocity { lead: f64::NAN, ..ok },
+            FastVelocity { lead_base: 0, ..ok },
+            FastVelocity { lead_base: 3, ..ok },
+            FastVelocity { lead_k_min: -1.0, ..ok },
+            FastVelocity { lead_k_min: f64::INFINITY, ..ok },
         ] {
             let e = bad.validate().unwrap_err().to_string();
             assert!(e.contains("v_on") && e.contains("contact_age"), "{e}");
@@ -339,11 +389,11 @@ mod tests {
         let b = ReferenceBlend { v_lo: 0.004, v_hi: 0.008 };
         let mut drop = [[0.0; 4]; N_JOINTS];
         drop[0] = [-0.06, -0.005, 0.01, 0.1];
-        let f = FastVelocity { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop) };
+        let f = FastVelocity { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop), lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
         let dq = [0.05, 0.05, 0.2, 0.0, 0.0, 0.0];
         let raw = [0.04, 0.04, 0.19, 0.0, 0.0, 0.0];
         let dq_ref = [0.05; 6];
-        let v = blend_fast(&b, &f, 1.0, &dq, &raw, &dq_ref);
+        let v = blend_fast(&b, &f, 1.0, 0.0, &dq, &raw, &[raw; 2], &dq_ref);
         assert_eq!(v[0], 0.04, "in its drop: the unfiltered velocity");
         assert_eq!(v[1], 0.05, "a joint without a drop: the median");
         assert_eq!(v[2], 0.2);

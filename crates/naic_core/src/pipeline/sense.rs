@@ -164,6 +164,11 @@ pub struct Sensed {
     /// 5-sample median): the scheduled law's friction feedforward may use it while a joint
     /// slides (`feedforward::FastVelocity`).
     pub dq_raw: JointVec,
+    /// The unfiltered joint velocity 1 and 2 cycles before `dq_raw` (`dq_raw_prev[k − 1]`, k
+    /// cycles before), from the median's own history; where that history is shorter (the
+    /// first cycles, a median window below 3) the oldest sample it has, `dq_raw` itself at
+    /// worst. The friction feedforward's lead uses them (`feedforward::FastVelocity::lead`).
+    pub dq_raw_prev: [JointVec; 2],
     pub wrench: [f64; 6],
 }
 
@@ -238,7 +243,9 @@ pub fn step(p: &SenseParams, s: &SenseState, m: &RawMeasurements) -> (SenseState
         }
         *out = median(&col, next.len);
     }
-    (next, Ok(Sensed { q: m.q, dq, dq_raw: m.dq, wrench: m.wrench }))
+    // `next.next` is the slot after the newest; k cycles before it is k + 1 slots back.
+    let back = |k: usize| next.hist[(next.next + 2 * w - 1 - k.min(next.len - 1)) % w];
+    (next, Ok(Sensed { q: m.q, dq, dq_raw: m.dq, dq_raw_prev: [back(1), back(2)], wrench: m.wrench }))
 }
 
 #[cfg(test)]
@@ -285,6 +292,26 @@ mod tests {
         m.dq[0] = 1.234;
         let (_, out) = step(&params(1), &SenseState::default(), &m);
         assert_eq!(out.unwrap().dq[0], 1.234);
+    }
+
+    #[test]
+    fn the_unfiltered_velocity_one_and_two_cycles_back() {
+        for w in [5, 3, 2, 1] {
+            let p = params(w);
+            let mut s = SenseState::default();
+            for k in 0..8 {
+                let mut m = meas(k as f64 * 1e-3);
+                m.dq[0] = 0.5 * k as f64;
+                let (n, out) = step(&p, &s, &m);
+                s = n;
+                let out = out.unwrap();
+                assert_eq!(out.dq_raw[0], 0.5 * k as f64);
+                // c cycles back as far as the history reaches (w samples), the oldest it has beyond.
+                let back = |c: usize| 0.5 * (k - c.min(k).min(w - 1)) as f64;
+                assert_eq!(out.dq_raw_prev[0][0], back(1), "w = {w}, k = {k}");
+                assert_eq!(out.dq_raw_prev[1][0], back(2), "w = {w}, k = {k}");
+            }
+        }
     }
 
     #[test]
