@@ -130,8 +130,13 @@ def test_ros_sensor_faults_hold_and_resume_in_either_mode(bins, composed):
         # 10 ms) is a real, brief hold; a joint spinning past its velocity limit or a press
         # past force_limit after the resume (NAIC's drifted weights carried over the hold,
         # fixed by ControlState::hold; nodes/naic_controller/tests/faults_in_process.rs) is not.
+        # A stall of the whole chain that long also shows as the controller's actuation check
+        # (`actuation_timeout`, 0.1 s: the newest command answers a state 0.1 s old), which
+        # holds the force law as a safe hold does: a loaded run failed on "no
+        # /joint_effort_cmd for 101 ms" after the resume, the 100 ms signature of the VM
+        # standing still (docs/nodes.md, "Reliable observers").
         late = [f for f in r["faults_tail"] if f]
-        assert all(f.startswith("no fresh") for f in late), (fault, late, r)
+        assert all(f.startswith(("no fresh", "no /joint_effort_cmd for")) for f in late), (fault, late, r)
         assert not [f for f in r["faults_all"] if "joint velocity" in f or "force_limit" in f], (fault, r)
         assert r["hold_tail"] <= 0.05 * r["n_tail"], (fault, r)
         counts.append(r["fault_count_end"])
