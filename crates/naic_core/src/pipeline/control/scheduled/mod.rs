@@ -519,7 +519,7 @@ fn integral_step(integral: f64, sigma: f64, e_f: f64, band: f64, limit: f64) -> 
 
 /// Defaults of [`ScheduledParams::force_velocity_age`] and `force_velocity_blend` [s].
 pub const FORCE_VELOCITY_AGE: f64 = 0.02;
-pub const FORCE_VELOCITY_BANDWIDTH: f64 = 50.0;
+pub const FORCE_VELOCITY_BANDWIDTH: f64 = 400.0;
 
 /// Default of [`ScheduledParams::reference_shaping`] [rad/s].
 pub const REFERENCE_SHAPING_DEFAULT: f64 = 20.0;
