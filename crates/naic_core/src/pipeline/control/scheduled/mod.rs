@@ -150,7 +150,7 @@ pub struct ScheduledParams {
     /// into it), which `b_d` ≈ 410 N·s/m turns into 0.2–0.4 N of push; the force measures the
     /// same velocity to ≈ 0.01 mm/s at 50 000 N/m, with a scale error `k_e/k̂_e` and no bias.
     pub force_velocity_age: Option<f64>,
-    pub force_velocity_bandwidth: f64,
+    pub force_velocity_blend: f64,
     /// Joint friction feedforward on the reference velocity
     /// ([`crate::pipeline::feedforward::blend`]): the controller reports
     /// `J⁻¹ Ẋ_ref` blended with the measured joint velocity as the velocity the friction
@@ -205,7 +205,7 @@ impl Default for ScheduledParams {
             force_observer_confidence: 0.9,
             force_observer_age: 0.15,
             force_velocity_age: Some(FORCE_VELOCITY_AGE),
-            force_velocity_bandwidth: FORCE_VELOCITY_BANDWIDTH,
+            force_velocity_blend: FORCE_VELOCITY_BLEND,
             friction_reference: Some(ReferenceBlend { v_lo: 0.004, v_hi: 0.008 }),
             friction_fast: None,
             reference_shaping: REFERENCE_SHAPING_DEFAULT,
@@ -252,8 +252,8 @@ impl ScheduledParams {
                 ),
             ));
         }
-        if !(matches!(self.force_velocity_age, None | Some(0.0..=f64::MAX)) && self.force_velocity_bandwidth >= 0.0 && self.force_velocity_bandwidth.is_finite()) {
-            return Err(crate::pipeline::ConfigError::invalid("scheduled force_velocity_age", format!("{:?}", self.force_velocity_age), format!("s must be finite and >= 0 (or none), with force_velocity_bandwidth = {} rad/s finite and >= 0", self.force_velocity_bandwidth)));
+        if !(matches!(self.force_velocity_age, None | Some(0.0..=f64::MAX)) && self.force_velocity_blend >= 0.0 && self.force_velocity_blend.is_finite()) {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled force_velocity_age", format!("{:?}", self.force_velocity_age), format!("s must be finite and >= 0 (or none), with force_velocity_blend = {} s finite and >= 0", self.force_velocity_blend)));
         }
         if let Some(b) = &self.friction_reference {
             b.validate()?;
@@ -314,9 +314,6 @@ pub struct ScheduledState {
     pub force_observer: ForceObserver,
     /// The shaped tangential reference ([`shape_reference`]); `None` before the first cycle.
     pub shaper: Option<Shaper>,
-    /// The slow error `b̂` of the predicted velocity against the force's
-    /// ([`ScheduledParams::force_velocity_age`]) [m/s]; 0 where the force does not measure it.
-    pub velocity_bias: f64,
 }
 
 impl ScheduledState {
@@ -336,7 +333,6 @@ impl ScheduledState {
             outside_band: 0,
             force_observer: ForceObserver::default(),
             shaper: None,
-            velocity_bias: 0.0,
         }
     }
 
@@ -360,7 +356,6 @@ impl ScheduledState {
             approach_integral: 0.0,
             outside_band: 0,
             force_observer: ForceObserver::primed(-self.approach_integral),
-            velocity_bias: 0.0,
             ..*self
         }
     }
@@ -448,21 +443,19 @@ pub fn step(
         let ob = Observer { w, ..s.observer }.step_fast(&s.history, period, n_v, u.x_dot, w_slow, w_fast);
         next.observer = Observer { w, ..ob };
     }
-    let ob = next.observer;
-    let pred = predictor::predict(&s.history, period, n_x, n_v, ob.v, ob.w);
-    let pred = predictor::Prediction { dv: ob.v + pred.dv - u.x_dot, ..pred };
-    // On a stiff, well-estimated surface the slow part of the velocity from the force
-    // ([`ScheduledParams::force_velocity_age`]): `b̂ ← b̂ + ω_c T (v̂_f − v̂ − b̂)`, `v̂ + b̂`.
-    next.velocity_bias = match p.force_velocity_age {
-        Some(a0) if p.force_observer > 0.0 && !off && next.force_observer.started && age >= a0 && k_obs >= p.force_observer_k_min && confident && n_x > 0 => {
-            let v_f = next.force_observer.f_dot / k_obs;
-            let v_hat_f = v_f + predictor::predict(&s.history, period, n_x, n_x, v_f, ob.w).dv;
-            let b = s.velocity_bias + (p.force_velocity_bandwidth * period).min(1.0) * (v_hat_f - (u.x_dot + pred.dv) - s.velocity_bias);
-            if b.is_finite() { b } else { 0.0 }
+    // Before that, from `force_velocity_age`, the force's w̄ drives the velocity observer's
+    // prediction and the predictor, not yet the feedforward.
+    let mut w_pred = next.observer.w;
+    if let Some(a0) = p.force_velocity_age {
+        if p.force_observer > 0.0 && !off && next.force_observer.started && age >= a0 && age < p.force_observer_age && k_obs >= p.force_observer_k_min && confident {
+            w_pred = next.force_observer.w;
+            let ob = Observer { w: w_pred, ..s.observer }.step_fast(&s.history, period, n_v, u.x_dot, w_slow, w_fast);
+            next.observer = Observer { w: next.observer.w, ..ob };
         }
-        _ => 0.0,
-    };
-    let pred = predictor::Prediction { dv: pred.dv + next.velocity_bias, dx: pred.dx + n_x as f64 * period * next.velocity_bias };
+    }
+    let ob = next.observer;
+    let pred = predictor::predict(&s.history, period, n_x, n_v, ob.v, w_pred);
+    let pred = predictor::Prediction { dv: ob.v + pred.dv - u.x_dot, ..pred };
     let k_pred = s.k_known.unwrap_or(e.k_e).clamp(sp.k_min, sp.k_max);
     let f_hat = if n_x > 0 { (u.f_ext + k_pred * pred.dx).max(0.0) } else { u.f_ext };
     let (e_f_hat, e_dot_hat) = (f_hat - u.f_d, u.e_dot - pred.dv);
@@ -519,7 +512,7 @@ fn integral_step(integral: f64, sigma: f64, e_f: f64, band: f64, limit: f64) -> 
 
 /// Defaults of [`ScheduledParams::force_velocity_age`] and `force_velocity_blend` [s].
 pub const FORCE_VELOCITY_AGE: f64 = 0.02;
-pub const FORCE_VELOCITY_BANDWIDTH: f64 = 400.0;
+pub const FORCE_VELOCITY_BLEND: f64 = 0.01;
 
 /// Default of [`ScheduledParams::reference_shaping`] [rad/s].
 pub const REFERENCE_SHAPING_DEFAULT: f64 = 20.0;
