@@ -138,19 +138,6 @@ pub struct ScheduledParams {
     pub force_observer_k_min: f64,
     pub force_observer_confidence: f64,
     pub force_observer_age: f64,
-    /// The velocity the law damps, on a stiff surface, from the force (round 12 of issue 12,
-    /// docs/controller.md): once the contact is `force_velocity_age` [s] old (`None`: never)
-    /// and the force observer's conditions but its age hold (stiffness ≥
-    /// `force_observer_k_min`, confidence ≥ `force_observer_confidence`), `v̂ = ḟ̄/k̂_e + T Σ_{j≤n_x}
-    /// (a_j + w̄)` (the force observer's `ḟ̄`, `d` cycles old, predicted with the commands since)
-    /// replaces the velocity observer's `v̄ + T Σ_{j≤n_v} (a_j + w̄)`, blended in linearly over
-    /// `force_velocity_blend` [s]. Why: `v̄` comes from the encoders (0.6 mm/s of noise at the tip,
-    /// held off by the observer's slow gain) and a model error biases it: with the model × 0.8
-    /// it read 0.4–0.9 mm/s out of the surface 40–95 ms after acrylic's contact (× 1.25: 0.4–1.0
-    /// into it), which `b_d` ≈ 410 N·s/m turns into 0.2–0.4 N of push; the force measures the
-    /// same velocity to ≈ 0.01 mm/s at 50 000 N/m, with a scale error `k_e/k̂_e` and no bias.
-    pub force_velocity_age: Option<f64>,
-    pub force_velocity_blend: f64,
     /// Joint friction feedforward on the reference velocity
     /// ([`crate::pipeline::feedforward::blend`]): the controller reports
     /// `J⁻¹ Ẋ_ref` blended with the measured joint velocity as the velocity the friction
@@ -204,8 +191,6 @@ impl Default for ScheduledParams {
             force_observer_k_min: 10_000.0,
             force_observer_confidence: 0.9,
             force_observer_age: 0.15,
-            force_velocity_age: Some(FORCE_VELOCITY_AGE),
-            force_velocity_blend: FORCE_VELOCITY_BLEND,
             friction_reference: Some(ReferenceBlend { v_lo: 0.004, v_hi: 0.008 }),
             friction_fast: None,
             reference_shaping: REFERENCE_SHAPING_DEFAULT,
@@ -251,9 +236,6 @@ impl ScheduledParams {
                     self.force_observer_k_min, self.force_observer_age, self.force_observer_confidence
                 ),
             ));
-        }
-        if !(matches!(self.force_velocity_age, None | Some(0.0..=f64::MAX)) && self.force_velocity_blend >= 0.0 && self.force_velocity_blend.is_finite()) {
-            return Err(crate::pipeline::ConfigError::invalid("scheduled force_velocity_age", format!("{:?}", self.force_velocity_age), format!("s must be finite and >= 0 (or none), with force_velocity_blend = {} s finite and >= 0", self.force_velocity_blend)));
         }
         if let Some(b) = &self.friction_reference {
             b.validate()?;
@@ -443,18 +425,8 @@ pub fn step(
         let ob = Observer { w, ..s.observer }.step_fast(&s.history, period, n_v, u.x_dot, w_slow, w_fast);
         next.observer = Observer { w, ..ob };
     }
-    // Before that, from `force_velocity_age`, the force's w̄ drives the velocity observer's
-    // prediction and the predictor, not yet the feedforward.
-    let mut w_pred = next.observer.w;
-    if let Some(a0) = p.force_velocity_age {
-        if p.force_observer > 0.0 && !off && next.force_observer.started && age >= a0 && age < p.force_observer_age && k_obs >= p.force_observer_k_min && confident {
-            w_pred = next.force_observer.w;
-            let ob = Observer { w: w_pred, ..s.observer }.step_fast(&s.history, period, n_v, u.x_dot, w_slow, w_fast);
-            next.observer = Observer { w: next.observer.w, ..ob };
-        }
-    }
     let ob = next.observer;
-    let pred = predictor::predict(&s.history, period, n_x, n_v, ob.v, w_pred);
+    let pred = predictor::predict(&s.history, period, n_x, n_v, ob.v, ob.w);
     let pred = predictor::Prediction { dv: ob.v + pred.dv - u.x_dot, ..pred };
     let k_pred = s.k_known.unwrap_or(e.k_e).clamp(sp.k_min, sp.k_max);
     let f_hat = if n_x > 0 { (u.f_ext + k_pred * pred.dx).max(0.0) } else { u.f_ext };
@@ -509,10 +481,6 @@ pub fn step(
 fn integral_step(integral: f64, sigma: f64, e_f: f64, band: f64, limit: f64) -> f64 {
     (integral - sigma * e_f.clamp(-band, band)).clamp(-limit, limit)
 }
-
-/// Defaults of [`ScheduledParams::force_velocity_age`] and `force_velocity_blend` [s].
-pub const FORCE_VELOCITY_AGE: f64 = 0.02;
-pub const FORCE_VELOCITY_BLEND: f64 = 0.01;
 
 /// Default of [`ScheduledParams::reference_shaping`] [rad/s].
 pub const REFERENCE_SHAPING_DEFAULT: f64 = 20.0;
