@@ -190,7 +190,7 @@ impl Default for ScheduledParams {
             force_observer: 200.0,
             force_observer_k_min: 10_000.0,
             force_observer_confidence: 0.9,
-            force_observer_age: 0.02,
+            force_observer_age: 0.15,
             friction_reference: Some(ReferenceBlend { v_lo: 0.004, v_hi: 0.008 }),
             friction_fast: None,
             reference_shaping: REFERENCE_SHAPING_DEFAULT,
