@@ -309,15 +309,9 @@ pub fn step(
             let dq_ref = dq_ref.into();
             Some(match &p.control.force_law.scheduled.friction_fast {
                 Some(f) => {
-                    // In contact from `contact_age` on (round 10: out of contact the fast
-                    // velocity changed the approach's stick-slip and two-material's contact).
                     let in_contact = next.control.phase == Phase::Contact;
                     let age = next.control.sched.contact_cycles as f64 * p.control.force_law.lambda;
-                    let gate = match f.contact_age {
-                        None => 1.0,
-                        Some(a) if in_contact && age >= a => 1.0,
-                        Some(_) => 0.0,
-                    };
+                    let gate = f.contact_gate(in_contact, age);
                     let k_e = next.control.sched.k_known.unwrap_or(out.law.k_e_hat);
                     feedforward::blend_fast(b, f, gate, k_e, &sensed.dq, &sensed.dq_raw, &sensed.dq_raw_prev, &dq_ref)
                 }

@@ -129,6 +129,17 @@ impl FastVelocity {
         Self { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop_bands(model)), lead: 2.0, lead_base: 2, lead_k_min: 10_000.0 }
     }
 
+    /// The gate [`blend_fast`] takes: 1 in contact from `contact_age` [s] on (round 10: out
+    /// of contact the fast velocity changed the approach's stick-slip and two-material's
+    /// contact), everywhere without `contact_age`, else 0.
+    pub fn contact_gate(&self, in_contact: bool, contact_age_s: f64) -> f64 {
+        match self.contact_age {
+            None => 1.0,
+            Some(a) if in_contact && contact_age_s >= a => 1.0,
+            Some(_) => 0.0,
+        }
+    }
+
     pub fn validate(&self) -> Result<(), ConfigError> {
         let age_ok = self.contact_age.is_none_or(|a| a >= 0.0 && a.is_finite());
         let drop_ok = self.drop.is_none_or(|d| d.iter().flatten().all(|v| v.is_finite()));
@@ -138,8 +149,8 @@ impl FastVelocity {
                 "friction fast velocity v_on",
                 self.v_on,
                 format!(
-                    "rad/s must be finite and > 0, with contact_age = {:?} s finite and >= 0 (or none), finite drop bands, lead = {} periods in [0, 20] and lead_base = {} cycles in [1, 2]",
-                    self.contact_age, self.lead, self.lead_base
+                    "rad/s must be finite and > 0, with contact_age = {:?} s finite and >= 0 (or none), finite drop bands, lead = {} periods in [0, 20], lead_base = {} cycles in [1, 2] and lead_k_min = {} N/m finite and >= 0",
+                    self.contact_age, self.lead, self.lead_base, self.lead_k_min
                 ),
             ));
         }
@@ -323,6 +334,15 @@ mod tests {
         // Soft surface (or no estimate yet): no lead.
         assert_eq!(blend_fast(&b, &led, 1.0, 2000.0, &dq, &raw, &prev, &dq_ref), v);
         assert_eq!(blend_fast(&b, &led, 1.0, f64::NAN, &dq, &raw, &prev, &dq_ref), v);
+    }
+
+    #[test]
+    fn the_contact_gate_opens_in_contact_from_contact_age_on() {
+        let f = FastVelocity { v_on: 0.016, contact_age: Some(0.1), drop: None, lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
+        assert_eq!(f.contact_gate(true, 0.1), 1.0);
+        assert_eq!(f.contact_gate(true, 0.099), 0.0);
+        assert_eq!(f.contact_gate(false, 5.0), 0.0, "out of contact: closed");
+        assert_eq!(FastVelocity { contact_age: None, ..f }.contact_gate(false, 0.0), 1.0, "no contact_age: everywhere");
     }
 
     #[test]
