@@ -85,9 +85,9 @@ pub struct GainParams {
     /// Bounds of `ĝ`, `0 < g_min ≤ 1 ≤ g_max`.
     pub g_min: f64,
     pub g_max: f64,
-    /// Dead band above 1 before a heavy model's `ĝ > 1` is used (the estimate reads F = 1
-    /// as up to 1.08 at d = 2): `1 + max(0, ĝ − 1 − heavy_deadband)`. Only with `g_max > 1`.
-    pub heavy_deadband: f64,
+    /// Dead band of `|ĝ − 1|` before `ĝ` is used (the estimate's bias from the joints'
+    /// friction, measured +2…+14 % at F = 1): a model within it is treated as exact.
+    pub deadband: f64,
     /// Initial (and largest) covariance `P₀` [(s/m)²].
     pub p0: f64,
     /// Divide the contact command along n by `ĝ` and keep the predictor's history in realised
@@ -109,8 +109,8 @@ impl Default for GainParams {
             min_excitation: 0.003,
             min_speed: 0.2,
             g_min: 0.5,
-            g_max: 2.0,
-            heavy_deadband: 0.15,
+            g_max: 1.0,
+            deadband: 0.0,
             p0: 1e4,
             scale_commands: true,
             scale_history: false,
@@ -138,8 +138,8 @@ impl GainParams {
         if !(self.g_min > 0.0 && self.g_min <= 1.0 && self.g_max >= 1.0 && self.g_max.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.g_min", self.g_min, format!("must be in (0, 1] and g_max = {} finite and >= 1", self.g_max)));
         }
-        if !(self.heavy_deadband >= 0.0 && self.heavy_deadband.is_finite()) {
-            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.heavy_deadband", self.heavy_deadband, "must be finite and >= 0"));
+        if !(self.deadband >= 0.0 && self.deadband < 1.0) {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.deadband", self.deadband, "must be in [0, 1)"));
         }
         if !(self.p0 > 0.0 && self.p0.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.p0", self.p0, "must be finite and > 0"));
@@ -189,10 +189,10 @@ impl GainEstimator {
         if p.window > 0 && p.scale_commands { self.applied(p) } else { 1.0 }
     }
 
-    /// `ĝ` as used: below 1 as estimated, above 1 less the dead band,
-    /// `1 + max(0, ĝ − 1 − heavy_deadband)`.
+    /// `ĝ` moved towards 1 by the dead band: `1 + sign(ĝ − 1) max(0, |ĝ − 1| − deadband)`.
     pub fn applied(&self, p: &GainParams) -> f64 {
-        if self.g <= 1.0 { self.g } else { 1.0 + (self.g - 1.0 - p.heavy_deadband).max(0.0) }
+        let e = self.g - 1.0;
+        1.0 + e.signum() * (e.abs() - p.deadband).max(0.0)
     }
 
     /// The acceleration the arm realises per unit sent, as the predictor's history counts it:
@@ -325,7 +325,7 @@ mod tests {
     /// to at most 1; off (`window = 0`) and `scale_commands = false` use 1.
     #[test]
     fn gates_bounds_and_switches() {
-        let p = GainParams { g_max: 1.0, heavy_deadband: 0.0, ..GainParams::default() };
+        let p = GainParams::default();
         let t = 1e-3;
         let run = |p: &GainParams, v0: f64, learn: bool, f: f64| {
             let mut e = GainEstimator::new(p);
@@ -349,10 +349,6 @@ mod tests {
         let hist = GainParams { scale_commands: false, scale_history: true, ..p };
         assert_eq!((light.command_divisor(&hist), light.realised(&hist)), (1.0, light.g));
         assert!(off.validate().is_ok() && p.validate().is_ok());
-        // Above 1 less the dead band.
-        let db = GainParams { g_max: 2.0, heavy_deadband: 0.15, ..p };
-        assert!((GainEstimator { g: 1.25, ..light }.applied(&db) - 1.1).abs() < 1e-12);
-        assert_eq!(GainEstimator { g: 1.1, ..light }.applied(&db), 1.0);
         for (bad, name) in [
             (GainParams { g_min: 1.1, ..p }, "model_gain.g_min"),
             (GainParams { window: 33, ..p }, "model_gain.window"),
@@ -360,7 +356,7 @@ mod tests {
             (GainParams { forgetting: 0.0, ..p }, "model_gain.forgetting"),
             (GainParams { min_speed: -1.0, ..p }, "model_gain.min_speed"),
             (GainParams { min_excitation: 0.0, ..p }, "model_gain.min_excitation"),
-            (GainParams { heavy_deadband: -0.1, ..p }, "model_gain.heavy_deadband"),
+            (GainParams { deadband: 1.0, ..p }, "model_gain.deadband"),
             (GainParams { p0: f64::NAN, ..p }, "model_gain.p0"),
         ] {
             let e = bad.validate().unwrap_err().to_string();
