@@ -85,9 +85,6 @@ pub struct GainParams {
     /// Bounds of `ĝ`, `0 < g_min ≤ 1 ≤ g_max`.
     pub g_min: f64,
     pub g_max: f64,
-    /// Dead band of `|ĝ − 1|` before `ĝ` is used (the estimate's bias from the joints'
-    /// friction, measured +2…+14 % at F = 1): a model within it is treated as exact.
-    pub deadband: f64,
     /// Initial (and largest) covariance `P₀` [(s/m)²].
     pub p0: f64,
     /// Divide the contact command along n by `ĝ` and keep the predictor's history in realised
@@ -110,7 +107,6 @@ impl Default for GainParams {
             min_speed: 0.2,
             g_min: 0.5,
             g_max: 1.0,
-            deadband: 0.0,
             p0: 1e4,
             scale_commands: true,
             scale_history: false,
@@ -137,9 +133,6 @@ impl GainParams {
         }
         if !(self.g_min > 0.0 && self.g_min <= 1.0 && self.g_max >= 1.0 && self.g_max.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.g_min", self.g_min, format!("must be in (0, 1] and g_max = {} finite and >= 1", self.g_max)));
-        }
-        if !(self.deadband >= 0.0 && self.deadband < 1.0) {
-            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.deadband", self.deadband, "must be in [0, 1)"));
         }
         if !(self.p0 > 0.0 && self.p0.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.p0", self.p0, "must be finite and > 0"));
@@ -186,19 +179,13 @@ impl GainEstimator {
     /// The divisor of the law's commands along n in contact: `ĝ` with
     /// [`GainParams::scale_commands`], 1 otherwise.
     pub fn command_divisor(&self, p: &GainParams) -> f64 {
-        if p.window > 0 && p.scale_commands { self.applied(p) } else { 1.0 }
-    }
-
-    /// `ĝ` moved towards 1 by the dead band: `1 + sign(ĝ − 1) max(0, |ĝ − 1| − deadband)`.
-    pub fn applied(&self, p: &GainParams) -> f64 {
-        let e = self.g - 1.0;
-        1.0 + e.signum() * (e.abs() - p.deadband).max(0.0)
+        if p.window > 0 && p.scale_commands { self.g } else { 1.0 }
     }
 
     /// The acceleration the arm realises per unit sent, as the predictor's history counts it:
     /// `ĝ` with [`GainParams::scale_commands`] or [`GainParams::scale_history`], 1 otherwise.
     pub fn realised(&self, p: &GainParams) -> f64 {
-        if p.window > 0 && (p.scale_commands || p.scale_history) { self.applied(p) } else { 1.0 }
+        if p.window > 0 && (p.scale_commands || p.scale_history) { self.g } else { 1.0 }
     }
 
     /// One cycle with the measured velocity `v_m` [m/s]: the command sent `delay + 1` cycles
@@ -356,7 +343,6 @@ mod tests {
             (GainParams { forgetting: 0.0, ..p }, "model_gain.forgetting"),
             (GainParams { min_speed: -1.0, ..p }, "model_gain.min_speed"),
             (GainParams { min_excitation: 0.0, ..p }, "model_gain.min_excitation"),
-            (GainParams { deadband: 1.0, ..p }, "model_gain.deadband"),
             (GainParams { p0: f64::NAN, ..p }, "model_gain.p0"),
         ] {
             let e = bad.validate().unwrap_err().to_string();
