@@ -232,8 +232,8 @@ impl GainEstimator {
         }
         // RLS: K = Pφ / (λ + φᵀPφ), h ← h + K (y − hᵀφ), P ← (P − K (Pφ)ᵀ) / λ.
         let mut pphi = [0.0; MAX_TAPS];
-        for i in 0..k {
-            pphi[i] = (0..k).map(|j| self.p[i][j] * phi[j]).sum();
+        for (x, row) in pphi.iter_mut().zip(&self.p).take(k) {
+            *x = (0..k).map(|j| row[j] * phi[j]).sum();
         }
         let denom = p.forgetting + (0..k).map(|i| phi[i] * pphi[i]).sum::<f64>();
         let err = y - (0..k).map(|i| self.h[i] * phi[i]).sum::<f64>();
