@@ -221,11 +221,14 @@ fn model_mass_error() {
         // samples; the other seeds 0.032 / 0.053 / 0.058 / 0.056 s (were 0.051 / 0.075 / 0.057 /
         // 0.057 s). So at 0.8 the check is on the median of seeds 1–5, the goal's statistic as
         // in the table: 0.056 s (0.057 s before round 11; 0.081 s when the seed-1 bound of
-        // 0.11 s was set), asserted as achieved (≤ 0.06 s; the goal, 0.05 s, is missed).
+        // 0.11 s was set), asserted as achieved (≤ 0.06 s) until round 13. Since round 13 (the
+        // model's gain along n estimated in the approach, the light model's commands divided
+        // by it: scheduled::gain) the goal is met: seeds 0.062 / 0.036 / 0.034 / 0.060 / 0.034 s,
+        // median 0.036 s (seeds 1–10: 0.044 s, 4 of 10 above 0.05 s).
         if f < 1.0 {
             let runs: Vec<f64> = (1..=5).map(|seed| settle(&run_seed("acrylic", None, "scheduled", 1, f, seed))).collect();
             let median = median5(runs.clone());
-            assert!(median <= 0.06, "acrylic F = {f}: ±2 % settling, median of seeds 1-5 {median} s ({runs:?})");
+            assert!(median <= 0.05, "acrylic F = {f}: ±2 % settling, median of seeds 1-5 {median} s ({runs:?})");
         } else {
             assert!(settle(&n) <= 0.05, "acrylic F = {f}: {n:?}");
         }

@@ -325,12 +325,21 @@ fn eq6(imp: &ImpedanceParams, k: &[f64; 6], u: &TaskInputs) -> Vector6<f64> {
 /// Pure: `(params, state, inputs) -> (state, outputs)`.
 pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
     let (mut next, out) = step_phases(p, s, u);
-    if p.force_law.mode == Mode::Scheduled && (next.phase != Phase::Contact || out.retracting) {
+    if p.force_law.mode != Mode::Scheduled {
+        return (next, out);
+    }
+    let (ax, sign) = (p.force_axis.axis, p.force_axis.sign);
+    let sp = &p.force_law.scheduled;
+    // The ĝ this cycle's commands were made with (in realised units for the predictor).
+    let g = s.sched.gain.realised(&sp.model_gain);
+    if next.phase != Phase::Contact || out.retracting {
         // The scheduled law's predictor remembers every command along n; in contact the
         // law pushes its own (without the feedforward correction).
-        let ax = p.force_axis.axis;
-        next.sched = next.sched.commanded(p.force_axis.sign * out.v[ax]);
+        next.sched = next.sched.commanded(g * sign * out.v[ax]);
     }
+    // The model's gain along n: learnt in free space only (no contact force).
+    let learn = s.phase == Phase::Free && next.phase == Phase::Free && !out.retracting && out.f_ext < p.contact.scheduled_enter_n;
+    next.sched.gain = next.sched.gain.cycle(&sp.model_gain, p.force_law.lambda, sign * u.x_dot[ax], learn, sign * out.v[ax]);
     (next, out)
 }
 
@@ -421,7 +430,8 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         let g = &sched.gains;
         // The shared law state reports the scheduled weights (Status, /naic/params).
         next.law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: sched.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
-        out.v[ax] = u.a_d[ax] - sign * r.e_ddot;
+        // Divided by the model's gain along n: the arm realises what the law asks.
+        out.v[ax] = (u.a_d[ax] - sign * r.e_ddot) / s.sched.gain.command_divisor(&fl.scheduled.model_gain);
         // The friction feedforward's velocity along n: the observer's v̄ where it runs, the
         // reference's where v̄ would be the raw encoder velocity (ScheduledOutputs::v_bar).
         if let Some(v) = r.v_bar {

@@ -52,11 +52,13 @@
 //! the impact is 50 000 · 0.005 · 2.5e-3 = 0.6 N at d = 2.
 
 pub mod estimator;
+pub mod gain;
 pub mod learning;
 pub mod predictor;
 pub mod schedule;
 
 use estimator::{Estimate, EstimatorParams, EstimatorState};
+use gain::{GainEstimator, GainParams};
 use learning::{Learning, LearningParams};
 use predictor::{ForceObserver, History, Observer};
 use schedule::{Gains, ScheduleParams};
@@ -169,6 +171,10 @@ pub struct ScheduledParams {
     /// reference passes unchanged. Two-material at d = 2: first contact 13.4 → 8.2 % (medians
     /// of seeds 1–5; docs/controller.md, round 7).
     pub reference_shaping: f64,
+    /// The model's acceleration gain along n estimated online ([`gain`]): `ẍ = ĝ a + w` from
+    /// the free-space approach; with `scale_commands` the contact command along n is divided
+    /// by `ĝ` and the observers integrate `ĝ a`. `window = 0`: off (`ĝ = 1`, as before round 13).
+    pub model_gain: GainParams,
 }
 
 
@@ -194,6 +200,7 @@ impl Default for ScheduledParams {
             friction_reference: Some(ReferenceBlend { v_lo: 0.004, v_hi: 0.008 }),
             friction_fast: None,
             reference_shaping: REFERENCE_SHAPING_DEFAULT,
+            model_gain: GainParams::default(),
         }
     }
 }
@@ -214,6 +221,7 @@ impl ScheduledParams {
         self.schedule.validate()?;
         self.estimator.validate()?;
         self.learning.validate()?;
+        self.model_gain.validate()?;
         if !(self.integral_band_n >= 0.0 && self.integral_band_fraction >= 0.0) {
             return Err(crate::pipeline::ConfigError::invalid(
                 "scheduled integral band",
@@ -296,6 +304,8 @@ pub struct ScheduledState {
     pub force_observer: ForceObserver,
     /// The shaped tangential reference ([`shape_reference`]); `None` before the first cycle.
     pub shaper: Option<Shaper>,
+    /// The model's acceleration gain along n ([`ScheduledParams::model_gain`]); kept over contacts.
+    pub gain: GainEstimator,
 }
 
 impl ScheduledState {
@@ -315,6 +325,7 @@ impl ScheduledState {
             outside_band: 0,
             force_observer: ForceObserver::default(),
             shaper: None,
+            gain: GainEstimator::new(&p.model_gain),
         }
     }
 
@@ -329,15 +340,17 @@ impl ScheduledState {
     /// A new contact at position `x` with force `f`: the estimator restarts (keeping its
     /// jump count), the integral is cleared, the learned corrections are kept.
     pub fn rearm(&self, p: &ScheduledParams, x: f64, f: f64) -> Self {
+        // The servo's integral is a command: the arm realised `ĝ a_I` of it.
+        let w0 = -self.gain.realised(&p.model_gain) * self.approach_integral;
         Self {
             est: estimator::start(&p.estimator, self.est.jumps, x, f),
             integral: 0.0,
             learning: self.learning.rearm(),
-            observer: Observer::primed(-self.approach_integral),
+            observer: Observer::primed(w0),
             contact_cycles: 0,
             approach_integral: 0.0,
             outside_band: 0,
-            force_observer: ForceObserver::primed(-self.approach_integral),
+            force_observer: ForceObserver::primed(w0),
             ..*self
         }
     }
@@ -442,7 +455,9 @@ pub fn step(
     // observer's w̄; 0 with the observer off). Without it a disturbance Δ on the arm reaches
     // the force as (m_d / D) Δ, beyond the integral's band on a stiff surface (m_d ≈ 0.9 kg).
     let w_ff = p.disturbance_feedforward * ob.w;
-    next.history.push(u.xdd_d - e_ddot - w_ff);
+    // In realised units: the owner divides the command by `command_divisor` ([`gain`]).
+    let h = s.gain.realised(&p.model_gain) / s.gain.command_divisor(&p.model_gain);
+    next.history.push(if h == 1.0 { u.xdd_d - e_ddot - w_ff } else { h * (u.xdd_d - e_ddot - w_ff) });
     // The integral works on the measured error (slow; no model in it).
     let band = p.integral_band_n.max(p.integral_band_fraction * u.f_d.abs());
     // Inside the band, and outside it once the error has stayed there longer than any
