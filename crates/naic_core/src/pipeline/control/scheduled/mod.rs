@@ -341,7 +341,7 @@ impl ScheduledState {
     /// jump count), the integral is cleared, the learned corrections are kept.
     pub fn rearm(&self, p: &ScheduledParams, x: f64, f: f64) -> Self {
         // The servo's integral is a command: the arm realised `ĝ a_I` of it.
-        let w0 = -self.gain.realised(&p.model_gain) * self.approach_integral;
+        let w0 = -self.gain.used(&p.model_gain) * self.approach_integral;
         Self {
             est: estimator::start(&p.estimator, self.est.jumps, x, f),
             integral: 0.0,
@@ -455,9 +455,9 @@ pub fn step(
     // observer's w̄; 0 with the observer off). Without it a disturbance Δ on the arm reaches
     // the force as (m_d / D) Δ, beyond the integral's band on a stiff surface (m_d ≈ 0.9 kg).
     let w_ff = p.disturbance_feedforward * ob.w;
-    // In realised units: the owner divides the command by `command_divisor` ([`gain`]).
-    let h = s.gain.realised(&p.model_gain) / s.gain.command_divisor(&p.model_gain);
-    next.history.push(if h == 1.0 { u.xdd_d - e_ddot - w_ff } else { h * (u.xdd_d - e_ddot - w_ff) });
+    // Already in realised units: the owner sends it divided by ĝ, which the arm's gain (≈ ĝ,
+    // [`gain`]) multiplies back.
+    next.history.push(u.xdd_d - e_ddot - w_ff);
     // The integral works on the measured error (slow; no model in it).
     let band = p.integral_band_n.max(p.integral_band_fraction * u.f_d.abs());
     // Inside the band, and outside it once the error has stayed there longer than any
