@@ -10,8 +10,17 @@ import math
 import sys
 
 
+class NoContact(Exception):
+    pass
+
+
 def metrics(path):
-    rows = list(csv.DictReader(open(path)))
+    with open(path, newline="") as fh:
+        reader = csv.DictReader(fh)
+        missing = {"stamp_s", "measured_force", "desired_force", "phase"} - set(reader.fieldnames or [])
+        if missing:
+            raise NoContact(f"no column(s) {sorted(missing)}: expected `naic bag export-csv` output of /naic/params")
+        rows = list(reader)
     t = [float(r["stamp_s"]) for r in rows]
     f = [float(r["measured_force"]) for r in rows]
     fd = [float(r["desired_force"]) for r in rows]
@@ -21,7 +30,10 @@ def metrics(path):
     # law's 0.5 N) are measured from the same point of the rise.
     ic = next((i for i, p in enumerate(ph) if p == 1 and f[i] >= 1.0), None)
     if ic is None:
-        return dict(file=path, contact=None)
+        raise NoContact(
+            f"no contact in {len(rows)} sample(s) (none in the contact phase at or above 1 N): "
+            "was /naic/params recorded while `naic launch` ran from the repository root?"
+        )
     f_d = fd[ic]
 
     def settle(tol, force=f):
@@ -55,5 +67,13 @@ def metrics(path):
 
 
 if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        sys.exit(__doc__)
+    failed = 0
     for p in sys.argv[1:]:
-        print(metrics(p))
+        try:
+            print(metrics(p))
+        except (OSError, NoContact, ValueError) as e:
+            print(f"realtime_flat.py: {p}: {e}", file=sys.stderr)
+            failed += 1
+    sys.exit(2 if failed else 0)

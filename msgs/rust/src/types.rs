@@ -180,6 +180,7 @@ ros_message! {
         reference_rejected: u32,
         k_e_hat: f64,
         k_e_confidence: f64,
+        model_gain: f64,
     }
 }
 

@@ -115,6 +115,7 @@ fn sample_params() -> NaicParams {
         reference_rejected: 2,
         k_e_hat: 2013.5,
         k_e_confidence: 0.97,
+        model_gain: 0.96,
     }
 }
 

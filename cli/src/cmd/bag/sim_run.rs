@@ -77,6 +77,7 @@ pub fn write_sim_run(
             fault_count: 0,
             k_e_hat: r.k_e_hat,
             k_e_confidence: r.k_e_confidence,
+            model_gain: r.model_gain,
             ..Default::default()
         };
         w.write(pa, &params, ns, ns).map_err(bag_err)?;

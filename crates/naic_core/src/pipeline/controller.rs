@@ -183,6 +183,9 @@ pub struct Status {
     /// (0 and 0 for the paper laws).
     pub k_e_hat: f64,
     pub k_e_confidence: f64,
+    /// The gain of the dynamic model along n the scheduled law acts with (`scheduled::gain`;
+    /// 1 for the paper laws and until it is learnt).
+    pub model_gain: f64,
     pub fault: Option<Fault>,
     pub fault_count: u32,
     /// The F/T tare is complete.
@@ -340,6 +343,7 @@ pub fn step(
         weights_projected: out.law.weights_projected,
         k_e_hat: out.law.k_e_hat,
         k_e_confidence: out.law.k_e_confidence,
+        model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
         fault: None,
         fault_count: next.fault_count,
         tared,
@@ -400,6 +404,7 @@ fn hold(
         weights_projected: false,
         k_e_hat: 0.0,
         k_e_confidence: 0.0,
+        model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
         fault: Some(fault),
         fault_count: next.fault_count,
         tared: s.tare.done(p.tare_samples),
