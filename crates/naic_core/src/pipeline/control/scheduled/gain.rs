@@ -92,17 +92,6 @@ pub struct GainParams {
     /// only the history in realised units (the loop's gain the model's) was measured worse
     /// (round 13: acrylic at 1.25 lost its goal) and is not offered.
     pub scale_commands: bool,
-    /// With `scale_commands`: divide the whole model torque, `τ = RNEA(q, q̇, q̈*) / ĝ + Jᵀ F_e`,
-    /// instead of the contact command along n alone (round 14 of issue 12). With every inertia
-    /// of the model off by `F` the inverse dynamics (inertia, Coriolis and gravity alike, all
-    /// linear in the masses) is off by `F`; divided by `ĝ ≈ F` it is the arm's on every axis.
-    /// Why: under a light model the gravity error `(1 − F) G(q)` acts on every joint; along n
-    /// `w̄` feeds it forward, but on the other axes the joints' static friction holds it at
-    /// rest, and when two-material's slide starts on acrylic joints 2 and 3 break away ≈ 40 ms
-    /// apart (F = 0.8: the first phase's maximum 50–60 ms after the slide start in 3 of 5
-    /// seeds). The contact command along n is then not divided again, the history counts
-    /// `ĝ / ĝ` = 1 per unit sent, and the estimate regresses on the model-unit command `a / ĝ`.
-    pub scale_model: bool,
 }
 
 impl Default for GainParams {
@@ -118,7 +107,6 @@ impl Default for GainParams {
             g_max: 1.0,
             p0: 1e4,
             scale_commands: true,
-            scale_model: true,
         }
     }
 }
@@ -190,20 +178,6 @@ impl GainEstimator {
     /// predictor's history counts it), 1 otherwise.
     pub fn used(&self, p: &GainParams) -> f64 {
         if p.window > 0 && p.scale_commands { self.g } else { 1.0 }
-    }
-
-    /// The divisor of the whole model torque ([`GainParams::scale_model`]): `used` with it, 1
-    /// without.
-    pub fn torque_divisor(&self, p: &GainParams) -> f64 {
-        if p.scale_model { self.used(p) } else { 1.0 }
-    }
-
-    /// The gain the arm realises per unit of a command along n as the law sends it
-    /// (`used / torque_divisor`): the divisor of the contact command along n, the factor of the
-    /// free-space commands in the predictor's history and of the approach servo's integral in
-    /// the observers' priming. 1 with [`GainParams::scale_model`] (the torque carries `ĝ`).
-    pub fn command_gain(&self, p: &GainParams) -> f64 {
-        self.used(p) / self.torque_divisor(p)
     }
 
     /// One cycle with the measured velocity `v_m` [m/s]: the command sent `delay + 1` cycles
@@ -352,11 +326,6 @@ mod tests {
         assert_eq!(GainEstimator { g: 0.7, ..light }.used(&off), 1.0);
         let estimated_only = GainParams { scale_commands: false, ..p };
         assert_eq!(light.used(&estimated_only), 1.0);
-        // The whole torque divided (default) or the contact command along n alone.
-        assert_eq!((light.torque_divisor(&p), light.command_gain(&p)), (light.g, 1.0));
-        let n_only = GainParams { scale_model: false, ..p };
-        assert_eq!((light.torque_divisor(&n_only), light.command_gain(&n_only)), (1.0, light.g));
-        assert_eq!((light.torque_divisor(&estimated_only), light.command_gain(&estimated_only)), (1.0, 1.0));
         assert!(off.validate().is_ok() && p.validate().is_ok());
         for (bad, name) in [
             (GainParams { g_min: 1.1, ..p }, "model_gain.g_min"),

@@ -341,7 +341,7 @@ impl ScheduledState {
     /// jump count), the integral is cleared, the learned corrections are kept.
     pub fn rearm(&self, p: &ScheduledParams, x: f64, f: f64) -> Self {
         // The servo's integral is a command: the arm realised `ĝ a_I` of it.
-        let w0 = -self.gain.command_gain(&p.model_gain) * self.approach_integral;
+        let w0 = -self.gain.used(&p.model_gain) * self.approach_integral;
         Self {
             est: estimator::start(&p.estimator, self.est.jumps, x, f),
             integral: 0.0,
@@ -498,7 +498,7 @@ fn integral_step(integral: f64, sigma: f64, e_f: f64, band: f64, limit: f64) -> 
 }
 
 /// Default of [`ScheduledParams::reference_shaping`] [rad/s].
-pub const REFERENCE_SHAPING_DEFAULT: f64 = 20.0;
+pub const REFERENCE_SHAPING_DEFAULT: f64 = 30.0;
 
 /// The state of [`shape_reference`] per translation axis (base frame; the force axis'
 /// entries unused): the shaped velocity `v` and acceleration `a`, and how far the shaped
