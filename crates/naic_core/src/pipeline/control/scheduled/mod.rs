@@ -498,7 +498,7 @@ fn integral_step(integral: f64, sigma: f64, e_f: f64, band: f64, limit: f64) -> 
 }
 
 /// Default of [`ScheduledParams::reference_shaping`] [rad/s].
-pub const REFERENCE_SHAPING_DEFAULT: f64 = 30.0;
+pub const REFERENCE_SHAPING_DEFAULT: f64 = 20.0;
 
 /// The state of [`shape_reference`] per translation axis (base frame; the force axis'
 /// entries unused): the shaped velocity `v` and acceleration `a`, and how far the shaped
