@@ -302,9 +302,7 @@ pub fn step(
     // Eq 6 → τ: J q̈* = V − J̇q̇, τ = RNEA(q, q̇, q̈*) + Jᵀ F_e.
     let (qdd, damped) = dynamics::solve_damped(&j, &(out.v - jdot_qdot), &p.damping);
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
-    // The scheduled law's model gain divides the whole model torque (scheduled::gain, `scale_model`).
-    let g_tau = if fl.mode == Mode::Scheduled { s.control.sched.gain.torque_divisor(&fl.scheduled.model_gain) } else { 1.0 };
-    let tau = tau_id / g_tau + j.transpose() * f_e;
+    let tau = tau_id + j.transpose() * f_e;
     // The friction feedforward's velocity: on the reference for the scheduled law
     // (feedforward.rs), in contact on the unfiltered velocity in a joint's Stribeck drop
     // (`friction_fast`), the measured one otherwise.

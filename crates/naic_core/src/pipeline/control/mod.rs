@@ -331,7 +331,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     let (ax, sign) = (p.force_axis.axis, p.force_axis.sign);
     let sp = &p.force_law.scheduled;
     // The ĝ this cycle's commands were made with (in realised units for the predictor).
-    let g = s.sched.gain.command_gain(&sp.model_gain);
+    let g = s.sched.gain.used(&sp.model_gain);
     if next.phase != Phase::Contact || out.retracting {
         // The scheduled law's predictor remembers every command along n; in contact the
         // law pushes its own (without the feedforward correction).
@@ -339,9 +339,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
     }
     // The model's gain along n: learnt in free space only (no contact force).
     let learn = s.phase == Phase::Free && next.phase == Phase::Free && !out.retracting && out.f_ext < p.contact.scheduled_enter_n;
-    // In model units: with `scale_model` the torque divides what the law sends by ĝ.
-    let a_model = sign * out.v[ax] / s.sched.gain.torque_divisor(&sp.model_gain);
-    next.sched.gain = next.sched.gain.cycle(&sp.model_gain, p.force_law.lambda, sign * u.x_dot[ax], learn, a_model);
+    next.sched.gain = next.sched.gain.cycle(&sp.model_gain, p.force_law.lambda, sign * u.x_dot[ax], learn, sign * out.v[ax]);
     (next, out)
 }
 
@@ -433,7 +431,7 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         // The shared law state reports the scheduled weights (Status, /naic/params).
         next.law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: sched.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
         // Divided by the model's gain along n: the arm realises what the law asks.
-        out.v[ax] = (u.a_d[ax] - sign * r.e_ddot) / s.sched.gain.command_gain(&fl.scheduled.model_gain);
+        out.v[ax] = (u.a_d[ax] - sign * r.e_ddot) / s.sched.gain.used(&fl.scheduled.model_gain);
         // The friction feedforward's velocity along n: the observer's v̄ where it runs, the
         // reference's where v̄ would be the raw encoder velocity (ScheduledOutputs::v_bar).
         if let Some(v) = r.v_bar {

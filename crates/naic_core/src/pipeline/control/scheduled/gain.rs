@@ -92,23 +92,6 @@ pub struct GainParams {
     /// only the history in realised units (the loop's gain the model's) was measured worse
     /// (round 13: acrylic at 1.25 lost its goal) and is not offered.
     pub scale_commands: bool,
-    /// With `scale_commands`: divide the whole model torque, `τ = RNEA(q, q̇, q̈*) / ĝ + Jᵀ F_e`,
-    /// instead of the contact command along n alone (round 14 of issue 12). With every inertia
-    /// of the model off by `F` the inverse dynamics (inertia, Coriolis and gravity alike, all
-    /// linear in the masses) is off by `F`; divided by `ĝ ≈ F` it is the arm's on every axis.
-    /// Why: under a light model the gravity error `(1 − F) G(q)` acts on every joint; along n
-    /// `w̄` feeds it forward, but on the other axes the joints' static friction holds it at
-    /// rest, and when two-material's slide starts on acrylic joints 2 and 3 break away ≈ 40 ms
-    /// apart (F = 0.8: the first phase's maximum 50–60 ms after the slide start in 3 of 5
-    /// seeds). The contact command along n is then not divided again, the history counts
-    /// `ĝ / ĝ` = 1 per unit sent, and the estimate regresses on the model-unit command `a / ĝ`.
-    pub scale_model: bool,
-    /// The part of `ĝ`'s distance from 1 the whole torque leaves alone ([`GainEstimator::torque_divisor`]):
-    /// `ĝ_τ = min(1, ĝ + model_dead_band)` for `ĝ < 1` (`max(1, ĝ − model_dead_band)` above), the
-    /// rest of `ĝ` stays on the contact command along n. Why: at F = 1 the estimate reads
-    /// 0.93–1.00 (d = 1); the whole torque divided by that over-compensated gravity on every
-    /// axis and cost two-material d = 1 its settling within 1.5× of `oracle` (round 14).
-    pub model_dead_band: f64,
 }
 
 impl Default for GainParams {
@@ -124,8 +107,6 @@ impl Default for GainParams {
             g_max: 1.0,
             p0: 1e4,
             scale_commands: true,
-            scale_model: true,
-            model_dead_band: 0.1,
         }
     }
 }
@@ -149,9 +130,6 @@ impl GainParams {
         }
         if !(self.g_min > 0.0 && self.g_min <= 1.0 && self.g_max >= 1.0 && self.g_max.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.g_min", self.g_min, format!("must be in (0, 1] and g_max = {} finite and >= 1", self.g_max)));
-        }
-        if !(self.model_dead_band >= 0.0 && self.model_dead_band.is_finite()) {
-            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.model_dead_band", self.model_dead_band, "must be finite and >= 0"));
         }
         if !(self.p0 > 0.0 && self.p0.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.p0", self.p0, "must be finite and > 0"));
@@ -200,25 +178,6 @@ impl GainEstimator {
     /// predictor's history counts it), 1 otherwise.
     pub fn used(&self, p: &GainParams) -> f64 {
         if p.window > 0 && p.scale_commands { self.g } else { 1.0 }
-    }
-
-    /// The divisor of the whole model torque ([`GainParams::scale_model`]): `used` with it, 1
-    /// without.
-    pub fn torque_divisor(&self, p: &GainParams) -> f64 {
-        let g = self.used(p);
-        match p.scale_model {
-            false => 1.0,
-            true if g < 1.0 => (g + p.model_dead_band).min(1.0),
-            true => (g - p.model_dead_band).max(1.0),
-        }
-    }
-
-    /// The gain the arm realises per unit of a command along n as the law sends it
-    /// (`used / torque_divisor`): the divisor of the contact command along n, the factor of the
-    /// free-space commands in the predictor's history and of the approach servo's integral in
-    /// the observers' priming. 1 with [`GainParams::scale_model`] (the torque carries `ĝ`).
-    pub fn command_gain(&self, p: &GainParams) -> f64 {
-        self.used(p) / self.torque_divisor(p)
     }
 
     /// One cycle with the measured velocity `v_m` [m/s]: the command sent `delay + 1` cycles
@@ -367,16 +326,6 @@ mod tests {
         assert_eq!(GainEstimator { g: 0.7, ..light }.used(&off), 1.0);
         let estimated_only = GainParams { scale_commands: false, ..p };
         assert_eq!(light.used(&estimated_only), 1.0);
-        // The whole torque divided (default) or the contact command along n alone.
-        let full = GainParams { model_dead_band: 0.0, ..p };
-        assert_eq!((light.torque_divisor(&full), light.command_gain(&full)), (light.g, 1.0));
-        // With the dead band the torque takes ĝ beyond it, the command along n the rest.
-        let banded = GainEstimator { g: 0.8, ..light };
-        assert!((banded.torque_divisor(&p) - 0.9).abs() < 1e-12 && (banded.command_gain(&p) - 0.8 / 0.9).abs() < 1e-12);
-        assert_eq!(GainEstimator { g: 0.95, ..light }.torque_divisor(&p), 1.0);
-        let n_only = GainParams { scale_model: false, ..p };
-        assert_eq!((light.torque_divisor(&n_only), light.command_gain(&n_only)), (1.0, light.g));
-        assert_eq!((light.torque_divisor(&estimated_only), light.command_gain(&estimated_only)), (1.0, 1.0));
         assert!(off.validate().is_ok() && p.validate().is_ok());
         for (bad, name) in [
             (GainParams { g_min: 1.1, ..p }, "model_gain.g_min"),
@@ -386,7 +335,6 @@ mod tests {
             (GainParams { min_speed: -1.0, ..p }, "model_gain.min_speed"),
             (GainParams { min_excitation: 0.0, ..p }, "model_gain.min_excitation"),
             (GainParams { p0: f64::NAN, ..p }, "model_gain.p0"),
-            (GainParams { model_dead_band: -0.1, ..p }, "model_gain.model_dead_band"),
         ] {
             let e = bad.validate().unwrap_err().to_string();
             assert!(e.contains(name), "{name}: {e}");

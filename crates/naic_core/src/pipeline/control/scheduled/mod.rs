@@ -341,7 +341,7 @@ impl ScheduledState {
     /// jump count), the integral is cleared, the learned corrections are kept.
     pub fn rearm(&self, p: &ScheduledParams, x: f64, f: f64) -> Self {
         // The servo's integral is a command: the arm realised `ĝ a_I` of it.
-        let w0 = -self.gain.command_gain(&p.model_gain) * self.approach_integral;
+        let w0 = -self.gain.used(&p.model_gain) * self.approach_integral;
         Self {
             est: estimator::start(&p.estimator, self.est.jumps, x, f),
             integral: 0.0,
