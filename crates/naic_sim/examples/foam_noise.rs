@@ -6,7 +6,8 @@
 //! cargo run --release -p naic_sim --example foam_noise -- CONTROLLER D MASS_ERROR SEED_FROM SEED_TO [KEY=VALUE ...]
 //! ```
 //! `KEY=VALUE` overrides a scheduled parameter for the experiment: `sigma_fraction`,
-//! `integral_bandwidth`, `m_d_min`, `g_max`, `zeta`, `integral_band_n`.
+//! `integral_bandwidth`, `m_d_min`, `g_max`, `zeta`, `integral_band_n`, `hold` (`disturbance_hold`).
+//! `SCEN=<scenario>` (environment) runs another scenario and prints its phases' settling only.
 use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::scenario;
 use naic_sim::test_support::{model, table1_friction};
