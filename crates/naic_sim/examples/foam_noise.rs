@@ -84,6 +84,9 @@ fn main() {
             sum.contact_overshoot_pct
         );
     }
+    if settles.is_empty() {
+        return;
+    }
     let med = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);
         let n = v.len();
