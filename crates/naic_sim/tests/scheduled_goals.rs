@@ -239,6 +239,29 @@ fn model_mass_error() {
     }
 }
 
+/// Two-material's recovery on the foam under a model mass error of 0.8 and 1.25 (d = 1): the
+/// goal, ≤ 10 % recovery overshoot and back within ±2 % in ≤ 0.3 s after the switch, on the
+/// median of seeds 1–5 as in the table. Met since round 16 (docs/controller.md):
+/// - at 0.8 the overshoot was 10.0008 % (seeds 13.0, 10.0, 8.7, 9.0, 10.4 %): the disturbance
+///   the force observer fed forward on acrylic (w̄ ≈ 1.8 m/s², the light model's gravity)
+///   was dropped on the foam, where no observer runs, and the integral, frozen through the
+///   switch, held the acrylic value (`ScheduledParams::disturbance_hold`: 5.2 %);
+/// - at 1.25 the ±2 % settling was 1.914 s (seeds 1.040, 1.969, 0.269, 1.914, 2.012 s) though
+///   every seed was back within ±2 % by 0.18 s: single samples of F/T noise through the
+///   foam's loop, hot at `m_d / F` = 0.08 kg, left the band 1–2 s later (`m_d_min` 0.125 kg:
+///   0.205 s; seeds 1–10 0.208 s, 1.741 s before).
+#[test]
+fn two_material_recovery_under_model_mass_error() {
+    for f in [0.8, 1.25] {
+        let runs: Vec<RunSummary> = (1..=5).map(|seed| run_seed("two-material", None, "scheduled", 1, f, seed)).collect();
+        assert!(runs.iter().all(|r| !r.later_settle_s.is_empty()), "F = {f}: a seed never reached the foam");
+        let overshoot = median5(runs.iter().map(|r| r.later_recovery_overshoot_pct[0]).collect());
+        let recovery = median5(runs.iter().map(|r| later_settle(r, 0)).collect());
+        assert!(overshoot <= 10.0, "F = {f}: recovery overshoot on the foam, median of seeds 1-5 {overshoot} %");
+        assert!(recovery <= 0.3, "F = {f}: recovery within ±2 % on the foam, median of seeds 1-5 {recovery} s");
+    }
+}
+
 /// The model's gain along n (`scheduled::gain`, round 13) is learnt in flat's approach and
 /// reported with every record (and on /naic/params): 1 at the start, near the mass error `F`
 /// at contact for a light model (measured 0.93–1.03 F on the table's approaches), held at its
