@@ -92,6 +92,61 @@ pub struct GainParams {
     /// only the history in realised units (the loop's gain the model's) was measured worse
     /// (round 13: acrylic at 1.25 lost its goal) and is not offered.
     pub scale_commands: bool,
+    /// The light model's gravity compensation corrected with the estimate once it is learnt
+    /// ([`GravityCorrection`]); `None`: off (as before round 15).
+    pub gravity: Option<GravityCorrection>,
+}
+
+/// The gravity compensation corrected by the learnt gain (round 15 of issue 12,
+/// docs/controller.md).
+///
+/// With every mass of the model scaled by `F` its gravity torque is `F G(q)`: a light model
+/// (`F` < 1) leaves `(1 − F) G(q)` on every joint uncompensated. Along n the law's
+/// disturbance estimate feeds it forward; on the other axes the tangential stiffness and the
+/// joints' static friction hold it, so a slide that starts breaks a different load on each
+/// joint and they break away tens of ms apart (two-material at F = 0.8, round 14). The
+/// correction adds
+///
+/// ```text
+/// τ_g = r(t) (1/ĝ_g − 1) G_model(q),     ĝ_g = min(1, ĝ_frozen + dead_band)
+/// ```
+///
+/// (`= (1 − F) G` for `ĝ_frozen = F`, no dead band) with `ĝ_frozen` the estimate taken once
+/// when it has not updated for `quiet` (the approach's start is over: the correction never
+/// moves with an estimate that is learning, round 14 try 3), ramped in by `r(t)` from 0 to 1
+/// over `ramp` (in free space the approach servo's integral takes up the change, and at
+/// contact primes the observers with it). `dead_band`: at F = 1 the estimate reads
+/// 0.93–1.00 (round 13); divided by that the gravity was over-compensated by up to 7 %
+/// (round 14 try 2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GravityCorrection {
+    /// Time without an update after which `ĝ` is frozen for the correction [s], > 0.
+    pub quiet: f64,
+    /// Ramp-in time of the correction [s], >= 0 (0: a step).
+    pub ramp: f64,
+    /// Added to `ĝ_frozen` before it corrects (`ĝ_g ≤ 1`), in [0, 0.5).
+    pub dead_band: f64,
+}
+
+impl Default for GravityCorrection {
+    fn default() -> Self {
+        Self { quiet: 0.1, ramp: 0.2, dead_band: 0.0 }
+    }
+}
+
+impl GravityCorrection {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
+        if !(self.quiet > 0.0 && self.quiet.is_finite()) {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.quiet", self.quiet, "s must be finite and > 0"));
+        }
+        if !(self.ramp >= 0.0 && self.ramp.is_finite()) {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.ramp", self.ramp, "s must be finite and >= 0"));
+        }
+        if !(self.dead_band >= 0.0 && self.dead_band < 0.5) {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.dead_band", self.dead_band, "must be in [0, 0.5)"));
+        }
+        Ok(())
+    }
 }
 
 impl Default for GainParams {
@@ -107,6 +162,7 @@ impl Default for GainParams {
             g_max: 1.0,
             p0: 1e4,
             scale_commands: true,
+            gravity: Some(GravityCorrection::default()),
         }
     }
 }
@@ -134,6 +190,9 @@ impl GainParams {
         if !(self.p0 > 0.0 && self.p0.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.p0", self.p0, "must be finite and > 0"));
         }
+        if let Some(g) = &self.gravity {
+            g.validate()?;
+        }
         Ok(())
     }
 }
@@ -154,6 +213,12 @@ pub struct GainEstimator {
     pub updates: u32,
     /// The commands along n as sent (newest first), for the measurement's time line.
     pub sent: super::predictor::History,
+    /// Cycles since the last update (0 before the first).
+    pub since_update: u32,
+    /// `ĝ` frozen for the gravity correction ([`GravityCorrection`]), once it is learnt.
+    pub frozen: Option<f64>,
+    /// Cycles since `frozen` was set (the ramp).
+    pub frozen_cycles: u32,
     s: f64,
     v: [f64; RING],
     s_ring: [f64; RING],
@@ -170,7 +235,7 @@ impl GainEstimator {
             h[j] = 1.0 / k as f64;
             pp[j][j] = p.p0;
         }
-        Self { g: 1.0, h, p: pp, updates: 0, sent: Default::default(), s: 0.0, v: [0.0; RING], s_ring: [0.0; RING], head: 0, filled: 0 }
+        Self { g: 1.0, h, p: pp, updates: 0, sent: Default::default(), since_update: 0, frozen: None, frozen_cycles: 0, s: 0.0, v: [0.0; RING], s_ring: [0.0; RING], head: 0, filled: 0 }
     }
 
     /// The gain the law acts with: `ĝ` with [`GainParams::scale_commands`] (the divisor of its
@@ -187,7 +252,31 @@ impl GainEstimator {
         let a = self.sent.accel[p.delay.min(super::predictor::HISTORY - 1)];
         let mut n = self.step(p, period, v_m, a, learn);
         n.sent.push(a_sent);
+        if n.updates != self.updates {
+            n.since_update = 0;
+        } else if n.updates > 0 {
+            n.since_update = self.since_update.saturating_add(1);
+        }
+        match (p.gravity, n.frozen) {
+            (Some(gc), None) if n.updates > 0 && n.since_update as f64 * period >= gc.quiet => n.frozen = Some(n.g),
+            (Some(_), Some(_)) => n.frozen_cycles = self.frozen_cycles.saturating_add(1),
+            _ => {}
+        }
         n
+    }
+
+    /// The factor `c` of the gravity correction `τ_g = c G_model(q)` ([`GravityCorrection`]):
+    /// `r(t) (1/ĝ_g − 1)`, 0 until `ĝ` is frozen and without the correction.
+    pub fn gravity_factor(&self, p: &GainParams, period: f64) -> f64 {
+        let (Some(gc), Some(g)) = (p.gravity, self.frozen) else {
+            return 0.0;
+        };
+        let g = (g + gc.dead_band).min(1.0);
+        if g >= 1.0 {
+            return 0.0;
+        }
+        let r = if gc.ramp > 0.0 { (self.frozen_cycles as f64 * period / gc.ramp).min(1.0) } else { 1.0 };
+        r * (1.0 / g - 1.0)
     }
 
     /// The update with the command `a` [m/s²] of the first tap (the one that acted over the
