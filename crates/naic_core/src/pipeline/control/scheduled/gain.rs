@@ -433,4 +433,76 @@ mod tests {
             assert!(e.contains(name), "{name}: {e}");
         }
     }
+
+    /// The gravity correction: nothing until the estimate has updated and then stayed quiet
+    /// for `quiet`; then `ĝ` is frozen (later updates do not move the correction) and the
+    /// factor ramps from 0 to `1/ĝ − 1` over `ramp`; none where the frozen `ĝ` is at or above
+    /// `threshold`, nor without the correction. Its parameters are validated.
+    #[test]
+    fn the_gravity_correction_freezes_ramps_and_stays_off_near_an_exact_model() {
+        let p = GainParams::default();
+        let gc = p.gravity.expect("on by default");
+        let t = 1e-3;
+        // Learn F = 0.8 from a varying command (cycle(): the commands sent `delay + 1` back).
+        let learn = |p: &GainParams, f: f64, n: usize| {
+            let mut e = GainEstimator::new(p);
+            let mut v = 0.3;
+            for k in 0..n {
+                let a = 4.0 * (k as f64 * t * 30.0).sin();
+                v += t * f * e.sent.accel[p.delay];
+                e = e.cycle(p, t, v, true, a);
+            }
+            e
+        };
+        let e = learn(&p, 0.8, 2000);
+        assert!(e.updates > 0 && e.frozen.is_none(), "still learning: {:?}", (e.updates, e.since_update, e.frozen));
+        assert_eq!(e.gravity_factor(&p, t), 0.0, "not frozen: no correction");
+        // Quiet (not allowed to learn): frozen once `quiet` has passed since the last update.
+        let hold_with = |p: &GainParams, e: GainEstimator, n: usize| (0..n).fold(e, |e, _| e.cycle(p, t, 0.3, false, 0.0));
+        let hold = |e: GainEstimator, n: usize| hold_with(&p, e, n);
+        let quiet = (gc.quiet / t).round() as usize - e.since_update as usize;
+        let before = hold(e, quiet - 1);
+        assert!(before.frozen.is_none() && before.gravity_factor(&p, t) == 0.0);
+        let frozen = hold(e, quiet);
+        let g = frozen.frozen.expect("frozen after quiet");
+        assert_eq!(g, e.g);
+        assert!((g - 0.8).abs() < 0.02, "ĝ = {g}");
+        // The ramp: half way half the factor, then all of it.
+        let full = 1.0 / g - 1.0;
+        let half = hold(frozen, (0.5 * gc.ramp / t).round() as usize);
+        assert!((half.gravity_factor(&p, t) - 0.5 * full).abs() < 1e-9, "{} vs {}", half.gravity_factor(&p, t), 0.5 * full);
+        let done = hold(frozen, (gc.ramp / t).round() as usize + 10);
+        assert!((done.gravity_factor(&p, t) - full).abs() < 1e-12);
+        // A later update moves ĝ (the commands' divisor) but not the frozen value.
+        let mut later = done;
+        let mut v = 0.3;
+        for k in 0..500 {
+            let a = 4.0 * (k as f64 * t * 30.0).sin();
+            v += t * 0.9 * later.sent.accel[p.delay];
+            later = later.cycle(&p, t, v, true, a);
+        }
+        assert!(later.updates > done.updates && later.g != g && later.frozen == Some(g));
+        assert!((later.gravity_factor(&p, t) - full).abs() < 1e-12);
+        // At or above the threshold (an estimate that cannot tell the model from exact): none.
+        assert_eq!(GainEstimator { frozen: Some(gc.threshold), ..done }.gravity_factor(&p, t), 0.0);
+        assert_eq!(GainEstimator { frozen: Some(1.0), ..done }.gravity_factor(&p, t), 0.0);
+        let everywhere = GainParams { gravity: Some(GravityCorrection { threshold: 1.0, ..gc }), ..p };
+        assert!((GainEstimator { frozen: Some(0.95), ..done }.gravity_factor(&everywhere, t) - (1.0 / 0.95 - 1.0)).abs() < 1e-12);
+        // Off: never frozen, no correction; a step without a ramp.
+        let off = GainParams { gravity: None, ..p };
+        let e_off = learn(&off, 0.8, 2000);
+        assert!(hold_with(&off, e_off, 1000).frozen.is_none() && done.gravity_factor(&off, t) == 0.0);
+        let step = GainParams { gravity: Some(GravityCorrection { ramp: 0.0, ..gc }), ..p };
+        assert!((GainEstimator { frozen_cycles: 0, ..done }.gravity_factor(&step, t) - full).abs() < 1e-12);
+        for (bad, name) in [
+            (GravityCorrection { quiet: 0.0, ..gc }, "gravity.quiet"),
+            (GravityCorrection { ramp: -1.0, ..gc }, "gravity.ramp"),
+            (GravityCorrection { ramp: f64::INFINITY, ..gc }, "gravity.ramp"),
+            (GravityCorrection { threshold: 0.0, ..gc }, "gravity.threshold"),
+            (GravityCorrection { threshold: 1.1, ..gc }, "gravity.threshold"),
+        ] {
+            let e = GainParams { gravity: Some(bad), ..p }.validate().unwrap_err().to_string();
+            assert!(e.contains(name), "{name}: {e}");
+        }
+    }
 }
