@@ -242,6 +242,11 @@ impl GainEstimator {
         Self { g: 1.0, h, p: pp, updates: 0, sent: Default::default(), since_update: 0, frozen: None, frozen_cycles: 0, s: 0.0, v: [0.0; RING], s_ring: [0.0; RING], head: 0, filled: 0 }
     }
 
+    /// The taps' sum `Σ h_j` before the bounds (1 before any update).
+    pub fn raw(&self, p: &GainParams) -> f64 {
+        self.h[..p.taps.clamp(1, MAX_TAPS)].iter().sum()
+    }
+
     /// The gain the law acts with: `ĝ` with [`GainParams::scale_commands`] (the divisor of its
     /// contact commands along n, and the acceleration the arm realises per unit sent, as the
     /// predictor's history counts it), 1 otherwise.
