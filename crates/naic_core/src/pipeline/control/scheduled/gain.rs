@@ -130,14 +130,11 @@ pub struct GravityCorrection {
     pub ramp: f64,
     /// The correction applies where `ĝ_frozen < threshold`, in (0, 1].
     pub threshold: f64,
-    /// A heavy model's correction (`ĝ_frozen` the taps' sum before the bounds, `(1/ĝ − 1) < 0`)
-    /// applies where it is above this, >= 1 (`inf`: off).
-    pub heavy_threshold: f64,
 }
 
 impl Default for GravityCorrection {
     fn default() -> Self {
-        Self { quiet: 0.1, ramp: 0.2, threshold: 0.93, heavy_threshold: 1.13 }
+        Self { quiet: 0.1, ramp: 0.2, threshold: 0.93 }
     }
 }
 
@@ -151,9 +148,6 @@ impl GravityCorrection {
         }
         if !(self.threshold > 0.0 && self.threshold <= 1.0) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.threshold", self.threshold, "must be in (0, 1]"));
-        }
-        if !(self.heavy_threshold >= 1.0) {
-            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.heavy_threshold", self.heavy_threshold, "must be >= 1 (inf: off)"));
         }
         Ok(())
     }
@@ -273,9 +267,7 @@ impl GainEstimator {
             n.since_update = self.since_update.saturating_add(1);
         }
         match (p.gravity, n.frozen) {
-            (Some(gc), None) if n.updates > 0 && n.since_update as f64 * period >= gc.quiet => {
-                n.frozen = Some(if n.g >= 1.0 { n.raw(p).clamp(1.0, 2.0) } else { n.g })
-            }
+            (Some(gc), None) if n.updates > 0 && n.since_update as f64 * period >= gc.quiet => n.frozen = Some(n.g),
             (Some(_), Some(_)) => n.frozen_cycles = self.frozen_cycles.saturating_add(1),
             _ => {}
         }
@@ -289,7 +281,7 @@ impl GainEstimator {
         let (Some(gc), Some(g)) = (p.gravity, self.frozen) else {
             return 0.0;
         };
-        if !((g < gc.threshold && g < 1.0) || g > gc.heavy_threshold) {
+        if !(g < gc.threshold && g < 1.0) {
             return 0.0;
         }
         let r = if gc.ramp > 0.0 { (self.frozen_cycles as f64 * period / gc.ramp).min(1.0) } else { 1.0 };
