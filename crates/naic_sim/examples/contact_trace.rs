@@ -96,7 +96,7 @@ fn run() -> Result<(), TraceError> {
             r.metrics.phases.first().and_then(|p| p.settling_time_2pct_s).map_or("never".into(), |t| format!("{t:.3} s"))
         );
         if let Some(dir) = dir.filter(|d| !d.is_empty()) {
-            let mut out = String::from("t_ms,f_true,z_um,vz_mm_s,f_meas,phase,k_hat,k_std,conf,m_d,b_d,integral,v_bar,w_bar,w_force,cycles,a_I,g_hat,tau2,tau3,dq1,dq2,dq3,dq4,dq5,dq6,tau4\n");
+            let mut out = String::from("t_ms,f_true,z_um,vz_mm_s,f_meas,phase,k_hat,k_std,conf,m_d,b_d,integral,v_bar,w_bar,w_force,cycles,a_I,g_hat,g_raw,tau2,tau3,dq1,dq2,dq3,dq4,dq5,dq6,tau4\n");
             let tr: std::collections::BTreeMap<i64, &String> = rows.iter().map(|(t, s)| ((t * 1e6).round() as i64, s)).collect();
             for (k, x) in rec.iter().enumerate() {
                 if x.t < t0 - pre || x.t > t0 + window || k == 0 {
@@ -166,8 +166,8 @@ impl Controller for Tracer<'_> {
         self.rows.push((
             self.t,
             format!(
-                "{:.4},{:?},{:.0},{:.0},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{},{:.3},{:.4}",
-                st.f_ext, c.phase, e.k_e, e.k_std, e.confidence, sc.gains.m_d, sc.gains.b_d, sc.integral, sc.observer.v * 1e3, sc.observer.w, sc.force_observer.w, sc.contact_cycles, sc.approach_integral, sc.gain.g
+                "{:.4},{:?},{:.0},{:.0},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{},{:.3},{:.4},{:.4}",
+                st.f_ext, c.phase, e.k_e, e.k_std, e.confidence, sc.gains.m_d, sc.gains.b_d, sc.integral, sc.observer.v * 1e3, sc.observer.w, sc.force_observer.w, sc.contact_cycles, sc.approach_integral, sc.gain.g, sc.gain.raw(&p.model_gain)
             ),
         ));
         self.t += self.dt;

@@ -30,9 +30,12 @@ fn plant_and_controller_steps_do_not_allocate() {
     let p = PlantParams::new(m.clone(), Some(f.clone()), Integrator::ImplicitFriction, 1e-3, 2, s.env.clone(), ft, Encoders::default()).unwrap();
     // every law; the scheduled one with the DDS-chain delay and a model mass error of 1.25
     // (the oracle is the scheduled law with the true stiffness): its approach servo reaches
-    // the surface with the model 25 % heavy, so the contact path is covered.
+    // the surface with the model 25 % heavy, so the contact path is covered; and with the
+    // model 20 % light, where the gravity correction by the learnt gain is on
+    // (scheduled::gain::GravityCorrection).
     let delayed = LoopSettings { delay_cycles: 2, model_mass_error: 1.25, ..LoopSettings::default() };
-    for (name, settings) in [("naic", LoopSettings::default()), ("aic", LoopSettings::default()), ("fixed", LoopSettings::default()), ("scheduled", delayed), ("oracle", delayed)] {
+    let light = LoopSettings { delay_cycles: 1, model_mass_error: 0.8, ..LoopSettings::default() };
+    for (name, settings) in [("naic", LoopSettings::default()), ("aic", LoopSettings::default()), ("fixed", LoopSettings::default()), ("scheduled", delayed), ("oracle", delayed), ("scheduled", light)] {
         let c = PipelineController::by_name(name, &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &settings).unwrap();
         count_in_contact(name, c, &s, &p);
     }

@@ -262,6 +262,28 @@ fn two_material_recovery_under_model_mass_error() {
     }
 }
 
+/// Under a light model (F = 0.8, d = 1) two-material's goals, met since the gravity
+/// compensation is corrected by the frozen model gain (`scheduled::gain::GravityCorrection`,
+/// round 15 of issue 12, docs/controller.md): before it the first phase's maximum was the
+/// slide's start on acrylic (joints 2 and 3 breaking away 30–40 ms apart under the
+/// uncompensated `(1 − F) G(q)`). Medians of seeds 1–5 as in the table: first contact 17.2 →
+/// 6.1 % (goal ≤ 10 %), recovery on the foam 10.0008 → 4.9 % overshoot, 0.191 → 0.197 s
+/// (goals ≤ 10 %, ≤ 0.3 s); over seeds 1–10 20.7 → 8.5 % and 9.8 → 5.4 %. Beside the issue,
+/// acrylic at F = 0.95 (four of seeds 1–5 read `ĝ` below the threshold): ±2 % in 0.056 →
+/// 0.040 s (goal ≤ 0.05 s).
+#[test]
+fn two_material_under_a_light_model() {
+    let runs: Vec<RunSummary> = (1..=5).map(|seed| run_seed("two-material", None, "scheduled", 1, 0.8, seed)).collect();
+    let ovs = median5(runs.iter().map(|r| r.contact_overshoot_pct).collect());
+    assert!(ovs <= 10.0, "F = 0.8: first-contact overshoot, median of seeds 1-5 {ovs} %");
+    let rec = median5(runs.iter().map(|r| later_settle(r, 0)).collect());
+    let rec_ovs = median5(runs.iter().map(|r| r.later_recovery_overshoot_pct[0]).collect());
+    assert!(rec <= 0.3 && rec_ovs <= 10.0, "F = 0.8: recovery on the foam, medians of seeds 1-5 {rec} s, {rec_ovs} %");
+    let acrylic: Vec<f64> = (1..=5).map(|seed| settle(&run_seed("acrylic", None, "scheduled", 1, 0.95, seed))).collect();
+    let median = median5(acrylic.clone());
+    assert!(median <= 0.05, "acrylic F = 0.95: ±2 % settling, median of seeds 1-5 {median} s ({acrylic:?})");
+}
+
 /// The model's gain along n (`scheduled::gain`, round 13) is learnt in flat's approach and
 /// reported with every record (and on /naic/params): 1 at the start, near the mass error `F`
 /// at contact for a light model (measured 0.93–1.03 F on the table's approaches), held at its

@@ -302,7 +302,14 @@ pub fn step(
     // Eq 6 → τ: J q̈* = V − J̇q̇, τ = RNEA(q, q̇, q̈*) + Jᵀ F_e.
     let (qdd, damped) = dynamics::solve_damped(&j, &(out.v - jdot_qdot), &p.damping);
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
-    let tau = tau_id + j.transpose() * f_e;
+    let mut tau = tau_id + j.transpose() * f_e;
+    // The scheduled law's gravity correction by the learnt model gain (scheduled::gain::GravityCorrection).
+    if p.control.force_law.mode == Mode::Scheduled {
+        let c_g = next.control.sched.gain.gravity_factor(&p.control.force_law.scheduled.model_gain, p.control.force_law.lambda);
+        if c_g != 0.0 {
+            tau += *dynamics::gravity_torques(&c.model, &mut ws.data, &q) * c_g;
+        }
+    }
     // The friction feedforward's velocity: on the reference for the scheduled law
     // (feedforward.rs), in contact on the unfiltered velocity in a joint's Stribeck drop
     // (`friction_fast`), the measured one otherwise.
