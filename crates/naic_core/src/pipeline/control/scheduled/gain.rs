@@ -152,7 +152,7 @@ pub struct GravityCorrection {
 
 impl Default for GravityCorrection {
     fn default() -> Self {
-        Self { quiet: 0.1, ramp: 0.2, threshold: 0.93, heavy_threshold: 1.1, heavy_settle: 1.0 }
+        Self { quiet: 0.1, ramp: 0.2, threshold: 0.93, heavy_threshold: 1.1, heavy_settle: 0.5 }
     }
 }
 
@@ -559,9 +559,54 @@ mod tests {
             (GravityCorrection { ramp: f64::INFINITY, ..gc }, "gravity.ramp"),
             (GravityCorrection { threshold: 0.0, ..gc }, "gravity.threshold"),
             (GravityCorrection { threshold: 1.1, ..gc }, "gravity.threshold"),
+            (GravityCorrection { heavy_threshold: 1.0, ..gc }, "gravity.heavy_threshold"),
+            (GravityCorrection { heavy_threshold: f64::NAN, ..gc }, "gravity.heavy_threshold"),
+            (GravityCorrection { heavy_settle: 0.0, ..gc }, "gravity.heavy_settle"),
+            (GravityCorrection { heavy_settle: f64::INFINITY, ..gc }, "gravity.heavy_settle"),
         ] {
             let e = GainParams { gravity: Some(bad), ..p }.validate().unwrap_err().to_string();
             assert!(e.contains(name), "{name}: {e}");
         }
+    }
+
+    /// The heavy side (round 17): the static reading is due `heavy_settle` after `ĝ` froze,
+    /// once; `F̂_s = 1 / (1 − a_I / a_free)` (F = 1.25: `a_I = 0.2 a_free`); the factor
+    /// `1/F̂_s − 1` ramps in over `ramp` from the reading, only above `heavy_threshold`, and
+    /// the light side (`ĝ_frozen < threshold`) takes precedence. Off with an infinite threshold.
+    #[test]
+    fn the_heavy_side_reads_the_mass_factor_from_statics_once() {
+        let p = GainParams::default();
+        let gc = p.gravity.expect("on by default");
+        let t = 1e-3;
+        let hold = |p: &GainParams, e: GainEstimator, n: usize| (0..n).fold(e, |e, _| e.cycle(p, t, 0.3, false, 0.0));
+        let frozen = GainEstimator { frozen: Some(1.0), updates: 10, ..GainEstimator::new(&p) };
+        assert!(!frozen.wants_heavy(&p, t), "just frozen");
+        let settle = (gc.heavy_settle / t).round() as usize;
+        assert!(!hold(&p, frozen, settle - 1).wants_heavy(&p, t));
+        let due = hold(&p, frozen, settle);
+        assert!(due.wants_heavy(&p, t));
+        let a_free = 9.0;
+        let heavy = due.with_heavy(0.2 * a_free, a_free);
+        assert!((heavy.heavy.unwrap() - 1.25).abs() < 1e-12 && !heavy.wants_heavy(&p, t), "taken once");
+        assert_eq!(heavy.gravity_factor(&p, t), 0.0, "the ramp starts at 0");
+        let half = hold(&p, heavy, (0.5 * gc.ramp / t).round() as usize);
+        assert!((half.gravity_factor(&p, t) - 0.5 * (1.0 / 1.25 - 1.0)).abs() < 1e-9);
+        let done = hold(&p, heavy, (gc.ramp / t).round() as usize + 10);
+        assert!((done.gravity_factor(&p, t) - (1.0 / 1.25 - 1.0)).abs() < 1e-12, "−0.2: (1 − F) G of the arm");
+        // An exact model (a_I ≈ 0, or a little friction either way), F = 1.05, a reading
+        // that is no fall: no correction.
+        for (a_i, a_f) in [(0.0, a_free), (-0.2, a_free), (0.2, a_free), (0.05 / 1.05 * a_free, a_free), (1.8, 0.5), (f64::NAN, a_free)] {
+            let e = hold(&p, due.with_heavy(a_i, a_f), 1000);
+            assert_eq!(e.gravity_factor(&p, t), 0.0, "a_I {a_i}, a_free {a_f}: F̂_s {:?}", e.heavy);
+        }
+        assert_eq!(due.with_heavy(1.8, 0.5).heavy, Some(1.0));
+        assert_eq!(due.with_heavy(0.9 * a_free, a_free).heavy, Some(1.0), "beyond the bound: none");
+        // The light side first: a frozen ĝ below `threshold` is corrected by it alone.
+        let light = GainEstimator { frozen: Some(0.8), ..done };
+        assert!((light.gravity_factor(&p, t) - (1.0 / 0.8 - 1.0)).abs() < 1e-12);
+        // Off: never due.
+        let off = GainParams { gravity: Some(GravityCorrection { heavy_threshold: f64::INFINITY, ..gc }), ..p };
+        assert!(off.validate().is_ok() && !hold(&off, frozen, settle + 10).wants_heavy(&off, t));
+        assert_eq!(done.gravity_factor(&off, t), 0.0);
     }
 }
