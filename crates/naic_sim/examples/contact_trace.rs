@@ -79,6 +79,8 @@ fn run() -> Result<(), TraceError> {
             continue;
         };
         let t0 = rec[i0].t;
+        let g = &c.state().controller.control.sched.gain;
+        println!("seed {seed}: ĝ frozen {:?}, static F̂_s {:?}", g.frozen, g.heavy);
         let (mut pk, mut tpk) = (0.0, 0.0);
         for x in rec.iter().filter(|x| x.t >= t0 && x.t <= t0 + window) {
             if x.f_ext > pk {

@@ -39,6 +39,22 @@ fn plant_and_controller_steps_do_not_allocate() {
         let c = PipelineController::by_name(name, &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &settings).unwrap();
         count_in_contact(name, c, &s, &p);
     }
+    // The heavy side's static reading (a forward dynamics, once in the approach, round 17):
+    // the approach counted from the start, with the reading taken in it.
+    let heavy = LoopSettings { delay_cycles: 1, model_mass_error: 1.25, ..LoopSettings::default() };
+    let mut c = PipelineController::by_name("scheduled", &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &heavy).unwrap();
+    let mut ws = PlantWorkspace::new(&p);
+    let (mut st, mut obs) = plant::observe(&p, &PlantState::at_rest(s.task.q0, 1), &mut ws, [0.0; 6], false);
+    let ((), n) = counted(|| {
+        for k in 1..1200 {
+            c.set_true_stiffness(obs.truth.contact.k_e);
+            let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * 1e-3));
+            (st, obs) = plant::step(&p, &st, &tau, &mut ws);
+        }
+    });
+    let g = c.state().controller.control.sched.gain.heavy;
+    assert!(g.is_some_and(|f| f > 1.1), "the heavy reading must be covered: {g:?}");
+    assert_eq!(n, 0, "scheduled F = 1.25: {n} heap allocations in the approach");
 }
 
 fn count_in_contact(name: &str, mut c: PipelineController, s: &scenario::Scenario, p: &PlantParams) {

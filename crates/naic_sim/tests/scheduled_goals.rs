@@ -284,6 +284,19 @@ fn two_material_under_a_light_model() {
     assert!(median <= 0.05, "acrylic F = 0.95: ±2 % settling, median of seeds 1-5 {median} s ({acrylic:?})");
 }
 
+/// Under a heavy model (F = 1.25, d = 1) two-material's first contact, met since the heavy
+/// model's gravity is corrected from statics (`scheduled::gain::GravityCorrection::heavy_threshold`,
+/// round 17 of issue 12, docs/controller.md): the approach servo's integral along n against
+/// the model's free fall along n reads F as 1.22–1.24 at d = 1 and 2 (an exact model 0.99),
+/// where the dynamic `ĝ` cannot tell 1.25 at d = 1 from an exact model at d = 2. Medians of
+/// seeds 1–5 as in the table: 14.0 → 6.6 % (goal ≤ 10 %); over seeds 1–10 14.6 → 8.7 %.
+#[test]
+fn two_material_under_a_heavy_model() {
+    let runs: Vec<RunSummary> = (1..=5).map(|seed| run_seed("two-material", None, "scheduled", 1, 1.25, seed)).collect();
+    let ovs = median5(runs.iter().map(|r| r.contact_overshoot_pct).collect());
+    assert!(ovs <= 10.0, "F = 1.25: first-contact overshoot, median of seeds 1-5 {ovs} %");
+}
+
 /// The model's gain along n (`scheduled::gain`, round 13) is learnt in flat's approach and
 /// reported with every record (and on /naic/params): 1 at the start, near the mass error `F`
 /// at contact for a light model (measured 0.93–1.03 F on the table's approaches), held at its

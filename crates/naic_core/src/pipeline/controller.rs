@@ -305,6 +305,15 @@ pub fn step(
     let mut tau = tau_id + j.transpose() * f_e;
     // The scheduled law's gravity correction by the learnt model gain (scheduled::gain::GravityCorrection).
     if p.control.force_law.mode == Mode::Scheduled {
+        // Its heavy side's static reading, once, in free space (GravityCorrection::heavy_threshold):
+        // the free fall's acceleration along n from the model at this pose.
+        let gp = &p.control.force_law.scheduled.model_gain;
+        if next.control.phase == Phase::Free && next.control.sched.gain.wants_heavy(gp, p.control.force_law.lambda) {
+            let zero = Vector6::zeros();
+            let qdd_free = *dynamics::aba(&c.model, &mut ws.data, &q, &zero, &zero);
+            let a_free = p.control.force_axis.sign * (j * qdd_free)[p.control.force_axis.axis];
+            next.control.sched.gain = next.control.sched.gain.with_heavy(next.control.sched.approach_integral, a_free);
+        }
         let c_g = next.control.sched.gain.gravity_factor(&p.control.force_law.scheduled.model_gain, p.control.force_law.lambda);
         if c_g != 0.0 {
             tau += *dynamics::gravity_torques(&c.model, &mut ws.data, &q) * c_g;

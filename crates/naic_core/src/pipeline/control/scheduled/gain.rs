@@ -130,11 +130,29 @@ pub struct GravityCorrection {
     pub ramp: f64,
     /// The correction applies where `ĝ_frozen < threshold`, in (0, 1].
     pub threshold: f64,
+    /// The heavy side (round 17): the model's mass factor read from **statics** in the
+    /// approach and the gravity corrected where it is above `heavy_threshold`, > 1
+    /// (`f64::INFINITY`: off). In free space at a steady approach the servo's integral `a_I`
+    /// along n holds the acceleration the model's gravity error leaves there: with every mass
+    /// of the model scaled by `F` the arm realises `ẍ = F a + (F − 1) J M⁻¹ G`, so at rest
+    /// along n `a_I = −w/F = (1 − 1/F) a_free` with `a_free = n·J q̈_free` the acceleration
+    /// along n of the arm falling freely from the pose (`q̈_free = −M⁻¹ G`, the same for the
+    /// model and the arm: both scale by `F`). Hence `F̂_s = 1 / (1 − a_I / a_free)` and the
+    /// correction `(1/F̂_s − 1) G_model = −(a_I / a_free) G_model`. A static reading: the
+    /// loop's delay does not bias it (the dynamic `ĝ` reads an exact model at d = 2 as
+    /// 1.00–1.55, round 15), and the friction feedforward on the reference leaves little of
+    /// the joints' friction at a constant speed (F = 1 reads `a_I` −0.19…+0.13 m/s² against
+    /// `a_free` ≈ 9 m/s², F̂_s 0.98–1.02; F = 1.25 1.5–1.9 m/s², F̂_s 1.20–1.27, d = 1 and 2).
+    pub heavy_threshold: f64,
+    /// When the static reading is taken [s], > 0: this long after `ĝ` is frozen (the
+    /// approach's start is over and its servo's integral has had time to settle), in free
+    /// space only (never in contact); ramped in over `ramp` as the light side.
+    pub heavy_settle: f64,
 }
 
 impl Default for GravityCorrection {
     fn default() -> Self {
-        Self { quiet: 0.1, ramp: 0.2, threshold: 0.93 }
+        Self { quiet: 0.1, ramp: 0.2, threshold: 0.93, heavy_threshold: 1.1, heavy_settle: 0.5 }
     }
 }
 
@@ -148,6 +166,12 @@ impl GravityCorrection {
         }
         if !(self.threshold > 0.0 && self.threshold <= 1.0) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.threshold", self.threshold, "must be in (0, 1]"));
+        }
+        if !(self.heavy_threshold > 1.0) {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.heavy_threshold", self.heavy_threshold, "must be > 1 (inf: off)"));
+        }
+        if !(self.heavy_settle > 0.0 && self.heavy_settle.is_finite()) {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.heavy_settle", self.heavy_settle, "s must be finite and > 0"));
         }
         Ok(())
     }
@@ -223,6 +247,11 @@ pub struct GainEstimator {
     pub frozen: Option<f64>,
     /// Cycles since `frozen` was set (the ramp).
     pub frozen_cycles: u32,
+    /// The model's mass factor read from statics, `F̂_s` ([`GravityCorrection::heavy_threshold`]),
+    /// once taken.
+    pub heavy: Option<f64>,
+    /// Cycles since `heavy` was set (its ramp).
+    pub heavy_cycles: u32,
     s: f64,
     v: [f64; RING],
     s_ring: [f64; RING],
@@ -239,7 +268,7 @@ impl GainEstimator {
             h[j] = 1.0 / k as f64;
             pp[j][j] = p.p0;
         }
-        Self { g: 1.0, h, p: pp, updates: 0, sent: Default::default(), since_update: 0, frozen: None, frozen_cycles: 0, s: 0.0, v: [0.0; RING], s_ring: [0.0; RING], head: 0, filled: 0 }
+        Self { g: 1.0, h, p: pp, updates: 0, sent: Default::default(), since_update: 0, frozen: None, frozen_cycles: 0, heavy: None, heavy_cycles: 0, s: 0.0, v: [0.0; RING], s_ring: [0.0; RING], head: 0, filled: 0 }
     }
 
     /// The taps' sum `Σ h_j` before the bounds (1 before any update).
@@ -271,7 +300,29 @@ impl GainEstimator {
             (Some(_), Some(_)) => n.frozen_cycles = self.frozen_cycles.saturating_add(1),
             _ => {}
         }
+        if n.heavy.is_some() {
+            n.heavy_cycles = self.heavy_cycles.saturating_add(1);
+        }
         n
+    }
+
+    /// Whether the static reading of the heavy side is due this cycle: the correction's heavy
+    /// side on, `ĝ` frozen for `heavy_settle`, not yet taken. The owner then takes it with
+    /// [`Self::with_heavy`] if the arm is in free space (it costs a forward dynamics).
+    pub fn wants_heavy(&self, p: &GainParams, period: f64) -> bool {
+        match (p.gravity, self.frozen, self.heavy) {
+            (Some(gc), Some(_), None) => gc.heavy_threshold.is_finite() && self.frozen_cycles as f64 * period >= gc.heavy_settle,
+            _ => false,
+        }
+    }
+
+    /// The static reading `F̂_s = 1 / (1 − a_I / a_free)` from the approach servo's integral
+    /// `a_i` and the free fall's acceleration `a_free` along n [m/s²], in [0.5, 2] (1 where
+    /// `a_free` is not a clear fall, below 1 m/s², or the data are not finite).
+    pub fn with_heavy(&self, a_i: f64, a_free: f64) -> Self {
+        let r = a_i / a_free;
+        let f = if a_free >= 1.0 && r.is_finite() && r < 0.5 { (1.0 / (1.0 - r)).clamp(0.5, 2.0) } else { 1.0 };
+        Self { heavy: Some(f), heavy_cycles: 0, ..*self }
     }
 
     /// The factor `c` of the gravity correction `τ_g = c G_model(q)` ([`GravityCorrection`]):
@@ -281,11 +332,14 @@ impl GainEstimator {
         let (Some(gc), Some(g)) = (p.gravity, self.frozen) else {
             return 0.0;
         };
-        if !(g < gc.threshold && g < 1.0) {
-            return 0.0;
+        let ramp = |cycles: u32| if gc.ramp > 0.0 { (cycles as f64 * period / gc.ramp).min(1.0) } else { 1.0 };
+        if g < gc.threshold && g < 1.0 {
+            return ramp(self.frozen_cycles) * (1.0 / g - 1.0);
         }
-        let r = if gc.ramp > 0.0 { (self.frozen_cycles as f64 * period / gc.ramp).min(1.0) } else { 1.0 };
-        r * (1.0 / g - 1.0)
+        match self.heavy {
+            Some(f) if f > gc.heavy_threshold => ramp(self.heavy_cycles) * (1.0 / f - 1.0),
+            _ => 0.0,
+        }
     }
 
     /// The update with the command `a` [m/s²] of the first tap (the one that acted over the
@@ -505,9 +559,54 @@ mod tests {
             (GravityCorrection { ramp: f64::INFINITY, ..gc }, "gravity.ramp"),
             (GravityCorrection { threshold: 0.0, ..gc }, "gravity.threshold"),
             (GravityCorrection { threshold: 1.1, ..gc }, "gravity.threshold"),
+            (GravityCorrection { heavy_threshold: 1.0, ..gc }, "gravity.heavy_threshold"),
+            (GravityCorrection { heavy_threshold: f64::NAN, ..gc }, "gravity.heavy_threshold"),
+            (GravityCorrection { heavy_settle: 0.0, ..gc }, "gravity.heavy_settle"),
+            (GravityCorrection { heavy_settle: f64::INFINITY, ..gc }, "gravity.heavy_settle"),
         ] {
             let e = GainParams { gravity: Some(bad), ..p }.validate().unwrap_err().to_string();
             assert!(e.contains(name), "{name}: {e}");
         }
+    }
+
+    /// The heavy side (round 17): the static reading is due `heavy_settle` after `ĝ` froze,
+    /// once; `F̂_s = 1 / (1 − a_I / a_free)` (F = 1.25: `a_I = 0.2 a_free`); the factor
+    /// `1/F̂_s − 1` ramps in over `ramp` from the reading, only above `heavy_threshold`, and
+    /// the light side (`ĝ_frozen < threshold`) takes precedence. Off with an infinite threshold.
+    #[test]
+    fn the_heavy_side_reads_the_mass_factor_from_statics_once() {
+        let p = GainParams::default();
+        let gc = p.gravity.expect("on by default");
+        let t = 1e-3;
+        let hold = |p: &GainParams, e: GainEstimator, n: usize| (0..n).fold(e, |e, _| e.cycle(p, t, 0.3, false, 0.0));
+        let frozen = GainEstimator { frozen: Some(1.0), updates: 10, ..GainEstimator::new(&p) };
+        assert!(!frozen.wants_heavy(&p, t), "just frozen");
+        let settle = (gc.heavy_settle / t).round() as usize;
+        assert!(!hold(&p, frozen, settle - 1).wants_heavy(&p, t));
+        let due = hold(&p, frozen, settle);
+        assert!(due.wants_heavy(&p, t));
+        let a_free = 9.0;
+        let heavy = due.with_heavy(0.2 * a_free, a_free);
+        assert!((heavy.heavy.unwrap() - 1.25).abs() < 1e-12 && !heavy.wants_heavy(&p, t), "taken once");
+        assert_eq!(heavy.gravity_factor(&p, t), 0.0, "the ramp starts at 0");
+        let half = hold(&p, heavy, (0.5 * gc.ramp / t).round() as usize);
+        assert!((half.gravity_factor(&p, t) - 0.5 * (1.0 / 1.25 - 1.0)).abs() < 1e-9);
+        let done = hold(&p, heavy, (gc.ramp / t).round() as usize + 10);
+        assert!((done.gravity_factor(&p, t) - (1.0 / 1.25 - 1.0)).abs() < 1e-12, "−0.2: (1 − F) G of the arm");
+        // An exact model (a_I ≈ 0, or a little friction either way), F = 1.05, a reading
+        // that is no fall: no correction.
+        for (a_i, a_f) in [(0.0, a_free), (-0.2, a_free), (0.2, a_free), (0.05 / 1.05 * a_free, a_free), (1.8, 0.5), (f64::NAN, a_free)] {
+            let e = hold(&p, due.with_heavy(a_i, a_f), 1000);
+            assert_eq!(e.gravity_factor(&p, t), 0.0, "a_I {a_i}, a_free {a_f}: F̂_s {:?}", e.heavy);
+        }
+        assert_eq!(due.with_heavy(1.8, 0.5).heavy, Some(1.0));
+        assert_eq!(due.with_heavy(0.9 * a_free, a_free).heavy, Some(1.0), "beyond the bound: none");
+        // The light side first: a frozen ĝ below `threshold` is corrected by it alone.
+        let light = GainEstimator { frozen: Some(0.8), ..done };
+        assert!((light.gravity_factor(&p, t) - (1.0 / 0.8 - 1.0)).abs() < 1e-12);
+        // Off: never due.
+        let off = GainParams { gravity: Some(GravityCorrection { heavy_threshold: f64::INFINITY, ..gc }), ..p };
+        assert!(off.validate().is_ok() && !hold(&off, frozen, settle + 10).wants_heavy(&off, t));
+        assert_eq!(done.gravity_factor(&off, t), 0.0);
     }
 }
