@@ -478,6 +478,40 @@ pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&P
 mod tests {
     use super::*;
 
+    /// `X of Y met` of the goals line that starts with `head` in the table's markdown.
+    fn counted(md: &str, head: &str) -> (usize, usize) {
+        let line = md.lines().find(|l| l.starts_with(head)).unwrap_or_else(|| panic!("no line {head:?} in table.md"));
+        let words: Vec<&str> = line.rsplit(": ").next().unwrap_or("").split(' ').collect();
+        match words.as_slice() {
+            [met, "of", all, "met."] => (met.parse().expect("met"), all.parse().expect("all")),
+            _ => panic!("cannot read the count of {line:?}"),
+        }
+    }
+
+    /// Issue 12's goals as the issue defines them: medians of 5 seeds of `naic sim --table`,
+    /// at d = 1 and 2 (42 goals), and the same goals under model mass error 0.8 / 1.25 and
+    /// over the stiffness sweep (74), with one parameter set; every one met since round 17
+    /// (docs/controller.md, "Goals of issue 12"). Beside the issue, at mass error 0.95 / 1.05,
+    /// 25 of 26 are met (two-material's first contact at 0.95 misses, 10.6 %): asserted as
+    /// achieved, so that a change cannot lose one silently. The whole table (840 runs, ≈ 20 s
+    /// on 2 cores in release).
+    #[test]
+    fn the_table_meets_every_goal_of_issue_12() {
+        let out = std::env::temp_dir().join(format!("naic-table-test-{}", std::process::id()));
+        let r = run(&out, 5, None, None, false);
+        let md = std::fs::read_to_string(out.join("table.md"));
+        let _ = std::fs::remove_dir_all(&out);
+        r.unwrap_or_else(|e| panic!("naic sim --table: {e}"));
+        let md = md.expect("table.md written");
+        let misses: Vec<&str> = md.lines().filter(|l| l.ends_with("| **no** |")).collect();
+        let (met, all) = counted(&md, "Goals of issue 12 for `scheduled`");
+        assert_eq!((met, all), (42, 42), "the core goals; misses: {misses:#?}");
+        let (met, all) = counted(&md, "The same goals under model mass error");
+        assert_eq!((met, all), (74, 74), "under mass error and over the sweep; misses: {misses:#?}");
+        let (met, all) = counted(&md, "A check beside the issue's goals");
+        assert!(all == 26 && met >= 25, "beside the issue {met} of {all}; misses: {misses:#?}");
+    }
+
     #[test]
     fn medians_count_never_settled_as_infinite() {
         assert_eq!(median_opt(&[Some(1.0), None, Some(3.0)]), Some(3.0));

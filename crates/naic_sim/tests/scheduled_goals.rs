@@ -5,8 +5,9 @@
 //! 5–10 s simulated run per case, a few seconds in all in release), except two-material's,
 //! whose goals are asserted on the median of seeds 1–5 as in the table. Where a goal is met
 //! the test asserts the goal. Where it is missed the test asserts what is achieved, with
-//! a comment giving the goal and the gap (docs/controller.md, "Which controller to use"), and
-//! `issue_12_goals` (ignored) asserts the goals themselves: it fails until they are met.
+//! a comment giving the goal and the gap (docs/controller.md, "Which controller to use"). The
+//! goals as the issue defines them (medians of 5 seeds, all 42 and 74) are asserted on the
+//! table itself: `naic`'s `sim_table::tests::the_table_meets_every_goal_of_issue_12`.
 //! No bound here was tuned per seed: the numbers are from `naic sim --table`, seed 1,
 //! with a small margin above what is measured.
 
@@ -341,59 +342,4 @@ fn stiffness_sweep() {
             }
         }
     }
-}
-
-#[test]
-#[ignore = "issue 12 goals not all met (docs/controller.md 'Goals of issue 12'): acrylic settling at mass error 0.8"]
-fn issue_12_goals() {
-    let mut missed = Vec::new();
-    for d in [1, 2] {
-        let f = run("flat", "scheduled", d, 1.0);
-        if !(f.contact_overshoot_pct <= 5.0 && settle(&f) <= 0.15 && f.later_overshoot_pct[0] <= 5.0 && later_settle(&f, 0) <= 0.15) {
-            missed.push(format!("flat d={d}"));
-        }
-        let f = run("foam", "scheduled", d, 1.0);
-        if !(f.contact_overshoot_pct <= 5.0 && settle(&f) <= 0.20) {
-            missed.push(format!("foam d={d}"));
-        }
-        let f = run("stiffness-step", "scheduled", d, 1.0);
-        if !(later_settle(&f, 0) <= 0.2 && later_settle(&f, 1) <= 0.2) {
-            missed.push(format!("stiffness-step d={d}"));
-        }
-        let f = run("acrylic", "scheduled", d, 1.0);
-        if !(f.peak_n <= 12.0 && settle(&f) <= 0.05 && f.late_p2p_n <= 0.4) {
-            missed.push(format!("acrylic d={d}"));
-        }
-        // Two-material's goals on the median of seeds 1–5, as in the table (seed 1 alone peaks
-        // at 11.6 % at d = 1, in the slide).
-        let runs: Vec<RunSummary> = (1..=5).map(|seed| run_seed("two-material", None, "scheduled", d, 1.0, seed)).collect();
-        let ovs = median5(runs.iter().map(|r| r.contact_overshoot_pct).collect());
-        let rec = median5(runs.iter().map(|r| later_settle(r, 0)).collect());
-        let rec_ovs = median5(runs.iter().map(|r| r.later_recovery_overshoot_pct[0]).collect());
-        if !(ovs <= 10.0 && rec <= 0.3 && rec_ovs <= 10.0) {
-            missed.push(format!("two-material d={d}"));
-        }
-        let f = run("slope", "scheduled", d, 1.0);
-        if !(f.ss_error_n.abs() <= 0.05 && f.contact_overshoot_pct <= 5.0) {
-            missed.push(format!("slope d={d}"));
-        }
-    }
-    for m in [0.8, 1.25] {
-        for sc in ["flat", "foam", "acrylic"] {
-            let f = run(sc, "scheduled", 1, m);
-            let t = if sc == "foam" { 0.20 } else if sc == "flat" { 0.15 } else { 0.05 };
-            if !(f.contact_time_s.is_some() && f.contact_overshoot_pct <= 5.0 && settle(&f) <= t && f.peak_n <= 1.2 * if sc == "flat" { 20.0 } else { 10.0 }) {
-                missed.push(format!("{sc} mass error {m}"));
-            }
-        }
-    }
-    for d in [1, 2] {
-        for k in [500.0, 1000.0, 2000.0, 5000.0, 20_000.0, 50_000.0] {
-            let f = run_k("flat", Some(k), "scheduled", d, 1.0);
-            if !(f.contact_overshoot_pct <= 5.0 && settle(&f) <= 0.15 && later_settle(&f, 0) <= 0.15) {
-                missed.push(format!("sweep {k} N/m d={d}"));
-            }
-        }
-    }
-    assert!(missed.is_empty(), "goals missed: {missed:?}");
 }
