@@ -133,3 +133,61 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
     assert free and all(s[9] == 1.0 for s in free), free[:3]
     g = {s[9] for s in contact}
     assert len(g) == 1 and 0.9 <= min(g) < 1.0, sorted(g)[:5]
+
+
+def test_ros_scheduled_tracks_flat_in_real_time(bins):
+    """Issue 12's DDS check in real time (not lockstep): `naic launch` with the scheduled law
+    from the start, three processes on the wall clock; rclpy reads /naic/params until 6 s
+    after the first contact. Measured on a quiet 2-core machine (docs/controller.md, "On the
+    real-time DDS chain"): overshoot 2.3-3.5 %, the force error's SD over the last 2 s 0.063 N
+    (the sensor's own noise), k_e_hat 2000 N/m. The bounds below are the issue's "tracks f_d"
+    with room for a loaded machine, where the chain is late by a cycle now and then (7.9 %
+    overshoot was seen at load 12): not a timing test."""
+    domain = ru.fresh_domain(71)
+    launch = ru.Proc([str(bins / "naic"), "launch", "-p", "naic_controller:mode:=scheduled"], ru.ros_env(domain))
+    overlay = ru.naic_msgs_env()
+    script = textwrap.dedent("""
+        import json, time, rclpy
+        from naic_msgs.msg import NaicParams
+        from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
+        rclpy.init()
+        import rostest_util; rostest_util.observer_priority()  # tests/ros on PYTHONPATH
+        n = rclpy.create_node("naic_scheduled_realtime_probe")
+        got = []
+        qos = QoSProfile(depth=100000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
+        n.create_subscription(NaicParams, "/naic/params", got.append, qos)
+        st = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+        seen, t0, t_contact = [], time.time(), None
+        while time.time() - t0 < 120:
+            rclpy.spin_once(n, timeout_sec=0.01)
+            seen += [(st(m), m.mode, m.phase, m.measured_force, m.desired_force, m.k_e_hat) for m in got]
+            got.clear()
+            if t_contact is None:
+                t_contact = next((s[0] for s in seen if s[2] == 1), None)
+            elif seen[-1][0] > t_contact + 6.0:
+                break
+        print(json.dumps(dict(seen=seen)))
+    """)
+    m = ru.run_in_overlay(["-c", script], domain, overlay, 300, stop=launch, pythonpath=[ru.ROOT / "tests/ros"])
+    seen = sorted(m["seen"])
+    assert len(seen) > 1000, f"only {len(seen)} /naic/params samples"
+    assert all(s[1] == "scheduled" for s in seen), sorted({s[1] for s in seen})
+    contact = [s for s in seen if s[2] == 1]
+    assert contact, "never in contact"
+    t_c = contact[0][0]
+    assert seen[-1][0] > t_c + 5.0, (t_c, seen[-1][0])
+    f_d = contact[-1][4]
+    assert f_d == 10.0, f_d
+    rise = [s[3] for s in contact if s[0] < t_c + 1.0]
+    late = [s for s in contact if s[0] > t_c + 1.0]
+    assert len(late) > 1000, len(late)
+    err = sorted(abs(s[3] - s[4]) for s in late)
+    k = sorted(s[5] for s in late)
+    stats = dict(peak=max(rise), err_median=err[len(err) // 2], err_p99=err[len(err) * 99 // 100],
+                 k_median=k[len(k) // 2], n=len(late))
+    print("scheduled on flat over DDS in real time:", stats)
+    # Tracks f_d: no bounce at contact (1.2 f_d, the issue's acrylic bound), the median error
+    # a few sensor counts (1/16 N each), 99 % of the samples within 1 N, k_e_hat within 5 %.
+    assert stats["peak"] <= 1.2 * f_d, stats
+    assert stats["err_median"] < 0.2 and stats["err_p99"] < 1.0, stats
+    assert abs(stats["k_median"] - K_E_FLAT) < 0.05 * K_E_FLAT, stats
