@@ -228,6 +228,13 @@ impl GainParams {
 /// The largest number of taps.
 pub const MAX_TAPS: usize = 8;
 
+/// The largest mass factor the heavy side's static reading gives ([`GainEstimator::with_heavy`]):
+/// the correction then takes a third of the model's gravity away (`1/F̂_s − 1` = −1/3). The
+/// table covers 1.25 (read as 1.20–1.27); a larger reading is more likely something pushing
+/// the tool in the approach than a model 50 % too heavy, and a real arm should not lose more of
+/// its gravity compensation to it (it was 2 when round 17 measured: no reading reached 1.5).
+pub const HEAVY_MAX: f64 = 1.5;
+
 /// The estimate and its data (fixed-size rings: no allocation).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GainEstimator {
@@ -317,11 +324,11 @@ impl GainEstimator {
     }
 
     /// The static reading `F̂_s = 1 / (1 − a_I / a_free)` from the approach servo's integral
-    /// `a_i` and the free fall's acceleration `a_free` along n [m/s²], in [0.5, 2] (1 where
+    /// `a_i` and the free fall's acceleration `a_free` along n [m/s²], in [0.5, [`HEAVY_MAX`]] (1 where
     /// `a_free` is not a clear fall, below 1 m/s², or the data are not finite).
     pub fn with_heavy(&self, a_i: f64, a_free: f64) -> Self {
         let r = a_i / a_free;
-        let f = if a_free >= 1.0 && r.is_finite() && r < 0.5 { (1.0 / (1.0 - r)).clamp(0.5, 2.0) } else { 1.0 };
+        let f = if a_free >= 1.0 && r.is_finite() && r < 0.5 { (1.0 / (1.0 - r)).clamp(0.5, HEAVY_MAX) } else { 1.0 };
         Self { heavy: Some(f), heavy_cycles: 0, ..*self }
     }
 
@@ -601,6 +608,8 @@ mod tests {
         }
         assert_eq!(due.with_heavy(1.8, 0.5).heavy, Some(1.0));
         assert_eq!(due.with_heavy(0.9 * a_free, a_free).heavy, Some(1.0), "beyond the bound: none");
+        // A reading above HEAVY_MAX (a_I = 0.45 a_free would be F = 1.82) is bounded to it.
+        assert_eq!(due.with_heavy(0.45 * a_free, a_free).heavy, Some(HEAVY_MAX));
         // The light side first: a frozen ĝ below `threshold` is corrected by it alone.
         let light = GainEstimator { frozen: Some(0.8), ..done };
         assert!((light.gravity_factor(&p, t) - (1.0 / 0.8 - 1.0)).abs() < 1e-12);
