@@ -57,6 +57,8 @@ pub struct Record {
     pub k_e_confidence: f64,
     /// The model's gain along n the scheduled law acts with (1 otherwise).
     pub model_gain: f64,
+    /// The factor on the model's gravity torque the scheduled law applies (1 otherwise).
+    pub gravity_scale: f64,
 }
 
 /// The outcome of one closed-loop run.
@@ -100,6 +102,7 @@ fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &R
         k_e_hat: rep.k_e_hat,
         k_e_confidence: rep.k_e_confidence,
         model_gain: rep.model_gain,
+        gravity_scale: rep.gravity_scale,
     }
 }
 
@@ -158,7 +161,7 @@ pub fn to_csv(records: &[Record]) -> String {
     let mut out = String::with_capacity(records.len() * 400);
     out.push_str("t,q1,q2,q3,q4,q5,q6,dq1,dq2,dq3,dq4,dq5,dq6,tau1,tau2,tau3,tau4,tau5,tau6,");
     out.push_str("tip_x,tip_y,tip_z,p_d_x,p_d_y,p_d_z,f_ext,f_ext_est,f_d,surface_z,penetration,in_contact,k_e,");
-    out.push_str("ft_fx,ft_fy,ft_fz,ft_tx,ft_ty,ft_tz,m_d,b_d,sigma,gamma,gamma_bound,phase,saturated,k_e_hat,k_e_confidence,model_gain\n");
+    out.push_str("ft_fx,ft_fy,ft_fz,ft_tx,ft_ty,ft_tz,m_d,b_d,sigma,gamma,gamma_bound,phase,saturated,k_e_hat,k_e_confidence,model_gain,gravity_scale\n");
     for r in records {
         let _ = write!(out, "{:.4}", r.t);
         for v in r.q.iter().chain(&r.dq).chain(&r.tau).chain(&r.tip).chain(&r.p_d) {
@@ -174,8 +177,8 @@ pub fn to_csv(records: &[Record]) -> String {
         }
         let _ = writeln!(
             out,
-            ",{:.6},{:.6},{:.6},{:.6e},{:.6e},{},{},{:.1},{:.4},{:.4}",
-            r.m_d, r.b_d, r.sigma, r.gamma, r.gamma_bound, r.phase as u8, r.saturated as u8, r.k_e_hat, r.k_e_confidence, r.model_gain
+            ",{:.6},{:.6},{:.6},{:.6e},{:.6e},{},{},{:.1},{:.4},{:.4},{:.4}",
+            r.m_d, r.b_d, r.sigma, r.gamma, r.gamma_bound, r.phase as u8, r.saturated as u8, r.k_e_hat, r.k_e_confidence, r.model_gain, r.gravity_scale
         );
     }
     out

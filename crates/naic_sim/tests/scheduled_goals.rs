@@ -301,10 +301,19 @@ fn two_material_under_a_heavy_model() {
 /// The model's gain along n (`scheduled::gain`, round 13) is learnt in flat's approach and
 /// reported with every record (and on /naic/params): 1 at the start, near the mass error `F`
 /// at contact for a light model (measured 0.93–1.03 F on the table's approaches), held at its
-/// bound 1 for a heavy one; the paper's laws report 1 throughout.
+/// bound 1 for a heavy one; the paper's laws report 1 throughout. With it the factor on the
+/// model's gravity (`gravity_scale`, `scheduled::gain::GravityCorrection`): `1/ĝ` for the
+/// light model (rounds 15), `1/F̂_s` for the heavy one (F̂_s read from statics in the
+/// approach, 1.20–1.27 at F = 1.25: round 17), exactly 1 for the exact model (ĝ ≥ 0.93 and
+/// F̂_s ≤ 1.1 there) and for the paper's laws; 1 before any motion; ramped in before contact.
 #[test]
 fn the_model_gain_is_learnt_in_the_approach_and_reported() {
-    for (controller, f, lo, hi) in [("scheduled", 0.8, 0.72, 0.85), ("scheduled", 1.0, 0.9, 1.0), ("scheduled", 1.25, 1.0, 1.0), ("aic", 0.8, 1.0, 1.0)] {
+    for (controller, f, lo, hi, g_lo, g_hi) in [
+        ("scheduled", 0.8, 0.72, 0.85, 1.17, 1.39),
+        ("scheduled", 1.0, 0.9, 1.0, 1.0, 1.0),
+        ("scheduled", 1.25, 1.0, 1.0, 0.77, 0.87),
+        ("aic", 0.8, 1.0, 1.0, 1.0, 1.0),
+    ] {
         let r = simulate("flat", None, controller, 1, f, 1);
         let first = r.records.first().expect("records");
         let contact = r.records.iter().find(|x| x.in_contact).unwrap_or_else(|| panic!("{controller} F = {f}: no contact"));
@@ -314,6 +323,12 @@ fn the_model_gain_is_learnt_in_the_approach_and_reported() {
         assert!((lo..=hi).contains(&g), "{controller} F = {f}: model_gain {g} at contact, expected [{lo}, {hi}]");
         let last = r.records.last().expect("records").model_gain;
         assert_eq!(last, g, "{controller} F = {f}: learnt in free space only, held in contact");
+        let s = contact.gravity_scale;
+        eprintln!("{controller} F = {f}: gravity_scale {s} at contact");
+        assert_eq!(first.gravity_scale, 1.0, "{controller} F = {f}: gravity_scale before any motion");
+        assert!((g_lo..=g_hi).contains(&s), "{controller} F = {f}: gravity_scale {s} at contact, expected [{g_lo}, {g_hi}]");
+        let end = r.records.last().expect("records").gravity_scale;
+        assert_eq!(end, s, "{controller} F = {f}: the gravity correction is complete before contact and held");
     }
 }
 

@@ -181,6 +181,7 @@ ros_message! {
         k_e_hat: f64,
         k_e_confidence: f64,
         model_gain: f64,
+        gravity_scale: f64,
     }
 }
 

@@ -116,6 +116,7 @@ fn sample_params() -> NaicParams {
         k_e_hat: 2013.5,
         k_e_confidence: 0.97,
         model_gain: 0.96,
+        gravity_scale: 1.04,
     }
 }
 

@@ -212,7 +212,7 @@ pub fn fill_report(m: &mut NaicParams, r: &core::Report) {
     m.reference_position.clear();
     m.reference_position.extend_from_slice(&a.position);
     (m.reference_stale, m.reference_rejected) = (a.stale, a.rejected);
-    (m.k_e_hat, m.k_e_confidence, m.model_gain) = (st.k_e_hat, st.k_e_confidence, st.model_gain);
+    (m.k_e_hat, m.k_e_confidence, m.model_gain, m.gravity_scale) = (st.k_e_hat, st.k_e_confidence, st.model_gain, st.gravity_scale);
 }
 
 #[cfg(test)]

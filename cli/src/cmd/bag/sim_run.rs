@@ -78,6 +78,7 @@ pub fn write_sim_run(
             k_e_hat: r.k_e_hat,
             k_e_confidence: r.k_e_confidence,
             model_gain: r.model_gain,
+            gravity_scale: r.gravity_scale,
             ..Default::default()
         };
         w.write(pa, &params, ns, ns).map_err(bag_err)?;

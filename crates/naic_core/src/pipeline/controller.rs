@@ -186,6 +186,10 @@ pub struct Status {
     /// The gain of the dynamic model along n the scheduled law acts with (`scheduled::gain`;
     /// 1 for the paper laws and until it is learnt).
     pub model_gain: f64,
+    /// The factor on the dynamic model's gravity torque the scheduled law applies
+    /// (`scheduled::gain::GravityCorrection`: `1/ĝ` for a light model, `1/F̂_s` for a heavy
+    /// one, ramped in; 1 for the paper laws, until it is learnt and in a hold).
+    pub gravity_scale: f64,
     pub fault: Option<Fault>,
     pub fault_count: u32,
     /// The F/T tare is complete.
@@ -304,6 +308,7 @@ pub fn step(
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
     let mut tau = tau_id + j.transpose() * f_e;
     // The scheduled law's gravity correction by the learnt model gain (scheduled::gain::GravityCorrection).
+    let mut gravity_scale = 1.0;
     if p.control.force_law.mode == Mode::Scheduled {
         // Its heavy side's static reading, once, in free space (GravityCorrection::heavy_threshold):
         // the free fall's acceleration along n from the model at this pose.
@@ -318,6 +323,7 @@ pub fn step(
         if c_g != 0.0 {
             tau += *dynamics::gravity_torques(&c.model, &mut ws.data, &q) * c_g;
         }
+        gravity_scale += c_g;
     }
     // The friction feedforward's velocity: on the reference for the scheduled law
     // (feedforward.rs), in contact on the unfiltered velocity in a joint's Stribeck drop
@@ -360,6 +366,7 @@ pub fn step(
         k_e_hat: out.law.k_e_hat,
         k_e_confidence: out.law.k_e_confidence,
         model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
+        gravity_scale,
         fault: None,
         fault_count: next.fault_count,
         tared,
@@ -421,6 +428,7 @@ fn hold(
         k_e_hat: 0.0,
         k_e_confidence: 0.0,
         model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
+        gravity_scale: 1.0,
         fault: Some(fault),
         fault_count: next.fault_count,
         tared: s.tare.done(p.tare_samples),
