@@ -302,11 +302,10 @@ fn two_material_under_a_heavy_model() {
 /// reported with every record (and on /naic/params): 1 at the start, near the mass error `F`
 /// at contact for a light model (measured 0.93–1.03 F on the table's approaches), held at its
 /// bound 1 for a heavy one; the paper's laws report 1 throughout. With it the factor on the
-/// model's gravity (`gravity_scale`, `scheduled::gain::GravityCorrection`): `1/F̂_s` for the
-/// light model and the heavy one (F̂_s read from statics in the approach: ≈ 0.79 at F = 0.8,
-/// round 18; 1.20–1.27 at F = 1.25, round 17), exactly 1 for the exact model (F̂_s
-/// 0.984–0.985, between the light side's 0.96 and the heavy side's 1.1) and for the paper's
-/// laws; 1 before any motion; ramped in before contact.
+/// model's gravity (`gravity_scale`, `scheduled::gain::GravityCorrection`): `1/ĝ` for the
+/// light model (rounds 15), `1/F̂_s` for the heavy one (F̂_s read from statics in the
+/// approach, 1.20–1.27 at F = 1.25: round 17), exactly 1 for the exact model (ĝ ≥ 0.93 and
+/// F̂_s ≤ 1.1 there) and for the paper's laws; 1 before any motion; ramped in before contact.
 #[test]
 fn the_model_gain_is_learnt_in_the_approach_and_reported() {
     for (controller, f, lo, hi, g_lo, g_hi) in [

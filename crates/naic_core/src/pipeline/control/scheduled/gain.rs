@@ -128,7 +128,7 @@ pub struct GravityCorrection {
     pub quiet: f64,
     /// Ramp-in time of the correction [s], >= 0 (0: a step).
     pub ramp: f64,
-    /// Ungated (`light_static` infinite) the correction applies where `ĝ_frozen < threshold`, in (0, 1].
+    /// The correction applies where `ĝ_frozen < threshold`, in (0, 1].
     pub threshold: f64,
     /// The heavy side (round 17): the model's mass factor read from **statics** in the
     /// approach and the gravity corrected where it is above `heavy_threshold`, > 1
@@ -148,16 +148,15 @@ pub struct GravityCorrection {
     /// approach's start is over and its servo's integral has had time to settle), in free
     /// space only (never in contact); ramped in over `ramp` as the light side.
     pub heavy_settle: f64,
-    /// The light side from statics (round 18): where the static reading `F̂_s`
-    /// ([`Self::heavy_threshold`]) is below `light_static`, in (0, 1), the gravity is corrected
-    /// by `1/F̂_s − 1` (`f64::INFINITY`: round 15's light side instead, `1/ĝ_frozen − 1` where
-    /// `ĝ_frozen < threshold`, from the moment `ĝ` froze). The dynamic `ĝ` reads an exact model
-    /// as low as 0.9125 on the lockstep DDS chain (0.900 in real time; 0.93–1.00 in process),
-    /// so `threshold` alone corrected an exact model by +9.6 %, and it reads F = 0.95 as
-    /// 0.904–1.000; `F̂_s` reads an exact model 0.984–0.985, F = 0.95 0.935–0.936, F = 0.8 ≈ 0.79
-    /// (round 17): the delay does not bias it. The light correction waits for the reading
-    /// (taken `heavy_settle` after `ĝ` froze, before any correction moves the servo's `a_I`)
-    /// and ramps in over `ramp` from it.
+    /// The light side's gate by statics (round 18): the light correction (`ĝ_frozen <
+    /// threshold`) applies only where the static reading `F̂_s` ([`Self::heavy_threshold`]) is
+    /// also below `light_static`, in (0, 1) (`f64::INFINITY`: no gate, round 15's light side
+    /// from the moment `ĝ` froze). The dynamic `ĝ` reads an exact model as low as 0.9125 on the
+    /// lockstep DDS chain (0.93–1.00 in process), so `threshold` alone corrected an exact model
+    /// by +9.6 %; `F̂_s` reads an exact model 0.984–0.985 and F = 0.95 0.935–0.936, F = 0.8
+    /// ≈ 0.79 (round 17), the delay does not bias it. With the gate the light correction waits
+    /// for the reading (taken `heavy_settle` after `ĝ` froze, before any correction moves the
+    /// servo's `a_I`) and ramps in over `ramp` from it; its size stays `1/ĝ_frozen − 1`.
     pub light_static: f64,
 }
 
@@ -168,7 +167,7 @@ impl Default for GravityCorrection {
 }
 
 impl GravityCorrection {
-    /// Whether the light side is read from statics ([`Self::light_static`]).
+    /// Whether the light side waits for the static reading ([`Self::light_static`]).
     pub fn gated(&self) -> bool {
         self.light_static.is_finite()
     }
@@ -337,7 +336,7 @@ impl GainEstimator {
     /// [`Self::with_heavy`] if the arm is in free space (it costs a forward dynamics).
     pub fn wants_heavy(&self, p: &GainParams, period: f64) -> bool {
         match (p.gravity, self.frozen, self.heavy) {
-            (Some(gc), Some(_), None) => (gc.heavy_threshold.is_finite() || gc.gated()) && self.frozen_cycles as f64 * period >= gc.heavy_settle,
+            (Some(gc), Some(g), None) => (gc.heavy_threshold.is_finite() || (gc.gated() && g < gc.threshold && g < 1.0)) && self.frozen_cycles as f64 * period >= gc.heavy_settle,
             _ => false,
         }
     }
@@ -352,10 +351,10 @@ impl GainEstimator {
     }
 
     /// The factor `c` of the gravity correction `τ_g = c G_model(q)` ([`GravityCorrection`]):
-    /// `r(t) (1/F̂_s − 1)` where the static reading `F̂_s < light_static` (round 18) or `F̂_s >
-    /// heavy_threshold`, ramped from the reading (ungated, `light_static` infinite: `r(t)
-    /// (1/ĝ_frozen − 1)` where `ĝ_frozen < threshold`, from the freeze); 0 until `ĝ` is frozen
-    /// and the reading taken, elsewhere and without the correction.
+    /// `r(t) (1/ĝ_frozen − 1)` where `ĝ_frozen < threshold` and (gated, round 18) the static
+    /// reading `F̂_s < light_static`, ramped from the reading; `r(t) (1/F̂_s − 1)` where `F̂_s >
+    /// heavy_threshold`; 0 until `ĝ` is frozen (gated: until the reading), elsewhere and
+    /// without the correction.
     pub fn gravity_factor(&self, p: &GainParams, period: f64) -> f64 {
         let (Some(gc), Some(g)) = (p.gravity, self.frozen) else {
             return 0.0;
@@ -366,7 +365,7 @@ impl GainEstimator {
             return ramp(self.frozen_cycles) * (1.0 / g - 1.0);
         }
         match self.heavy {
-            Some(f) if f < gc.light_static => ramp(self.heavy_cycles) * (1.0 / f - 1.0),
+            Some(f) if light && f < gc.light_static => ramp(self.heavy_cycles) * (1.0 / g - 1.0),
             Some(f) if f > gc.heavy_threshold => ramp(self.heavy_cycles) * (1.0 / f - 1.0),
             _ => 0.0,
         }
@@ -639,8 +638,8 @@ mod tests {
         assert_eq!(due.with_heavy(0.9 * a_free, a_free).heavy, Some(1.0), "beyond the bound: none");
         // A reading above HEAVY_MAX (a_I = 0.45 a_free would be F = 1.82) is bounded to it.
         assert_eq!(due.with_heavy(0.45 * a_free, a_free).heavy, Some(HEAVY_MAX));
-        // A frozen ĝ below `threshold` with a heavy static reading: the reading decides (round
-        // 18) and the heavy side applies; ungated the light side came first.
+        // A frozen ĝ below `threshold` with a heavy static reading: the gate (round 18) keeps
+        // the light side off and the heavy side applies; ungated the light side came first.
         let light = GainEstimator { frozen: Some(0.8), ..done };
         assert!((light.gravity_factor(&p, t) - (1.0 / 1.25 - 1.0)).abs() < 1e-12);
         let ungated = GainParams { gravity: Some(GravityCorrection { light_static: f64::INFINITY, ..gc }), ..p };
@@ -650,10 +649,10 @@ mod tests {
         assert!(off.validate().is_ok() && !hold(&off, frozen, settle + 10).wants_heavy(&off, t));
         assert_eq!(done.gravity_factor(&off, t), 0.0);
     }
-    /// The light side from statics (round 18, `light_static`): nothing applies until the
-    /// static reading is taken (`heavy_settle` after the freeze, due even with the heavy side
-    /// off); then `1/F̂_s − 1` ramps in over `ramp` from the reading where `F̂_s <
-    /// light_static`, whatever `ĝ` reads, and nothing where the reading says the model is exact
+    /// The light side's gate by statics (round 18, `light_static`): with `ĝ` frozen below
+    /// `threshold` nothing applies until the static reading is taken (`heavy_settle` after the
+    /// freeze, due even with the heavy side off); then `1/ĝ − 1` ramps in over `ramp` from the
+    /// reading where `F̂_s < light_static`, and nothing where the reading says the model is exact
     /// (the lockstep DDS chain: `ĝ` 0.9125, `F̂_s` ≈ 0.985).
     #[test]
     fn the_light_side_waits_for_the_static_reading_and_needs_it_low() {
@@ -676,7 +675,7 @@ mod tests {
             let due = hold(&q, frozen, settle);
             assert!(due.wants_heavy(&q, t), "heavy_threshold {heavy_threshold}: the reading is due for the light side");
             assert_eq!(due.gravity_factor(&q, t), 0.0);
-            // A light reading: 1/F̂_s − 1 ramps in from the reading.
+            // A light reading: 1/ĝ − 1 ramps in from the reading.
             let light = due.with_heavy(a_i(0.8), a_free);
             assert!((light.heavy.unwrap() - 0.8).abs() < 1e-12);
             assert_eq!(light.gravity_factor(&q, t), 0.0, "the ramp starts at the reading");
@@ -684,19 +683,18 @@ mod tests {
             assert!((half.gravity_factor(&q, t) - 0.5 * (1.0 / 0.8 - 1.0)).abs() < 1e-9);
             let done = hold(&q, light, ramp + 10);
             assert!((done.gravity_factor(&q, t) - (1.0 / 0.8 - 1.0)).abs() < 1e-12);
-            // F = 0.95 read 0.935, whatever ĝ reads (0.904–1.000 there): 1/F̂_s − 1.
-            for g in [0.92, 0.97, 1.0] {
-                let g95 = GainEstimator { frozen: Some(g), ..hold(&q, due.with_heavy(a_i(0.935), a_free), ramp + 10) };
-                assert!((g95.gravity_factor(&q, t) - (1.0 / 0.935 - 1.0)).abs() < 1e-9, "ĝ {g}");
-            }
+            // F = 0.95 read 0.935: the light side with its ĝ.
+            let g95 = GainEstimator { frozen: Some(0.92), ..hold(&q, due.with_heavy(a_i(0.935), a_free), ramp + 10) };
+            assert!((g95.gravity_factor(&q, t) - (1.0 / 0.92 - 1.0)).abs() < 1e-12);
             // The exact model on the lockstep DDS chain: ĝ 0.9125, F̂_s 0.985: none (was +9.6 %).
             let exact = GainEstimator { frozen: Some(0.9125), ..hold(&q, due.with_heavy(a_i(0.985), a_free), ramp + 10) };
             assert_eq!(exact.gravity_factor(&q, t), 0.0);
             // Just above the gate (0.97): none.
             assert_eq!(GainEstimator { frozen: Some(0.85), ..hold(&q, due.with_heavy(a_i(0.97), a_free), ramp + 10) }.gravity_factor(&q, t), 0.0);
-            // ĝ at or above `threshold`: the reading is due all the same and decides.
+            // ĝ at or above `threshold`: no reading is due with the heavy side off, none applies.
             let high = GainEstimator { frozen: Some(gc.threshold), updates: 10, ..GainEstimator::new(&q) };
-            assert!(hold(&q, high, settle).wants_heavy(&q, t));
+            assert_eq!(hold(&q, high, settle).wants_heavy(&q, t), heavy_threshold.is_finite());
+            assert_eq!(hold(&q, high.with_heavy(a_i(0.8), a_free), ramp + 10).gravity_factor(&q, t), 0.0);
         }
         // Ungated (inf): round 15's light side from the freeze, no reading needed for it.
         let ungated = GainParams { gravity: Some(GravityCorrection { light_static: f64::INFINITY, heavy_threshold: f64::INFINITY, ..gc }), ..p };
