@@ -133,16 +133,16 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
     assert free and all(s[9] == 1.0 for s in free), free[:3]
     g = {s[9] for s in contact}
     assert len(g) == 1 and 0.9 <= min(g) < 1.0, sorted(g)[:5]
-    # The factor on the model's gravity (gravity_scale, rounds 15 and 17): 1 until the gain
-    # is frozen, then ramped to 1/g where the frozen gain is below the light side's 0.93 (the
-    # static reading of the heavy side stays below its 1.1 with the exact model); held in
-    # contact. In process with the exact model the gain reads 0.93-1.00 and the factor stays 1
-    # (at F = 0.8 / 1.25 it reads 1.24 / 0.81: scheduled_goals); over this DDS chain the gain
-    # reads 0.91 (0.9125 when this was written), so the correction applies with the exact
-    # model: 1.096, the gravity 9.6 % over-compensated (docs/controller.md, round 17's note).
+    # The factor on the model's gravity (gravity_scale, rounds 15, 17 and 18): 1 until the
+    # static reading in the approach, then ramped to 1/g where the frozen gain is below the
+    # light side's 0.93 and the static reading F_s below 0.96 (round 18's gate), or to 1/F_s
+    # where F_s is above the heavy side's 1.1; held in contact. The exact model reads F_s
+    # 0.984-0.985 in process, so its factor is 1 whatever the gain reads: over this chain the
+    # gain reads 0.91 (0.9125 in round 17, when the gain alone gated the light side and the
+    # exact model's gravity was over-compensated by 9.6 %, factor 1.096; docs/controller.md).
     scale = [s[10] for s in sched]
     g_c = min(g)
-    expect = 1.0 / g_c if g_c < 0.93 else 1.0
+    expect = 1.0
     print("gravity_scale over DDS (lockstep):", dict(first=scale[0], contact=contact[0][10], last=scale[-1], model_gain=g_c))
     assert scale[0] == 1.0 and all(1.0 <= x <= expect + 1e-9 for x in scale), (scale[0], min(scale), max(scale), expect)
     assert all(abs(s[10] - expect) < 1e-9 for s in contact), (sorted({s[10] for s in contact})[:5], expect)
@@ -204,11 +204,12 @@ def test_ros_scheduled_tracks_flat_in_real_time(bins):
     assert stats["peak"] <= 1.2 * f_d, stats
     assert stats["err_median"] < 0.2 and stats["err_p99"] < 1.0, stats
     assert abs(stats["k_median"] - K_E_FLAT) < 0.05 * K_E_FLAT, stats
-    # The model gain and the gravity factor in contact: held, and the factor 1/g where the
-    # gain is below the light side's 0.93, else 1 (as in lockstep).
+    # The model gain and the gravity factor in contact: held, and the factor 1 for the exact
+    # model (its static reading is above the light side's gate 0.96 and below the heavy side's
+    # 1.1, round 18; as in lockstep).
     g = {s[6] for s in contact}
     scale = {s[7] for s in contact}
     print("model_gain / gravity_scale in real time:", sorted(g), sorted(scale))
     assert len(g) == 1 and len(scale) == 1, (sorted(g)[:5], sorted(scale)[:5])
     (g,), (scale,) = g, scale
-    assert abs(scale - (1.0 / g if g < 0.93 else 1.0)) < 1e-9, (g, scale)
+    assert scale == 1.0, (g, scale)

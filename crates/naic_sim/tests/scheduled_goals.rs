@@ -304,8 +304,8 @@ fn two_material_under_a_heavy_model() {
 /// bound 1 for a heavy one; the paper's laws report 1 throughout. With it the factor on the
 /// model's gravity (`gravity_scale`, `scheduled::gain::GravityCorrection`): `1/ĝ` for the
 /// light model (rounds 15), `1/F̂_s` for the heavy one (F̂_s read from statics in the
-/// approach, 1.20–1.27 at F = 1.25: round 17), exactly 1 for the exact model (ĝ ≥ 0.93 and
-/// F̂_s ≤ 1.1 there) and for the paper's laws; 1 before any motion; ramped in before contact.
+/// approach, 1.20–1.27 at F = 1.25: round 17; the light side only where F̂_s < 0.96 too, round 18),
+/// exactly 1 for the exact model (ĝ ≥ 0.93 and F̂_s 0.984–0.985 there) and for the paper's laws; 1 before any motion; ramped in before contact.
 #[test]
 fn the_model_gain_is_learnt_in_the_approach_and_reported() {
     for (controller, f, lo, hi, g_lo, g_hi) in [

@@ -310,7 +310,7 @@ pub fn step(
     // The scheduled law's gravity correction by the learnt model gain (scheduled::gain::GravityCorrection).
     let mut gravity_scale = 1.0;
     if p.control.force_law.mode == Mode::Scheduled {
-        // Its heavy side's static reading, once, in free space (GravityCorrection::heavy_threshold):
+        // Its static reading, once, in free space (GravityCorrection::heavy_threshold, light_static):
         // the free fall's acceleration along n from the model at this pose.
         let gp = &p.control.force_law.scheduled.model_gain;
         if next.control.phase == Phase::Free && next.control.sched.gain.wants_heavy(gp, p.control.force_law.lambda) {

@@ -148,15 +148,30 @@ pub struct GravityCorrection {
     /// approach's start is over and its servo's integral has had time to settle), in free
     /// space only (never in contact); ramped in over `ramp` as the light side.
     pub heavy_settle: f64,
+    /// The light side's gate by statics (round 18): the light correction (`ĝ_frozen <
+    /// threshold`) applies only where the static reading `F̂_s` ([`Self::heavy_threshold`]) is
+    /// also below `light_static`, in (0, 1) (`f64::INFINITY`: no gate, round 15's light side
+    /// from the moment `ĝ` froze). The dynamic `ĝ` reads an exact model as low as 0.9125 on the
+    /// lockstep DDS chain (0.93–1.00 in process), so `threshold` alone corrected an exact model
+    /// by +9.6 %; `F̂_s` reads an exact model 0.984–0.985 and F = 0.95 0.935–0.936, F = 0.8
+    /// ≈ 0.79 (round 17), the delay does not bias it. With the gate the light correction waits
+    /// for the reading (taken `heavy_settle` after `ĝ` froze, before any correction moves the
+    /// servo's `a_I`) and ramps in over `ramp` from it; its size stays `1/ĝ_frozen − 1`.
+    pub light_static: f64,
 }
 
 impl Default for GravityCorrection {
     fn default() -> Self {
-        Self { quiet: 0.1, ramp: 0.2, threshold: 0.93, heavy_threshold: 1.1, heavy_settle: 0.5 }
+        Self { quiet: 0.1, ramp: 0.2, threshold: 0.93, heavy_threshold: 1.1, heavy_settle: 0.5, light_static: 0.96 }
     }
 }
 
 impl GravityCorrection {
+    /// Whether the light side waits for the static reading ([`Self::light_static`]).
+    pub fn gated(&self) -> bool {
+        self.light_static.is_finite()
+    }
+
     pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         if !(self.quiet > 0.0 && self.quiet.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.quiet", self.quiet, "s must be finite and > 0"));
@@ -172,6 +187,9 @@ impl GravityCorrection {
         }
         if !(self.heavy_settle > 0.0 && self.heavy_settle.is_finite()) {
             return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.heavy_settle", self.heavy_settle, "s must be finite and > 0"));
+        }
+        if !((self.light_static > 0.0 && self.light_static < 1.0) || self.light_static == f64::INFINITY) {
+            return Err(crate::pipeline::ConfigError::invalid("scheduled model_gain.gravity.light_static", self.light_static, "must be in (0, 1) (inf: no gate)"));
         }
         Ok(())
     }
@@ -318,7 +336,7 @@ impl GainEstimator {
     /// [`Self::with_heavy`] if the arm is in free space (it costs a forward dynamics).
     pub fn wants_heavy(&self, p: &GainParams, period: f64) -> bool {
         match (p.gravity, self.frozen, self.heavy) {
-            (Some(gc), Some(_), None) => gc.heavy_threshold.is_finite() && self.frozen_cycles as f64 * period >= gc.heavy_settle,
+            (Some(gc), Some(g), None) => (gc.heavy_threshold.is_finite() || (gc.gated() && g < gc.threshold && g < 1.0)) && self.frozen_cycles as f64 * period >= gc.heavy_settle,
             _ => false,
         }
     }
@@ -333,17 +351,21 @@ impl GainEstimator {
     }
 
     /// The factor `c` of the gravity correction `τ_g = c G_model(q)` ([`GravityCorrection`]):
-    /// `r(t) (1/ĝ_frozen − 1)` where `ĝ_frozen < threshold`; 0 until `ĝ` is frozen, above the
-    /// threshold and without the correction.
+    /// `r(t) (1/ĝ_frozen − 1)` where `ĝ_frozen < threshold` and (gated, round 18) the static
+    /// reading `F̂_s < light_static`, ramped from the reading; `r(t) (1/F̂_s − 1)` where `F̂_s >
+    /// heavy_threshold`; 0 until `ĝ` is frozen (gated: until the reading), elsewhere and
+    /// without the correction.
     pub fn gravity_factor(&self, p: &GainParams, period: f64) -> f64 {
         let (Some(gc), Some(g)) = (p.gravity, self.frozen) else {
             return 0.0;
         };
         let ramp = |cycles: u32| if gc.ramp > 0.0 { (cycles as f64 * period / gc.ramp).min(1.0) } else { 1.0 };
-        if g < gc.threshold && g < 1.0 {
+        let light = g < gc.threshold && g < 1.0;
+        if light && !gc.gated() {
             return ramp(self.frozen_cycles) * (1.0 / g - 1.0);
         }
         match self.heavy {
+            Some(f) if light && f < gc.light_static => ramp(self.heavy_cycles) * (1.0 / g - 1.0),
             Some(f) if f > gc.heavy_threshold => ramp(self.heavy_cycles) * (1.0 / f - 1.0),
             _ => 0.0,
         }
@@ -506,8 +528,10 @@ mod tests {
     /// `threshold`, nor without the correction. Its parameters are validated.
     #[test]
     fn the_gravity_correction_freezes_ramps_and_stays_off_near_an_exact_model() {
-        let p = GainParams::default();
-        let gc = p.gravity.expect("on by default");
+        // Round 15's light side as it was, without round 18's gate by statics (tested below).
+        let gc = GravityCorrection { light_static: f64::INFINITY, ..GainParams::default().gravity.expect("on by default") };
+        let p = GainParams { gravity: Some(gc), ..GainParams::default() };
+        assert!(p.validate().is_ok());
         let t = 1e-3;
         // Learn F = 0.8 from a varying command (cycle(): the commands sent `delay + 1` back).
         let learn = |p: &GainParams, f: f64, n: usize| {
@@ -570,6 +594,10 @@ mod tests {
             (GravityCorrection { heavy_threshold: f64::NAN, ..gc }, "gravity.heavy_threshold"),
             (GravityCorrection { heavy_settle: 0.0, ..gc }, "gravity.heavy_settle"),
             (GravityCorrection { heavy_settle: f64::INFINITY, ..gc }, "gravity.heavy_settle"),
+            (GravityCorrection { light_static: 0.0, ..gc }, "gravity.light_static"),
+            (GravityCorrection { light_static: 1.0, ..gc }, "gravity.light_static"),
+            (GravityCorrection { light_static: f64::NAN, ..gc }, "gravity.light_static"),
+            (GravityCorrection { light_static: f64::NEG_INFINITY, ..gc }, "gravity.light_static"),
         ] {
             let e = GainParams { gravity: Some(bad), ..p }.validate().unwrap_err().to_string();
             assert!(e.contains(name), "{name}: {e}");
@@ -610,12 +638,69 @@ mod tests {
         assert_eq!(due.with_heavy(0.9 * a_free, a_free).heavy, Some(1.0), "beyond the bound: none");
         // A reading above HEAVY_MAX (a_I = 0.45 a_free would be F = 1.82) is bounded to it.
         assert_eq!(due.with_heavy(0.45 * a_free, a_free).heavy, Some(HEAVY_MAX));
-        // The light side first: a frozen ĝ below `threshold` is corrected by it alone.
+        // A frozen ĝ below `threshold` with a heavy static reading: the gate (round 18) keeps
+        // the light side off and the heavy side applies; ungated the light side came first.
         let light = GainEstimator { frozen: Some(0.8), ..done };
-        assert!((light.gravity_factor(&p, t) - (1.0 / 0.8 - 1.0)).abs() < 1e-12);
+        assert!((light.gravity_factor(&p, t) - (1.0 / 1.25 - 1.0)).abs() < 1e-12);
+        let ungated = GainParams { gravity: Some(GravityCorrection { light_static: f64::INFINITY, ..gc }), ..p };
+        assert!((light.gravity_factor(&ungated, t) - (1.0 / 0.8 - 1.0)).abs() < 1e-12);
         // Off: never due.
         let off = GainParams { gravity: Some(GravityCorrection { heavy_threshold: f64::INFINITY, ..gc }), ..p };
         assert!(off.validate().is_ok() && !hold(&off, frozen, settle + 10).wants_heavy(&off, t));
         assert_eq!(done.gravity_factor(&off, t), 0.0);
+    }
+    /// The light side's gate by statics (round 18, `light_static`): with `ĝ` frozen below
+    /// `threshold` nothing applies until the static reading is taken (`heavy_settle` after the
+    /// freeze, due even with the heavy side off); then `1/ĝ − 1` ramps in over `ramp` from the
+    /// reading where `F̂_s < light_static`, and nothing where the reading says the model is exact
+    /// (the lockstep DDS chain: `ĝ` 0.9125, `F̂_s` ≈ 0.985).
+    #[test]
+    fn the_light_side_waits_for_the_static_reading_and_needs_it_low() {
+        let p = GainParams::default();
+        let gc = p.gravity.expect("on by default");
+        assert!(gc.gated() && gc.light_static == 0.96);
+        let t = 1e-3;
+        let hold = |p: &GainParams, e: GainEstimator, n: usize| (0..n).fold(e, |e, _| e.cycle(p, t, 0.3, false, 0.0));
+        let a_free = 9.0;
+        // a_I for a reading F̂_s = f: a_I = (1 − 1/f) a_free.
+        let a_i = |f: f64| (1.0 - 1.0 / f) * a_free;
+        let settle = (gc.heavy_settle / t).round() as usize;
+        let ramp = (gc.ramp / t).round() as usize;
+        for heavy_threshold in [gc.heavy_threshold, f64::INFINITY] {
+            let q = GainParams { gravity: Some(GravityCorrection { heavy_threshold, ..gc }), ..p };
+            let frozen = GainEstimator { frozen: Some(0.8), updates: 10, ..GainEstimator::new(&q) };
+            // Waiting: no correction until the reading, however long after the freeze.
+            let waiting = hold(&q, frozen, settle - 1);
+            assert!(!waiting.wants_heavy(&q, t) && waiting.gravity_factor(&q, t) == 0.0);
+            let due = hold(&q, frozen, settle);
+            assert!(due.wants_heavy(&q, t), "heavy_threshold {heavy_threshold}: the reading is due for the light side");
+            assert_eq!(due.gravity_factor(&q, t), 0.0);
+            // A light reading: 1/ĝ − 1 ramps in from the reading.
+            let light = due.with_heavy(a_i(0.8), a_free);
+            assert!((light.heavy.unwrap() - 0.8).abs() < 1e-12);
+            assert_eq!(light.gravity_factor(&q, t), 0.0, "the ramp starts at the reading");
+            let half = hold(&q, light, ramp / 2);
+            assert!((half.gravity_factor(&q, t) - 0.5 * (1.0 / 0.8 - 1.0)).abs() < 1e-9);
+            let done = hold(&q, light, ramp + 10);
+            assert!((done.gravity_factor(&q, t) - (1.0 / 0.8 - 1.0)).abs() < 1e-12);
+            // F = 0.95 read 0.935: the light side with its ĝ.
+            let g95 = GainEstimator { frozen: Some(0.92), ..hold(&q, due.with_heavy(a_i(0.935), a_free), ramp + 10) };
+            assert!((g95.gravity_factor(&q, t) - (1.0 / 0.92 - 1.0)).abs() < 1e-12);
+            // The exact model on the lockstep DDS chain: ĝ 0.9125, F̂_s 0.985: none (was +9.6 %).
+            let exact = GainEstimator { frozen: Some(0.9125), ..hold(&q, due.with_heavy(a_i(0.985), a_free), ramp + 10) };
+            assert_eq!(exact.gravity_factor(&q, t), 0.0);
+            // Just above the gate (0.97): none.
+            assert_eq!(GainEstimator { frozen: Some(0.85), ..hold(&q, due.with_heavy(a_i(0.97), a_free), ramp + 10) }.gravity_factor(&q, t), 0.0);
+            // ĝ at or above `threshold`: no reading is due with the heavy side off, none applies.
+            let high = GainEstimator { frozen: Some(gc.threshold), updates: 10, ..GainEstimator::new(&q) };
+            assert_eq!(hold(&q, high, settle).wants_heavy(&q, t), heavy_threshold.is_finite());
+            assert_eq!(hold(&q, high.with_heavy(a_i(0.8), a_free), ramp + 10).gravity_factor(&q, t), 0.0);
+        }
+        // Ungated (inf): round 15's light side from the freeze, no reading needed for it.
+        let ungated = GainParams { gravity: Some(GravityCorrection { light_static: f64::INFINITY, heavy_threshold: f64::INFINITY, ..gc }), ..p };
+        assert!(ungated.validate().is_ok() && !ungated.gravity.unwrap().gated());
+        let frozen = GainEstimator { frozen: Some(0.8), updates: 10, ..GainEstimator::new(&ungated) };
+        let later = hold(&ungated, frozen, ramp + 10);
+        assert!(!later.wants_heavy(&ungated, t) && (later.gravity_factor(&ungated, t) - (1.0 / 0.8 - 1.0)).abs() < 1e-12);
     }
 }
