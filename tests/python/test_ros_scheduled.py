@@ -24,6 +24,22 @@ K_E_FLAT = 2000.0  # N/m, naic_sim's flat scenario (crates/naic_sim/src/scenario
 K_E_TOL = 0.02
 
 
+# The start of both rclpy probes: a node that keeps every /naic/params sample in `got`, and
+# `st`, a message's stamp in seconds. NODE is the probe's node name.
+PROBE_HEAD = """
+import json, time, rclpy
+from naic_msgs.msg import NaicParams
+from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
+rclpy.init()
+import rostest_util; rostest_util.observer_priority()  # tests/ros on PYTHONPATH
+n = rclpy.create_node(NODE)
+got = []
+qos = QoSProfile(depth=100000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
+n.create_subscription(NaicParams, "/naic/params", got.append, qos)
+st = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+"""
+
+
 @pytest.fixture(scope="module")
 def bins():
     return ru.build_nodes()
@@ -37,21 +53,11 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
     domain = ru.fresh_domain(70)
     launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true"], ru.ros_env(domain))
     overlay = ru.naic_msgs_env()
-    script = textwrap.dedent("""
-        import json, time, rclpy
-        from naic_msgs.msg import NaicParams
-        from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
+    script = PROBE_HEAD.replace("NODE", '"naic_scheduled_probe"') + textwrap.dedent("""
         from rclpy.parameter import Parameter
         from rclpy.parameter_client import AsyncParameterClient
-        rclpy.init()
-        import rostest_util; rostest_util.observer_priority()  # tests/ros on PYTHONPATH
-        n = rclpy.create_node("naic_scheduled_probe")
-        got = []
-        qos = QoSProfile(depth=100000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
-        n.create_subscription(NaicParams, "/naic/params", got.append, qos)
         ctl = AsyncParameterClient(n, "naic_controller")
         drv = AsyncParameterClient(n, "jk5_sim_driver")
-        st = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
         t0 = time.time()
         assert ctl.wait_for_services(30.0) and drv.wait_for_services(30.0)
         # Paused, the driver republishes the start state every 20 ms and the controller answers.
@@ -159,17 +165,7 @@ def test_ros_scheduled_tracks_flat_in_real_time(bins):
     domain = ru.fresh_domain(71)
     launch = ru.Proc([str(bins / "naic"), "launch", "-p", "naic_controller:mode:=scheduled"], ru.ros_env(domain))
     overlay = ru.naic_msgs_env()
-    script = textwrap.dedent("""
-        import json, time, rclpy
-        from naic_msgs.msg import NaicParams
-        from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
-        rclpy.init()
-        import rostest_util; rostest_util.observer_priority()  # tests/ros on PYTHONPATH
-        n = rclpy.create_node("naic_scheduled_realtime_probe")
-        got = []
-        qos = QoSProfile(depth=100000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
-        n.create_subscription(NaicParams, "/naic/params", got.append, qos)
-        st = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+    script = PROBE_HEAD.replace("NODE", '"naic_scheduled_realtime_probe"') + textwrap.dedent("""
         seen, t0, t_contact = [], time.time(), None
         while time.time() - t0 < 120:
             rclpy.spin_once(n, timeout_sec=0.01)
