@@ -319,7 +319,7 @@ pub fn step(
             let a_free = p.control.force_axis.sign * (j * qdd_free)[p.control.force_axis.axis];
             next.control.sched.gain = next.control.sched.gain.with_heavy(next.control.sched.approach_integral, a_free);
         }
-        let c_g = next.control.sched.gain.gravity_factor(&p.control.force_law.scheduled.model_gain, p.control.force_law.lambda);
+        let c_g = next.control.sched.gain.gravity_factor(gp, p.control.force_law.lambda);
         if c_g != 0.0 {
             tau += *dynamics::gravity_torques(&c.model, &mut ws.data, &q) * c_g;
         }
