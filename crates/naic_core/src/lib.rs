@@ -21,6 +21,7 @@
 
 pub mod alloc_count;
 pub mod dynamics;
+pub mod force_design;
 pub mod friction;
 pub mod model;
 pub mod pipeline;
