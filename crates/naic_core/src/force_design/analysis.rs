@@ -42,18 +42,36 @@ pub fn margins(m: &LoopModel, c: &Contact, g: &Gains) -> Result<Margins, DesignE
     c.validate()?;
     g.validate()?;
     let l = Loop::new(m, c, g);
-    let poles = Schur::try_new(l.closed(), 1e-14, 10_000).ok_or(DesignError::NoEigenvalues)?.complex_eigenvalues();
-    let dominant = poles.iter().copied().max_by(|a, b| a.norm().total_cmp(&b.norm())).ok_or(DesignError::NoEigenvalues)?;
+    let poles = Schur::try_new(l.closed(), 1e-14, 10_000)
+        .ok_or(DesignError::NoEigenvalues)?
+        .complex_eigenvalues();
+    let dominant = poles
+        .iter()
+        .copied()
+        .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+        .ok_or(DesignError::NoEigenvalues)?;
     // Of a conjugate pair and a real pole of nearly the same magnitude, the least damped.
     let r = dominant.norm();
-    let dominant_zeta = poles.iter().filter(|p| p.norm() >= r * (1.0 - 1e-9)).map(|p| zeta_of(*p)).fold(1.0, f64::min);
+    let dominant_zeta = poles
+        .iter()
+        .filter(|p| p.norm() >= r * (1.0 - 1e-9))
+        .map(|p| zeta_of(*p))
+        .fold(1.0, f64::min);
     let slow = (-1.0 / (m.delay as f64 + 1.0)).exp();
-    let slow_zeta_min = poles.iter().filter(|p| p.norm() >= slow).map(|p| zeta_of(*p)).fold(1.0, f64::min);
+    let slow_zeta_min = poles
+        .iter()
+        .filter(|p| p.norm() >= slow)
+        .map(|p| zeta_of(*p))
+        .fold(1.0, f64::min);
     Ok(Margins {
         spectral_radius: r,
         slow_zeta_min,
         dominant_zeta,
-        dominant_time_constant: if r > 0.0 && r < 1.0 { -m.period / r.ln() } else { f64::INFINITY },
+        dominant_time_constant: if r > 0.0 && r < 1.0 {
+            -m.period / r.ln()
+        } else {
+            f64::INFINITY
+        },
         phase_margin_deg: phase_margin_deg(&l),
     })
 }

@@ -72,7 +72,11 @@ pub struct Gains {
 pub enum DesignError {
     /// `name` = `value` is outside `rule`.
     #[error("force design: {name} = {value} is not {rule}")]
-    Invalid { name: &'static str, value: f64, rule: &'static str },
+    Invalid {
+        name: &'static str,
+        value: f64,
+        rule: &'static str,
+    },
     /// The eigenvalue solver did not converge (an ill-conditioned loop).
     #[error("force design: the closed loop's eigenvalues did not converge")]
     NoEigenvalues,
@@ -89,7 +93,12 @@ fn check(name: &'static str, value: f64, ok: bool, rule: &'static str) -> Result
 impl LoopModel {
     pub(crate) fn validate(&self) -> Result<(), DesignError> {
         check("period", self.period, self.period > 0.0, "> 0 s")?;
-        check("model_mass", self.model_mass, self.model_mass > 0.0, "> 0 kg")?;
+        check(
+            "model_mass",
+            self.model_mass,
+            self.model_mass > 0.0,
+            "> 0 kg",
+        )?;
         check("mass_error", self.mass_error, self.mass_error > 0.0, "> 0")
     }
 }
@@ -98,7 +107,12 @@ impl Contact {
     pub(crate) fn validate(&self) -> Result<(), DesignError> {
         check("k_e", self.k_e, self.k_e >= 0.0, ">= 0 N/m")?;
         check("b_e", self.b_e, self.b_e >= 0.0, ">= 0 N·s/m")?;
-        check("feedthrough", self.feedthrough, (0.0..=1.0).contains(&self.feedthrough), "in [0, 1]")
+        check(
+            "feedthrough",
+            self.feedthrough,
+            (0.0..=1.0).contains(&self.feedthrough),
+            "in [0, 1]",
+        )
     }
 }
 
@@ -123,9 +137,22 @@ pub(crate) struct Loop {
 /// Exact zero-order-hold discretisation of `D ẍ + b_e ẋ + k_e x = (1 − μ) u`:
 /// `(Φ, Γ)` with `[x, v]_{k+1} = Φ [x, v]_k + Γ u_k`.
 fn discretise(t: f64, d: f64, c: &Contact) -> ([[f64; 2]; 2], [f64; 2]) {
-    let m = Matrix3::new(0.0, 1.0, 0.0, -c.k_e / d, -c.b_e / d, (1.0 - c.feedthrough) / d, 0.0, 0.0, 0.0) * t;
+    let m = Matrix3::new(
+        0.0,
+        1.0,
+        0.0,
+        -c.k_e / d,
+        -c.b_e / d,
+        (1.0 - c.feedthrough) / d,
+        0.0,
+        0.0,
+        0.0,
+    ) * t;
     let e = m.exp();
-    ([[e[(0, 0)], e[(0, 1)]], [e[(1, 0)], e[(1, 1)]]], [e[(0, 2)], e[(1, 2)]])
+    (
+        [[e[(0, 0)], e[(0, 1)]], [e[(1, 0)], e[(1, 1)]]],
+        [e[(0, 2)], e[(1, 2)]],
+    )
 }
 
 impl Loop {
