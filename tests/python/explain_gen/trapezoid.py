@@ -42,11 +42,14 @@ class TrapCase:
     rate_hz: float = 1000.0
     velocity: str = "noisy"  # noisy | difference
     friction: str = "drawn"  # drawn (seeded levels) | table1 (the paper's Table 1, directions averaged)
+    # the q̈ the torque is computed with: exact, or `backward` = (q̇_k − q̇_{k−1})/dt as a
+    # discrete-time producer may take it (the torque's inertia part then lags by half a sample)
+    accel: str = "exact"
     torque_noise: float = 0.05
     seed: int = 0
 
     def label(self):
-        return f"trap_{self.effect or 'clean'}_{self.rate_hz:g}Hz_{self.velocity}_{self.friction}_s{self.seed}"
+        return f"trap_{self.effect or 'clean'}_{self.rate_hz:g}Hz_{self.velocity}_{self.friction}_{self.accel}_s{self.seed}"
 
 
 def _rng(case):
@@ -225,6 +228,10 @@ def generate(case, workdir, arrays=False):
 
     def torque(tt, qq, vv, aa, mdl):
         data = mdl.createData()
+        if case.accel == "backward":
+            aa = np.vstack([aa[:1], np.diff(vv, axis=0) / dt])
+        elif case.accel != "exact":
+            raise ValueError(f"unknown accel `{case.accel}`; use exact or backward")
         rb = np.array([pin.rnea(mdl, data, qq[i], vv[i], aa[i]) for i in range(len(tt))])
         s = np.sign(vv)
         fr = eq5(vv, f_a, f_b, q_s, f_v) + s * asym * (vv < 0)

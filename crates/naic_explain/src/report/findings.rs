@@ -19,7 +19,40 @@ pub struct Finding {
     pub gain: f64,
     /// Mean over the target joints of the relative held-out reduction when the effect was added.
     pub step_gain: f64,
+    /// Per target: the share of that joint's nominal held-out mean-square residual this effect
+    /// removed (significant findings).
+    pub share: Vec<(usize, f64)>,
+    /// Per target: the share of that joint's nominal held-out mean square the final model leaves.
+    pub left: Vec<(usize, f64)>,
     pub evidence: String,
+}
+
+/// A significant finding that removes less than this share of its joint's nominal held-out
+/// mean square on every target is reported as "small" (next to the share left).
+pub const SMALL_SHARE: f64 = 0.05;
+
+impl Finding {
+    /// Significant, but below [`SMALL_SHARE`] of the residual on every target.
+    pub fn is_small(&self) -> bool {
+        self.significant && !self.share.is_empty() && self.share.iter().all(|&(_, s)| s < SMALL_SHARE)
+    }
+
+    /// "small: 3.1 % of joint 6's residual explained, 22 % of it left" (empty when not small).
+    pub fn small_note(&self) -> String {
+        if !self.is_small() {
+            return String::new();
+        }
+        let parts: Vec<String> = self
+            .share
+            .iter()
+            .zip(&self.left)
+            .map(|(&(j, s), &(_, l))| {
+                let name = if crate::contact::is_axis(j) { jkey(j) } else { format!("joint {j}") };
+                format!("{:.1} % of {name}'s residual explained, {:.0} % of it left", 100.0 * s, 100.0 * l)
+            })
+            .collect();
+        format!("small: {}", parts.join("; "))
+    }
 }
 
 pub(super) fn jkey(j: usize) -> String {
@@ -134,6 +167,8 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             rmse_after: vec![],
             gain: 0.0,
             step_gain: 0.0,
+            share: vec![],
+            left: vec![],
             evidence: String::new(),
         };
         let mut ev_lines = Vec::new();
@@ -146,6 +181,9 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 f.rmse_after.push((r.joint, c.eval.heldout_rmse()));
                 f.gain += (c.before_ssr - c.eval.heldout_ssr) / r.nominal.heldout_ssr.max(1e-300) / nj;
                 f.step_gain += c.gain;
+                let nom = r.nominal.heldout_ssr.max(1e-300);
+                f.share.push((r.joint, ((c.before_ssr - c.eval.heldout_ssr) / nom).clamp(0.0, 1.0)));
+                f.left.push((r.joint, (r.final_eval.heldout_ssr / nom).clamp(0.0, 1.0)));
                 ev_lines.push(evidence_line(r.joint, c, r.n));
             }
         }
@@ -171,6 +209,9 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             f.step_gain /= f.targets.len() as f64;
         }
         f.evidence = format!("{}. {}", e.meaning(), ev_lines.join("; "));
+        if f.is_small() {
+            f.evidence = format!("{} ({})", f.evidence, f.small_note());
+        }
         out.push(f);
     }
     out.sort_by(|a, b| b.significant.cmp(&a.significant).then(b.gain.total_cmp(&a.gain)));
