@@ -80,6 +80,15 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
     # inertias, 4.7 % before that). A regression guard, not the issue's goal (ext < pub above).
     assert ext[1] < 1.1 * base[1], (ext, base)
     assert rep["explained"]["all_joints"] > 0.75
+    # issue 38's wording: a finding below 5 % of every one of its joints' residual is "small",
+    # with the share left; the others are not
+    for f in sig:
+        share = f["share_of_joint_residual"]
+        assert set(share) == set(f["targets"]) and set(f["share_left"]) == set(f["targets"]), f
+        small = all(x < 0.05 for x in share.values())
+        assert f["small"] == small, (f["effect"], share, f["small"])
+        assert ("(small:" in f["evidence"]) == small, f["evidence"]
+    assert rep["verdict"] == "findings"
 
 
 def test_panda_identified_friction_within_the_published_curve_and_its_scatter(naic_bin, root, shared, tmp_path):
