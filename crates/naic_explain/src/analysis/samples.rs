@@ -35,7 +35,7 @@ pub struct JointSamples {
     /// Samples per independent observation (filter window / analysis step), ≥ 1.
     pub corr_len: f64,
     /// Time series: the raw sample period [s] (the longest of the runs); 0 for friction points.
-    /// A `delay` must be longer than it ([`crate::analysis::score`]).
+    /// A `delay` shorter than it is flagged in the report ([`crate::report::findings`]).
     pub sample_period: f64,
     pub time_series: bool,
     /// A sensor axis of contact data (targets `fx..mz`) rather than a joint.

@@ -66,12 +66,9 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
     // wrong rigid-body torque (on the real Panda joint 7 it gave k = 0.025), not a scale error
     let plausible = match e {
         Effect::TorqueScale => ev.coef(Col::Scale).is_some_and(|c| c.abs() <= TORQUE_SCALE_MAX_ERROR),
-        // a time shift between the channels shorter than one sample period is the data's own
-        // sampling convention (which instant of its period a value stands for; an acceleration
-        // taken as a one-sided difference of q̇ by whatever made the torque lags the motion by
-        // half a sample: that gave d ≈ 0.6·dt at 100 Hz, 1 kHz and 2 kHz on clean data), not a
-        // delay of the torque channel; the data cannot tell the two apart
-        Effect::Delay => ev.full_structure.delay.abs() > js.sample_period,
+        // (a `delay` shorter than one sample period is not rejected here: it is real in the data,
+        // whether a channel delay or the producer's sampling convention, and rejecting it let
+        // other candidates take it; the report flags it, `report::findings`)
         _ => true,
     };
     let significant = gain >= o.min_gain && fold_wins >= o.min_fold_wins && delta_bic < 0.0 && plausible;

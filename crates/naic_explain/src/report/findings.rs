@@ -150,6 +150,16 @@ pub(super) fn evidence_line(j: usize, c: &Candidate, n: usize) -> String {
     )
 }
 
+/// A significant `delay` shorter than one raw sample period: that period [s].
+pub fn sub_sample_delay(f: &Finding, ex: &Explained) -> Option<f64> {
+    if f.effect != Effect::Delay || !f.significant {
+        return None;
+    }
+    let dt = ex.joints.iter().map(|js| js.sample_period).fold(0.0, f64::max);
+    let d = f.params.iter().flat_map(|(_, p)| p.iter()).find(|(k, _)| k == "delay_s").map(|(_, v)| v.abs())?;
+    (dt > 0.0 && d < dt).then_some(dt)
+}
+
 /// Builds the ranked list of findings.
 pub fn findings(ex: &Explained) -> Vec<Finding> {
     // gains are averaged over the targets of the effect's kind (joints, or sensor axes)
@@ -209,6 +219,14 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             f.step_gain /= f.targets.len() as f64;
         }
         f.evidence = format!("{}. {}", e.meaning(), ev_lines.join("; "));
+        if let Some(dt) = sub_sample_delay(&f, ex) {
+            f.evidence = format!(
+                "{} (shorter than one sample period of the data, {:.3} ms: the data cannot tell it from its own sampling \
+                 convention, e.g. a torque computed with q̈ taken as a one-sided difference of q̇, which lags by about half a sample)",
+                f.evidence,
+                dt * 1e3
+            );
+        }
         if f.is_small() {
             f.evidence = format!("{} ({})", f.evidence, f.small_note());
         }

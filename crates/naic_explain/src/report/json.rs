@@ -39,6 +39,7 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
                 "share_of_joint_residual": map_of(&f.share),
                 "share_left": map_of(&f.left),
                 "small": f.is_small(),
+                "sub_sample_delay": super::findings::sub_sample_delay(f, ex).is_some(),
                 "evidence": f.evidence,
             })
         })
