@@ -89,6 +89,16 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
         assert f["small"] == small, (f["effect"], share, f["small"])
         assert ("(small:" in f["evidence"]) == small, f["evidence"]
     assert rep["verdict"] == "findings"
+    # issue 38's significance statement: every significant target has a block-bootstrap interval
+    # of its held-out gain at 1 − 0.05/comparisons; the rigid-body correction on joint 2 (the
+    # largest error) is far from zero at that level
+    for f in sig:
+        assert set(f["gain_interval"]) == set(f["targets"]), f
+        assert f["comparisons"] >= 7 * 11 and abs(f["interval_level"] - (1 - 0.05 / f["comparisons"])) < 1e-12
+        for lo, hi in f["gain_interval"].values():
+            assert lo <= hi, f
+    lo2 = sig[0]["gain_interval"]["joint2"][0]
+    assert lo2 > 0.5, sig[0]["gain_interval"]
 
 
 def test_panda_identified_friction_within_the_published_curve_and_its_scatter(naic_bin, root, shared, tmp_path):

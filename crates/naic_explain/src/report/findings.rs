@@ -24,6 +24,11 @@ pub struct Finding {
     pub share: Vec<(usize, f64)>,
     /// Per target: the share of that joint's nominal held-out mean square the final model leaves.
     pub left: Vec<(usize, f64)>,
+    /// Per target: the block-bootstrap interval of the step's held-out gain at level
+    /// 1 − [`bootstrap::FAMILY_ALPHA`]/`comparisons` (significant findings; [`super::bootstrap`]).
+    pub gain_ci: Vec<(usize, (f64, f64))>,
+    /// Candidates × joints tried (the Bonferroni count of the intervals).
+    pub comparisons: usize,
     pub evidence: String,
 }
 
@@ -166,6 +171,10 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
     let n_axes = ex.results.iter().filter(|r| crate::contact::is_axis(r.joint)).count();
     let n_joints = ex.results.len() - n_axes;
     let mut out = Vec::new();
+    // every candidate the catalogue could try on every target: the family of the intervals
+    let comparisons: usize =
+        ex.joints.iter().map(|js| ALL_EFFECTS.iter().filter(|e| js.applicable(**e)).count()).sum::<usize>().max(1);
+    let alpha = super::bootstrap::FAMILY_ALPHA / comparisons as f64;
     for e in ALL_EFFECTS {
         let nj = (if e.is_contact() { n_axes } else { n_joints }).max(1) as f64;
         let mut f = Finding {
@@ -179,6 +188,8 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             step_gain: 0.0,
             share: vec![],
             left: vec![],
+            gain_ci: vec![],
+            comparisons,
             evidence: String::new(),
         };
         let mut ev_lines = Vec::new();
@@ -194,6 +205,12 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 let nom = r.nominal.heldout_ssr.max(1e-300);
                 f.share.push((r.joint, ((c.before_ssr - c.eval.heldout_ssr) / nom).clamp(0.0, 1.0)));
                 f.left.push((r.joint, (r.final_eval.heldout_ssr / nom).clamp(0.0, 1.0)));
+                let k = r.steps.iter().position(|s| s.effect == e).unwrap_or(0);
+                let before = if k == 0 { &r.nominal } else { &r.steps[k - 1].eval };
+                let sh = ex.shapes.get(js.joint.saturating_sub(1)).copied().unwrap_or_default();
+                let blocks = super::bootstrap::block_ssr(js, before, &c.eval, &sh);
+                let seed = (r.joint as u64) << 8 | e as u64;
+                f.gain_ci.push((r.joint, super::bootstrap::gain_interval(&blocks, alpha, super::bootstrap::REPLICATES, seed)));
                 ev_lines.push(evidence_line(r.joint, c, r.n));
             }
         }
@@ -229,6 +246,20 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
         }
         if f.is_small() {
             f.evidence = format!("{} ({})", f.evidence, f.small_note());
+        }
+        if !f.gain_ci.is_empty() {
+            let cis: Vec<String> = f
+                .gain_ci
+                .iter()
+                .map(|&(j, (lo, hi))| format!("{} [{lo:+.4}, {hi:+.4}]", if crate::contact::is_axis(j) { jkey(j) } else { format!("J{j}") }))
+                .collect();
+            f.evidence = format!(
+                "{}. Held-out gain interval at {:.4} % (block bootstrap over time blocks, Bonferroni over {} candidates × targets): {}",
+                f.evidence.trim_end_matches('.'),
+                100.0 * (1.0 - alpha),
+                comparisons,
+                cis.join(", ")
+            );
         }
         out.push(f);
     }

@@ -11,6 +11,7 @@
 //! Layout: `findings.rs` (the ranked findings), `json.rs` (the `report.json` model),
 //! `params.rs` (`extended_params.yaml`), `markdown.rs` (`report.md`), `plots.rs` (the SVG plots).
 
+pub mod bootstrap;
 mod findings;
 mod json;
 mod markdown;
