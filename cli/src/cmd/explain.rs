@@ -67,7 +67,7 @@ pub struct ExplainArgs {
     #[arg(long, default_value = "urdf/jk5.urdf")]
     urdf: PathBuf,
     /// Comma-separated effects to consider; `+name,…` adds to the default [default: the whole
-    /// catalogue but position_torque, which is opt-in: `--effects +position_torque`].
+    /// catalogue, position_torque included].
     #[arg(long)]
     effects: Option<String>,
     /// Write seeded synthetic data to this CSV instead of analysing.
@@ -190,8 +190,15 @@ pub fn run(a: ExplainArgs) -> CliResult {
             fs.iter()
                 .filter(|f| f["significant"].as_bool() == Some(true))
                 .map(|f| {
+                    // a finding below 5 % of its joint's residual says so, with the share left
+                    let small = if f["small"].as_bool() == Some(true) {
+                        let ev = f["evidence"].as_str().unwrap_or("");
+                        ev.rfind("(small:").map_or(String::new(), |i| format!(" {}", ev[i..].trim_end_matches('.')))
+                    } else {
+                        String::new()
+                    };
                     format!(
-                        "{} (gain {:.4}, step gain {:.3}, {})",
+                        "{} (gain {:.4}, step gain {:.3}, {}){small}",
                         f["effect"].as_str().unwrap_or("?"),
                         f["gain"].as_f64().unwrap_or(0.0),
                         f["step_gain"].as_f64().unwrap_or(0.0),
@@ -201,8 +208,17 @@ pub fn run(a: ExplainArgs) -> CliResult {
                 .collect()
         })
         .unwrap_or_default();
+    let any_sig = !sig.is_empty();
     if sig.is_empty() {
-        println!("nothing significant; report in {}", out.display());
+        let floor = v["noise_floor"]
+            .as_object()
+            .filter(|m| !m.is_empty())
+            .map(|m| {
+                let vals: Vec<String> = m.values().map(|x| format!("{:.3}", x.as_f64().unwrap_or(f64::NAN))).collect();
+                format!(" (torque noise floor per joint after the filter [N·m]: {})", vals.join(" / "))
+            })
+            .unwrap_or_default();
+        println!("nothing significant: {}{floor}; report in {}", naic_explain::report::NO_EFFECT, out.display());
     } else {
         println!("findings, ranked by held-out gain:");
         for s in sig {
@@ -210,7 +226,22 @@ pub fn run(a: ExplainArgs) -> CliResult {
         }
         println!("report in {}", out.display());
     }
-    print_explained(&v);
+    if any_sig {
+        print_explained(&v);
+    } else if let (Some(floor), Some(nom)) = (v["noise_floor"].as_object(), v["nominal"]["heldout_rmse"].as_object()) {
+        // "no effect beyond noise" is what the catalogue can say; a joint whose residual stays
+        // well above its noise floor has structure left that no candidate names
+        let above: Vec<String> = floor
+            .iter()
+            .filter_map(|(k, f)| {
+                let (f, r) = (f.as_f64()?, nom.get(k)?.as_f64()?);
+                (r > 2.0 * f).then(|| format!("{k} {r:.3} vs {f:.3}"))
+            })
+            .collect();
+        if !above.is_empty() {
+            println!("held-out RMSE above twice the noise floor, structure no candidate names [N·m]: {}", above.join(", "));
+        }
+    }
     print_lack_of_fit(&v);
     if let Some(path) = &a.write_urdf {
         match report::inertial_links(&ex) {

@@ -147,6 +147,9 @@ pub struct Explained {
     pub inertial: Option<inertial::InertialFit>,
     /// The robot model file the data were analysed with.
     pub urdf: PathBuf,
+    /// Time series: per joint, the torque noise floor after the filter [N·m]
+    /// ([`prepare::Prepared::noise_floor`]); empty for friction points.
+    pub noise_floor: Vec<f64>,
     /// Wall time of each stage of the analysis [s], in order (time series; `naic explain
     /// --bench` prints them).
     pub timings: Vec<(String, f64)>,
@@ -269,6 +272,7 @@ pub fn explain_runs(
         baseline_names: base.names,
         inertial,
         urdf: opts.urdf.clone(),
+        noise_floor: prep.noise_floor(),
         timings: {
             laps.lap("method notes");
             laps.v
@@ -350,6 +354,7 @@ pub fn explain_points(name: &str, d: &FrictionData, opts: &ExplainOptions, progr
         baseline_names: vec![],
         inertial: None,
         urdf: opts.urdf.clone(),
+        noise_floor: vec![],
         timings: vec![],
     })
 }

@@ -118,6 +118,12 @@ pub struct Prepared {
     pub a: Rows,
     /// Smoothed measured torque.
     pub tau: Rows,
+    /// The raw measured torque at the instant minus its smoothed value: what the filter took
+    /// away, mostly noise (for [`Prepared::noise_floor`]).
+    pub tau_hp: Rows,
+    /// White noise of σ on the raw torque has σ·√(Σc₀²) after the filter and
+    /// σ·√(1 − 2c₀[centre] + Σc₀²) in `tau_hp`; `noise_gain` is the ratio of the two.
+    pub noise_gain: f64,
     /// Time derivative of the smoothed measured torque.
     pub dtau: Rows,
     /// Third time derivative of q (the quintic fit's), for `delay`.
@@ -171,6 +177,24 @@ impl Prepared {
     pub fn nj(&self) -> usize {
         self.q.width()
     }
+    /// Per joint, the torque noise floor in the analysis' units (after the filter) [N·m]:
+    /// a robust σ of what the filter took away (1.4826 · median |τ_raw − τ_smoothed| over
+    /// the instants; acceleration steps and other fast signal land in a few instants only, the
+    /// median ignores them) times [`Prepared::noise_gain`]. Exact for white torque noise;
+    /// resampled (box-filtered) or otherwise coloured noise reads lower.
+    pub fn noise_floor(&self) -> Vec<f64> {
+        (0..self.tau_hp.width())
+            .map(|j| {
+                let mut a: Vec<f64> = (0..self.tau_hp.len()).map(|i| self.tau_hp[i][j].abs()).collect();
+                if a.is_empty() {
+                    return 0.0;
+                }
+                let k = a.len() / 2;
+                let (_, m, _) = a.select_nth_unstable_by(k, f64::total_cmp);
+                1.4826 * *m * self.noise_gain
+            })
+            .collect()
+    }
     /// Appends the analysis instants of another segment (same model and filter). Its
     /// times are shifted to start one analysis step after this one's last instant when
     /// they would overlap (separate runs each starting at t = 0).
@@ -190,6 +214,7 @@ impl Prepared {
             (&mut self.v, &o.v),
             (&mut self.a, &o.a),
             (&mut self.tau, &o.tau),
+            (&mut self.tau_hp, &o.tau_hp),
             (&mut self.dtau, &o.dtau),
             (&mut self.tau_rb, &o.tau_rb),
             (&mut self.jerk, &o.jerk),
@@ -260,6 +285,7 @@ pub fn prepare(
         &mut p.v,
         &mut p.a,
         &mut p.tau,
+        &mut p.tau_hp,
         &mut p.dtau,
         &mut p.tau_rb,
         &mut p.grav,
@@ -270,6 +296,9 @@ pub fn prepare(
     ] {
         *r = Rows::with_capacity(nj, m);
     }
+    let s2: f64 = c0.iter().map(|c| c * c).sum();
+    p.noise_gain = (s2 / (1.0 - 2.0 * c0[h] + s2).max(1e-12)).sqrt();
+    let mut hp = vec![0.0; nj];
     let mut data = Data::new(model);
     let g = Vector3::new(0.0, 0.0, -9.81);
     let (mut qv, mut vv, mut av) = (DVector::zeros(nj), DVector::zeros(nj), DVector::zeros(nj));
@@ -397,6 +426,10 @@ pub fn prepare(
         p.v.push(vv.as_slice());
         p.a.push(av.as_slice());
         p.tau.push(&tau);
+        for (j, x) in hp.iter_mut().enumerate() {
+            *x = ts.tau[i][j] - tau[j];
+        }
+        p.tau_hp.push(&hp);
         p.dtau.push(&dtau);
         p.payload.push(&pl);
         p.regime.push(reg);

@@ -34,6 +34,9 @@ pub struct JointSamples {
     pub fold: Vec<u8>,
     /// Samples per independent observation (filter window / analysis step), ≥ 1.
     pub corr_len: f64,
+    /// Time series: the raw sample period [s] (the longest of the runs); 0 for friction points.
+    /// A `delay` shorter than it is flagged in the report ([`crate::report::findings`]).
+    pub sample_period: f64,
     pub time_series: bool,
     /// A sensor axis of contact data (targets `fx..mz`) rather than a joint.
     pub contact: bool,
@@ -179,6 +182,7 @@ impl JointSamples {
             a.extend_from_slice(b);
         }
         self.fold.extend_from_slice(&o.fold);
+        self.sample_period = self.sample_period.max(o.sample_period);
     }
 
     /// Whether sample `i` belongs to a validation run.
@@ -203,6 +207,7 @@ impl JointSamples {
             tau_rb: pick(&self.tau_rb),
             fold: self.fold.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect(),
             corr_len: self.corr_len,
+            sample_period: self.sample_period,
             coulomb_width: self.coulomb_width,
             time_series: self.time_series,
             contact: self.contact,

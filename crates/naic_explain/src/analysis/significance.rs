@@ -64,7 +64,13 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
     };
     // a drive gain is a gain: k = 1 + coefficient outside 0.5–1.5 is the column absorbing a
     // wrong rigid-body torque (on the real Panda joint 7 it gave k = 0.025), not a scale error
-    let plausible = e != Effect::TorqueScale || ev.coef(Col::Scale).is_some_and(|c| c.abs() <= TORQUE_SCALE_MAX_ERROR);
+    let plausible = match e {
+        Effect::TorqueScale => ev.coef(Col::Scale).is_some_and(|c| c.abs() <= TORQUE_SCALE_MAX_ERROR),
+        // (a `delay` shorter than one sample period is not rejected here: it is real in the data,
+        // whether a channel delay or the producer's sampling convention, and rejecting it let
+        // other candidates take it; the report flags it, `report::findings`)
+        _ => true,
+    };
     let significant = gain >= o.min_gain && fold_wins >= o.min_fold_wins && delta_bic < 0.0 && plausible;
     // Which of the significant candidates is taken: `inertial_parameters`' one column stands
     // for the joint's share of the base parameters the joints share (already counted in the

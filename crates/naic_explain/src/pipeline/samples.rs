@@ -24,7 +24,11 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
     (0..p.nj())
         .map(|j| {
             let v_s = naic_core::friction::DEFAULT_V_S;
-            let mut js = JointSamples { joint: j + 1, corr_len: corr, time_series: true, coulomb_width: v_s, ..Default::default() };
+            let mut js = JointSamples {
+                joint: j + 1,
+                corr_len: corr,
+                sample_period: p.dt_raw,
+                time_series: true, coulomb_width: v_s, ..Default::default() };
             for i in 0..p.len() {
                 if !p.keep[i][j] {
                     continue;

@@ -19,7 +19,45 @@ pub struct Finding {
     pub gain: f64,
     /// Mean over the target joints of the relative held-out reduction when the effect was added.
     pub step_gain: f64,
+    /// Per target: the share of that joint's nominal held-out mean-square residual this effect
+    /// removed (significant findings).
+    pub share: Vec<(usize, f64)>,
+    /// Per target: the share of that joint's nominal held-out mean square the final model leaves.
+    pub left: Vec<(usize, f64)>,
+    /// Per target: the block-bootstrap interval of the step's held-out gain at level
+    /// 1 − [`bootstrap::FAMILY_ALPHA`]/`comparisons` (significant findings; [`super::bootstrap`]).
+    pub gain_ci: Vec<(usize, (f64, f64))>,
+    /// Candidates × joints tried (the Bonferroni count of the intervals).
+    pub comparisons: usize,
     pub evidence: String,
+}
+
+/// A significant finding that removes less than this share of its joint's nominal held-out
+/// mean square on every target is reported as "small" (next to the share left).
+pub const SMALL_SHARE: f64 = 0.05;
+
+impl Finding {
+    /// Significant, but below [`SMALL_SHARE`] of the residual on every target.
+    pub fn is_small(&self) -> bool {
+        self.significant && !self.share.is_empty() && self.share.iter().all(|&(_, s)| s < SMALL_SHARE)
+    }
+
+    /// "small: 3.1 % of joint 6's residual explained, 22 % of it left" (empty when not small).
+    pub fn small_note(&self) -> String {
+        if !self.is_small() {
+            return String::new();
+        }
+        let parts: Vec<String> = self
+            .share
+            .iter()
+            .zip(&self.left)
+            .map(|(&(j, s), &(_, l))| {
+                let name = if crate::contact::is_axis(j) { jkey(j) } else { format!("joint {j}") };
+                format!("{:.1} % of {name}'s residual explained, {:.0} % of it left", 100.0 * s, 100.0 * l)
+            })
+            .collect();
+        format!("small: {}", parts.join("; "))
+    }
 }
 
 pub(super) fn jkey(j: usize) -> String {
@@ -117,12 +155,26 @@ pub(super) fn evidence_line(j: usize, c: &Candidate, n: usize) -> String {
     )
 }
 
+/// A significant `delay` shorter than one raw sample period: that period [s].
+pub fn sub_sample_delay(f: &Finding, ex: &Explained) -> Option<f64> {
+    if f.effect != Effect::Delay || !f.significant {
+        return None;
+    }
+    let dt = ex.joints.iter().map(|js| js.sample_period).fold(0.0, f64::max);
+    let d = f.params.iter().flat_map(|(_, p)| p.iter()).find(|(k, _)| k == "delay_s").map(|(_, v)| v.abs())?;
+    (dt > 0.0 && d < dt).then_some(dt)
+}
+
 /// Builds the ranked list of findings.
 pub fn findings(ex: &Explained) -> Vec<Finding> {
     // gains are averaged over the targets of the effect's kind (joints, or sensor axes)
     let n_axes = ex.results.iter().filter(|r| crate::contact::is_axis(r.joint)).count();
     let n_joints = ex.results.len() - n_axes;
     let mut out = Vec::new();
+    // every candidate the catalogue could try on every target: the family of the intervals
+    let comparisons: usize =
+        ex.joints.iter().map(|js| ALL_EFFECTS.iter().filter(|e| js.applicable(**e)).count()).sum::<usize>().max(1);
+    let alpha = super::bootstrap::FAMILY_ALPHA / comparisons as f64;
     for e in ALL_EFFECTS {
         let nj = (if e.is_contact() { n_axes } else { n_joints }).max(1) as f64;
         let mut f = Finding {
@@ -134,6 +186,10 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             rmse_after: vec![],
             gain: 0.0,
             step_gain: 0.0,
+            share: vec![],
+            left: vec![],
+            gain_ci: vec![],
+            comparisons,
             evidence: String::new(),
         };
         let mut ev_lines = Vec::new();
@@ -146,6 +202,15 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 f.rmse_after.push((r.joint, c.eval.heldout_rmse()));
                 f.gain += (c.before_ssr - c.eval.heldout_ssr) / r.nominal.heldout_ssr.max(1e-300) / nj;
                 f.step_gain += c.gain;
+                let nom = r.nominal.heldout_ssr.max(1e-300);
+                f.share.push((r.joint, ((c.before_ssr - c.eval.heldout_ssr) / nom).clamp(0.0, 1.0)));
+                f.left.push((r.joint, (r.final_eval.heldout_ssr / nom).clamp(0.0, 1.0)));
+                let k = r.steps.iter().position(|s| s.effect == e).unwrap_or(0);
+                let before = if k == 0 { &r.nominal } else { &r.steps[k - 1].eval };
+                let sh = ex.shapes.get(js.joint.saturating_sub(1)).copied().unwrap_or_default();
+                let blocks = super::bootstrap::block_ssr(js, before, &c.eval, &sh);
+                let seed = (r.joint as u64) << 8 | e as u64;
+                f.gain_ci.push((r.joint, super::bootstrap::gain_interval(&blocks, alpha, super::bootstrap::REPLICATES, seed)));
                 ev_lines.push(evidence_line(r.joint, c, r.n));
             }
         }
@@ -171,6 +236,31 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             f.step_gain /= f.targets.len() as f64;
         }
         f.evidence = format!("{}. {}", e.meaning(), ev_lines.join("; "));
+        if let Some(dt) = sub_sample_delay(&f, ex) {
+            f.evidence = format!(
+                "{} (shorter than one sample period of the data, {:.3} ms: the data cannot tell it from its own sampling \
+                 convention, e.g. a torque computed with q̈ taken as a one-sided difference of q̇, which lags by about half a sample)",
+                f.evidence,
+                dt * 1e3
+            );
+        }
+        if f.is_small() {
+            f.evidence = format!("{} ({})", f.evidence, f.small_note());
+        }
+        if !f.gain_ci.is_empty() {
+            let cis: Vec<String> = f
+                .gain_ci
+                .iter()
+                .map(|&(j, (lo, hi))| format!("{} [{lo:+.4}, {hi:+.4}]", if crate::contact::is_axis(j) { jkey(j) } else { format!("J{j}") }))
+                .collect();
+            f.evidence = format!(
+                "{}. Held-out gain interval at {:.4} % (block bootstrap over time blocks, Bonferroni over {} candidates × targets): {}",
+                f.evidence.trim_end_matches('.'),
+                100.0 * (1.0 - alpha),
+                comparisons,
+                cis.join(", ")
+            );
+        }
         out.push(f);
     }
     out.sort_by(|a, b| b.significant.cmp(&a.significant).then(b.gain.total_cmp(&a.gain)));

@@ -36,6 +36,14 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
                 "heldout_rmse_after": map_of(&f.rmse_after),
                 "gain": f.gain,
                 "step_gain": f.step_gain,
+                "share_of_joint_residual": map_of(&f.share),
+                "share_left": map_of(&f.left),
+                "small": f.is_small(),
+                "sub_sample_delay": super::findings::sub_sample_delay(f, ex).is_some(),
+                // the step's held-out gain per target, block-bootstrap interval at 1 − 0.05/comparisons
+                "gain_interval": f.gain_ci.iter().map(|&(j, (lo, hi))| (jkey(j), json!([lo, hi]))).collect::<Map<_, _>>(),
+                "interval_level": 1.0 - super::bootstrap::FAMILY_ALPHA / f.comparisons.max(1) as f64,
+                "comparisons": f.comparisons,
                 "evidence": f.evidence,
             })
         })
@@ -85,6 +93,9 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
         "baseline": baseline_json(ex),
         "validation": if validation.is_empty() { Value::Null } else { Value::Object(validation) },
         "nominal": {"heldout_rmse": map_of(&nominal), "model": ex.nominal_source},
+        // per joint, the torque noise after the filter (time series; `Prepared::noise_floor`)
+        "noise_floor": map_of(&noise_floor_pairs(ex)),
+        "verdict": if fs.iter().any(|f| f.significant) { "findings" } else { NO_EFFECT },
         "findings": findings,
         "extended": {"heldout_rmse": map_of(&extended), "params_file": params_file, "heldout_rmse_by_direction": Value::Object(per_dir)},
         "contact_model": Value::Object(contact),
@@ -96,6 +107,14 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
         "lack_of_fit": lack_of_fit_json(ex),
         "inertial_parameters": inertial_json(ex),
     })
+}
+
+/// The verdict when nothing is significant (report.json `verdict`, report.md, the CLI).
+pub const NO_EFFECT: &str = "no effect beyond noise";
+
+/// (joint, noise floor) of the time series' joints (none for friction points).
+pub fn noise_floor_pairs(ex: &Explained) -> Vec<(usize, f64)> {
+    ex.noise_floor.iter().enumerate().map(|(j, &x)| (j + 1, x)).collect()
 }
 
 /// The corrected link inertials (completion closest to the URDF), when the stage is significant.

@@ -12,7 +12,8 @@ pub(super) fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(Str
     let _ = writeln!(s, "# naic explain: {}\n", ex.path);
     let rb = if ex.kind == crate::input::Kind::FrictionPoints { "" } else { "rigid body of the robot model (see Method) + " };
     let _ = writeln!(s, "Kind: **{}**, {} samples. Nominal model: {rb}{}.\n", ex.kind.name(), ex.samples, ex.nominal_source);
-    if let Some(total) = v["explained"]["all_joints"].as_f64() {
+    let any_sig = fs.iter().any(|f| f.significant);
+    if let Some(total) = v["explained"]["all_joints"].as_f64().filter(|_| any_sig) {
         if total < MOSTLY_LEFT {
             let _ = writeln!(
                 s,
@@ -39,7 +40,25 @@ pub(super) fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(Str
     let sig: Vec<&Finding> = fs.iter().filter(|f| f.significant).collect();
     let _ = writeln!(s, "## Findings\n");
     if sig.is_empty() {
-        let _ = writeln!(s, "**Nothing significant**: no candidate extension improved the held-out fit by the rule above; the nominal model explains the data to its noise level.\n");
+        let _ = writeln!(
+            s,
+            "**Nothing significant: {}.** No candidate extension improved the held-out fit by the rule above.\n",
+            super::json::NO_EFFECT
+        );
+        let floor = super::json::noise_floor_pairs(ex);
+        if !floor.is_empty() {
+            let _ = writeln!(
+                s,
+                "Per joint, the torque noise floor after the filter (a robust σ of what the filter removes, scaled to its output) \
+                 next to the nominal model's held-out RMSE [N·m]:\n\n| joint | noise floor | held-out RMSE |\n| --- | --- | --- |"
+            );
+            for (j, x) in floor {
+                let r = ex.results.iter().find(|r| r.joint == j).map_or(f64::NAN, |r| r.nominal.heldout_rmse());
+                let flag = if r > 2.0 * x { " (above twice the floor: structure no candidate names)" } else { "" };
+                let _ = writeln!(s, "| {j} | {x:.4} | {r:.4}{flag} |");
+            }
+            let _ = writeln!(s);
+        }
     } else {
         let _ = writeln!(s, "`gain` = share of the nominal held-out mean-square residual the effect removed (averaged over the joints, or over the sensor axes for contact effects); `step gain` = relative held-out reduction on its targets when it was added.\n");
         let _ = writeln!(s, "| rank | effect | targets | gain | step gain | parameters |\n| --- | --- | --- | --- | --- | --- |");
@@ -51,9 +70,10 @@ pub(super) fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(Str
                 .collect();
             let _ = writeln!(
                 s,
-                "| {} | `{}` | {} | {:.4} | {:.3} | {} |",
+                "| {} | `{}`{} | {} | {:.4} | {:.3} | {} |",
                 i + 1,
                 f.effect.name(),
+                if f.is_small() { format!(" ({})", f.small_note()) } else { String::new() },
                 f.targets.iter().map(|&j| if crate::contact::is_axis(j) { jkey(j) } else { j.to_string() }).collect::<Vec<_>>().join(", "),
                 f.gain,
                 f.step_gain,

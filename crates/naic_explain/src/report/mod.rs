@@ -11,14 +11,15 @@
 //! Layout: `findings.rs` (the ranked findings), `json.rs` (the `report.json` model),
 //! `params.rs` (`extended_params.yaml`), `markdown.rs` (`report.md`), `plots.rs` (the SVG plots).
 
+pub mod bootstrap;
 mod findings;
 mod json;
 mod markdown;
 mod params;
 pub mod plots;
 
-pub use findings::{direction_rmse, direction_rmse_insample, effect_params, findings, Finding};
-pub use json::{inertial_links, report_json, MOSTLY_LEFT};
+pub use findings::{direction_rmse, direction_rmse_insample, effect_params, findings, Finding, SMALL_SHARE};
+pub use json::{inertial_links, noise_floor_pairs, report_json, MOSTLY_LEFT, NO_EFFECT};
 pub use params::{extended_friction, extended_params};
 
 use crate::{ExplainError, Explained};
