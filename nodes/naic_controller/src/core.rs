@@ -97,7 +97,7 @@ impl std::fmt::Display for FaultReport {
             FaultReport::Sensor(x) => x.fmt(f),
             FaultReport::ForceLimit(l) => write!(
                 f,
-                "force above force_limit ({l} N): retracting, then holding off the surface until a parameter is set"
+                "force above force_limit ({l} N): retracting, then holding off the surface until ~/reset_force_limit is called"
             ),
             FaultReport::NotActuated(ms) => write!(
                 f,
@@ -219,7 +219,25 @@ pub struct Inbox<'a> {
     /// `/joint_effort_cmd`: the torque friction_compensation sent the driver; its source
     /// stamp says which joint state it answers (actuation supervision).
     pub actuated: Option<&'a Float64MultiArray>,
+    /// A call of `~/reset_force_limit` (`std_srvs/srv/Trigger`): the operator acknowledges
+    /// an over-force event. The only way a force-limit retraction ends (a parameter set
+    /// never ends it: `naic_core::pipeline::param_change`).
+    pub reset_force_limit: bool,
 }
+
+/// The core's answer to a `std_srvs/srv/Trigger` call: success and the message.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TriggerAnswer {
+    pub success: bool,
+    pub message: &'static str,
+}
+
+/// `~/reset_force_limit` done: the retraction ended.
+pub const FORCE_LIMIT_RESET: &str =
+    "force limit reset: force control resumes in free space (contact is re-detected; the learned weights are kept)";
+/// `~/reset_force_limit` without a force-limit retraction: nothing changed.
+pub const NO_FORCE_LIMIT_TO_RESET: &str =
+    "refused: no force-limit retraction is in progress or latched (nothing to reset; the controller is unchanged)";
 
 /// Things for the shell to log (each at most once per step).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -263,6 +281,8 @@ pub struct Outbox {
     pub friction_velocity: Option<JointVec>,
     /// `/naic/params`.
     pub report: Option<Report>,
+    /// The answer to [`Inbox::reset_force_limit`].
+    pub reset_force_limit: Option<TriggerAnswer>,
     /// Lockstep: a joint state waits for the wrench of its stamp; step again with each
     /// `/wrench` sample until this wall time [ns], then with an empty inbox.
     pub wait_until_ns: Option<i64>,
@@ -281,6 +301,16 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
             _ => now_ns,
         };
         s.wrench = Some(WrenchIn { w: [f.x, f.y, f.z, t.x, t.y, t.z], stamp_ns, rx_ns });
+    }
+    if inbox.reset_force_limit {
+        out.reset_force_limit = Some(match param_change::reset_force_limit(&s.ctl) {
+            Some(ctl) => {
+                s.ctl = ctl;
+                s.was_force_limited = false;
+                TriggerAnswer { success: true, message: FORCE_LIMIT_RESET }
+            }
+            None => TriggerAnswer { success: false, message: NO_FORCE_LIMIT_TO_RESET },
+        });
     }
     if let Some(src) = inbox.actuated.and_then(msgs::effort_source_stamp) {
         s.actuated_src_ns = Some(s.actuated_src_ns.map_or(src, |a| a.max(src)));
@@ -473,7 +503,8 @@ fn take_reference_samples(p: &Params, s: &mut State, inbox: &Inbox, now_ns: i64,
 
 /// Accepted parameters → the running node: the settings apply at once, the controller's
 /// parameters by the core's policy (`naic_core::pipeline::param_change`: the NAIC weights
-/// restart when the force law or impedance changed; any change opens a force-limit latch).
+/// restart when the force law or impedance changed; a force-limit retraction is kept: only
+/// [`Inbox::reset_force_limit`] ends it).
 /// `Err`: the core refused `cp`; the settings still apply, the controller is unchanged.
 pub fn set_params(
     p: &mut Params,

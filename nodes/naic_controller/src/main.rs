@@ -7,7 +7,7 @@
 
 use std::time::Duration;
 
-use naic_controller::{runner::{ReferenceSubs, Runner}, setup::{Setup, NODE}};
+use naic_controller::{runner::{ReferenceSubs, Runner, Services}, setup::{Setup, NODE}};
 use naic_ros::{
     msgs::{self, Float64MultiArray, JointState, NaicParams, WrenchStamped},
     node::{data_qos, pub_qos, QOS_SUB},
@@ -35,6 +35,7 @@ fn run() -> Result<(), RosError> {
     let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     // The reference topics: the real-robot setting (scenario 'none') only.
     let refs = ReferenceSubs::new(&mut node, &r)?;
+    let mut services = Services::new(&mut node)?;
     let effort_pub = node.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, node.params.with(data_qos).0)?;
     let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, node.params.with(pub_qos))?;
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
@@ -54,6 +55,7 @@ fn run() -> Result<(), RosError> {
         if let Some(refs) = &refs {
             refs.feed(&mut r);
         }
+        services.serve(&mut r, &node);
         // Newest joint state only; older samples in the queue are skipped.
         let Some(js) = take_newest(&js_sub) else { continue };
         let out = r.joint_states(&js, |until| {

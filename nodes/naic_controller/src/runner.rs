@@ -71,7 +71,9 @@ impl Runner {
         let base = &self.base;
         let (cp, settings, rp) = params.with(|v| (config::controller_params(v, base), config::settings(v), config::reference_params(v)));
         match cp.and_then(|cp| Ok(core::set_params(&mut self.p, &mut self.s, cp, settings, rp)?)) {
-            Ok(o) if o.resumed => log::info!("parameters changed: resuming force control"),
+            Ok(_) if self.s.ctl.control.retracting() => log::warn!(
+                "parameters changed; the force-limit retraction stays until ~/reset_force_limit is called (std_srvs/srv/Trigger)"
+            ),
             Ok(_) => {}
             Err(e) => log::error!("parameters not applied: {e}"),
         }
@@ -82,6 +84,18 @@ impl Runner {
         let (next, out) = alloc_check::check(NODE, &mut self.warned, || core::step(p, s, &inbox, now_ns, ws));
         self.s = next;
         out
+    }
+
+    /// A call of `~/reset_force_limit`: the core's answer (logged here).
+    pub fn reset_force_limit(&mut self) -> core::TriggerAnswer {
+        let out = self.step(core::Inbox { reset_force_limit: true, ..Default::default() }, wall_ns());
+        let a = out.reset_force_limit.unwrap_or(core::TriggerAnswer { success: false, message: "the core did not answer" });
+        if a.success {
+            log::info!("~/reset_force_limit: {}", a.message);
+        } else {
+            log::warn!("~/reset_force_limit: {}", a.message);
+        }
+        a
     }
 
     /// A `/joint_effort_cmd` sample: which joint state the torque reaching the arm answers.
@@ -153,6 +167,28 @@ impl ReferenceSubs {
     }
 }
 
+/// The controller's `std_srvs/srv/Trigger` services (`~/reset_force_limit`), served from
+/// the loop of the node process and of `naic launch --composed` alike.
+pub struct Services {
+    reset_force_limit: naic_ros::service::TriggerServer,
+}
+
+impl Services {
+    pub fn new(node: &mut RosNode) -> Result<Services, RosError> {
+        Ok(Services { reset_force_limit: naic_ros::service::TriggerServer::new(node, "reset_force_limit")? })
+    }
+
+    /// Answer the waiting calls through the core ([`Runner::reset_force_limit`]) and send
+    /// the answers their clients can receive.
+    pub fn serve(&mut self, r: &mut Runner, node: &RosNode) {
+        while let Some(id) = self.reset_force_limit.take() {
+            let a = r.reset_force_limit();
+            self.reset_force_limit.answer(id, a.success, a.message);
+        }
+        self.reset_force_limit.flush(node);
+    }
+}
+
 pub fn log_events(e: &core::Events, force_limit: f64) {
     if let Some(j) = e.missing_joint {
         log::error!("/joint_states has no '{j}'; holding");
@@ -161,7 +197,9 @@ pub fn log_events(e: &core::Events, force_limit: f64) {
         log::info!("start tip position {p:?}");
     }
     if let Some(f) = e.force_limited {
-        log::warn!("measured force {f:.1} N above force_limit {force_limit} N: retracting (set any parameter to resume)");
+        log::warn!(
+            "measured force {f:.1} N above force_limit {force_limit} N: retracting, then holding off the surface (call ~/reset_force_limit, std_srvs/srv/Trigger, to resume)"
+        );
     }
     if let Some((f, n)) = e.fault {
         log::warn!("holding: {f} (faults so far: {n})");

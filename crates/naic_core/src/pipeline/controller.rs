@@ -249,14 +249,15 @@ pub fn step(
     let r_ws = ws.data.frame_se3(c.sensor).rot;
     let tip = *ws.data.frame_se3(c.tip);
 
-    // Estimate the contact wrench (after the tare; zero while taring).
+    // Estimate the contact wrench, after the tare. While taring the arm is held (gravity
+    // compensation and joint damping: it comes to rest) and the tare takes only samples at
+    // rest (estimate::tare_step); force control starts with the cycle after it.
     let tared = s.tare.done(p.tare_samples);
-    let f_e = if tared {
-        estimate::contact_wrench(&p.tool, &s.tare.bias(), &sensed.wrench, &r_ws)
-    } else {
-        next.tare = estimate::tare_step(&p.tool, p.tare_samples, &s.tare, &sensed.wrench, &r_ws);
-        Vector6::zeros()
-    };
+    if !tared {
+        let tare = estimate::tare_step(&p.tool, p.tare_samples, &s.tare, &sensed.wrench, &r_ws, m.t, &sensed.dq);
+        return taring(c, &next, &sensed.q, &sensed.dq, tare, r, ws);
+    }
+    let f_e = estimate::contact_wrench(&p.tool, &s.tare.bias(), &sensed.wrench, &r_ws);
 
     let j = *dynamics::frame_jacobian(&c.model, &mut ws.data, &q, c.tip);
     let jdot_qdot = dynamics::frame_jdot_qdot(&c.model, &mut ws.data, &q, &dq, c.tip);
@@ -376,6 +377,53 @@ pub fn step(
         force_limited: out.retracting,
     };
     (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, dq_ff, status })
+}
+
+/// A cycle of the tare: the safe hold's torque (gravity compensation + joint damping at the
+/// measured state, no fault), the tare advanced to `tare`; phase free, no force.
+fn taring(
+    c: &Controller,
+    next: &ControllerState,
+    q: &JointVec,
+    dq: &JointVec,
+    tare: TareState,
+    r: &Reference,
+    ws: &mut Workspace,
+) -> (ControllerState, ControlOutputs) {
+    let p = &c.params;
+    let tip = ws.data.frame_se3(c.tip).trans; // forward kinematics at q: the caller's
+    let tau = super::hold::torque(&c.model, &mut ws.data, q, dq, &p.hold_damping, p.control.force_law.lambda);
+    let next = ControllerState { tare, ..*next };
+    let law = &next.control.law;
+    let status = Status {
+        mode: p.control.force_law.mode,
+        phase: next.control.phase,
+        force_axis: p.control.force_axis.axis,
+        f_d: r.f_d,
+        f_ext: 0.0,
+        e_f: -r.f_d,
+        m_d: law.m_d,
+        b_d: law.b_d,
+        k_d: 0.0,
+        sigma: law.sigma,
+        phi: law.phi,
+        gamma: 0.0,
+        gamma_bound: f64::INFINITY,
+        gamma_clipped: false,
+        weights_projected: false,
+        k_e_hat: 0.0,
+        k_e_confidence: 0.0,
+        model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
+        gravity_scale: 1.0,
+        fault: None,
+        fault_count: next.fault_count,
+        tared: tare.done(p.tare_samples),
+        tip_position: tip,
+        f_e: Vector6::zeros(),
+        jacobian_damped: false,
+        force_limited: next.control.retracting(),
+    };
+    (next, ControlOutputs { tau, dq: *dq, dq_ff: None, status })
 }
 
 /// The safe hold: gravity compensation + joint damping at the last valid state.

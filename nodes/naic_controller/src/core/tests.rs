@@ -234,26 +234,39 @@ fn the_parameter_change_policy_of_the_core_applies() {
     s.ctl.control.law.m_d *= 0.5;
     s.ctl.control.retract_hold = Some(0.02);
     let cp = *p.controller.params();
-    // Only the desired force: the latch opens, the weights stay.
+    // Only the desired force: the weights stay, and so does the latch (a parameter set is
+    // no acknowledgement of the over-force event).
     let more = Settings { desired_force: 15.0, ..p.settings };
     let rp = p.reference_params.clone();
     let o = set_params(&mut p, &mut s, cp, more, rp.clone()).unwrap();
-    assert!(o.resumed && !o.restarted);
+    assert!(!o.restarted);
     assert_eq!(p.settings.desired_force, 15.0);
-    assert!(!s.ctl.control.retracting());
+    assert!(s.ctl.control.retracting(), "a new set point must not end the retraction");
     assert_eq!(s.ctl.control.law.m_d, 0.5 * cp.control.impedance.m_d[cp.control.force_axis.axis]);
-    // Another mode: the weights restart from the parameters.
+    // Another mode: the weights restart from the parameters; the latch still stays.
     let mut aic = cp;
     aic.control.force_law.mode = Mode::Aic;
     let o = set_params(&mut p, &mut s, aic, more, rp).unwrap();
-    assert!(o.restarted && !o.resumed);
+    assert!(o.restarted);
+    assert!(s.ctl.control.retracting(), "a restart must not end the retraction");
     assert_eq!(p.controller.params().control.force_law.mode, Mode::Aic);
     assert_eq!(s.ctl.control.law.m_d, cp.control.impedance.m_d[cp.control.force_axis.axis]);
-    // The next cycle reports the new mode and set point.
+    // The next cycle reports the new mode and set point, still force-limited.
     let (s, _) = run(&p, &s, Inbox { wrench: Some(&wrench(0, 1.0)), ..Default::default() }, 0);
-    let (_, o) = run(&p, &s, Inbox { joint_states: Some(&js(0, ORDER)), ..Default::default() }, MS);
+    let (s, o) = run(&p, &s, Inbox { joint_states: Some(&js(0, ORDER)), ..Default::default() }, MS);
     let r = o.report.unwrap();
     assert_eq!((r.status.mode, r.status.f_d), (Mode::Aic, 15.0));
+    assert!(matches!(r.fault, Some(FaultReport::ForceLimit(_))), "{:?}", r.fault);
+    // The explicit reset ends it, once; a second call is refused with a reason.
+    let (s, o) = run(&p, &s, Inbox { reset_force_limit: true, ..Default::default() }, 2 * MS);
+    assert_eq!(o.reset_force_limit, Some(TriggerAnswer { success: true, message: FORCE_LIMIT_RESET }));
+    assert!(!s.ctl.control.retracting() && o.effort.is_none(), "the reset alone commands nothing");
+    let (s, o) = run(&p, &s, Inbox { reset_force_limit: true, ..Default::default() }, 3 * MS);
+    let a = o.reset_force_limit.unwrap();
+    assert!(!a.success && a.message.contains("no force-limit retraction"), "{a:?}");
+    let (s, _) = run(&p, &s, Inbox { wrench: Some(&wrench(MS, 1.0)), ..Default::default() }, 4 * MS);
+    let (_, o) = run(&p, &s, Inbox { joint_states: Some(&js(MS, ORDER)), ..Default::default() }, 5 * MS);
+    assert_eq!(o.report.unwrap().fault, None);
 }
 
 #[test]
