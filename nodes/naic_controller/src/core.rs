@@ -15,6 +15,7 @@ use naic_core::{
         controller::{self, Controller, ControllerParams, ControllerState, Reference, Status, Workspace},
         param_change, ConfigError,
         reference::{self as refstage, DesiredWrench, ReferenceParams, ReferenceState, Rejection, Source, TargetPose, Verdict},
+        estimate::NotAtRest,
         sense::{Fault, RawMeasurements},
     },
     JointVec,
@@ -180,6 +181,7 @@ pub struct State {
     /// Controller time of the last cycle [s]: reference samples are taken at it.
     last_t: f64,
     reference_log: Throttle,
+    tare_log: Throttle,
     /// Controller cycles run (replays not counted).
     pub cycles: u64,
 }
@@ -202,6 +204,7 @@ impl State {
             reference: None,
             last_t: 0.0,
             reference_log: Throttle::default(),
+            tare_log: Throttle::default(),
             cycles: 0,
         }
     }
@@ -260,6 +263,10 @@ pub struct Events {
     pub wrench_rejected: Option<(Rejection, u32)>,
     /// A reference sample came before the first joint state (no start pose yet): ignored.
     pub reference_too_early: bool,
+    /// The tare waits for rest (rate-limited): why its window last started again, restarts so far.
+    pub tare_waiting: Option<(NotAtRest, u32)>,
+    /// The tare is done: the sensor bias (force [N], torque [N·m], sensor frame).
+    pub tared: Option<[f64; 6]>,
 }
 
 /// A change of the actuation supervision (logged once per change).
@@ -434,6 +441,16 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
         out.events.actuation = Some(if not_actuated { Actuation::Lost(lag_ns.unwrap_or(0) as f64 * 1e-6) } else { Actuation::Restored });
     }
     s.not_actuated = not_actuated;
+    let tare_samples = p.controller.params().tare_samples;
+    if !s.ctl.tare.done(tare_samples) {
+        if next.tare.done(tare_samples) {
+            out.events.tared = Some(next.tare.bias());
+        } else if let Some(why) = next.tare.not_at_rest.filter(|_| next.tare.restarts > 0) {
+            if s.tare_log.ready(now_ns) {
+                out.events.tare_waiting = Some((why, next.tare.restarts));
+            }
+        }
+    }
     s.ctl = next;
     s.cycles += 1;
     let st = o.status;

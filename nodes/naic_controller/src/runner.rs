@@ -196,6 +196,15 @@ pub fn log_events(e: &core::Events, force_limit: f64) {
     if let Some(p) = e.start_tip {
         log::info!("start tip position {p:?}");
     }
+    if let Some((why, n)) = e.tare_waiting {
+        log::warn!("F/T tare waits for the arm to rest (held meanwhile): {why} (window restarted {n} times)");
+    }
+    if let Some(b) = e.tared {
+        log::info!(
+            "F/T tare done at rest: bias force [{:.3}, {:.3}, {:.3}] N, torque [{:.4}, {:.4}, {:.4}] N m (sensor frame)",
+            b[0], b[1], b[2], b[3], b[4], b[5]
+        );
+    }
     if let Some(f) = e.force_limited {
         log::warn!(
             "measured force {f:.1} N above force_limit {force_limit} N: retracting, then holding off the surface (call ~/reset_force_limit, std_srvs/srv/Trigger, to resume)"

@@ -379,8 +379,16 @@ pub fn step(
     (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, dq_ff, status })
 }
 
-/// A cycle of the tare: the safe hold's torque (gravity compensation + joint damping at the
-/// measured state, no fault), the tare advanced to `tare`; phase free, no force.
+/// How stiffly the arm is held while taring [rad/s]: per joint a critically damped spring
+/// about the tare's first position, `τ_i = G_i(q) + M_ii (ω² (q_hold,i − q_i) − 2 ω q̇_i)`.
+/// Gravity compensation alone lets a wrong model (a mass error) drift the arm for ever;
+/// the spring stops it at `ΔG_i / (M_ii ω²)` (a 25 % heavy JK5 model: about 0.01 rad on
+/// joint 2), so it comes to rest and the tare completes. ω λ = 0.02 at 1 kHz: far from the
+/// discrete stability limit, also with a few cycles of delay.
+pub const TARE_HOLD_OMEGA: f64 = 20.0;
+
+/// A cycle of the tare: the arm held at the tare's first position ([`TARE_HOLD_OMEGA`], no
+/// fault), the tare advanced to `tare`; phase free, no force.
 fn taring(
     c: &Controller,
     next: &ControllerState,
@@ -392,7 +400,17 @@ fn taring(
 ) -> (ControllerState, ControlOutputs) {
     let p = &c.params;
     let tip = ws.data.frame_se3(c.tip).trans; // forward kinematics at q: the caller's
-    let tau = super::hold::torque(&c.model, &mut ws.data, q, dq, &p.hold_damping, p.control.force_law.lambda);
+    let q_hold = tare.q_hold.unwrap_or(*q);
+    let mut tare = tare;
+    tare.q_hold = Some(q_hold);
+    let qv = Vector6::from(*q);
+    let m_diag: JointVec = {
+        let m = dynamics::crba(&c.model, &mut ws.data, &qv);
+        std::array::from_fn(|i| m[(i, i)])
+    };
+    let g = *dynamics::gravity_torques(&c.model, &mut ws.data, &qv);
+    let w = TARE_HOLD_OMEGA;
+    let tau: JointVec = std::array::from_fn(|i| g[i] + m_diag[i] * (w * w * (q_hold[i] - q[i]) - 2.0 * w * dq[i]));
     let next = ControllerState { tare, ..*next };
     let law = &next.control.law;
     let status = Status {

@@ -94,6 +94,9 @@ pub struct TareState {
     pub not_at_rest: Option<NotAtRest>,
     /// Windows started again since the tare began.
     pub restarts: u32,
+    /// Where the arm is held while taring: the joint position of the tare's first cycle
+    /// (kept when a window starts again).
+    pub q_hold: Option<JointVec>,
 }
 
 impl TareState {
@@ -126,7 +129,8 @@ pub fn tare_step(tool: &ToolParams, samples: u32, s: &TareState, raw: &[f64; 6],
     if s.done(samples) {
         return *s;
     }
-    let restart = |why: NotAtRest| TareState { not_at_rest: Some(why), restarts: s.restarts.saturating_add(1), ..TareState::default() };
+    let restart =
+        |why: NotAtRest| TareState { not_at_rest: Some(why), restarts: s.restarts.saturating_add(1), q_hold: s.q_hold, ..TareState::default() };
     if let Some((joint, speed)) = dq.iter().map(|v| v.abs()).enumerate().find(|(_, v)| !(*v <= TARE_REST_VELOCITY)) {
         return restart(NotAtRest::Moving { joint, speed });
     }

@@ -42,7 +42,7 @@ fn js(stamp: i64, order: [usize; N_JOINTS]) -> JointState {
         header: Header { stamp: Time::from_nanos(stamp), frame_id: String::new() },
         name: order.iter().map(|&j| JOINT_NAMES[j].to_string()).collect(),
         position: order.iter().map(|&j| Q0[j]).collect(),
-        velocity: order.iter().map(|&j| 0.01 * j as f64).collect(),
+        velocity: order.iter().map(|&j| 0.003 * j as f64).collect(), // below the tare's rest bound
         effort: vec![0.0; 6],
     }
 }
@@ -82,7 +82,7 @@ fn direct(p: &Params, s: &State, m: &RawMeasurements) -> ControllerState {
 }
 
 fn dq() -> JointVec {
-    std::array::from_fn(|j| 0.01 * j as f64)
+    std::array::from_fn(|j| 0.003 * j as f64)
 }
 
 #[test]
