@@ -65,8 +65,6 @@ fn free_space_tip_error_follows_the_target_impedance_relation() {
         let t = k as f64 * dt;
         let wrench = free_space_reading(&model, &mut plant, &tool, &q);
         let meas = RawMeasurements { t, q, dq, joints_stamp: t, wrench, wrench_stamp: t };
-        // Force control starts with the cycle after the tare (the arm held at rest until then).
-        let controlling = s.tare.done(ctl.params().tare_samples);
         let (n, out) = controller::step(&ctl, &s, &meas, &reference, &mut ws);
         s = n;
         assert!(out.status.fault.is_none(), "{:?}", out.status.fault);
@@ -76,9 +74,6 @@ fn free_space_tip_error_follows_the_target_impedance_relation() {
         for i in 0..6 {
             dq[i] += qdd[i] * dt;
             q[i] += dq[i] * dt;
-        }
-        if !controlling {
-            continue;
         }
         for i in 0..3 {
             let eddot = -(imp.b_d[i] * edot_ref[i] + imp.k_free[i] * e_ref[i]) / imp.m_d[i];

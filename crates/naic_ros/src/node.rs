@@ -149,6 +149,8 @@ impl RosNode {
             .new_node(node_name, NodeOptions::new().enable_rosout(true).start_parameter_services(false))
             .map_err(|e| RosError::Dds(format!("cannot create node {fqn}: {e}")))?;
 
+        // Log lines to /rosout from now on (rclcpp's behaviour), stderr kept.
+        crate::log::attach_rosout(node.logging_handle());
         let params = Arc::new(params);
         let stop = Arc::new(AtomicBool::new(false));
         let services = ParamServices::new(&mut node, &context, &fqn)?;

@@ -40,13 +40,13 @@ fn plant_and_controller_steps_do_not_allocate() {
         count_in_contact(name, c, &s, &p);
     }
     // The heavy side's static reading (a forward dynamics, once in the approach, round 17):
-    // the approach counted from the start (after the tare at rest), with the reading taken in it.
+    // the approach counted from the start, with the reading taken in it.
     let heavy = LoopSettings { delay_cycles: 1, model_mass_error: 1.25, ..LoopSettings::default() };
     let mut c = PipelineController::by_name("scheduled", &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &heavy).unwrap();
     let mut ws = PlantWorkspace::new(&p);
     let (mut st, mut obs) = plant::observe(&p, &PlantState::at_rest(s.task.q0, 1), &mut ws, [0.0; 6], false);
     let ((), n) = counted(|| {
-        for k in 1..2500 {
+        for k in 1..1200 {
             c.set_true_stiffness(obs.truth.contact.k_e);
             let (tau, _) = c.step(&obs.meas, &s.reference(k as f64 * 1e-3));
             (st, obs) = plant::step(&p, &st, &tau, &mut ws);

@@ -131,7 +131,7 @@ impl Runner {
             msgs::set_effort_msg(&mut self.effort, &tau, Some(stamp), out.friction_velocity.as_ref());
         }
         if let Some(r) = &out.report {
-            fill_report(&mut self.report, r);
+            fill_report(&mut self.report, r, &self.p.reference_params.base_frame);
         }
         Published { effort: out.effort.map(|_| &self.effort), report: out.report.map(|_| &self.report) }
     }
@@ -238,9 +238,15 @@ pub fn log_reference_events(e: &core::Events, tp: Option<&PoseStamped>, dw: Opti
 }
 
 /// `/naic/params` from the core's report, in place (the strings keep their capacity).
-pub fn fill_report(m: &mut NaicParams, r: &core::Report) {
+/// `header.frame_id` is the base frame (`base_frame`): the frame of `reference_position`
+/// and of the force axis.
+pub fn fill_report(m: &mut NaicParams, r: &core::Report, base_frame: &str) {
     let st = &r.status;
     m.header.stamp = time_from_ns(r.stamp_ns);
+    if m.header.frame_id != base_frame {
+        m.header.frame_id.clear();
+        m.header.frame_id.push_str(base_frame);
+    }
     m.mode.clear();
     m.mode.push_str(st.mode.as_str());
     m.phase = st.phase as u8;
@@ -305,6 +311,7 @@ mod tests {
         assert_eq!(out.effort.map(effort_source_stamp), Some(Some(0)), "the command carries its state's stamp");
         let report = out.report.expect("a report every cycle");
         assert_eq!((report.header.stamp.to_nanos(), report.mode.as_str(), report.fault.as_str()), (0, "naic", ""));
+        assert_eq!(report.header.frame_id, "base_link", "the frame of reference_position and the force axis");
         // The next state's wrench is not in yet: the runner asks for it, once.
         let mut asked = Vec::new();
         let out = r.joint_states(&js(1_000_000), |until| {

@@ -48,6 +48,11 @@ pub struct ControllerParams {
     pub tool: ToolParams,
     /// Free-space samples averaged for the F/T tare at start.
     pub tare_samples: u32,
+    /// The tare takes only consecutive samples at rest ([`estimate::tare_step`]) and holds
+    /// the arm meanwhile ([`TARE_HOLD_OMEGA`]); off: the first `tare_samples` cycles,
+    /// controlled as usual with no force (the simulator's setting: its sensor has no tool
+    /// inertia, so an accelerating arm leaves no bias there, and its goals were measured so).
+    pub tare_at_rest: bool,
     pub control: ControlParams,
     /// Joint damping of the safe hold [N·m·s/rad].
     pub hold_damping: JointVec,
@@ -253,11 +258,16 @@ pub fn step(
     // compensation and joint damping: it comes to rest) and the tare takes only samples at
     // rest (estimate::tare_step); force control starts with the cycle after it.
     let tared = s.tare.done(p.tare_samples);
-    if !tared {
-        let tare = estimate::tare_step(&p.tool, p.tare_samples, &s.tare, &sensed.wrench, &r_ws, m.t, &sensed.dq);
-        return taring(c, &next, &sensed.q, &sensed.dq, tare, r, ws);
-    }
-    let f_e = estimate::contact_wrench(&p.tool, &s.tare.bias(), &sensed.wrench, &r_ws);
+    let rest = p.tare_at_rest.then_some((m.t, &sensed.dq));
+    let f_e = if tared {
+        estimate::contact_wrench(&p.tool, &s.tare.bias(), &sensed.wrench, &r_ws)
+    } else {
+        next.tare = estimate::tare_step(&p.tool, p.tare_samples, &s.tare, &sensed.wrench, &r_ws, rest);
+        if p.tare_at_rest {
+            return taring(c, &next, &sensed.q, &sensed.dq, next.tare, r, ws);
+        }
+        Vector6::zeros()
+    };
 
     let j = *dynamics::frame_jacobian(&c.model, &mut ws.data, &q, c.tip);
     let jdot_qdot = dynamics::frame_jdot_qdot(&c.model, &mut ws.data, &q, &dq, c.tip);
@@ -528,6 +538,7 @@ impl ControllerParams {
                 gravity: Vector3::new(0.0, 0.0, -9.81),
             },
             tare_samples: 100,
+            tare_at_rest: false,
             control: ControlParams {
                 impedance: PAPER_IMPEDANCE.params,
                 force_axis: ForceAxis { axis: 2, sign: -1.0 },

@@ -120,15 +120,25 @@ pub fn tool_weight_wrench(tool: &ToolParams, r_ws: &Matrix3<f64>) -> Vector6<f64
     Vector6::new(w.x, w.y, w.z, m.x, m.y, m.z)
 }
 
-/// Adds one free-space reading at time `t` [s] with joint velocity `dq` to the tare (until
-/// `samples` are in). A sample with a joint faster than [`TARE_REST_VELOCITY`], or a full
-/// window whose joints accelerated more than [`TARE_REST_ACCELERATION`], starts the window
-/// again (the reason in [`TareState::not_at_rest`]): the bias is the mean of `samples`
-/// consecutive readings at rest.
-pub fn tare_step(tool: &ToolParams, samples: u32, s: &TareState, raw: &[f64; 6], r_ws: &Matrix3<f64>, t: f64, dq: &JointVec) -> TareState {
+/// Adds one free-space reading to the tare (until `samples` are in). With `rest = Some((t,
+/// dq))` (time [s], joint velocity) the tare takes readings at rest only: a sample with a
+/// joint faster than [`TARE_REST_VELOCITY`], or a full window whose joints accelerated more
+/// than [`TARE_REST_ACCELERATION`], starts the window again (the reason in
+/// [`TareState::not_at_rest`]), so the bias is the mean of `samples` consecutive readings at
+/// rest. `None`: every reading counts.
+pub fn tare_step(tool: &ToolParams, samples: u32, s: &TareState, raw: &[f64; 6], r_ws: &Matrix3<f64>, rest: Option<(f64, &JointVec)>) -> TareState {
     if s.done(samples) {
         return *s;
     }
+    let Some((t, dq)) = rest else {
+        let expected = tool_weight_wrench(tool, r_ws);
+        let mut next = *s;
+        for i in 0..6 {
+            next.sum[i] += raw[i] - expected[i];
+        }
+        next.count += 1;
+        return next;
+    };
     let restart =
         |why: NotAtRest| TareState { not_at_rest: Some(why), restarts: s.restarts.saturating_add(1), q_hold: s.q_hold, ..TareState::default() };
     if let Some((joint, speed)) = dq.iter().map(|v| v.abs()).enumerate().find(|(_, v)| !(*v <= TARE_REST_VELOCITY)) {
@@ -214,7 +224,7 @@ mod tests {
         let r0 = *Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI).matrix();
         let mut s = TareState::default();
         for _ in 0..50 {
-            s = tare_step(&t, 50, &s, &reading(&t, &r0, Vector3::zeros(), bias), &r0, s.count as f64 * 1e-3, &[0.0; N_JOINTS]);
+            s = tare_step(&t, 50, &s, &reading(&t, &r0, Vector3::zeros(), bias), &r0, None);
         }
         assert!(s.done(50));
         for (k, b) in s.bias().iter().zip(bias) {
@@ -247,7 +257,7 @@ mod tests {
         let t = tool();
         let r0 = Matrix3::identity();
         let raw = reading(&t, &r0, Vector3::zeros(), [0.5, -0.3, 1.0, 0.01, 0.0, -0.02]);
-        let at = |s: &TareState, k: usize, dq: JointVec| tare_step(&t, 100, s, &raw, &r0, k as f64 * 1e-3, &dq);
+        let at = |s: &TareState, k: usize, dq: JointVec| tare_step(&t, 100, s, &raw, &r0, Some((k as f64 * 1e-3, &dq)));
         // 60 samples at rest, then joint 3 moves: the window starts again.
         let mut s = TareState::default();
         for k in 0..60 {

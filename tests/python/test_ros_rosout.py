@@ -1,0 +1,53 @@
+"""What the ros2 CLI shows (issue 39 item 5): every log line of a node is also published on
+/rosout (rcl_interfaces/msg/Log with level, node name, file, function, line), stderr kept.
+Real rclpy subscribes /rosout, makes naic_controller reject a parameter set and must
+receive its warning. Loopback only, private domain.
+"""
+import os
+import sys
+
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "ros"))
+import rostest_util as ru  # noqa: E402
+
+pytest.importorskip("rclpy")
+
+
+def test_ros_a_rejected_parameter_sets_warning_reaches_rosout():
+    from rcl_interfaces.msg import Log
+    from rclpy.parameter import Parameter
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    bins = ru.build_nodes()
+    domain = ru.fresh_domain(200)
+    ctl = ru.Proc([str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml",
+                   "-p", "realtime_priority:=0", "-p", "cpu_affinity:=-1"], ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "rosout_probe")
+    logs = []
+    try:
+        # What `ros2 topic echo /rosout` asks for (reliable, volatile).
+        qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
+                         durability=DurabilityPolicy.VOLATILE)
+        r.node.create_subscription(Log, "/rosout", logs.append, qos)
+        client = ru.param_client(r.node, "naic_controller", 60.0)
+        # The node's /rosout writer must be matched before the warning is logged.
+        assert r.spin_until(lambda: any(i.node_name == "naic_controller"
+                                        for i in r.node.get_publishers_info_by_topic("/rosout")), 60), ctl.output()[-2000:]
+        # Our reader may be matched by the node's writer later than rclpy sees the writer
+        # (a volatile reader gets only what is written after): set again until one arrives.
+        for _ in range(15):
+            res = r.wait(client.set_parameters([Parameter("learning_rate", value=-1.0)]), 30.0)
+            assert not res.results[0].successful, res
+            if r.spin_until(lambda: any("rejected set of learning_rate" in m.msg for m in logs), 2):
+                break
+        assert any("rejected set of learning_rate" in m.msg for m in logs), ([m.msg for m in logs], ctl.output()[-2000:])
+    finally:
+        r.close()
+        assert ctl.stop() == 0, ctl.output()[-2000:]
+    m = next(m for m in logs if "rejected set of learning_rate" in m.msg)
+    assert m.level == Log.WARN and m.name == "naic_controller", (m.level, m.name)
+    assert m.file.endswith(".rs") and m.line > 0 and m.function.startswith("naic_ros"), (m.file, m.line, m.function)
+    assert m.stamp.sec > 0
+    # stderr is kept.
+    assert "rejected set of learning_rate" in ctl.output()
