@@ -182,6 +182,7 @@ ros_message! {
         k_e_confidence: f64,
         model_gain: f64,
         gravity_scale: f64,
+        wrench_bias: Vec<f64>,
     }
 }
 

@@ -15,7 +15,8 @@ use naic_core::{
         controller::{self, Controller, ControllerParams, ControllerState, Reference, Status, Workspace},
         param_change, ConfigError,
         reference::{self as refstage, DesiredWrench, ReferenceParams, ReferenceState, Rejection, Source, TargetPose, Verdict},
-        estimate::NotAtRest,
+        control::Phase,
+        estimate::{NotAtRest, TareState, TARE_REST_VELOCITY},
         sense::{Fault, RawMeasurements},
     },
     JointVec,
@@ -116,6 +117,8 @@ pub struct Report {
     pub status: Status,
     pub fault: Option<FaultReport>,
     pub reference: ActiveReference,
+    /// The F/T bias the tare removes (sensor frame; `None` while a tare is in progress).
+    pub wrench_bias: Option<[f64; 6]>,
 }
 
 /// The reference this cycle followed (`/naic/params` `reference_*`).
@@ -182,6 +185,9 @@ pub struct State {
     last_t: f64,
     reference_log: Throttle,
     tare_log: Throttle,
+    /// The last cycle's joint velocity and force along n (for `~/zero_wrench`'s checks).
+    last_dq: Option<JointVec>,
+    last_f_ext: f64,
     /// Controller cycles run (replays not counted).
     pub cycles: u64,
 }
@@ -205,6 +211,8 @@ impl State {
             last_t: 0.0,
             reference_log: Throttle::default(),
             tare_log: Throttle::default(),
+            last_dq: None,
+            last_f_ext: 0.0,
             cycles: 0,
         }
     }
@@ -226,6 +234,10 @@ pub struct Inbox<'a> {
     /// an over-force event. The only way a force-limit retraction ends (a parameter set
     /// never ends it: `naic_core::pipeline::param_change`).
     pub reset_force_limit: bool,
+    /// A call of `~/zero_wrench` (`std_srvs/srv/Trigger`): re-tare the F/T sensor from the
+    /// next `tare_samples` readings at rest; refused in contact, while moving, during a
+    /// force-limit retraction, a fault or a tare.
+    pub zero_wrench: bool,
 }
 
 /// The core's answer to a `std_srvs/srv/Trigger` call: success and the message.
@@ -238,6 +250,18 @@ pub struct TriggerAnswer {
 /// `~/reset_force_limit` done: the retraction ended.
 pub const FORCE_LIMIT_RESET: &str =
     "force limit reset: force control resumes in free space (contact is re-detected; the learned weights are kept)";
+/// `~/zero_wrench` accepted.
+pub const ZERO_WRENCH_STARTED: &str = "re-taring from the next tare_samples readings at rest (the arm is held meanwhile; force control resumes after it); the new bias is in /naic/params wrench_bias and the log";
+/// `~/zero_wrench` refusals (nothing changes).
+pub const ZERO_REFUSED_NO_CYCLE: &str = "refused: no control cycle yet (no /joint_states and /wrench received)";
+pub const ZERO_REFUSED_TARING: &str = "refused: a tare is in progress already (wrench_bias is empty until it is done)";
+pub const ZERO_REFUSED_FAULT: &str = "refused: holding on a sensor fault (see /naic/params fault); zero when the data is valid again";
+pub const ZERO_REFUSED_RETRACTING: &str = "refused: force-limit retraction in progress or latched; call ~/reset_force_limit first";
+pub const ZERO_REFUSED_CONTACT: &str =
+    "refused: in contact (or a measured force above the contact threshold): lift the tool off the surface, then zero; force control continues unchanged";
+pub const ZERO_REFUSED_MOVING: &str =
+    "refused: the arm moves (a joint faster than 0.02 rad/s, the tare's rest bound); zero when it is at rest";
+
 /// `~/reset_force_limit` without a force-limit retraction: nothing changed.
 pub const NO_FORCE_LIMIT_TO_RESET: &str =
     "refused: no force-limit retraction is in progress or latched (nothing to reset; the controller is unchanged)";
@@ -290,6 +314,8 @@ pub struct Outbox {
     pub report: Option<Report>,
     /// The answer to [`Inbox::reset_force_limit`].
     pub reset_force_limit: Option<TriggerAnswer>,
+    /// The answer to [`Inbox::zero_wrench`].
+    pub zero_wrench: Option<TriggerAnswer>,
     /// Lockstep: a joint state waits for the wrench of its stamp; step again with each
     /// `/wrench` sample until this wall time [ns], then with an empty inbox.
     pub wait_until_ns: Option<i64>,
@@ -318,6 +344,9 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
             }
             None => TriggerAnswer { success: false, message: NO_FORCE_LIMIT_TO_RESET },
         });
+    }
+    if inbox.zero_wrench {
+        out.zero_wrench = Some(zero_wrench(p, &mut s));
     }
     if let Some(src) = inbox.actuated.and_then(msgs::effort_source_stamp) {
         s.actuated_src_ns = Some(s.actuated_src_ns.map_or(src, |a| a.max(src)));
@@ -355,6 +384,35 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
     s.pending = None;
     cycle(p, &mut s, &pd.joints, now_ns, ws, &mut out);
     (s, out)
+}
+
+/// `~/zero_wrench`: start a new tare when the arm is in free space and at rest, else refuse.
+fn zero_wrench(p: &Params, s: &mut State) -> TriggerAnswer {
+    let refuse = |message| TriggerAnswer { success: false, message };
+    let ctl = &s.ctl;
+    let cp = p.controller.params();
+    let Some(dq) = s.last_dq.filter(|_| s.cycles > 0) else { return refuse(ZERO_REFUSED_NO_CYCLE) };
+    if !ctl.tare.done(cp.tare_samples) {
+        return refuse(ZERO_REFUSED_TARING);
+    }
+    if ctl.fault.is_some() || ctl.control.phase == Phase::Hold {
+        return refuse(ZERO_REFUSED_FAULT);
+    }
+    if ctl.control.retracting() {
+        return refuse(ZERO_REFUSED_RETRACTING);
+    }
+    // Contact as the law detects it: its enter threshold (a drifted bias below it is what
+    // zeroing is for).
+    let c = &cp.control.contact;
+    let threshold = if cp.control.force_law.mode == naic_core::pipeline::control::force_law::Mode::Scheduled { c.scheduled_enter_n } else { c.enter_n };
+    if ctl.control.phase == Phase::Contact || !(s.last_f_ext.abs() <= threshold) {
+        return refuse(ZERO_REFUSED_CONTACT);
+    }
+    if dq.iter().any(|v| !(v.abs() <= TARE_REST_VELOCITY)) {
+        return refuse(ZERO_REFUSED_MOVING);
+    }
+    s.ctl.tare = TareState::default();
+    TriggerAnswer { success: true, message: ZERO_WRENCH_STARTED }
 }
 
 /// One controller cycle on the joint state `j`.
@@ -454,6 +512,8 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
     s.ctl = next;
     s.cycles += 1;
     let st = o.status;
+    s.last_dq = Some(o.dq);
+    s.last_f_ext = if st.f_ext.is_finite() { st.f_ext } else { 0.0 };
     if st.force_limited && !s.was_force_limited {
         out.events.force_limited = Some(st.f_ext);
     }
@@ -477,7 +537,8 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
         (None, true) => Some(FaultReport::ForceLimit(p.settings.force_limit)),
         (None, false) => lag_ns.filter(|_| not_actuated).map(|l| FaultReport::NotActuated(l as f64 * 1e-6)),
     };
-    let report = Report { stamp_ns: j.stamp_ns, status: st, fault, reference: active };
+    let wrench_bias = s.ctl.tare.done(tare_samples).then(|| s.ctl.tare.bias());
+    let report = Report { stamp_ns: j.stamp_ns, status: st, fault, reference: active, wrench_bias };
     s.replay.store(j.stamp_ns, Answer { tau, friction_velocity: out.friction_velocity, report });
     out.report = Some(report);
 }

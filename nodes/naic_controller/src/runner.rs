@@ -98,6 +98,18 @@ impl Runner {
         a
     }
 
+    /// A call of `~/zero_wrench`: the core's answer (logged here).
+    pub fn zero_wrench(&mut self) -> core::TriggerAnswer {
+        let out = self.step(core::Inbox { zero_wrench: true, ..Default::default() }, wall_ns());
+        let a = out.zero_wrench.unwrap_or(core::TriggerAnswer { success: false, message: "the core did not answer" });
+        if a.success {
+            log::info!("~/zero_wrench: {}", a.message);
+        } else {
+            log::warn!("~/zero_wrench: {}", a.message);
+        }
+        a
+    }
+
     /// A `/joint_effort_cmd` sample: which joint state the torque reaching the arm answers.
     pub fn actuated(&mut self, m: &Float64MultiArray) {
         self.step(core::Inbox { actuated: Some(m), ..Default::default() }, wall_ns());
@@ -171,11 +183,15 @@ impl ReferenceSubs {
 /// the loop of the node process and of `naic launch --composed` alike.
 pub struct Services {
     reset_force_limit: naic_ros::service::TriggerServer,
+    zero_wrench: naic_ros::service::TriggerServer,
 }
 
 impl Services {
     pub fn new(node: &mut RosNode) -> Result<Services, RosError> {
-        Ok(Services { reset_force_limit: naic_ros::service::TriggerServer::new(node, "reset_force_limit")? })
+        Ok(Services {
+            reset_force_limit: naic_ros::service::TriggerServer::new(node, "reset_force_limit")?,
+            zero_wrench: naic_ros::service::TriggerServer::new(node, "zero_wrench")?,
+        })
     }
 
     /// Answer the waiting calls through the core ([`Runner::reset_force_limit`]) and send
@@ -186,6 +202,11 @@ impl Services {
             self.reset_force_limit.answer(id, a.success, a.message);
         }
         self.reset_force_limit.flush(node);
+        while let Some(id) = self.zero_wrench.take() {
+            let a = r.zero_wrench();
+            self.zero_wrench.answer(id, a.success, a.message);
+        }
+        self.zero_wrench.flush(node);
     }
 }
 
@@ -266,6 +287,10 @@ pub fn fill_report(m: &mut NaicParams, r: &core::Report, base_frame: &str) {
     m.reference_position.extend_from_slice(&a.position);
     (m.reference_stale, m.reference_rejected) = (a.stale, a.rejected);
     (m.k_e_hat, m.k_e_confidence, m.model_gain, m.gravity_scale) = (st.k_e_hat, st.k_e_confidence, st.model_gain, st.gravity_scale);
+    m.wrench_bias.clear();
+    if let Some(b) = &r.wrench_bias {
+        m.wrench_bias.extend_from_slice(b);
+    }
 }
 
 #[cfg(test)]

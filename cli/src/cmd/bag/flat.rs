@@ -318,6 +318,7 @@ mod tests {
             k_e_hat: 1234.5,
             model_gain: 0.75,
             gravity_scale: 1.25,
+            wrench_bias: vec![0.5, 0.0, -0.5, 0.01, 0.02, 0.03],
             gamma_clipped: true,
             ..Default::default()
         };
@@ -332,7 +333,8 @@ mod tests {
                 continue; // constants; the header is stamp_s, frame_id
             }
             if ty.ends_with("[]") {
-                want.extend((0..3).map(|i| format!("{name}_{i}")));
+                let n = if name == "wrench_bias" { 6 } else { 3 };
+                want.extend((0..n).map(|i| format!("{name}_{i}")));
             } else {
                 want.push(name.to_string());
             }
