@@ -51,3 +51,49 @@ def test_ros_a_rejected_parameter_sets_warning_reaches_rosout():
     assert m.stamp.sec > 0
     # stderr is kept.
     assert "rejected set of learning_rate" in ctl.output()
+
+
+def test_ros_topic_info_shows_valid_type_hashes_equal_to_rclpys():
+    """`ros2 topic info -v` reads an endpoint's type hash from its discovery USER_DATA
+    (`typehash=RIHS01_…;`). Every naic topic of a running chain must show a valid hash, and
+    for the standard types the one rclpy's own endpoints of that type announce (rosidl's)."""
+    from geometry_msgs.msg import WrenchStamped
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+
+    bins = ru.build_nodes()
+    domain = ru.fresh_domain(205)
+    env = ru.ros_env(domain)
+    launch = ru.Proc([str(bins / "naic"), "launch", "-p", "naic_controller:realtime_priority:=0",
+                      "-p", "naic_controller:cpu_affinity:=-1", "-p", "friction_compensation:realtime_priority:=0",
+                      "-p", "friction_compensation:cpu_affinity:=-1", "-p", "jk5_sim_driver:realtime_priority:=0",
+                      "-p", "jk5_sim_driver:cpu_affinity:=-1"], env)
+    r = ru.RclpyDomain(domain, "type_hash_probe")
+    topics = {"/joint_states": JointState, "/wrench": WrenchStamped, "/naic/effort": Float64MultiArray,
+              "/joint_effort_cmd": Float64MultiArray, "/naic/params": None, "/clock": None}
+    try:
+        # rclpy's own endpoints of the standard types: the reference hashes (rosidl's).
+        for t, ty in topics.items():
+            if ty is not None:
+                r.node.create_subscription(ty, t, lambda m: None, 10)
+
+        def naic_pubs():
+            got = {}
+            for t in topics:
+                for i in r.node.get_publishers_info_by_topic(t):
+                    if i.node_name != "type_hash_probe":
+                        got[t] = str(i.topic_type_hash)
+            return got
+        assert r.spin_until(lambda: len(naic_pubs()) == len(topics), 60), (naic_pubs(), launch.output()[-2000:])
+        got = naic_pubs()
+        ours = {t: str(i.topic_type_hash) for t in topics for i in r.node.get_subscriptions_info_by_topic(t)
+                if i.node_name == "type_hash_probe"}
+    finally:
+        r.close()
+        assert launch.stop(timeout=15) == 0, launch.output()[-3000:]
+    print(got)
+    for t, h in got.items():
+        assert h.startswith("RIHS01_") and len(h) == 7 + 64, (t, h)
+        if t in ours:
+            assert h == ours[t], (t, h, ours[t])
+    assert set(ours) == {t for t, ty in topics.items() if ty is not None}, ours

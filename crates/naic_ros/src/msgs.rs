@@ -8,6 +8,28 @@ pub use naic_msgs::{
 
 use naic_core::{JointVec, N_JOINTS};
 
+/// Announce the RIHS01 type hash (REP-2011, computed by `naic_msgs` from the field lists)
+/// of every message type naic publishes or subscribes in the USER_DATA of its DDS endpoints
+/// (`typehash=RIHS01_…;`, as rmw_fastrtps does in Jazzy; the vendored rustdds's patch), so
+/// `ros2 topic info -v` shows a valid hash. Call before creating endpoints.
+pub fn register_type_hashes() {
+    use naic_msgs::RosMessage;
+    fn one<M: RosMessage>() {
+        let full = M::type_name(); // pkg/msg/Type
+        let mut parts = full.split('/');
+        if let (Some(pkg), Some(_), Some(ty)) = (parts.next(), parts.next(), parts.next()) {
+            let hash = naic_msgs::type_hash(M::type_info());
+            ros2_client::dds::rustdds::register_type_hash(&format!("{pkg}::msg::dds_::{ty}_"), &hash);
+        }
+    }
+    one::<JointState>();
+    one::<WrenchStamped>();
+    one::<PoseStamped>();
+    one::<Float64MultiArray>();
+    one::<Clock>();
+    one::<NaicParams>();
+}
+
 pub const JOINT_STATE: (&str, &str) = ("sensor_msgs", "JointState");
 pub const WRENCH_STAMPED: (&str, &str) = ("geometry_msgs", "WrenchStamped");
 pub const POSE_STAMPED: (&str, &str) = ("geometry_msgs", "PoseStamped");
