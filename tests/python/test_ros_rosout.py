@@ -97,3 +97,39 @@ def test_ros_topic_info_shows_valid_type_hashes_equal_to_rclpys():
         if t in ours:
             assert h == ours[t], (t, h, ours[t])
     assert set(ours) == {t for t, ty in topics.items() if ty is not None}, ours
+
+
+def test_ros_robot_description_reaches_a_late_joiner():
+    """/robot_description (std_msgs/String, transient local, as robot_state_publisher offers
+    it): an rclpy subscriber that joins seconds after naic_controller started receives the
+    URDF text, equal to the file, with the type hash rclpy's own String endpoints announce."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+
+    bins = ru.build_nodes()
+    domain = ru.fresh_domain(210)
+    ctl = ru.Proc([str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml",
+                   "-p", "realtime_priority:=0", "-p", "cpu_affinity:=-1"], ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "late_joiner")
+    got = []
+    try:
+        # Late: the node has published its description before this subscriber exists.
+        assert r.spin_until(lambda: any(i.node_name == "naic_controller"
+                                        for i in r.node.get_publishers_info_by_topic("/robot_description")), 60), \
+            ctl.output()[-2000:]
+        r.spin(2.0)
+        assert any("started" in l for l in ctl.output().splitlines()), ctl.output()[-2000:]
+        qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        r.node.create_subscription(String, "/robot_description", got.append, qos)
+        assert r.spin_until(lambda: got, 30), ctl.output()[-2000:]
+        theirs = [str(i.topic_type_hash) for i in r.node.get_publishers_info_by_topic("/robot_description")
+                  if i.node_name == "naic_controller"]
+        ours = [str(i.topic_type_hash) for i in r.node.get_subscriptions_info_by_topic("/robot_description")
+                if i.node_name == "late_joiner"]
+    finally:
+        r.close()
+        assert ctl.stop() == 0, ctl.output()[-2000:]
+    assert got[0].data == (ru.ROOT / "urdf/jk5.urdf").read_text()
+    assert len(got) == 1
+    assert theirs and theirs == ours and theirs[0].startswith("RIHS01_"), (theirs, ours)

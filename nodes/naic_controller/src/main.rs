@@ -38,6 +38,17 @@ fn run() -> Result<(), RosError> {
     let mut services = Services::new(&mut node)?;
     let effort_pub = node.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, node.params.with(data_qos).0)?;
     let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, node.params.with(pub_qos))?;
+    // The robot model for RViz, Foxglove and late joiners (robot_state_publisher's topic).
+    let urdf = node.params.with(|p| p.str("urdf").to_string());
+    let description_pub = node.publisher::<msgs::StringMsg>("robot_description", msgs::STRING, naic_ros::node::QOS_LATCHED)?;
+    match std::fs::read_to_string(&urdf) {
+        Ok(data) => {
+            if let Err(e) = description_pub.publish(msgs::StringMsg { data }) {
+                log::warn!("cannot publish /robot_description: {e:?}");
+            }
+        }
+        Err(e) => log::warn!("/robot_description not published: cannot read '{urdf}': {e}"),
+    }
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut js_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 
