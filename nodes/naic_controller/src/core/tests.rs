@@ -630,3 +630,60 @@ fn without_joint_effort_cmd_the_force_law_is_held_and_restarts_when_commands_ret
         s = next;
     }
 }
+
+#[test]
+fn zero_wrench_re_tares_at_rest_in_free_space_and_is_refused_otherwise() {
+    let m = model();
+    let mut cp = base(&m);
+    cp.tare_at_rest = true;
+    let rp = ReferenceParams::new("base_link", cp.control.force_axis, 10.0);
+    let p = Params::new(Controller::new(m.clone(), cp).unwrap(), settings(TimeBase::Wall), None, rp).unwrap();
+    let zero = |s: &State, now| run(&p, s, Inbox { zero_wrench: true, ..Default::default() }, now);
+    let s = State::new(&p);
+    let (s, o) = zero(&s, 0);
+    assert_eq!(o.zero_wrench.map(|a| (a.success, a.message)), Some((false, ZERO_REFUSED_NO_CYCLE)));
+    // The start-up tare (joints at rest: at most 0.015 rad/s), then free space.
+    let mut s = s;
+    let mut k = 0;
+    while !s.ctl.tare.done(cp.tare_samples) {
+        k += 1;
+        assert!(k < 1000, "the tare never finished");
+        let (n, o) = wall_cycle(&p, &s, k, 0.0, Some(k - 1));
+        assert!(o.report.unwrap().wrench_bias.is_none() || n.ctl.tare.done(cp.tare_samples));
+        s = n;
+    }
+    let (s2, o) = wall_cycle(&p, &s, k + 1, 0.0, Some(k));
+    assert!(o.report.unwrap().wrench_bias.is_some(), "the bias is reported once tared");
+    // At rest in free space: accepted, the tare starts again (the next cycles hold the arm).
+    let (s3, o) = zero(&s2, (k + 1) * MS);
+    assert_eq!(o.zero_wrench.map(|a| a.success), Some(true));
+    assert!(!s3.ctl.tare.done(cp.tare_samples) && o.effort.is_none());
+    let (s4, o) = wall_cycle(&p, &s3, k + 2, 0.0, Some(k + 1));
+    assert!(o.report.unwrap().wrench_bias.is_none(), "no bias while taring");
+    let (_, o) = zero(&s4, (k + 2) * MS);
+    assert_eq!(o.zero_wrench.map(|a| a.message), Some(ZERO_REFUSED_TARING));
+    // Moving (a joint at 0.05 rad/s for 5 cycles: past the velocity median): refused,
+    // nothing changes.
+    let mut s5 = s2;
+    for j in 0..5 {
+        let t = (k + 2 + j) * MS;
+        let moving = JointState { velocity: vec![0.0, 0.0, 0.05, 0.0, 0.0, 0.0], ..js(t, ORDER) };
+        let (n, _) = run(&p, &s5, Inbox { wrench: Some(&wrench(t, 0.0)), ..Default::default() }, t);
+        let (n, _) = run(&p, &n, Inbox { joint_states: Some(&moving), ..Default::default() }, t);
+        s5 = n;
+    }
+    let (s6, o) = zero(&s5, (k + 7) * MS);
+    assert_eq!(o.zero_wrench.map(|a| (a.success, a.message)), Some((false, ZERO_REFUSED_MOVING)));
+    assert_eq!(s6.ctl.tare, s5.ctl.tare);
+    // A force above the contact threshold (pushing 15 N): refused as contact.
+    let mut s7 = s2;
+    for j in 0..3 {
+        let t = k + 3 + j;
+        let (n, _) = wall_cycle(&p, &s7, t, -15.0, Some(t - 1));
+        s7 = n;
+    }
+    let (s8, o) = zero(&s7, (k + 6) * MS);
+    let a = o.zero_wrench.unwrap();
+    assert!(!a.success && a.message.contains("in contact"), "{a:?}");
+    assert_eq!(s8.ctl.tare, s7.ctl.tare);
+}
