@@ -66,10 +66,15 @@ def test_ros_fault_controller_resumes_and_counts_events(phases):
     assert 4 <= len(holding) <= 40, len(holding)
 
 
-def test_ros_fault_force_limit_retracts_latches_and_resumes_on_a_parameter_change(phases):
+def test_ros_fault_force_limit_retracts_latches_and_resumes_only_on_the_reset_service(phases):
     """Above force_limit (50 N) the controller (the core's ForceLimit, the only retraction)
     stops pushing and reports it in /naic/params; with the force gone it stays retracted
-    (latched, no sensor fault, no HOLD) until any parameter is set, then resumes."""
+    (latched, no sensor fault, no HOLD), also after a parameter set (a new desired force
+    is no acknowledgement), until rclpy calls ~/reset_force_limit (std_srvs/srv/Trigger).
+    A call with nothing to reset is refused with a reason."""
+    healthy = phases["reset_when_healthy"]
+    assert healthy is not None, "no answer from ~/reset_force_limit"
+    assert healthy[0] is False and "no force-limit retraction" in healthy[1], healthy
     over = phases["over_force"]
     assert over["measured_force_tail_max"] > 50.0, over
     assert over["faults_tail"] and all("force_limit" in f and "retract" in f for f in over["faults_tail"]), over
@@ -79,10 +84,13 @@ def test_ros_fault_force_limit_retracts_latches_and_resumes_on_a_parameter_chang
     assert latched["faults_tail"] and all("force_limit" in f for f in latched["faults_tail"]), latched
     assert HOLD not in latched["phases_tail"], latched
     assert phases["param_set_ok"]
+    still = phases["after_param_set"]
+    assert still["n_params"] > 50 and still["faults_tail"] and all("force_limit" in f for f in still["faults_tail"]), still
+    assert phases["reset"] is not None and phases["reset"][0] is True and "force limit reset" in phases["reset"][1], phases["reset"]
     resumed = phases["force_resumed"]
-    assert resumed["faults_tail"] == [""] and HOLD not in resumed["phases_tail"], resumed
+    assert resumed["n_params"] > 50 and resumed["faults_tail"] == [""] and HOLD not in resumed["phases_tail"], resumed
     log = phases["log"]
-    assert "above force_limit" in log and "resuming force control" in log, log[-3000:]
+    assert "above force_limit" in log and "force-limit retraction stays" in log and "force limit reset" in log, log[-3000:]
 
 
 def _source_stamp(m):

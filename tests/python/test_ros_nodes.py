@@ -514,7 +514,8 @@ def test_ros_lockstep_chain_equals_the_in_process_simulation(bins, tmp_path, mod
     feedforward runs at the velocity the controller names on /naic/effort's second row: a
     friction node that used the measured velocity instead would differ by newton-metres at
     rest. The in-process pipeline has no torque-rate limit and no take-over blend, so
-    friction_compensation's limit is opened up and its blend switched off here. A shell bug (a stage left out, a sign, a
+    friction_compensation's limit is opened up and its blend switched off here, and the
+    controller tares over its first cycles as `naic sim` does (`tare_at_rest: false`). A shell bug (a stage left out, a sign, a
     one-cycle shift, the wrong wrench or velocity) changes the torque by newtons; the two
     agree to about 2e-4 N m (largest on joint 6 near rest, where the tanh-smoothed friction
     feedforward amplifies velocity differences ~1e-9 rad/s by 1/v_s = 1000)."""
@@ -530,7 +531,8 @@ def test_ros_lockstep_chain_equals_the_in_process_simulation(bins, tmp_path, mod
     domain = ru.fresh_domain(180)
     launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true",
                       "-p", "friction_compensation:torque_rate_limit:=1000.0",
-                      "-p", "friction_compensation:takeover_blend:=0.0", "-p", f"naic_controller:mode:={mode}"],
+                      "-p", "friction_compensation:takeover_blend:=0.0", "-p", f"naic_controller:mode:={mode}",
+                      "-p", "naic_controller:tare_at_rest:=false"],
                      ru.ros_env(domain))
     r = ru.RclpyDomain(domain, "naic_equivalence_test")
     got = {}

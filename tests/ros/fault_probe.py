@@ -65,8 +65,23 @@ def main():
                                            default=None),
         }
 
+    from std_srvs.srv import Trigger
+    reset = n.create_client(Trigger, "/naic_controller/reset_force_limit")
+
+    def call_reset():
+        """~/reset_force_limit: (success, message), or None when no answer came."""
+        t = time.time()
+        while not reset.service_is_ready() and time.time() - t < 30:
+            rclpy.spin_once(n, timeout_sec=0.05)
+        fut = reset.call_async(Trigger.Request())
+        t = time.time()
+        while not fut.done() and time.time() - t < 30:
+            rclpy.spin_once(n, timeout_sec=0.05)
+        return (fut.result().success, fut.result().message) if fut.done() else None
+
     out = {}
     out["valid"] = run(1.5)
+    out["reset_when_healthy"] = call_reset()
     out["nan_wrench"] = run(0.6, fz=float("nan"))
     out["recovered"] = run(1.0)
     out["absurd_wrench"] = run(0.6, fz=5000.0)
@@ -76,8 +91,8 @@ def main():
     out["nan_joint"] = run(0.6, q=[0.0, float("nan"), -1.0, 0.0, 1.0, 0.0])
     out["recovered4"] = run(1.0)
     # Contact force above force_limit (50 N): the core's force limit backs off and, latched,
-    # stays off (no HOLD: the data is valid) after the force is gone, until a parameter is
-    # set. In this pose the tool is tilted: an extra -200 N on the sensor's z reads as
+    # stays off (no HOLD: the data is valid) after the force is gone, also through a
+    # parameter set, until ~/reset_force_limit is called. In this pose the tool is tilted: an extra -200 N on the sensor's z reads as
     # about 80 N along the force axis n = -z (the test checks > 50 N from /naic/params).
     out["over_force"] = run(0.6, fz=-4.16 - 200.0)  # about 80 N along n (the tool is tilted)
     out["over_force_latched"] = run(1.0)
@@ -90,6 +105,8 @@ def main():
     while not fut.done() and time.time() - t_set < 10:
         rclpy.spin_once(n, timeout_sec=0.05)
     out["param_set_ok"] = bool(fut.done() and all(r.successful for r in fut.result().results))
+    out["after_param_set"] = run(1.0)
+    out["reset"] = call_reset()
     out["force_resumed"] = run(1.0)
     print(json.dumps(out))
     n.destroy_node()

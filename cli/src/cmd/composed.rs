@@ -161,6 +161,7 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     let (mut cr, mut fr) = (ctl::Runner::new(c, &cn.params), fr?);
     // scenario:=none: the reference topics, as the node process subscribes them.
     let refs = ctl::ReferenceSubs::new(&mut cn, &cr).map_err(dds)?;
+    let mut services = ctl::Services::new(&mut cn).map_err(dds)?;
     let mut dl = Deadlines::default();
     let t0 = Instant::now();
     while !naic_ros::shutdown_requested() && !a.duration.is_some_and(|s| t0.elapsed().as_secs_f64() >= s) {
@@ -176,6 +177,7 @@ pub fn run(a: &LaunchArgs) -> CliResult {
         if let Some(refs) = &refs {
             refs.feed(&mut cr);
         }
+        services.serve(&mut cr, &cn);
         let out = cr.joint_states(js, |_| None);
         let cmd = match out.effort {
             Some(e) => {

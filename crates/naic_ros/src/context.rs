@@ -59,6 +59,7 @@ impl DdsSettings {
 
 /// Create this process's DDS participant (one per node process).
 pub fn create_context(s: &DdsSettings) -> Result<Context, RosError> {
+    crate::msgs::register_type_hashes();
     let mut b = DomainParticipantBuilder::new(s.domain_id);
     if s.localhost_only {
         b = b.with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)]);

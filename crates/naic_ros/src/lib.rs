@@ -9,6 +9,7 @@
 //! - [`node`]: [`RosNode`], which serves the six `rcl_interfaces` parameter services
 //!   itself (with descriptors, which ros2-client lacks) and publishes `/parameter_events`;
 //! - [`msgs`]: the message types on the wire;
+//! - [`service`]: a node's own `std_srvs/srv/Trigger` services (served from its loop);
 //! - [`log`]: stderr logging with the node name;
 //! - pieces every node core shares, one implementation each: [`replay`] (a repeated
 //!   stamp gets the same answer), [`timebase`] (wall or simulated time), [`joints`]
@@ -29,6 +30,7 @@ pub mod params;
 pub mod joints;
 pub mod params_file;
 pub mod replay;
+pub mod service;
 mod reply;
 pub mod threads;
 pub mod throttle;

@@ -3,10 +3,33 @@
 
 pub use naic_msgs::{
     Clock, Float64MultiArray, Header, JointState, MultiArrayDimension, MultiArrayLayout, Point, Pose, PoseStamped, Quaternion,
-    NaicParams, Time, Vector3, Wrench, WrenchStamped,
+    NaicParams, StringMsg, Time, Vector3, Wrench, WrenchStamped,
 };
 
 use naic_core::{JointVec, N_JOINTS};
+
+/// Announce the RIHS01 type hash (REP-2011, computed by `naic_msgs` from the field lists)
+/// of every message type naic publishes or subscribes in the USER_DATA of its DDS endpoints
+/// (`typehash=RIHS01_…;`, as rmw_fastrtps does in Jazzy; the vendored rustdds's patch), so
+/// `ros2 topic info -v` shows a valid hash. Call before creating endpoints.
+pub fn register_type_hashes() {
+    use naic_msgs::RosMessage;
+    fn one<M: RosMessage>() {
+        let full = M::type_name(); // pkg/msg/Type
+        let mut parts = full.split('/');
+        if let (Some(pkg), Some(_), Some(ty)) = (parts.next(), parts.next(), parts.next()) {
+            let hash = naic_msgs::type_hash(M::type_info());
+            ros2_client::dds::rustdds::register_type_hash(&format!("{pkg}::msg::dds_::{ty}_"), &hash);
+        }
+    }
+    one::<JointState>();
+    one::<WrenchStamped>();
+    one::<PoseStamped>();
+    one::<Float64MultiArray>();
+    one::<Clock>();
+    one::<NaicParams>();
+    one::<StringMsg>();
+}
 
 pub const JOINT_STATE: (&str, &str) = ("sensor_msgs", "JointState");
 pub const WRENCH_STAMPED: (&str, &str) = ("geometry_msgs", "WrenchStamped");
@@ -14,6 +37,7 @@ pub const POSE_STAMPED: (&str, &str) = ("geometry_msgs", "PoseStamped");
 pub const FLOAT64_MULTI_ARRAY: (&str, &str) = ("std_msgs", "Float64MultiArray");
 pub const CLOCK: (&str, &str) = ("rosgraph_msgs", "Clock");
 pub const NAIC_PARAMS: (&str, &str) = ("naic_msgs", "NaicParams");
+pub const STRING: (&str, &str) = ("std_msgs", "String");
 
 /// Joint names of the JK5 in joint order, as published on `/joint_states`.
 pub const JOINT_NAMES: [&str; N_JOINTS] = ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"];

@@ -49,6 +49,13 @@ pub const QOS_SUB_RELIABLE: QosProfile = QosProfile::publisher_default()
     .reliability(Reliability::Reliable { when_full: WhenFull::Fail })
     .history(History::KeepLast { depth: 10 });
 
+/// `/robot_description`'s QoS, as robot_state_publisher offers it: reliable, transient
+/// local, keep last 1 (a late subscriber gets the description).
+pub const QOS_LATCHED: QosProfile = QosProfile::publisher_default()
+    .reliability(Reliability::Reliable { when_full: WhenFull::Fail })
+    .durability(ros2_client::qos::Durability::TransientLocal)
+    .history(History::KeepLast { depth: 1 });
+
 /// ROS's sensor-data profile (`rmw_qos_profile_sensor_data`): best effort, keep last 5.
 pub const QOS_SENSOR_DATA: QosProfile =
     QosProfile::publisher_default().reliability(Reliability::BestEffort).history(History::KeepLast { depth: 5 });
@@ -149,6 +156,8 @@ impl RosNode {
             .new_node(node_name, NodeOptions::new().enable_rosout(true).start_parameter_services(false))
             .map_err(|e| RosError::Dds(format!("cannot create node {fqn}: {e}")))?;
 
+        // Log lines to /rosout from now on (rclcpp's behaviour), stderr kept.
+        crate::log::attach_rosout(node.logging_handle());
         let params = Arc::new(params);
         let stop = Arc::new(AtomicBool::new(false));
         let services = ParamServices::new(&mut node, &context, &fqn)?;

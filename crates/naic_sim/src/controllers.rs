@@ -183,7 +183,7 @@ impl PipelineController {
 
     /// Change the parameters mid-run by the node's policy
     /// (`naic_core::pipeline::param_change`: the NAIC weights restart when the force law or
-    /// impedance changed; any change ends a force-limit retraction). Not in the 1 kHz path.
+    /// impedance changed; a force-limit retraction is kept). Not in the 1 kHz path.
     pub fn set_params(&mut self, new: ControllerParams) -> Result<param_change::Outcome, ConfigError> {
         let (c, s, outcome) = param_change::apply(&self.pipeline.controller, &self.state.controller, new)?;
         self.pipeline.controller = c;

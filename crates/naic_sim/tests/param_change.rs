@@ -116,7 +116,7 @@ fn desired_force_mode_and_impedance_changed_mid_run_follow_the_node_policy() {
     assert!(n > 900 && med < 1.0, "before: median error {med} N over {n} samples");
     // desired_force := 15: the weights are kept (no restart, nothing to resume), and
     // 2–5 s later the force is at the new set point.
-    assert_eq!(c.applied[0], (6.0, Outcome { restarted: false, resumed: false }));
+    assert_eq!(c.applied[0], (6.0, Outcome { restarted: false }));
     let k = at(6.0);
     // (NAIC keeps learning: m_d moves by one update, it does not jump back to the parameter.)
     let m_d0 = p0.control.impedance.m_d[axis];

@@ -152,6 +152,12 @@ ros_message! {
 }
 
 ros_message! {
+    /// `std_msgs/msg/String` (`/robot_description`: the URDF text).
+    StringMsg = "std_msgs/msg/String", msg: "string data\n",
+    { data: String }
+}
+
+ros_message! {
     /// `naic_msgs/msg/NaicParams`: the controller state published every cycle on `/naic/params`
     /// (field meanings in `msgs/naic_msgs/msg/NaicParams.msg`).
     NaicParams = "naic_msgs/msg/NaicParams",
@@ -182,6 +188,7 @@ ros_message! {
         k_e_confidence: f64,
         model_gain: f64,
         gravity_scale: f64,
+        wrench_bias: Vec<f64>,
     }
 }
 

@@ -117,6 +117,7 @@ fn sample_params() -> NaicParams {
         k_e_confidence: 0.97,
         model_gain: 0.96,
         gravity_scale: 1.04,
+        wrench_bias: vec![0.5, -0.25, 1.0, 0.01, 0.0, -0.02],
     }
 }
 

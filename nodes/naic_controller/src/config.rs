@@ -75,6 +75,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::doubles("tool_com", base.tool.com.as_slice(), -1.0, 1.0, "Tool centre of mass in the ft_sensor frame [m]"),
         ParamSpec::doubles("tool_tip", base.tool.tip.as_slice(), -1.0, 1.0, "Contact point in the ft_sensor frame [m]"),
         ParamSpec::int("tare_samples", base.tare_samples as i64, 1, 100_000, "Free-space F/T samples averaged for the tare at start"),
+        ParamSpec::boolean("tare_at_rest", true, "The start-up tare takes only consecutive samples at rest (every joint <= 0.02 rad/s, <= 0.1 rad/s^2 over the window) and holds the arm at its start position meanwhile; false: the first tare_samples cycles, controlled as usual (what naic sim does)"),
         ParamSpec::int("median_window", base.sense.median_window as i64, 1, 9, "Median filter window of the joint velocity"),
         ParamSpec::double("hold_damping", base.hold_damping[0], 0.0, 200.0, "Joint damping of the safe hold [N m s/rad]"),
     ]
@@ -136,8 +137,8 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
         exit_cycles: p.i64("contact_exit_cycles") as u32,
     };
     // The core's force limit is the node's only retraction: it stops pushing, backs off
-    // along -n, and (latched) stays off the surface until a parameter changes (core::set_params applies
-    // naic_core's parameter-change policy then).
+    // along -n, and (latched) stays off the surface until ~/reset_force_limit is called
+    // (core::Inbox::reset_force_limit; a parameter change keeps it: param_change).
     c.control.force_limit.limit_n = p.f64("force_limit");
     // Eq 9's integral never asks for more than the force the robot may apply.
     c.control.force_law.integral_limit_n = p.f64("force_limit");
@@ -147,6 +148,7 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
     c.sense.wrench_timeout = p.f64("wrench_timeout");
     c.tool = ToolParams { mass: p.f64("tool_mass"), com: vec3(p.f64s("tool_com")), tip: vec3(p.f64s("tool_tip")), ..base.tool };
     c.tare_samples = p.i64("tare_samples") as u32;
+    c.tare_at_rest = p.bool("tare_at_rest");
     c.hold_damping = [p.f64("hold_damping"); N_JOINTS];
     c.control.validate()?;
     c.sense.validate()?;
@@ -221,11 +223,14 @@ mod tests {
     fn defaults_reproduce_the_core_paper_defaults() {
         let (t, b) = table();
         let cp = t.with(|p| controller_params(p, &b)).unwrap();
-        // The one difference: the node latches the force-limit retraction (resume on a
-        // parameter change); the core's default resumes by itself.
+        // The two differences: the node latches the force-limit retraction (resumed by
+        // ~/reset_force_limit; the core's default resumes by itself), and its tare waits
+        // for rest (the core's default, the simulator's, tares over the first cycles).
         assert!(cp.control.force_limit.latch && !b.control.force_limit.latch);
+        assert!(cp.tare_at_rest && !b.tare_at_rest);
         let mut expect = b;
         expect.control.force_limit.latch = true;
+        expect.tare_at_rest = true;
         assert_eq!(cp, expect);
     }
 

@@ -15,6 +15,8 @@ use naic_core::{
         controller::{self, Controller, ControllerParams, ControllerState, Reference, Status, Workspace},
         param_change, ConfigError,
         reference::{self as refstage, DesiredWrench, ReferenceParams, ReferenceState, Rejection, Source, TargetPose, Verdict},
+        control::Phase,
+        estimate::{NotAtRest, TareState, TARE_REST_VELOCITY},
         sense::{Fault, RawMeasurements},
     },
     JointVec,
@@ -97,7 +99,7 @@ impl std::fmt::Display for FaultReport {
             FaultReport::Sensor(x) => x.fmt(f),
             FaultReport::ForceLimit(l) => write!(
                 f,
-                "force above force_limit ({l} N): retracting, then holding off the surface until a parameter is set"
+                "force above force_limit ({l} N): retracting, then holding off the surface until ~/reset_force_limit is called"
             ),
             FaultReport::NotActuated(ms) => write!(
                 f,
@@ -115,6 +117,8 @@ pub struct Report {
     pub status: Status,
     pub fault: Option<FaultReport>,
     pub reference: ActiveReference,
+    /// The F/T bias the tare removes (sensor frame; `None` while a tare is in progress).
+    pub wrench_bias: Option<[f64; 6]>,
 }
 
 /// The reference this cycle followed (`/naic/params` `reference_*`).
@@ -180,6 +184,10 @@ pub struct State {
     /// Controller time of the last cycle [s]: reference samples are taken at it.
     last_t: f64,
     reference_log: Throttle,
+    tare_log: Throttle,
+    /// The last cycle's joint velocity and force along n (for `~/zero_wrench`'s checks).
+    last_dq: Option<JointVec>,
+    last_f_ext: f64,
     /// Controller cycles run (replays not counted).
     pub cycles: u64,
 }
@@ -202,6 +210,9 @@ impl State {
             reference: None,
             last_t: 0.0,
             reference_log: Throttle::default(),
+            tare_log: Throttle::default(),
+            last_dq: None,
+            last_f_ext: 0.0,
             cycles: 0,
         }
     }
@@ -219,7 +230,41 @@ pub struct Inbox<'a> {
     /// `/joint_effort_cmd`: the torque friction_compensation sent the driver; its source
     /// stamp says which joint state it answers (actuation supervision).
     pub actuated: Option<&'a Float64MultiArray>,
+    /// A call of `~/reset_force_limit` (`std_srvs/srv/Trigger`): the operator acknowledges
+    /// an over-force event. The only way a force-limit retraction ends (a parameter set
+    /// never ends it: `naic_core::pipeline::param_change`).
+    pub reset_force_limit: bool,
+    /// A call of `~/zero_wrench` (`std_srvs/srv/Trigger`): re-tare the F/T sensor from the
+    /// next `tare_samples` readings at rest; refused in contact, while moving, during a
+    /// force-limit retraction, a fault or a tare.
+    pub zero_wrench: bool,
 }
+
+/// The core's answer to a `std_srvs/srv/Trigger` call: success and the message.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TriggerAnswer {
+    pub success: bool,
+    pub message: &'static str,
+}
+
+/// `~/reset_force_limit` done: the retraction ended.
+pub const FORCE_LIMIT_RESET: &str =
+    "force limit reset: force control resumes in free space (contact is re-detected; the learned weights are kept)";
+/// `~/zero_wrench` accepted.
+pub const ZERO_WRENCH_STARTED: &str = "re-taring from the next tare_samples readings at rest (the arm is held meanwhile; force control resumes after it); the new bias is in /naic/params wrench_bias and the log";
+/// `~/zero_wrench` refusals (nothing changes).
+pub const ZERO_REFUSED_NO_CYCLE: &str = "refused: no control cycle yet (no /joint_states and /wrench received)";
+pub const ZERO_REFUSED_TARING: &str = "refused: a tare is in progress already (wrench_bias is empty until it is done)";
+pub const ZERO_REFUSED_FAULT: &str = "refused: holding on a sensor fault (see /naic/params fault); zero when the data is valid again";
+pub const ZERO_REFUSED_RETRACTING: &str = "refused: force-limit retraction in progress or latched; call ~/reset_force_limit first";
+pub const ZERO_REFUSED_CONTACT: &str =
+    "refused: in contact (or a measured force above the contact threshold): lift the tool off the surface, then zero; force control continues unchanged";
+pub const ZERO_REFUSED_MOVING: &str =
+    "refused: the arm moves (a joint faster than 0.02 rad/s, the tare's rest bound); zero when it is at rest";
+
+/// `~/reset_force_limit` without a force-limit retraction: nothing changed.
+pub const NO_FORCE_LIMIT_TO_RESET: &str =
+    "refused: no force-limit retraction is in progress or latched (nothing to reset; the controller is unchanged)";
 
 /// Things for the shell to log (each at most once per step).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -242,6 +287,10 @@ pub struct Events {
     pub wrench_rejected: Option<(Rejection, u32)>,
     /// A reference sample came before the first joint state (no start pose yet): ignored.
     pub reference_too_early: bool,
+    /// The tare waits for rest (rate-limited): why its window last started again, restarts so far.
+    pub tare_waiting: Option<(NotAtRest, u32)>,
+    /// The tare is done: the sensor bias (force [N], torque [N·m], sensor frame).
+    pub tared: Option<[f64; 6]>,
 }
 
 /// A change of the actuation supervision (logged once per change).
@@ -263,6 +312,10 @@ pub struct Outbox {
     pub friction_velocity: Option<JointVec>,
     /// `/naic/params`.
     pub report: Option<Report>,
+    /// The answer to [`Inbox::reset_force_limit`].
+    pub reset_force_limit: Option<TriggerAnswer>,
+    /// The answer to [`Inbox::zero_wrench`].
+    pub zero_wrench: Option<TriggerAnswer>,
     /// Lockstep: a joint state waits for the wrench of its stamp; step again with each
     /// `/wrench` sample until this wall time [ns], then with an empty inbox.
     pub wait_until_ns: Option<i64>,
@@ -281,6 +334,19 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
             _ => now_ns,
         };
         s.wrench = Some(WrenchIn { w: [f.x, f.y, f.z, t.x, t.y, t.z], stamp_ns, rx_ns });
+    }
+    if inbox.reset_force_limit {
+        out.reset_force_limit = Some(match param_change::reset_force_limit(&s.ctl) {
+            Some(ctl) => {
+                s.ctl = ctl;
+                s.was_force_limited = false;
+                TriggerAnswer { success: true, message: FORCE_LIMIT_RESET }
+            }
+            None => TriggerAnswer { success: false, message: NO_FORCE_LIMIT_TO_RESET },
+        });
+    }
+    if inbox.zero_wrench {
+        out.zero_wrench = Some(zero_wrench(p, &mut s));
     }
     if let Some(src) = inbox.actuated.and_then(msgs::effort_source_stamp) {
         s.actuated_src_ns = Some(s.actuated_src_ns.map_or(src, |a| a.max(src)));
@@ -318,6 +384,35 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
     s.pending = None;
     cycle(p, &mut s, &pd.joints, now_ns, ws, &mut out);
     (s, out)
+}
+
+/// `~/zero_wrench`: start a new tare when the arm is in free space and at rest, else refuse.
+fn zero_wrench(p: &Params, s: &mut State) -> TriggerAnswer {
+    let refuse = |message| TriggerAnswer { success: false, message };
+    let ctl = &s.ctl;
+    let cp = p.controller.params();
+    let Some(dq) = s.last_dq.filter(|_| s.cycles > 0) else { return refuse(ZERO_REFUSED_NO_CYCLE) };
+    if !ctl.tare.done(cp.tare_samples) {
+        return refuse(ZERO_REFUSED_TARING);
+    }
+    if ctl.fault.is_some() || ctl.control.phase == Phase::Hold {
+        return refuse(ZERO_REFUSED_FAULT);
+    }
+    if ctl.control.retracting() {
+        return refuse(ZERO_REFUSED_RETRACTING);
+    }
+    // Contact as the law detects it: its enter threshold (a drifted bias below it is what
+    // zeroing is for).
+    let c = &cp.control.contact;
+    let threshold = if cp.control.force_law.mode == naic_core::pipeline::control::force_law::Mode::Scheduled { c.scheduled_enter_n } else { c.enter_n };
+    if ctl.control.phase == Phase::Contact || !(s.last_f_ext.abs() <= threshold) {
+        return refuse(ZERO_REFUSED_CONTACT);
+    }
+    if dq.iter().any(|v| !(v.abs() <= TARE_REST_VELOCITY)) {
+        return refuse(ZERO_REFUSED_MOVING);
+    }
+    s.ctl.tare = TareState::default();
+    TriggerAnswer { success: true, message: ZERO_WRENCH_STARTED }
 }
 
 /// One controller cycle on the joint state `j`.
@@ -404,9 +499,21 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
         out.events.actuation = Some(if not_actuated { Actuation::Lost(lag_ns.unwrap_or(0) as f64 * 1e-6) } else { Actuation::Restored });
     }
     s.not_actuated = not_actuated;
+    let tare_samples = p.controller.params().tare_samples;
+    if !s.ctl.tare.done(tare_samples) {
+        if next.tare.done(tare_samples) {
+            out.events.tared = Some(next.tare.bias());
+        } else if let Some(why) = next.tare.not_at_rest.filter(|_| next.tare.restarts > 0) {
+            if s.tare_log.ready(now_ns) {
+                out.events.tare_waiting = Some((why, next.tare.restarts));
+            }
+        }
+    }
     s.ctl = next;
     s.cycles += 1;
     let st = o.status;
+    s.last_dq = Some(o.dq);
+    s.last_f_ext = if st.f_ext.is_finite() { st.f_ext } else { 0.0 };
     if st.force_limited && !s.was_force_limited {
         out.events.force_limited = Some(st.f_ext);
     }
@@ -430,7 +537,8 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
         (None, true) => Some(FaultReport::ForceLimit(p.settings.force_limit)),
         (None, false) => lag_ns.filter(|_| not_actuated).map(|l| FaultReport::NotActuated(l as f64 * 1e-6)),
     };
-    let report = Report { stamp_ns: j.stamp_ns, status: st, fault, reference: active };
+    let wrench_bias = s.ctl.tare.done(tare_samples).then(|| s.ctl.tare.bias());
+    let report = Report { stamp_ns: j.stamp_ns, status: st, fault, reference: active, wrench_bias };
     s.replay.store(j.stamp_ns, Answer { tau, friction_velocity: out.friction_velocity, report });
     out.report = Some(report);
 }
@@ -473,7 +581,8 @@ fn take_reference_samples(p: &Params, s: &mut State, inbox: &Inbox, now_ns: i64,
 
 /// Accepted parameters → the running node: the settings apply at once, the controller's
 /// parameters by the core's policy (`naic_core::pipeline::param_change`: the NAIC weights
-/// restart when the force law or impedance changed; any change opens a force-limit latch).
+/// restart when the force law or impedance changed; a force-limit retraction is kept: only
+/// [`Inbox::reset_force_limit`] ends it).
 /// `Err`: the core refused `cp`; the settings still apply, the controller is unchanged.
 pub fn set_params(
     p: &mut Params,

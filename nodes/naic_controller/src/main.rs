@@ -7,7 +7,7 @@
 
 use std::time::Duration;
 
-use naic_controller::{runner::{ReferenceSubs, Runner}, setup::{Setup, NODE}};
+use naic_controller::{runner::{ReferenceSubs, Runner, Services}, setup::{Setup, NODE}};
 use naic_ros::{
     msgs::{self, Float64MultiArray, JointState, NaicParams, WrenchStamped},
     node::{data_qos, pub_qos, QOS_SUB},
@@ -35,8 +35,20 @@ fn run() -> Result<(), RosError> {
     let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     // The reference topics: the real-robot setting (scenario 'none') only.
     let refs = ReferenceSubs::new(&mut node, &r)?;
+    let mut services = Services::new(&mut node)?;
     let effort_pub = node.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, node.params.with(data_qos).0)?;
     let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, node.params.with(pub_qos))?;
+    // The robot model for RViz, Foxglove and late joiners (robot_state_publisher's topic).
+    let urdf = node.params.with(|p| p.str("urdf").to_string());
+    let description_pub = node.publisher::<msgs::StringMsg>("robot_description", msgs::STRING, naic_ros::node::QOS_LATCHED)?;
+    match std::fs::read_to_string(&urdf) {
+        Ok(data) => {
+            if let Err(e) = description_pub.publish(msgs::StringMsg { data }) {
+                log::warn!("cannot publish /robot_description: {e:?}");
+            }
+        }
+        Err(e) => log::warn!("/robot_description not published: cannot read '{urdf}': {e}"),
+    }
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut js_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 
@@ -54,6 +66,7 @@ fn run() -> Result<(), RosError> {
         if let Some(refs) = &refs {
             refs.feed(&mut r);
         }
+        services.serve(&mut r, &node);
         // Newest joint state only; older samples in the queue are skipped.
         let Some(js) = take_newest(&js_sub) else { continue };
         let out = r.joint_states(&js, |until| {

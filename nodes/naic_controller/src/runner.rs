@@ -71,7 +71,9 @@ impl Runner {
         let base = &self.base;
         let (cp, settings, rp) = params.with(|v| (config::controller_params(v, base), config::settings(v), config::reference_params(v)));
         match cp.and_then(|cp| Ok(core::set_params(&mut self.p, &mut self.s, cp, settings, rp)?)) {
-            Ok(o) if o.resumed => log::info!("parameters changed: resuming force control"),
+            Ok(_) if self.s.ctl.control.retracting() => log::warn!(
+                "parameters changed; the force-limit retraction stays until ~/reset_force_limit is called (std_srvs/srv/Trigger)"
+            ),
             Ok(_) => {}
             Err(e) => log::error!("parameters not applied: {e}"),
         }
@@ -82,6 +84,30 @@ impl Runner {
         let (next, out) = alloc_check::check(NODE, &mut self.warned, || core::step(p, s, &inbox, now_ns, ws));
         self.s = next;
         out
+    }
+
+    /// A call of `~/reset_force_limit`: the core's answer (logged here).
+    pub fn reset_force_limit(&mut self) -> core::TriggerAnswer {
+        let out = self.step(core::Inbox { reset_force_limit: true, ..Default::default() }, wall_ns());
+        let a = out.reset_force_limit.unwrap_or(core::TriggerAnswer { success: false, message: "the core did not answer" });
+        if a.success {
+            log::info!("~/reset_force_limit: {}", a.message);
+        } else {
+            log::warn!("~/reset_force_limit: {}", a.message);
+        }
+        a
+    }
+
+    /// A call of `~/zero_wrench`: the core's answer (logged here).
+    pub fn zero_wrench(&mut self) -> core::TriggerAnswer {
+        let out = self.step(core::Inbox { zero_wrench: true, ..Default::default() }, wall_ns());
+        let a = out.zero_wrench.unwrap_or(core::TriggerAnswer { success: false, message: "the core did not answer" });
+        if a.success {
+            log::info!("~/zero_wrench: {}", a.message);
+        } else {
+            log::warn!("~/zero_wrench: {}", a.message);
+        }
+        a
     }
 
     /// A `/joint_effort_cmd` sample: which joint state the torque reaching the arm answers.
@@ -117,7 +143,7 @@ impl Runner {
             msgs::set_effort_msg(&mut self.effort, &tau, Some(stamp), out.friction_velocity.as_ref());
         }
         if let Some(r) = &out.report {
-            fill_report(&mut self.report, r);
+            fill_report(&mut self.report, r, &self.p.reference_params.base_frame);
         }
         Published { effort: out.effort.map(|_| &self.effort), report: out.report.map(|_| &self.report) }
     }
@@ -153,6 +179,37 @@ impl ReferenceSubs {
     }
 }
 
+/// The controller's `std_srvs/srv/Trigger` services (`~/reset_force_limit`), served from
+/// the loop of the node process and of `naic launch --composed` alike.
+pub struct Services {
+    reset_force_limit: naic_ros::service::TriggerServer,
+    zero_wrench: naic_ros::service::TriggerServer,
+}
+
+impl Services {
+    pub fn new(node: &mut RosNode) -> Result<Services, RosError> {
+        Ok(Services {
+            reset_force_limit: naic_ros::service::TriggerServer::new(node, "reset_force_limit")?,
+            zero_wrench: naic_ros::service::TriggerServer::new(node, "zero_wrench")?,
+        })
+    }
+
+    /// Answer the waiting calls through the core ([`Runner::reset_force_limit`]) and send
+    /// the answers their clients can receive.
+    pub fn serve(&mut self, r: &mut Runner, node: &RosNode) {
+        while let Some(id) = self.reset_force_limit.take() {
+            let a = r.reset_force_limit();
+            self.reset_force_limit.answer(id, a.success, a.message);
+        }
+        self.reset_force_limit.flush(node);
+        while let Some(id) = self.zero_wrench.take() {
+            let a = r.zero_wrench();
+            self.zero_wrench.answer(id, a.success, a.message);
+        }
+        self.zero_wrench.flush(node);
+    }
+}
+
 pub fn log_events(e: &core::Events, force_limit: f64) {
     if let Some(j) = e.missing_joint {
         log::error!("/joint_states has no '{j}'; holding");
@@ -160,8 +217,19 @@ pub fn log_events(e: &core::Events, force_limit: f64) {
     if let Some(p) = e.start_tip {
         log::info!("start tip position {p:?}");
     }
+    if let Some((why, n)) = e.tare_waiting {
+        log::warn!("F/T tare waits for the arm to rest (held meanwhile): {why} (window restarted {n} times)");
+    }
+    if let Some(b) = e.tared {
+        log::info!(
+            "F/T tare done at rest: bias force [{:.3}, {:.3}, {:.3}] N, torque [{:.4}, {:.4}, {:.4}] N m (sensor frame)",
+            b[0], b[1], b[2], b[3], b[4], b[5]
+        );
+    }
     if let Some(f) = e.force_limited {
-        log::warn!("measured force {f:.1} N above force_limit {force_limit} N: retracting (set any parameter to resume)");
+        log::warn!(
+            "measured force {f:.1} N above force_limit {force_limit} N: retracting, then holding off the surface (call ~/reset_force_limit, std_srvs/srv/Trigger, to resume)"
+        );
     }
     if let Some((f, n)) = e.fault {
         log::warn!("holding: {f} (faults so far: {n})");
@@ -191,9 +259,15 @@ pub fn log_reference_events(e: &core::Events, tp: Option<&PoseStamped>, dw: Opti
 }
 
 /// `/naic/params` from the core's report, in place (the strings keep their capacity).
-pub fn fill_report(m: &mut NaicParams, r: &core::Report) {
+/// `header.frame_id` is the base frame (`base_frame`): the frame of `reference_position`
+/// and of the force axis.
+pub fn fill_report(m: &mut NaicParams, r: &core::Report, base_frame: &str) {
     let st = &r.status;
     m.header.stamp = time_from_ns(r.stamp_ns);
+    if m.header.frame_id != base_frame {
+        m.header.frame_id.clear();
+        m.header.frame_id.push_str(base_frame);
+    }
     m.mode.clear();
     m.mode.push_str(st.mode.as_str());
     m.phase = st.phase as u8;
@@ -213,6 +287,10 @@ pub fn fill_report(m: &mut NaicParams, r: &core::Report) {
     m.reference_position.extend_from_slice(&a.position);
     (m.reference_stale, m.reference_rejected) = (a.stale, a.rejected);
     (m.k_e_hat, m.k_e_confidence, m.model_gain, m.gravity_scale) = (st.k_e_hat, st.k_e_confidence, st.model_gain, st.gravity_scale);
+    m.wrench_bias.clear();
+    if let Some(b) = &r.wrench_bias {
+        m.wrench_bias.extend_from_slice(b);
+    }
 }
 
 #[cfg(test)]
@@ -258,6 +336,7 @@ mod tests {
         assert_eq!(out.effort.map(effort_source_stamp), Some(Some(0)), "the command carries its state's stamp");
         let report = out.report.expect("a report every cycle");
         assert_eq!((report.header.stamp.to_nanos(), report.mode.as_str(), report.fault.as_str()), (0, "naic", ""));
+        assert_eq!(report.header.frame_id, "base_link", "the frame of reference_position and the force axis");
         // The next state's wrench is not in yet: the runner asks for it, once.
         let mut asked = Vec::new();
         let out = r.joint_states(&js(1_000_000), |until| {

@@ -1,5 +1,5 @@
 //! `naic bag export-csv`: one CSV per topic, a row per message, flattened per type.
-use super::bag_err;
+use super::{bag_err, flat};
 use crate::cmd::{CliError, CliResult};
 use naic_bag::Bag;
 use naic_msgs::*;
@@ -103,32 +103,6 @@ impl CsvRow for Float64MultiArray {
     }
 }
 
-impl CsvRow for NaicParams {
-    fn header(&self, _: &[usize]) -> Vec<String> {
-        [
-            "stamp_s", "frame_id", "mode", "phase", "force_axis", "desired_force", "measured_force", "e_f", "m_d", "b_d",
-            "k_d", "sigma", "phi", "gamma", "gamma_bound", "gamma_clipped", "fault", "fault_count",
-        ]
-        .map(String::from)
-        .to_vec()
-    }
-    fn row(&self, _: &[usize], out: &mut String) {
-        time_col(out, &self.header.stamp);
-        text(out, &self.header.frame_id);
-        text(out, &self.mode);
-        let _ = write!(out, ",{},{}", self.phase, self.force_axis);
-        for v in [
-            self.desired_force, self.measured_force, self.e_f, self.m_d, self.b_d, self.k_d, self.sigma, self.phi,
-            self.gamma, self.gamma_bound,
-        ] {
-            num(out, v);
-        }
-        let _ = write!(out, ",{}", self.gamma_clipped as u8);
-        text(out, &self.fault);
-        let _ = write!(out, ",{}", self.fault_count);
-    }
-}
-
 impl CsvRow for PoseStamped {
     fn header(&self, _: &[usize]) -> Vec<String> {
         ["stamp_s", "frame_id", "position_x", "position_y", "position_z", "orientation_x", "orientation_y", "orientation_z", "orientation_w"]
@@ -152,6 +126,35 @@ impl CsvRow for Clock {
     fn row(&self, _: &[usize], out: &mut String) {
         time_col(out, &self.clock);
     }
+}
+
+/// Every field of every message, columns derived from the message's fields
+/// ([`super::flat`]): `/naic/params` (a field added to `NaicParams.msg` is a column at once).
+fn export_topic_flat<M: RosMessage + serde::Serialize>(bag: &Bag, topic: &str, path: &Path) -> Result<usize, CliError> {
+    let msgs = bag.messages::<M>(topic, ..).map_err(bag_err)?;
+    let rows: Vec<flat::Cells> = msgs.iter().map(|m| flat::cells(&m.msg)).collect();
+    let cols = flat::columns(&rows);
+    let mut s = String::from("log_time_ns,publish_time_ns");
+    for c in &cols {
+        s.push(',');
+        s.push_str(c);
+    }
+    s.push('\n');
+    for (m, row) in msgs.iter().zip(&rows) {
+        let _ = write!(s, "{},{}", m.log_time, m.publish_time);
+        // A row's cells are in the order of `cols` (flat::columns keeps it); the columns it
+        // lacks stay empty.
+        let mut cells = row.iter().peekable();
+        for c in &cols {
+            s.push(',');
+            if let Some((_, v)) = cells.next_if(|(rc, _)| rc == c) {
+                s.push_str(v);
+            }
+        }
+        s.push('\n');
+    }
+    std::fs::write(path, s).map_err(|e| CliError::failure(format!("could not write {}: {e}", path.display())))?;
+    Ok(msgs.len())
 }
 
 fn export_topic<M: CsvRow>(bag: &Bag, topic: &str, path: &Path) -> Result<usize, CliError> {
@@ -189,7 +192,7 @@ pub(super) fn export_csv(file: &Path, out: &Path) -> CliResult {
             "sensor_msgs/msg/JointState" => export_topic::<JointState>(&bag, &t.topic, &path)?,
             "geometry_msgs/msg/WrenchStamped" => export_topic::<WrenchStamped>(&bag, &t.topic, &path)?,
             "std_msgs/msg/Float64MultiArray" => export_topic::<Float64MultiArray>(&bag, &t.topic, &path)?,
-            "naic_msgs/msg/NaicParams" => export_topic::<NaicParams>(&bag, &t.topic, &path)?,
+            "naic_msgs/msg/NaicParams" => export_topic_flat::<NaicParams>(&bag, &t.topic, &path)?,
             "rosgraph_msgs/msg/Clock" => export_topic::<Clock>(&bag, &t.topic, &path)?,
             "geometry_msgs/msg/PoseStamped" => export_topic::<PoseStamped>(&bag, &t.topic, &path)?,
             other => {

@@ -3,6 +3,7 @@
 //! bag`, `sim_run.rs` a simulated run written as a bag (`naic sim --bag`).
 mod bench;
 mod csv;
+mod flat;
 mod sim_run;
 
 pub use bench::bench;

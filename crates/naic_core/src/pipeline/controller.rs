@@ -48,6 +48,11 @@ pub struct ControllerParams {
     pub tool: ToolParams,
     /// Free-space samples averaged for the F/T tare at start.
     pub tare_samples: u32,
+    /// The tare takes only consecutive samples at rest ([`estimate::tare_step`]) and holds
+    /// the arm meanwhile ([`TARE_HOLD_OMEGA`]); off: the first `tare_samples` cycles,
+    /// controlled as usual with no force (the simulator's setting: its sensor has no tool
+    /// inertia, so an accelerating arm leaves no bias there, and its goals were measured so).
+    pub tare_at_rest: bool,
     pub control: ControlParams,
     /// Joint damping of the safe hold [N·m·s/rad].
     pub hold_damping: JointVec,
@@ -249,12 +254,18 @@ pub fn step(
     let r_ws = ws.data.frame_se3(c.sensor).rot;
     let tip = *ws.data.frame_se3(c.tip);
 
-    // Estimate the contact wrench (after the tare; zero while taring).
+    // Estimate the contact wrench, after the tare. While taring the arm is held (gravity
+    // compensation and joint damping: it comes to rest) and the tare takes only samples at
+    // rest (estimate::tare_step); force control starts with the cycle after it.
     let tared = s.tare.done(p.tare_samples);
+    let rest = p.tare_at_rest.then_some((m.t, &sensed.dq));
     let f_e = if tared {
         estimate::contact_wrench(&p.tool, &s.tare.bias(), &sensed.wrench, &r_ws)
     } else {
-        next.tare = estimate::tare_step(&p.tool, p.tare_samples, &s.tare, &sensed.wrench, &r_ws);
+        next.tare = estimate::tare_step(&p.tool, p.tare_samples, &s.tare, &sensed.wrench, &r_ws, rest);
+        if p.tare_at_rest {
+            return taring(c, &next, &sensed.q, &sensed.dq, next.tare, r, ws);
+        }
         Vector6::zeros()
     };
 
@@ -378,6 +389,71 @@ pub fn step(
     (next, ControlOutputs { tau: tau.into(), dq: sensed.dq, dq_ff, status })
 }
 
+/// How stiffly the arm is held while taring [rad/s]: per joint a critically damped spring
+/// about the tare's first position, `τ_i = G_i(q) + M_ii (ω² (q_hold,i − q_i) − 2 ω q̇_i)`.
+/// Gravity compensation alone lets a wrong model (a mass error) drift the arm for ever;
+/// the spring stops it at `ΔG_i / (M_ii ω²)` (a 25 % heavy JK5 model: about 0.01 rad on
+/// joint 2), so it comes to rest and the tare completes. ω λ = 0.02 at 1 kHz: far from the
+/// discrete stability limit, also with a few cycles of delay.
+pub const TARE_HOLD_OMEGA: f64 = 20.0;
+
+/// A cycle of the tare: the arm held at the tare's first position ([`TARE_HOLD_OMEGA`], no
+/// fault), the tare advanced to `tare`; phase free, no force.
+fn taring(
+    c: &Controller,
+    next: &ControllerState,
+    q: &JointVec,
+    dq: &JointVec,
+    tare: TareState,
+    r: &Reference,
+    ws: &mut Workspace,
+) -> (ControllerState, ControlOutputs) {
+    let p = &c.params;
+    let tip = ws.data.frame_se3(c.tip).trans; // forward kinematics at q: the caller's
+    let q_hold = tare.q_hold.unwrap_or(*q);
+    let mut tare = tare;
+    tare.q_hold = Some(q_hold);
+    let qv = Vector6::from(*q);
+    let m_diag: JointVec = {
+        let m = dynamics::crba(&c.model, &mut ws.data, &qv);
+        std::array::from_fn(|i| m[(i, i)])
+    };
+    let g = *dynamics::gravity_torques(&c.model, &mut ws.data, &qv);
+    let w = TARE_HOLD_OMEGA;
+    let tau: JointVec = std::array::from_fn(|i| g[i] + m_diag[i] * (w * w * (q_hold[i] - q[i]) - 2.0 * w * dq[i]));
+    let next = ControllerState { tare, ..*next };
+    let law = &next.control.law;
+    let status = Status {
+        mode: p.control.force_law.mode,
+        phase: next.control.phase,
+        force_axis: p.control.force_axis.axis,
+        f_d: r.f_d,
+        f_ext: 0.0,
+        e_f: -r.f_d,
+        m_d: law.m_d,
+        b_d: law.b_d,
+        k_d: 0.0,
+        sigma: law.sigma,
+        phi: law.phi,
+        gamma: 0.0,
+        gamma_bound: f64::INFINITY,
+        gamma_clipped: false,
+        weights_projected: false,
+        k_e_hat: 0.0,
+        k_e_confidence: 0.0,
+        model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
+        gravity_scale: 1.0,
+        fault: None,
+        fault_count: next.fault_count,
+        tared: tare.done(p.tare_samples),
+        tip_position: tip,
+        f_e: Vector6::zeros(),
+        jacobian_damped: false,
+        force_limited: next.control.retracting(),
+    };
+    (next, ControlOutputs { tau, dq: *dq, dq_ff: None, status })
+}
+
 /// The safe hold: gravity compensation + joint damping at the last valid state.
 fn hold(
     c: &Controller,
@@ -462,6 +538,7 @@ impl ControllerParams {
                 gravity: Vector3::new(0.0, 0.0, -9.81),
             },
             tare_samples: 100,
+            tare_at_rest: false,
             control: ControlParams {
                 impedance: PAPER_IMPEDANCE.params,
                 force_axis: ForceAxis { axis: 2, sign: -1.0 },

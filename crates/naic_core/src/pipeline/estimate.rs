@@ -13,14 +13,57 @@
 //! τ_raw = r × Rᵀ F_c + τ_c,s + c × Rᵀ m g + b_τ        (moments about the sensor origin)
 //! ```
 //!
-//! This stage removes the bias (a tare: the mean over the first samples, taken
-//! with the tool in free space, minus the tool weight expected there) and the
+//! This stage removes the bias (a tare: the mean over `tare_samples` consecutive
+//! samples with the tool in free space and the arm at rest, minus the tool weight
+//! expected there; see [`TARE_REST_VELOCITY`], [`TARE_REST_ACCELERATION`]) and the
 //! tool weight at the current orientation, and returns `F_e = −F_c`, the
 //! wrench the robot applies to the environment at the tip, in the base frame
 //! (eq 3's `F_ext`). Tool inertial forces are neglected: at the speeds of
 //! force tracking (< 0.1 m/s, < 1 rad/s) they are below 0.05 N.
 
 use nalgebra::{Matrix3, Vector3, Vector6};
+
+use crate::{JointVec, N_JOINTS};
+
+/// The tare takes only samples at rest: every joint's (filtered) speed at most this
+/// [rad/s] in every sample of the window. 10× the simulator's encoder velocity noise
+/// (0.002 rad/s); at 1 m from the base it is 2 cm/s.
+pub const TARE_REST_VELOCITY: f64 = 0.02;
+
+/// ... and every joint's acceleration over the window at most this [rad/s²]: the mean
+/// velocity of the window's second half minus that of its first half, over half the
+/// window's duration (averaging keeps the encoder noise out: 0.002 rad/s white noise
+/// gives about 0.01 rad/s² over 100 samples at 1 kHz). The tool's inertial force
+/// `m a` is then at most 0.424 kg × 0.1 rad/s² × 1 m ≈ 0.04 N, below the 0.05 N a
+/// zeroing is to reach; a tare over an accelerating arm (the controller's first
+/// 100 ms used to be) left a bias of about 1 N.
+pub const TARE_REST_ACCELERATION: f64 = 0.1;
+
+/// Why the last tare window was started again (the arm was not at rest).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NotAtRest {
+    /// Joint `joint` (0-based) moved at `speed` [rad/s] (> [`TARE_REST_VELOCITY`]).
+    Moving { joint: usize, speed: f64 },
+    /// Joint `joint` accelerated at `accel` [rad/s²] over the window (> [`TARE_REST_ACCELERATION`]).
+    Accelerating { joint: usize, accel: f64 },
+}
+
+impl std::fmt::Display for NotAtRest {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            NotAtRest::Moving { joint, speed } => write!(
+                f,
+                "joint {} moves at {speed:.3} rad/s (rest: at most {TARE_REST_VELOCITY} rad/s)",
+                joint + 1
+            ),
+            NotAtRest::Accelerating { joint, accel } => write!(
+                f,
+                "joint {} accelerates at {accel:.3} rad/s² (rest: at most {TARE_REST_ACCELERATION} rad/s²)",
+                joint + 1
+            ),
+        }
+    }
+}
 
 /// The tool beyond the sensor's measuring plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,12 +78,25 @@ pub struct ToolParams {
     pub gravity: Vector3<f64>,
 }
 
-/// The tare: the sensor bias, estimated over the first `samples` readings.
+/// The tare: the sensor bias, estimated over `samples` consecutive readings at rest.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct TareState {
     /// Readings accumulated so far.
     pub count: u32,
     sum: [f64; 6],
+    /// Joint velocities summed over the window's first and second half, and the times of
+    /// its first and last sample [s] (the rest check).
+    dq_first: JointVec,
+    dq_second: JointVec,
+    t_first: f64,
+    t_last: f64,
+    /// Why the window was last started again (`None`: never).
+    pub not_at_rest: Option<NotAtRest>,
+    /// Windows started again since the tare began.
+    pub restarts: u32,
+    /// Where the arm is held while taring: the joint position of the tare's first cycle
+    /// (kept when a window starts again).
+    pub q_hold: Option<JointVec>,
 }
 
 impl TareState {
@@ -64,17 +120,57 @@ pub fn tool_weight_wrench(tool: &ToolParams, r_ws: &Matrix3<f64>) -> Vector6<f64
     Vector6::new(w.x, w.y, w.z, m.x, m.y, m.z)
 }
 
-/// Adds one free-space reading to the tare (until `samples` are in).
-pub fn tare_step(tool: &ToolParams, samples: u32, s: &TareState, raw: &[f64; 6], r_ws: &Matrix3<f64>) -> TareState {
+/// Adds one free-space reading to the tare (until `samples` are in). With `rest = Some((t,
+/// dq))` (time [s], joint velocity) the tare takes readings at rest only: a sample with a
+/// joint faster than [`TARE_REST_VELOCITY`], or a full window whose joints accelerated more
+/// than [`TARE_REST_ACCELERATION`], starts the window again (the reason in
+/// [`TareState::not_at_rest`]), so the bias is the mean of `samples` consecutive readings at
+/// rest. `None`: every reading counts.
+pub fn tare_step(tool: &ToolParams, samples: u32, s: &TareState, raw: &[f64; 6], r_ws: &Matrix3<f64>, rest: Option<(f64, &JointVec)>) -> TareState {
     if s.done(samples) {
         return *s;
+    }
+    let Some((t, dq)) = rest else {
+        let expected = tool_weight_wrench(tool, r_ws);
+        let mut next = *s;
+        for i in 0..6 {
+            next.sum[i] += raw[i] - expected[i];
+        }
+        next.count += 1;
+        return next;
+    };
+    let restart =
+        |why: NotAtRest| TareState { not_at_rest: Some(why), restarts: s.restarts.saturating_add(1), q_hold: s.q_hold, ..TareState::default() };
+    if let Some((joint, speed)) = dq.iter().map(|v| v.abs()).enumerate().find(|(_, v)| !(*v <= TARE_REST_VELOCITY)) {
+        return restart(NotAtRest::Moving { joint, speed });
     }
     let expected = tool_weight_wrench(tool, r_ws);
     let mut next = *s;
     for i in 0..6 {
         next.sum[i] += raw[i] - expected[i];
     }
+    if next.count == 0 {
+        next.t_first = t;
+    }
+    next.t_last = t;
+    let half = samples / 2;
+    let dq_sum = if next.count < half { &mut next.dq_first } else { &mut next.dq_second };
+    for i in 0..N_JOINTS {
+        dq_sum[i] += dq[i];
+    }
     next.count += 1;
+    if next.done(samples) && half > 0 {
+        // The window's acceleration: second half's mean velocity minus the first's, over
+        // the time between the two halves' centres (half the window).
+        let span = 0.5 * (next.t_last - next.t_first) * samples as f64 / (samples - 1).max(1) as f64;
+        let (n1, n2) = (half as f64, (samples - half) as f64);
+        for i in 0..N_JOINTS {
+            let accel = (next.dq_second[i] / n2 - next.dq_first[i] / n1) / span.max(f64::MIN_POSITIVE);
+            if !(accel.abs() <= TARE_REST_ACCELERATION) {
+                return restart(NotAtRest::Accelerating { joint: i, accel });
+            }
+        }
+    }
     next
 }
 
@@ -128,7 +224,7 @@ mod tests {
         let r0 = *Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI).matrix();
         let mut s = TareState::default();
         for _ in 0..50 {
-            s = tare_step(&t, 50, &s, &reading(&t, &r0, Vector3::zeros(), bias), &r0);
+            s = tare_step(&t, 50, &s, &reading(&t, &r0, Vector3::zeros(), bias), &r0, None);
         }
         assert!(s.done(50));
         for (k, b) in s.bias().iter().zip(bias) {
@@ -152,5 +248,48 @@ mod tests {
         let r = *Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI).matrix();
         let raw = reading(&t, &r, Vector3::new(0.0, 0.0, 10.0), [0.0; 6]);
         assert!((raw[2] + 10.0).abs() < 1e-12);
+    }
+
+    /// The tare takes the mean of consecutive samples at rest only: a joint moving, or the
+    /// arm accelerating over the window, starts the window again, with the reason.
+    #[test]
+    fn the_tare_waits_for_rest() {
+        let t = tool();
+        let r0 = Matrix3::identity();
+        let raw = reading(&t, &r0, Vector3::zeros(), [0.5, -0.3, 1.0, 0.01, 0.0, -0.02]);
+        let at = |s: &TareState, k: usize, dq: JointVec| tare_step(&t, 100, s, &raw, &r0, Some((k as f64 * 1e-3, &dq)));
+        // 60 samples at rest, then joint 3 moves: the window starts again.
+        let mut s = TareState::default();
+        for k in 0..60 {
+            s = at(&s, k, [0.0; N_JOINTS]);
+        }
+        assert_eq!(s.count, 60);
+        s = at(&s, 60, [0.0, 0.0, 0.05, 0.0, 0.0, 0.0]);
+        assert_eq!((s.count, s.restarts), (0, 1));
+        assert_eq!(s.not_at_rest, Some(NotAtRest::Moving { joint: 2, speed: 0.05 }));
+        assert!(s.not_at_rest.unwrap().to_string().contains("joint 3 moves at 0.050 rad/s"));
+        // Slowly accelerating, always below the speed bound: 0.3 rad/s² on joint 1 over
+        // 100 ms (0 → 0.03 rad/s would exceed the speed bound, so 0 → -0.015 → 0.015).
+        let mut s = TareState::default();
+        for k in 0..100 {
+            let v = -0.015 + 0.3 * k as f64 * 1e-3;
+            s = at(&s, k, [v, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        }
+        match s.not_at_rest {
+            Some(NotAtRest::Accelerating { joint: 0, accel }) => assert!((accel - 0.3).abs() < 1e-6, "{accel}"),
+            other => panic!("not refused for the acceleration: {other:?}"),
+        }
+        assert!(!s.done(100));
+        // At rest with encoder-like noise (±0.004 rad/s): done, the bias exact.
+        let mut s = TareState::default();
+        for k in 0..100 {
+            let v = if k % 2 == 0 { 0.004 } else { -0.004 };
+            s = at(&s, k, [v; N_JOINTS]);
+        }
+        assert!(s.done(100) && s.not_at_rest.is_none());
+        let b = s.bias();
+        for (i, want) in [0.5, -0.3, 1.0, 0.01, 0.0, -0.02].iter().enumerate() {
+            assert!((b[i] - want).abs() < 1e-12, "{i}: {} vs {want}", b[i]);
+        }
     }
 }

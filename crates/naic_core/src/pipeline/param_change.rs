@@ -7,11 +7,12 @@
 //!    NAIC weights (`m_d`, `b_d`, `σ`, eq 10–15) start again from the new values, the
 //!    phase is free space and contact is re-detected. A learned weight is not carried
 //!    into a law whose bounds or meaning may have changed (e.g. `aic` → `naic`).
-//! 2. **Any accepted change**, also one that leaves the controller's parameters as they
-//!    are (e.g. only the desired force, which is part of the reference): a force-limit
-//!    retraction, in progress or latched ([`super::control::ForceLimit::latch`]), ends
-//!    ([`ControlState::resume`]); the tool is allowed back onto the surface. This is how
-//!    an operator acknowledges the over-force event.
+//! 2. **A force-limit retraction**, in progress or latched
+//!    ([`super::control::ForceLimit::latch`]), is kept through every parameter change, also
+//!    through a restart by rule 1: a parameter set is no acknowledgement of an over-force
+//!    event (a new set point, e.g. 20 N after a retract at 54 N, must not put the tool back
+//!    on the surface by the way). Only [`reset_force_limit`] ends it: the node's
+//!    `~/reset_force_limit` service, an explicit act of the operator.
 //!
 //! Everything else of the state (sense filter, F/T tare, fault count) is kept.
 
@@ -23,8 +24,6 @@ use super::controller::{Controller, ControllerParams, ControllerState};
 pub struct Outcome {
     /// The control stage restarted from the new parameters (rule 1).
     pub restarted: bool,
-    /// A force-limit retraction was ended (by rule 1 or 2).
-    pub resumed: bool,
 }
 
 /// Apply the accepted parameters `new` to the running controller `c` in state `s`.
@@ -36,12 +35,25 @@ pub fn apply(
     new: ControllerParams,
 ) -> Result<(Controller, ControllerState, Outcome), super::ConfigError> {
     let next = c.with_params(new)?;
-    let was_retracting = s.control.retracting();
     let mut state = *s;
     let restarted = new.control != c.params().control;
-    state.control = if restarted { ControlState::new(&new.control) } else { s.control.resume() };
-    let outcome = Outcome { restarted, resumed: was_retracting && !state.control.retracting() };
-    Ok((next, state, outcome))
+    if restarted {
+        // Rule 2: the retraction (cycles left, latched offset) and its free-space phase stay.
+        let fresh = ControlState::new(&new.control);
+        state.control = if s.control.retracting() {
+            ControlState { retract_left: s.control.retract_left, retract_hold: s.control.retract_hold, ..fresh }
+        } else {
+            fresh
+        };
+    }
+    Ok((next, state, Outcome { restarted }))
+}
+
+/// The operator's acknowledgement of an over-force event: a force-limit retraction, in
+/// progress or latched, ends ([`ControlState::resume`]: free space, contact re-detected,
+/// the learned weights kept). `None` when none is in progress: nothing changes.
+pub fn reset_force_limit(s: &ControllerState) -> Option<ControllerState> {
+    s.control.retracting().then(|| ControllerState { control: s.control.resume(), ..*s })
 }
 
 #[cfg(test)]
@@ -69,21 +81,29 @@ mod tests {
     }
 
     #[test]
-    fn same_parameters_keep_the_weights_and_open_the_latch() {
+    fn same_parameters_change_nothing_and_keep_the_latch() {
         let c = controller();
         let s = running(&c);
         assert!(s.control.retracting());
         let (c2, s2, o) = apply(&c, &s, *c.params()).unwrap();
-        assert_eq!(o, Outcome { restarted: false, resumed: true });
+        assert_eq!(o, Outcome { restarted: false });
         assert_eq!(c2.params(), c.params());
+        assert_eq!(s2, s, "the latch, the weights and everything else kept");
+    }
+
+    #[test]
+    fn only_the_explicit_reset_opens_the_latch() {
+        let c = controller();
+        let s = running(&c);
+        let s2 = reset_force_limit(&s).expect("a latched state resets");
         assert!(!s2.control.retracting() && s2.control.phase == Phase::Free);
         assert_eq!(s2.control.law, s.control.law, "learned weights kept");
-        assert_eq!(s2.fault_count, 3);
-        // Without a retraction: nothing changes at all.
-        let mut s = running(&c);
-        s.control.retract_hold = None;
-        let (_, s3, o) = apply(&c, &s, *c.params()).unwrap();
-        assert_eq!((o, s3), (Outcome::default(), s));
+        assert_eq!((s2.fault_count, s2.tare), (3, s.tare));
+        // A retraction in progress ends too; without one there is nothing to reset.
+        let mut r = running(&c);
+        (r.control.retract_hold, r.control.retract_left) = (None, 40);
+        assert!(!reset_force_limit(&r).unwrap().control.retracting());
+        assert_eq!(reset_force_limit(&s2), None);
     }
 
     #[test]
@@ -96,9 +116,12 @@ mod tests {
         stiffer.control.impedance.m_d[2] *= 2.0;
         for new in [aic, stiffer] {
             let (c2, s2, o) = apply(&c, &s, new).unwrap();
-            assert_eq!(o, Outcome { restarted: true, resumed: true });
+            assert_eq!(o, Outcome { restarted: true });
             assert_eq!(*c2.params(), new);
-            assert_eq!(s2.control, ControlState::new(&new.control));
+            // The retraction survives the restart (rule 2); the rest starts afresh.
+            let fresh = ControlState::new(&new.control);
+            assert_eq!(s2.control, ControlState { retract_hold: s.control.retract_hold, ..fresh });
+            assert!(s2.control.retracting());
             assert_eq!(s2.control.law.m_d, new.control.impedance.m_d[new.control.force_axis.axis]);
             assert_eq!((s2.fault_count, s2.sense, s2.tare), (s.fault_count, s.sense, s.tare), "the rest is kept");
         }

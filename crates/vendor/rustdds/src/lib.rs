@@ -179,6 +179,8 @@ mod serialization_test;
 mod checked_impl;
 #[doc(hidden)]
 pub mod discovery; // to access some Discovered data in e.g. ros2-client crate
+// naic patch (PATCHED.md, "Type hashes in USER_DATA").
+pub use discovery::sedp_messages::register_type_hash;
 mod messages;
 mod network;
 mod rtps;

@@ -42,7 +42,7 @@ fn js(stamp: i64, order: [usize; N_JOINTS]) -> JointState {
         header: Header { stamp: Time::from_nanos(stamp), frame_id: String::new() },
         name: order.iter().map(|&j| JOINT_NAMES[j].to_string()).collect(),
         position: order.iter().map(|&j| Q0[j]).collect(),
-        velocity: order.iter().map(|&j| 0.01 * j as f64).collect(),
+        velocity: order.iter().map(|&j| 0.003 * j as f64).collect(), // below the tare's rest bound
         effort: vec![0.0; 6],
     }
 }
@@ -82,7 +82,7 @@ fn direct(p: &Params, s: &State, m: &RawMeasurements) -> ControllerState {
 }
 
 fn dq() -> JointVec {
-    std::array::from_fn(|j| 0.01 * j as f64)
+    std::array::from_fn(|j| 0.003 * j as f64)
 }
 
 #[test]
@@ -234,26 +234,39 @@ fn the_parameter_change_policy_of_the_core_applies() {
     s.ctl.control.law.m_d *= 0.5;
     s.ctl.control.retract_hold = Some(0.02);
     let cp = *p.controller.params();
-    // Only the desired force: the latch opens, the weights stay.
+    // Only the desired force: the weights stay, and so does the latch (a parameter set is
+    // no acknowledgement of the over-force event).
     let more = Settings { desired_force: 15.0, ..p.settings };
     let rp = p.reference_params.clone();
     let o = set_params(&mut p, &mut s, cp, more, rp.clone()).unwrap();
-    assert!(o.resumed && !o.restarted);
+    assert!(!o.restarted);
     assert_eq!(p.settings.desired_force, 15.0);
-    assert!(!s.ctl.control.retracting());
+    assert!(s.ctl.control.retracting(), "a new set point must not end the retraction");
     assert_eq!(s.ctl.control.law.m_d, 0.5 * cp.control.impedance.m_d[cp.control.force_axis.axis]);
-    // Another mode: the weights restart from the parameters.
+    // Another mode: the weights restart from the parameters; the latch still stays.
     let mut aic = cp;
     aic.control.force_law.mode = Mode::Aic;
     let o = set_params(&mut p, &mut s, aic, more, rp).unwrap();
-    assert!(o.restarted && !o.resumed);
+    assert!(o.restarted);
+    assert!(s.ctl.control.retracting(), "a restart must not end the retraction");
     assert_eq!(p.controller.params().control.force_law.mode, Mode::Aic);
     assert_eq!(s.ctl.control.law.m_d, cp.control.impedance.m_d[cp.control.force_axis.axis]);
-    // The next cycle reports the new mode and set point.
+    // The next cycle reports the new mode and set point, still force-limited.
     let (s, _) = run(&p, &s, Inbox { wrench: Some(&wrench(0, 1.0)), ..Default::default() }, 0);
-    let (_, o) = run(&p, &s, Inbox { joint_states: Some(&js(0, ORDER)), ..Default::default() }, MS);
+    let (s, o) = run(&p, &s, Inbox { joint_states: Some(&js(0, ORDER)), ..Default::default() }, MS);
     let r = o.report.unwrap();
     assert_eq!((r.status.mode, r.status.f_d), (Mode::Aic, 15.0));
+    assert!(matches!(r.fault, Some(FaultReport::ForceLimit(_))), "{:?}", r.fault);
+    // The explicit reset ends it, once; a second call is refused with a reason.
+    let (s, o) = run(&p, &s, Inbox { reset_force_limit: true, ..Default::default() }, 2 * MS);
+    assert_eq!(o.reset_force_limit, Some(TriggerAnswer { success: true, message: FORCE_LIMIT_RESET }));
+    assert!(!s.ctl.control.retracting() && o.effort.is_none(), "the reset alone commands nothing");
+    let (s, o) = run(&p, &s, Inbox { reset_force_limit: true, ..Default::default() }, 3 * MS);
+    let a = o.reset_force_limit.unwrap();
+    assert!(!a.success && a.message.contains("no force-limit retraction"), "{a:?}");
+    let (s, _) = run(&p, &s, Inbox { wrench: Some(&wrench(MS, 1.0)), ..Default::default() }, 4 * MS);
+    let (_, o) = run(&p, &s, Inbox { joint_states: Some(&js(MS, ORDER)), ..Default::default() }, 5 * MS);
+    assert_eq!(o.report.unwrap().fault, None);
 }
 
 #[test]
@@ -616,4 +629,61 @@ fn without_joint_effort_cmd_the_force_law_is_held_and_restarts_when_commands_ret
         assert!(o.report.unwrap().fault.is_none() && o.events.actuation.is_none(), "sim time, {k} ms");
         s = next;
     }
+}
+
+#[test]
+fn zero_wrench_re_tares_at_rest_in_free_space_and_is_refused_otherwise() {
+    let m = model();
+    let mut cp = base(&m);
+    cp.tare_at_rest = true;
+    let rp = ReferenceParams::new("base_link", cp.control.force_axis, 10.0);
+    let p = Params::new(Controller::new(m.clone(), cp).unwrap(), settings(TimeBase::Wall), None, rp).unwrap();
+    let zero = |s: &State, now| run(&p, s, Inbox { zero_wrench: true, ..Default::default() }, now);
+    let s = State::new(&p);
+    let (s, o) = zero(&s, 0);
+    assert_eq!(o.zero_wrench.map(|a| (a.success, a.message)), Some((false, ZERO_REFUSED_NO_CYCLE)));
+    // The start-up tare (joints at rest: at most 0.015 rad/s), then free space.
+    let mut s = s;
+    let mut k = 0;
+    while !s.ctl.tare.done(cp.tare_samples) {
+        k += 1;
+        assert!(k < 1000, "the tare never finished");
+        let (n, o) = wall_cycle(&p, &s, k, 0.0, Some(k - 1));
+        assert!(o.report.unwrap().wrench_bias.is_none() || n.ctl.tare.done(cp.tare_samples));
+        s = n;
+    }
+    let (s2, o) = wall_cycle(&p, &s, k + 1, 0.0, Some(k));
+    assert!(o.report.unwrap().wrench_bias.is_some(), "the bias is reported once tared");
+    // At rest in free space: accepted, the tare starts again (the next cycles hold the arm).
+    let (s3, o) = zero(&s2, (k + 1) * MS);
+    assert_eq!(o.zero_wrench.map(|a| a.success), Some(true));
+    assert!(!s3.ctl.tare.done(cp.tare_samples) && o.effort.is_none());
+    let (s4, o) = wall_cycle(&p, &s3, k + 2, 0.0, Some(k + 1));
+    assert!(o.report.unwrap().wrench_bias.is_none(), "no bias while taring");
+    let (_, o) = zero(&s4, (k + 2) * MS);
+    assert_eq!(o.zero_wrench.map(|a| a.message), Some(ZERO_REFUSED_TARING));
+    // Moving (a joint at 0.05 rad/s for 5 cycles: past the velocity median): refused,
+    // nothing changes.
+    let mut s5 = s2;
+    for j in 0..5 {
+        let t = (k + 2 + j) * MS;
+        let moving = JointState { velocity: vec![0.0, 0.0, 0.05, 0.0, 0.0, 0.0], ..js(t, ORDER) };
+        let (n, _) = run(&p, &s5, Inbox { wrench: Some(&wrench(t, 0.0)), ..Default::default() }, t);
+        let (n, _) = run(&p, &n, Inbox { joint_states: Some(&moving), ..Default::default() }, t);
+        s5 = n;
+    }
+    let (s6, o) = zero(&s5, (k + 7) * MS);
+    assert_eq!(o.zero_wrench.map(|a| (a.success, a.message)), Some((false, ZERO_REFUSED_MOVING)));
+    assert_eq!(s6.ctl.tare, s5.ctl.tare);
+    // A force above the contact threshold (pushing 15 N): refused as contact.
+    let mut s7 = s2;
+    for j in 0..3 {
+        let t = k + 3 + j;
+        let (n, _) = wall_cycle(&p, &s7, t, -15.0, Some(t - 1));
+        s7 = n;
+    }
+    let (s8, o) = zero(&s7, (k + 6) * MS);
+    let a = o.zero_wrench.unwrap();
+    assert!(!a.success && a.message.contains("in contact"), "{a:?}");
+    assert_eq!(s8.ctl.tare, s7.ctl.tare);
 }

@@ -308,6 +308,28 @@ impl SubscriptionBuiltinTopicData {
 // =======================================================================
 // =======================================================================
 
+
+// naic patch (PATCHED.md, "Type hashes in USER_DATA"): the RIHS01 type hashes of the
+// DDS type names this process uses, announced in the USER_DATA of its local endpoints as
+// rmw_fastrtps/rmw_dds_common do in Jazzy (`typehash=RIHS01_<hex>;`), so that
+// `ros2 topic info -v` shows them instead of INVALID.
+static TYPE_HASHES: std::sync::Mutex<Vec<(String, String)>> = std::sync::Mutex::new(Vec::new());
+
+/// naic patch: announce `hash` (`RIHS01_…`) for endpoints of DDS type `dds_type_name`
+/// (e.g. `std_msgs::msg::dds_::Header_`) created from now on (and re-announced).
+pub fn register_type_hash(dds_type_name: &str, hash: &str) {
+  if let Ok(mut t) = TYPE_HASHES.lock() {
+    t.retain(|(n, _)| n != dds_type_name);
+    t.push((dds_type_name.to_string(), hash.to_string()));
+  }
+}
+
+/// naic patch: the USER_DATA octets of a local endpoint of `type_name`, if a hash is registered.
+fn type_hash_user_data(type_name: &str) -> Option<Vec<u8>> {
+  let t = TYPE_HASHES.lock().ok()?;
+  t.iter().find(|(n, _)| n == type_name).map(|(_, h)| format!("typehash={h};").into_bytes())
+}
+
 /// Type specified in RTPS v2.3 spec Figure 8.30
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct DiscoveredReaderData {
@@ -500,6 +522,8 @@ impl ParameterListable for DiscoveredReaderData {
       content_filter,
       user_data: _,
     } = self;
+    // naic patch: USER_DATA with the type hash (see `register_type_hash`).
+    let user_data = type_hash_user_data(type_name);
 
     let mut pl = ParameterList::new();
     let qos = sbtd.qos();
@@ -552,6 +576,8 @@ impl ParameterListable for DiscoveredReaderData {
     emit!(PID_TOPIC_NAME, &topic_name.clone().into(), StringWithNul);
     emit!(PID_TYPE_NAME, &type_name.clone().into(), StringWithNul);
     pl.parameters.append(&mut qos.to_parameter_list(ctx)?);
+    // naic patch: USER_DATA (a CDR sequence<octet>).
+    emit_option!(PID_USER_DATA, &user_data, Vec<u8>);
     emit_option!(
       PID_SERVICE_INSTANCE_NAME,
       &service_instance_name.clone().map(|e| e.into()),
@@ -958,6 +984,8 @@ impl ParameterListable for DiscoveredWriterData {
         },
       user_data: _,
     } = self;
+    // naic patch: USER_DATA with the type hash (see `register_type_hash`).
+    let user_data = type_hash_user_data(type_name);
 
     let mut pl = ParameterList::new();
     let qos = pbtd.qos();
@@ -1010,6 +1038,8 @@ impl ParameterListable for DiscoveredWriterData {
     emit!(PID_TOPIC_NAME, &topic_name.clone().into(), StringWithNul);
     emit!(PID_TYPE_NAME, &type_name.clone().into(), StringWithNul);
     pl.parameters.append(&mut qos.to_parameter_list(ctx)?);
+    // naic patch: USER_DATA (a CDR sequence<octet>).
+    emit_option!(PID_USER_DATA, &user_data, Vec<u8>);
     emit_option!(
       PID_SERVICE_INSTANCE_NAME,
       &service_instance_name.clone().map(|e| e.into()),
