@@ -312,6 +312,19 @@ impl MujocoPlant {
         plant.data.qvel_mut().fill(0.0);
         plant.data.qfrc_applied_mut().fill(0.0);
         plant.data.forward();
+        // At rest means held at rest (as the own plant's static sensor model assumes):
+        // the first reading is taken under the torque that holds the arm, q̈ = 0.
+        let mut hold = [0.0; N_JOINTS];
+        for j in 0..N_JOINTS {
+            hold[j] = plant.data.qfrc_bias()[vadr[j]];
+        }
+        {
+            let f = plant.data.qfrc_applied_mut();
+            for j in 0..N_JOINTS {
+                f[vadr[j]] = hold[j];
+            }
+        }
+        plant.data.forward();
         // same kinematics as naic's model: the tips agree at q0
         let p_mj = plant.site_pos();
         if (p_mj - tip0).norm() > 1e-6 {
@@ -320,7 +333,7 @@ impl MujocoPlant {
                 format!("its site 'ee' at q0 is at {p_mj:?}, naic's URDF tip at {tip0:?}: the MJCF and --urdf must describe the same arm"),
             ));
         }
-        plant.observe([0.0; N_JOINTS], false);
+        plant.observe(hold, false);
         Ok(plant)
     }
 
