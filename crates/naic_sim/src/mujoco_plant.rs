@@ -444,7 +444,7 @@ impl MujocoPlant {
         let n = self.env.normal.into_inner();
         let p0 = self.site_pos();
         let r0 = self.site_rot();
-        let (k_t, d_t, d_n, k_r, d_r, d_q) = (3000.0, 150.0, 60.0, 60.0, 3.0, 0.3);
+        let (k_t, d_t, d_n, k_r, d_r, d_q) = (3000.0, 150.0, 30.0, 60.0, 3.0, 0.3);
         let steps = (seconds / self.dt).round() as usize;
         let tail = (0.2 / self.dt).round() as usize;
         let (mut f_sum, mut p_sum) = (0.0, 0.0);
@@ -548,8 +548,8 @@ pub struct StaticStiffness {
 }
 
 /// Measure the static stiffness of each material of `p.env` on MuJoCo: from `q0`,
-/// push the tip onto that material's surface with `pushes` [N] (MuJoCo's own
-/// Jacobian and bias forces), 2 s each, and take the secant Δf/Δpenetration.
+/// push the tip onto that material's surface (15 N for 1 s), then with each of `pushes` [N] (MuJoCo's own
+/// Jacobian and bias forces), 3 s each, and take the secant Δf/Δpenetration.
 pub fn static_stiffness(mjcf: &Path, p: &PlantParams, q0: &[f64], pushes: [f64; 2]) -> Result<Vec<StaticStiffness>, PlantError> {
     let mats: Vec<Material> = match &p.env.material {
         MaterialMap::Uniform(m) => vec![*m],
@@ -571,7 +571,8 @@ pub fn static_stiffness(mjcf: &Path, p: &PlantParams, q0: &[f64], pushes: [f64; 
         let mut fp = [(0.0, 0.0); 2];
         for (i, f) in pushes.iter().enumerate() {
             let mut plant = MujocoPlant::new(mjcf, &pp, q0, 0)?;
-            fp[i] = plant.push(*f, 2.0);
+            plant.push(15.0, 1.0); // onto the surface
+            fp[i] = plant.push(*f, 3.0);
         }
         let k_static = (fp[1].0 - fp[0].0) / (fp[1].1 - fp[0].1);
         out.push(StaticStiffness {
