@@ -42,7 +42,7 @@ pub const AUTHORS_SOLIMP: [f64; 5] = [0.1, 0.3, 0.001, 0.5, 2.0];
 /// The authors' table damping in `solref`'s direct form.
 pub const AUTHORS_DAMPING: f64 = 0.1;
 /// Half extent of a table box along its surface [m], and half thickness [m].
-const TABLE_HALF: f64 = 0.4;
+const TABLE_HALF: f64 = 1.0;
 const TABLE_HALF_THICK: f64 = 0.05;
 
 /// MuJoCo's `solref` (direct form) for a naic material.
