@@ -50,6 +50,7 @@ ln -sf "$mj_dir/libmujoco.so.$mj_ver" "$root/target/mujoco-lib/libmujoco.so.$mj_
 export MUJOCO_DYNAMIC_LINK_DIR=$root/target/mujoco-lib
 export LD_LIBRARY_PATH=$root/target/mujoco-lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 features=naic/mujoco,naic_sim/mujoco
+export NAIC_CARGO_FEATURES=$features
 
 stage "building (release, features $features)"
 cargo build --release --workspace --all-targets --features "$features"
