@@ -49,7 +49,7 @@ ln -sf "$mj_dir/libmujoco.so.$mj_ver" "$root/target/mujoco-lib/libmujoco.so"
 ln -sf "$mj_dir/libmujoco.so.$mj_ver" "$root/target/mujoco-lib/libmujoco.so.$mj_ver"
 export MUJOCO_DYNAMIC_LINK_DIR=$root/target/mujoco-lib
 export LD_LIBRARY_PATH=$root/target/mujoco-lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
-features=naic/mujoco,naic_sim/mujoco
+features=naic/mujoco,naic_sim/mujoco,jk5_sim_driver/mujoco
 export NAIC_CARGO_FEATURES=$features
 
 stage "building (release, features $features)"
