@@ -34,11 +34,29 @@ export NAIC_PYTHON=$venv/bin/python
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_LOCALHOST_ONLY=1
 
-stage "building (release)"
-cargo build --release --workspace --all-targets
+# MuJoCo as a plant (`--features mujoco`, docs/simulation.md): link the libmujoco of the
+# venv's `mujoco` wheel. mujoco-rs wants a folder with `libmujoco.so`; the wheel ships
+# only `libmujoco.so.<version>`, so the links go in a build folder (target/mujoco-lib),
+# not into the venv, and the library path is set for the test binaries and naic.
+mj_dir=$("$venv/bin/python" -c "import mujoco, os; print(os.path.dirname(mujoco.__file__))")
+mj_ver=$("$venv/bin/python" -c "import mujoco; print(mujoco.__version__)")
+if [ ! -f "$mj_dir/libmujoco.so.$mj_ver" ]; then
+    echo "run_all.sh: the mujoco wheel in $venv has no libmujoco.so.$mj_ver" >&2
+    exit 1
+fi
+mkdir -p "$root/target/mujoco-lib"
+ln -sf "$mj_dir/libmujoco.so.$mj_ver" "$root/target/mujoco-lib/libmujoco.so"
+ln -sf "$mj_dir/libmujoco.so.$mj_ver" "$root/target/mujoco-lib/libmujoco.so.$mj_ver"
+export MUJOCO_DYNAMIC_LINK_DIR=$root/target/mujoco-lib
+export LD_LIBRARY_PATH=$root/target/mujoco-lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+features=naic/mujoco,naic_sim/mujoco,jk5_sim_driver/mujoco
+export NAIC_CARGO_FEATURES=$features
+
+stage "building (release, features $features)"
+cargo build --release --workspace --all-targets --features "$features"
 
 stage "Rust tests"
-cargo test --release --workspace
+cargo test --release --workspace --features "$features"
 
 stage "Python cross-checks"
 # A test that hangs fails after its timeout (pytest-timeout, SIGALRM: the run goes on

@@ -31,7 +31,10 @@ def shared():
 @pytest.fixture(scope="session")
 def naic_bin():
     """Path of the release `naic` binary (built by tests/run_all.sh)."""
-    subprocess.run(["cargo", "build", "--release", "-q", "--workspace", "--bins"], cwd=ROOT, check=True)
+    # the features tests/run_all.sh built with (NAIC_CARGO_FEATURES), so this is no rebuild
+    features = os.environ.get("NAIC_CARGO_FEATURES")
+    extra = ["--features", features] if features else []
+    subprocess.run(["cargo", "build", "--release", "-q", "--workspace", "--bins", *extra], cwd=ROOT, check=True)
     target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
     return target / "release" / "naic"
 

@@ -15,6 +15,7 @@ use naic_sim::controllers::{LoopSettings, PipelineController, CONTROLLERS, MAX_D
 use naic_sim::environment::{Environment, Material, MaterialMap};
 use naic_sim::metrics::MetricsFile;
 use naic_sim::plant::{self, Integrator, PlantParams};
+use naic_sim::plants::{PlantChoice, DEFAULT_MJCF};
 use naic_sim::rng::Rng;
 use naic_sim::runner::{self, RunResult};
 use naic_sim::scenario::{self, Scenario, SCENARIOS};
@@ -103,6 +104,36 @@ pub struct SimArgs {
     /// the goals of issue 12 and the plots; medians of --seeds seeds [default: 5].
     #[arg(long)]
     pub table: bool,
+    /// The plant: own (naic's simulator) or mujoco (MuJoCo on --mjcf; needs a build with
+    /// `--features mujoco`, docs/simulation.md) [default: own].
+    #[arg(long)]
+    pub plant: Option<String>,
+    /// MuJoCo model of the arm, tool and sensor for --plant mujoco
+    /// [default: ../shared/reference/jk5/jk5_table.nomesh.mjcf.xml, the paper authors' JK5].
+    #[arg(long, value_name = "FILE")]
+    pub mjcf: Option<PathBuf>,
+    /// With --plant mujoco: measure and print the static stiffness MuJoCo's contact gives
+    /// on each scenario's materials, then exit.
+    #[arg(long)]
+    pub stiffness_report: bool,
+}
+
+/// The plant of `--plant`/`--mjcf`.
+pub fn plant_choice(plant: Option<&str>, mjcf: Option<PathBuf>) -> Result<PlantChoice, CliError> {
+    PlantChoice::parse(plant.unwrap_or("own"), mjcf, default_path(DEFAULT_MJCF)).map_err(|e| CliError::usage(format!("--plant: {e}")))
+}
+
+/// The joint friction of a run: MuJoCo's joints have none (nor does the controller's
+/// feedforward then); the own plant's is `--friction` unless `--no-friction`.
+pub fn friction_for(choice: &PlantChoice, file: Option<&Path>, no_friction: bool) -> Result<Option<FrictionModel>, CliError> {
+    match choice {
+        PlantChoice::Mujoco { .. } if file.is_some() => {
+            Err(CliError::usage("--friction: the MuJoCo plant's joints have no friction; drop --friction (the controller's feedforward is off on MuJoCo)"))
+        }
+        PlantChoice::Mujoco { .. } => Ok(None),
+        PlantChoice::Own if no_friction => Ok(None),
+        PlantChoice::Own => Ok(Some(load_friction(file)?)),
+    }
 }
 
 /// Default files, found from the current directory or the source tree.
@@ -151,6 +182,40 @@ pub fn scenario_plant(
     tool: (f64, Vector3<f64>),
 ) -> Result<PlantParams, CliError> {
     scenario::plant_for(s, model, friction, tool).map_err(|e| CliError::usage(e.to_string()))
+}
+
+/// `--stiffness-report`: MuJoCo's static stiffness on every scenario's materials.
+#[cfg(feature = "mujoco")]
+fn stiffness_report(choice: &PlantChoice, model: &Model, urdf: Option<&Path>) -> CliResult {
+    let PlantChoice::Mujoco { mjcf } = choice else {
+        return Err(CliError::usage("--stiffness-report measures MuJoCo's contact: add --plant mujoco"));
+    };
+    let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| default_path("urdf/jk5.urdf"));
+    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    println!("| scenario | naic k_e [N/m] | MuJoCo solref | force [N] | penetration [mm] | static stiffness [N/m] |");
+    println!("|---|---|---|---|---|---|");
+    for name in SCENARIOS {
+        let s = scenario::preset(name, model).map_err(CliError::usage)?;
+        let p = scenario_plant(&s, model.clone(), None, tool)?;
+        let rows = naic_sim::mujoco_plant::static_stiffness(mjcf, &p, &s.task.q0, [5.0, 15.0])
+            .map_err(|e| CliError::usage(format!("--plant: {e}")))?;
+        for r in rows {
+            println!(
+                "| {name} | {} | {} {} | {:.2} / {:.2} | {:.3} / {:.3} | {:.0} |",
+                r.k_e, r.solref[0], r.solref[1], r.forces_n[0], r.forces_n[1], r.penetration_mm[0], r.penetration_mm[1], r.k_static
+            );
+        }
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "mujoco"))]
+fn stiffness_report(choice: &PlantChoice, model: &Model, urdf: Option<&Path>) -> CliResult {
+    let _ = (model, urdf);
+    match choice {
+        PlantChoice::Own => Err(CliError::usage("--stiffness-report measures MuJoCo's contact: add --plant mujoco")),
+        PlantChoice::Mujoco { .. } => Err(CliError::usage(format!("--plant: {}", naic_sim::plant::PlantError::MujocoNotBuilt))),
+    }
 }
 
 fn replay(a: &SimArgs) -> CliResult {
@@ -221,6 +286,7 @@ fn fmt_opt(v: Option<f64>) -> String {
 #[allow(clippy::too_many_arguments)]
 pub fn run_scenario(
     s: &Scenario,
+    choice: &PlantChoice,
     plant: &PlantParams,
     model: &Model,
     friction_ff: Option<&FrictionModel>,
@@ -245,7 +311,8 @@ pub fn run_scenario(
                 let _ = std::io::stderr().flush();
             }
         };
-        let r = runner::run(s, plant, &mut c, &mut progress);
+        let mut p = choice.build(plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
+        let r = runner::run_on(s, &mut *p, &mut c, &mut progress);
         if show_progress {
             eprintln!();
         }
@@ -333,7 +400,8 @@ pub fn run(a: SimArgs) -> CliResult {
             return Err(CliError::usage(format!("--table runs every scenario, controller and delay with the default settings: drop {flag}")));
         }
         let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-table", utc_stamp())));
-        return super::sim_table::run(&out, a.seeds.unwrap_or(5), a.urdf.as_deref(), a.friction.as_deref(), a.no_friction);
+        let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
+        return super::sim_table::run(&out, a.seeds.unwrap_or(5), a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice);
     }
     let name = a.scenario.clone().unwrap_or_else(|| "flat".into());
     if !SCENARIOS.contains(&name.as_str()) {
@@ -349,7 +417,11 @@ pub fn run(a: SimArgs) -> CliResult {
         }
     };
     let model = load_model(a.urdf.as_deref())?;
-    let friction = if a.no_friction { None } else { Some(load_friction(a.friction.as_deref())?) };
+    let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
+    if a.stiffness_report {
+        return stiffness_report(&choice, &model, a.urdf.as_deref());
+    }
+    let friction = friction_for(&choice, a.friction.as_deref(), a.no_friction)?;
     let mut s = scenario::preset(&name, &model).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
     if let Some(seed) = a.seed {
         s.seed = seed;
@@ -423,7 +495,8 @@ pub fn run(a: SimArgs) -> CliResult {
         let dir = if a.seeds.is_some() { out.join(format!("seed-{}", s.seed)) } else { out.clone() };
         let plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
         eprintln!(
-            "naic sim: scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
+            "naic sim: {} plant, scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
+            choice.name(),
             s.task.name,
             s.seed,
             s.task.duration,
@@ -431,7 +504,7 @@ pub fn run(a: SimArgs) -> CliResult {
             plant.h() * 1e3,
             dir.display()
         );
-        let runs = run_scenario(&s, &plant, &model, friction.as_ref(), tool, &modes, &settings, show)?;
+        let runs = run_scenario(&s, &choice, &plant, &model, friction.as_ref(), tool, &modes, &settings, show)?;
         write_outputs(&dir, &s, &runs)?;
         for r in &runs {
             if r.limit_violation {

@@ -9,7 +9,8 @@
 //! `DIR/<scenario>-d<d>.svg` (seed 1, every controller overlaid) and `DIR/table.json`
 //! (every run's numbers). Runs on every core (`std::thread::scope`).
 
-use super::sim::{load_friction, load_model, scenario_plant};
+use super::sim::{load_model, scenario_plant};
+use naic_sim::plants::PlantChoice;
 use super::{CliError, CliResult};
 use naic_core::friction::FrictionModel;
 use naic_core::model::Model;
@@ -65,6 +66,7 @@ struct Done {
 }
 
 struct Ctx {
+    plant: PlantChoice,
     model: Model,
     friction: Option<FrictionModel>,
     tool: (f64, Vector3<f64>),
@@ -85,7 +87,8 @@ fn run_job(ctx: &Ctx, j: &Job) -> Result<RunResult, CliError> {
     let settings = LoopSettings { delay_cycles: j.delay, model_mass_error: j.mass_error, ..LoopSettings::default() };
     let mut c = PipelineController::by_name(j.controller, &s, &ctx.model, ctx.friction.clone(), ctx.tool, &settings)
         .map_err(CliError::usage)?;
-    Ok(runner::run(&s, &plant, &mut c, &mut |_| {}))
+    let mut p = ctx.plant.build(&plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
+    Ok(runner::run_on(&s, &mut *p, &mut c, &mut |_| {}))
 }
 
 /// Median of the values; `None` entries (never settled) count as +∞.
@@ -319,16 +322,16 @@ fn color(name: &str) -> &'static str {
 }
 
 /// `naic sim --table`.
-pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&Path>, no_friction: bool) -> CliResult {
+pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&Path>, no_friction: bool, plant: &PlantChoice) -> CliResult {
     if seeds == 0 {
         return Err(CliError::usage("--seeds 0: give at least 1"));
     }
     let t0 = std::time::Instant::now();
     let model = load_model(urdf)?;
-    let friction = if no_friction { None } else { Some(load_friction(friction_file)?) };
+    let friction = super::sim::friction_for(plant, friction_file, no_friction)?;
     let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| super::sim::default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
-    let ctx = Ctx { model, friction, tool };
+    let ctx = Ctx { plant: plant.clone(), model, friction, tool };
     let mut jobs = Vec::new();
     for seed in 1..=u64::from(seeds) {
         for sc in TABLE_SCENARIOS {
@@ -498,7 +501,7 @@ mod tests {
     #[test]
     fn the_table_meets_every_goal_of_issue_12() {
         let out = std::env::temp_dir().join(format!("naic-table-test-{}", std::process::id()));
-        let r = run(&out, 5, None, None, false);
+        let r = run(&out, 5, None, None, false, &PlantChoice::Own);
         let md = std::fs::read_to_string(out.join("table.md"));
         let _ = std::fs::remove_dir_all(&out);
         r.unwrap_or_else(|e| panic!("naic sim --table: {e}"));

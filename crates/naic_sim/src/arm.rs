@@ -50,6 +50,11 @@ impl SimArm {
         &self.obs
     }
 
+    /// The true state (positions, velocities, time).
+    pub fn true_state(&self) -> &PlantState {
+        &self.state
+    }
+
     pub fn params(&self) -> &PlantParams {
         &self.params
     }

@@ -10,6 +10,8 @@
 //!
 //! * [`plant`] — the robot: ABA dynamics of `urdf/jk5.urdf`, Table 1 friction,
 //!   effort saturation, contact at `tip`, encoders, the F/T sensor.
+//! * [`plants`] — the plant interface: the own plant or MuJoCo (feature `mujoco`)
+//!   behind one trait, built at one dispatch point.
 //! * [`environment`] — compliant, unilateral contact surfaces.
 //! * [`sensor`] — ATI mini45 (SI-145-5) and joint encoders.
 //! * [`scenario`] — the paper's presets and their references.
@@ -23,7 +25,10 @@ pub mod arm;
 pub mod controllers;
 pub mod environment;
 pub mod metrics;
+#[cfg(feature = "mujoco")]
+pub mod mujoco_plant;
 pub mod plant;
+pub mod plants;
 pub mod plots;
 pub mod rng;
 pub mod runner;

@@ -74,6 +74,18 @@ pub enum PlantError {
     /// The integrator `name` is not one of [`Integrator::parse`]'s.
     #[error("unknown integrator '{name}': use euler, implicit-friction or rk4")]
     Integrator { name: String },
+    /// The plant `name` is not one of [`crate::plants::PLANTS`].
+    #[error("unknown plant '{name}': use own or mujoco")]
+    UnknownPlant { name: String },
+    /// An MJCF file was given for the own plant.
+    #[error("--mjcf {mjcf}: the MJCF is MuJoCo's model; add --plant mujoco or drop --mjcf")]
+    MjcfWithoutMujoco { mjcf: String },
+    /// `--plant mujoco` in a build without the `mujoco` feature.
+    #[error("this naic was built without MuJoCo: build with `--features mujoco` (docs/simulation.md says how to link the libmujoco of the pinned `mujoco` wheel)")]
+    MujocoNotBuilt,
+    /// MuJoCo could not load or use the MJCF file `path` (`problem`: what and the fix).
+    #[error("MJCF {path}: {problem}")]
+    Mjcf { path: String, problem: String },
 }
 
 /// Immutable parameters of the simulated robot and its world.

@@ -4,6 +4,7 @@
 
 use crate::metrics::{controller_metrics, ControllerMetrics, PhaseSpec, PhaseStart};
 use crate::plant::{self, Observation, PlantParams, PlantState, PlantWorkspace, RawMeasurements};
+use crate::plants::Plant;
 use crate::scenario::{Reference, Scenario};
 use naic_core::pipeline::control::Phase;
 use naic_core::pipeline::controller::Status;
@@ -73,13 +74,16 @@ pub struct RunResult {
     pub saturated: bool,
 }
 
-fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &Reference, ps: &PlantState, p: &PlantParams) -> Record {
+fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &Reference, plant: &dyn Plant) -> Record {
     let tr = &obs.truth;
     let tip = tr.tip.translation.vector;
+    let (mut q, mut dq) = ([0.0; N_JOINTS], [0.0; N_JOINTS]);
+    q.copy_from_slice(plant.q());
+    dq.copy_from_slice(plant.dq());
     Record {
         t: k as f64 * s.task.dt,
-        q: ps.q,
-        dq: ps.dq,
+        q,
+        dq,
         tau: tr.tau_applied,
         tip: tip.into(),
         p_d: reference.p_d.into(),
@@ -87,7 +91,7 @@ fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &R
         f_ext: -s.task.force_axis.dot(&tr.contact.force),
         f_ext_est: rep.f_ext,
         f_d: reference.f_d,
-        surface_z: p.env.height_at(tip.x, tip.y),
+        surface_z: s.env.height_at(tip.x, tip.y),
         penetration: tr.contact.penetration,
         in_contact: tr.contact.in_contact,
         k_e: tr.contact.k_e,
@@ -110,25 +114,30 @@ fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &R
 /// `scenario.task.q0`. `progress(fraction)` is called about 100 times.
 /// The loop itself does not allocate (the record buffer is reserved up front).
 pub fn run(s: &Scenario, p: &PlantParams, controller: &mut dyn Controller, progress: &mut dyn FnMut(f64)) -> RunResult {
+    let mut plant = crate::arm::SimArm::new(p.clone(), s.task.q0, s.seed);
+    run_on(s, &mut plant, controller, progress)
+}
+
+/// [`run`] on any plant (built by [`crate::plants::PlantChoice::build`] at rest at
+/// `scenario.task.q0`, seeded with `scenario.seed`).
+pub fn run_on(s: &Scenario, plant: &mut dyn Plant, controller: &mut dyn Controller, progress: &mut dyn FnMut(f64)) -> RunResult {
     let n = s.steps();
-    let mut ws = PlantWorkspace::new(p);
-    let state0 = PlantState::at_rest(s.task.q0, s.seed);
-    let (mut state, mut obs) = plant::observe(p, &state0, &mut ws, [0.0; N_JOINTS], false);
     let mut records = Vec::with_capacity(n + 1);
     let mut limit_violation = false;
     let mut saturated = false;
     let every = (n / 100).max(1);
     for k in 0..=n {
         let reference = s.reference(k as f64 * s.task.dt);
+        let obs = *plant.observation();
         controller.set_true_stiffness(obs.truth.contact.k_e);
         let (tau, rep) = controller.step(&obs.meas, &reference);
-        records.push(record(s, k, &obs, &rep, &reference, &state, p));
+        records.push(record(s, k, &obs, &rep, &reference, &*plant));
         limit_violation |= obs.truth.limit_violation;
         saturated |= obs.truth.saturated;
         if k == n {
             break;
         }
-        (state, obs) = plant::step(p, &state, &tau, &mut ws);
+        plant.step(&tau);
         if k % every == 0 {
             progress(k as f64 / n as f64);
         }

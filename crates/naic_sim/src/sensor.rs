@@ -104,7 +104,13 @@ impl Mini45 {
         f_contact: &Vector3<f64>,
         rng: &mut Rng,
     ) -> [f64; 6] {
-        let w = self.true_wrench(r_ws, r_tip, f_contact);
+        self.read(&self.true_wrench(r_ws, r_tip, f_contact), rng)
+    }
+
+    /// What the sensor reports for the true wrench `w` (sensor frame): `w` + bias +
+    /// noise, saturated and quantised. The MuJoCo plant passes its physical sensor's
+    /// wrench through this.
+    pub fn read(&self, w: &[f64; 6], rng: &mut Rng) -> [f64; 6] {
         let mut out = [0.0; 6];
         for i in 0..6 {
             let mut v = w[i] + self.bias[i];

@@ -62,7 +62,8 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
             SensorFault::NAMES,
             "Test hook, settable while running: corrupt the published measurements as a failing sensor would (nan_wrench, absurd_wrench: 5 kN on z, stale_wrench: /wrench frozen at its last value and stamp, nan_joint); none: the true measurements",
         ),
-        ParamSpec::string("plant", PLANT_NAME, "Simulator behind the driver (informational)").read_only(),
+        ParamSpec::string("plant", PLANT_NAME, "Simulator behind the driver: naic_sim (naic's own plant) or mujoco (MuJoCo on mjcf; a build with --features mujoco)").read_only(),
+        ParamSpec::string("mjcf", naic_sim::plants::DEFAULT_MJCF, "MuJoCo model for plant:=mujoco (default: the paper authors' JK5)").read_only(),
         ParamSpec::double("latency_warmup", 2.0, 0.0, 3600.0, "Chain-latency statistics ignore the first seconds after start").read_only(),
         ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),
     ]

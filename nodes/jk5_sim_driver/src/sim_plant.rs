@@ -6,7 +6,7 @@ use naic_core::{
     pipeline::hold,
     JointVec, N_JOINTS,
 };
-use naic_sim::{arm::SimArm, scenario, sensor::tool_from_urdf};
+use naic_sim::{plants::PlantChoice, scenario, sensor::tool_from_urdf};
 use naic_ros::params::ParamError;
 
 use crate::plant::Plant;
@@ -26,6 +26,13 @@ pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
     let model = Model::from_urdf_file(urdf).map_err(|e| bad_urdf(format!("robot model '{urdf}': {e}")))?;
     let mut scen = scenario::preset(name, &model).map_err(|e| bad_urdf(format!("scenario '{name}' on robot model '{urdf}': {e}")))?;
     scen.task.dt = 1.0 / p.f64("rate");
+    let choice = match p.str("plant") {
+        "naic_sim" | "own" => PlantChoice::Own,
+        "mujoco" => PlantChoice::Mujoco { mjcf: p.str("mjcf").into() },
+        other => {
+            return Err(ParamError::file("plant", other, format!("unknown plant '{other}'"), "set -p plant:=naic_sim or -p plant:=mujoco"));
+        }
+    };
     let friction = FrictionParams::from_yaml_file(friction_file)
         .and_then(|f| f.to_model())
         .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: p.f64("friction_smoothing") }))
@@ -34,16 +41,24 @@ pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
         return Err(bad_friction(format!("friction_file '{friction_file}' has {} joints; the JK5 needs {N_JOINTS}", friction.n_joints())));
     }
     let tool = tool_from_urdf(std::path::Path::new(urdf)).map_err(|e| bad_urdf(e.to_string()))?;
-    let params = scenario::plant_for(&scen, model, Some(friction), tool)
+    // MuJoCo's joints have no friction (the MJCF has none).
+    let friction = if choice == PlantChoice::Own { Some(friction) } else { None };
+    let params = scenario::plant_for(&scen, model, friction, tool)
         .map_err(|e| bad_urdf(format!("robot model '{urdf}' in scenario '{name}': {e}")))?;
     let data = Data6::try_new(&params.model).map_err(|e| bad_urdf(format!("robot model '{urdf}': {e}")))?;
     let dt = scen.task.dt;
-    Ok(SimPlant { arm: SimArm::new(params, scen.task.q0, scen.seed), data, dt })
+    let arm = choice
+        .build(&params, &scen.task.q0, scen.seed)
+        .map_err(|e| ParamError::file("plant", p.str("plant"), e.to_string(), "set -p plant:=naic_sim, or -p mjcf:=FILE with a MuJoCo build"))?;
+    Ok(SimPlant { arm, model: params.model, data, dt })
 }
 
 /// The simulated arm plus the workspace of the driver's hold.
 pub struct SimPlant {
-    arm: SimArm,
+    /// The plant of the `plant` parameter (`naic_sim::plants`).
+    arm: Box<dyn naic_sim::plants::Plant + Send>,
+    /// The URDF model the hold law uses.
+    model: Model,
     data: Data6,
     /// Control period [s] (1/rate): the hold's damping is capped for stability at it.
     dt: f64,
@@ -56,17 +71,19 @@ impl Plant for SimPlant {
     /// The core's hold law (`naic_core::pipeline::hold`) at the measured joint state, as a
     /// real driver would compute it from its encoders.
     fn hold_torque(&mut self, damping: f64) -> JointVec {
-        let (q, dq, _) = self.arm.joints();
-        hold::torque(&self.arm.params().model, &mut self.data, &q, &dq, &[damping; N_JOINTS], self.dt)
+        let (q, dq, _) = self.joints();
+        hold::torque(&self.model, &mut self.data, &q, &dq, &[damping; N_JOINTS], self.dt)
     }
+    /// Measured positions and velocities, and the applied torques.
     fn joints(&self) -> (JointVec, JointVec, JointVec) {
-        self.arm.joints()
+        let o = self.arm.observation();
+        (o.meas.q, o.meas.dq, o.truth.tau_applied)
     }
     fn wrench(&self) -> [f64; 6] {
-        self.arm.wrench()
+        self.arm.observation().meas.wrench
     }
     fn time(&self) -> f64 {
-        self.arm.time()
+        self.arm.observation().meas.t
     }
 }
 
@@ -109,7 +126,7 @@ mod tests {
         assert!(dq.iter().any(|v| v.abs() > 1e-2), "the arm did not move: the damping would be untested ({dq:?})");
         let driver = plant.hold_torque(5.0);
 
-        let model = plant.arm.params().model.clone();
+        let model = plant.model.clone();
         let mut cp = ControllerParams::paper_defaults(&model, Mode::Naic, DEFAULT_GAMMA);
         cp.hold_damping = [5.0; 6];
         assert_eq!(cp.control.force_law.lambda, plant.dt, "same control period");

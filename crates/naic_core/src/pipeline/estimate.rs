@@ -20,6 +20,16 @@
 //! wrench the robot applies to the environment at the tip, in the base frame
 //! (eq 3's `F_ext`). Tool inertial forces are neglected: at the speeds of
 //! force tracking (< 0.1 m/s, < 1 rad/s) they are below 0.05 N.
+//!
+//! The tool is a rod along the sensor z axis touching at its tip, on that axis:
+//! no contact force at the tip has a moment about the tool axis. So the moment
+//! the sensor reads about its z axis is never contact: it is the tool's inertial
+//! moment (`I α + ω × I ω` when joint 6 turns the tool) and the sensor's errors.
+//! Fed back through `Jᵀ F_e` and eq 6's rotational rows it would drive the joint
+//! that turns the tool with the tool's own inertia (on MuJoCo's physical sensor
+//! `τ₆ ≈ −2·t_z`, a loop gain near 1 that oscillates); so `F_e` carries no moment
+//! about the tool axis (the component along the sensor z axis is removed before
+//! the moment is expressed in the base frame).
 
 use nalgebra::{Matrix3, Vector3, Vector6};
 
@@ -175,12 +185,14 @@ pub fn tare_step(tool: &ToolParams, samples: u32, s: &TareState, raw: &[f64; 6],
 }
 
 /// `F_e`: the wrench the robot applies to the environment at the tip, in the
-/// base frame (force [N], moment about the tip [N·m]).
+/// base frame (force [N], moment about the tip [N·m] without its component about
+/// the tool axis — see the module docs).
 pub fn contact_wrench(tool: &ToolParams, bias: &[f64; 6], raw: &[f64; 6], r_ws: &Matrix3<f64>) -> Vector6<f64> {
     let weight = tool_weight_wrench(tool, r_ws);
     let f_c_s = Vector3::new(raw[0] - bias[0] - weight[0], raw[1] - bias[1] - weight[1], raw[2] - bias[2] - weight[2]);
-    let m_c_s = Vector3::new(raw[3] - bias[3] - weight[3], raw[4] - bias[4] - weight[4], raw[5] - bias[5] - weight[5]);
-    // Moment of the contact wrench about the tip instead of the sensor origin.
+    let m_c_s = Vector3::new(raw[3] - bias[3] - weight[3], raw[4] - bias[4] - weight[4], 0.0);
+    // Moment of the contact wrench about the tip instead of the sensor origin
+    // (the tip is on the sensor z axis: r × f has no z component).
     let m_tip_s = m_c_s - tool.tip.cross(&f_c_s);
     let f = -(r_ws * f_c_s);
     let m = -(r_ws * m_tip_s);
@@ -239,6 +251,27 @@ mod tests {
             assert!((fe[i] + f_c[i]).abs() < 1e-12, "F_e = −F_c");
             assert!(fe[3 + i].abs() < 1e-12, "a pure force at the tip has no moment about the tip");
         }
+    }
+
+    #[test]
+    fn a_torque_about_the_tool_axis_never_reaches_the_contact_wrench() {
+        // The tool's inertial moment about its axis (joint 6 accelerating): measured by
+        // the sensor, never a contact moment, so F_e carries none of it.
+        let t = tool();
+        let r = *Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI).matrix();
+        let mut raw = reading(&t, &r, Vector3::new(0.0, 0.0, 10.0), [0.0; 6]);
+        let clean = contact_wrench(&t, &[0.0; 6], &raw, &r);
+        raw[5] += 0.5;
+        let fe = contact_wrench(&t, &[0.0; 6], &raw, &r);
+        assert!((fe[2] + 10.0).abs() < 1e-12, "{fe:?}");
+        assert_eq!(fe, clean, "a torque about the tool axis must not change F_e");
+        // the tool axis is base −z here: F_e's moment about it is zero
+        assert!(fe[5].abs() < 1e-15, "{fe:?}");
+        // a moment about a sensor axis across the tool still passes (not a contact moment
+        // of a point tip either, but the controller's rotational impedance uses it)
+        raw[3] += 0.3;
+        let across = contact_wrench(&t, &[0.0; 6], &raw, &r);
+        assert!(((across - clean).fixed_rows::<3>(3).norm() - 0.3).abs() < 1e-12, "{across:?}");
     }
 
     #[test]

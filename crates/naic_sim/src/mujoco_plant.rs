@@ -1,0 +1,600 @@
+//! MuJoCo as the plant (cargo feature `mujoco`): the MJCF (default: the paper
+//! authors' JK5, `../shared/reference/jk5/jk5_table.nomesh.mjcf.xml`) stepped in
+//! process through `mujoco-rs`, behind [`crate::plants::Plant`].
+//!
+//! What the plant does to the file, in memory only (the file is never written):
+//! * comments are dropped, and a force and a torque sensor are added at the site
+//!   `nft_sensor` (the authors' F/T sensor, commented out in their file);
+//! * the body `table` (if any) is replaced by box geoms that model the scenario's
+//!   surface: top face on naic's surface moved down by the radius of the tip's sphere
+//!   geom (naic's contact is at the tip origin, MuJoCo's at the sphere's surface, so
+//!   both touch at the same tip position), `condim="1"` (frictionless, as every naic
+//!   material), `solref="-k_e -b"` (the direct form: the scenario's k_e as MuJoCo's
+//!   stiffness, `b = max(b_e, 0.1)`, the authors' own mapping of the paper's 2000 N/m in
+//!   their file) and the authors' `solimp="0.1 0.3 0.001 0.5 2"`. MuJoCo's contact is
+//!   a soft constraint, not a spring: the static stiffness this gives is not k_e and is
+//!   measured by [`static_stiffness`] (`naic sim --plant mujoco --stiffness-report`);
+//! * the time step is the control period over the own plant's sub-step count.
+//!
+//! Torque enters through `qfrc_applied` (saturated at the URDF effort limits like the
+//! own plant; the MJCF motors' ±100 N·m ctrlrange is not used), held over the period.
+//! The joints have no friction (the MJCF has none). After each period `mj_forward`
+//! evaluates the sensors at the new state under the held torque, so the F/T reading
+//! includes the tool's weight and inertial wrench as a real sensor does. The naic
+//! convention (the wrench the tool exerts on the sensor) is the negative of MuJoCo's
+//! force/torque sensor (the wrench the parent exerts on the child subtree); the
+//! reading then goes through the mini45 model's bias, noise, range and resolution
+//! ([`crate::sensor::Mini45::read`]).
+
+use crate::environment::{Contact, Environment, Material, MaterialMap};
+use crate::plant::{Observation, PlantError, PlantParams, RawMeasurements, Truth};
+use crate::rng::Rng;
+use crate::sensor::{Encoders, Mini45};
+use mujoco_rs::mujoco_c as ffi;
+use mujoco_rs::prelude::{MjData, MjModel};
+use naic_core::{JointVec, N_JOINTS};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use std::ffi::CString;
+use std::path::Path;
+
+/// The authors' table `solimp` (their `jk5_table.xml`).
+pub const AUTHORS_SOLIMP: [f64; 5] = [0.1, 0.3, 0.001, 0.5, 2.0];
+/// The authors' table damping in `solref`'s direct form.
+pub const AUTHORS_DAMPING: f64 = 0.1;
+/// Half extent of a table box along its surface [m], and half thickness [m].
+const TABLE_HALF: f64 = 1.0;
+const TABLE_HALF_THICK: f64 = 0.05;
+
+/// MuJoCo's `solref` (direct form) for a naic material.
+pub fn solref_for(m: &Material) -> [f64; 2] {
+    [-m.k_e, -m.b_e.max(AUTHORS_DAMPING)]
+}
+
+struct TableGeom {
+    id: usize,
+    /// A point on the surface over the geom (material lookup).
+    surface_point: Vector3<f64>,
+    solref: [f64; 2],
+}
+
+/// MuJoCo stepping an MJCF, as a [`crate::plants::Plant`].
+pub struct MujocoPlant {
+    data: MjData<Box<MjModel>>,
+    dt: f64,
+    substeps: u32,
+    effort: JointVec,
+    lower: JointVec,
+    upper: JointVec,
+    env: Environment,
+    ft: Mini45,
+    encoders: Encoders,
+    rng: Rng,
+    k: u64,
+    q: JointVec,
+    dq: JointVec,
+    obs: Observation,
+    force_adr: usize,
+    torque_adr: usize,
+    site_ee: i32,
+    table: Vec<TableGeom>,
+    qadr: [usize; N_JOINTS],
+    vadr: [usize; N_JOINTS],
+}
+
+fn mjcf_err(path: &Path, problem: impl Into<String>) -> PlantError {
+    PlantError::Mjcf { path: path.display().to_string(), problem: problem.into() }
+}
+
+/// `xml` without `<!-- -->` comments.
+fn strip_comments(xml: &str) -> String {
+    let mut out = String::with_capacity(xml.len());
+    let mut rest = xml;
+    while let Some(i) = rest.find("<!--") {
+        out.push_str(&rest[..i]);
+        match rest[i..].find("-->") {
+            Some(j) => rest = &rest[i + j + 3..],
+            None => return out,
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+/// `xml` without the element `<body name="table" ...>...</body>` (nesting counted).
+fn without_body(xml: &str, name: &str) -> String {
+    let open = format!("<body name=\"{name}\"");
+    let Some(start) = xml.find(&open) else { return xml.to_string() };
+    let mut depth = 0i32;
+    let mut i = start;
+    while i < xml.len() {
+        let r = &xml[i..];
+        if r.starts_with("<body") {
+            let end = r.find('>').map_or(r.len(), |e| e + 1);
+            if !r[..end].ends_with("/>") {
+                depth += 1;
+            } else if depth == 0 {
+                return format!("{}{}", &xml[..start], &xml[i + end..]);
+            }
+            i += end;
+        } else if r.starts_with("</body>") {
+            depth -= 1;
+            i += 7;
+            if depth == 0 {
+                return format!("{}{}", &xml[..start], &xml[i..]);
+            }
+        } else {
+            i += r.chars().next().map_or(1, char::len_utf8);
+        }
+    }
+    xml.to_string()
+}
+
+const SENSORS: &str = "<force name=\"naic_ft_force\" site=\"nft_sensor\"/><torque name=\"naic_ft_torque\" site=\"nft_sensor\"/>";
+
+fn with_sensors(xml: &str) -> String {
+    if let Some(i) = xml.rfind("</sensor>") {
+        format!("{}{SENSORS}{}", &xml[..i], &xml[i..])
+    } else if let Some(i) = xml.rfind("</mujoco>") {
+        format!("{}<sensor>{SENSORS}</sensor>{}", &xml[..i], &xml[i..])
+    } else {
+        xml.to_string()
+    }
+}
+
+fn load(path: &Path, xml: &str) -> Result<MjModel, PlantError> {
+    MjModel::from_xml_string(xml).map_err(|e| mjcf_err(path, format!("MuJoCo cannot load it: {e}")))
+}
+
+fn id(m: &MjModel, obj: ffi::mjtObj, name: &str) -> Option<i32> {
+    let c = CString::new(name).ok()?;
+    let i = unsafe { ffi::mj_name2id(m.ffi(), obj as i32, c.as_ptr()) };
+    (i >= 0).then_some(i)
+}
+
+/// One box geom of the table: center, orientation, material.
+struct Region {
+    center: Vector3<f64>,
+    surface_point: Vector3<f64>,
+    rot: UnitQuaternion<f64>,
+    half: [f64; 3],
+    material: Material,
+}
+
+fn regions(env: &Environment, at: Vector3<f64>, r_tip: f64) -> Vec<Region> {
+    if !env.enabled {
+        return Vec::new();
+    }
+    let n = env.normal.into_inner();
+    let rot = UnitQuaternion::rotation_between(&Vector3::z(), &n).unwrap_or_else(UnitQuaternion::identity);
+    let make = |x: f64, y: f64, half_x: f64, material: Material| {
+        let surface_point = Vector3::new(x, y, env.height_at(x, y));
+        Region {
+            center: surface_point - n * (r_tip + TABLE_HALF_THICK),
+            surface_point,
+            rot,
+            half: [half_x, TABLE_HALF, TABLE_HALF_THICK],
+            material,
+        }
+    };
+    match &env.material {
+        MaterialMap::Uniform(m) => vec![make(at.x, at.y, TABLE_HALF, *m)],
+        MaterialMap::StiffnessSchedule { base, .. } => vec![make(at.x, at.y, TABLE_HALF, *base)],
+        MaterialMap::SplitX { x_boundary, high_x, low_x } => vec![
+            make(x_boundary + TABLE_HALF / 2.0, at.y, TABLE_HALF / 2.0, *high_x),
+            make(x_boundary - TABLE_HALF, at.y, TABLE_HALF, *low_x),
+        ],
+    }
+}
+
+fn table_xml(regions: &[Region]) -> String {
+    let mut s = String::new();
+    for (i, r) in regions.iter().enumerate() {
+        let q = r.rot.quaternion();
+        let sr = solref_for(&r.material);
+        let si = AUTHORS_SOLIMP;
+        s.push_str(&format!(
+            "<geom name=\"naic_table_{i}\" type=\"box\" size=\"{} {} {}\" pos=\"{} {} {}\" quat=\"{} {} {} {}\" condim=\"1\" solref=\"{} {}\" solimp=\"{} {} {} {} {}\"/>",
+            r.half[0], r.half[1], r.half[2], r.center.x, r.center.y, r.center.z, q.w, q.i, q.j, q.k, sr[0], sr[1], si[0], si[1], si[2], si[3], si[4]
+        ));
+    }
+    s
+}
+
+impl MujocoPlant {
+    /// MuJoCo on `mjcf` in the world of `p` (its environment, sensor and encoder
+    /// models, control period, sub-steps and effort limits), at rest at `q0`.
+    pub fn new(mjcf: &Path, p: &PlantParams, q0: &[f64], seed: u64) -> Result<Self, PlantError> {
+        let text = std::fs::read_to_string(mjcf).map_err(|e| {
+            mjcf_err(mjcf, format!("cannot read it ({e}); give the MuJoCo model with --mjcf FILE (default: the authors' JK5 in ../shared/reference/jk5/)"))
+        })?;
+        if q0.len() != N_JOINTS {
+            return Err(PlantError::Config(format!("q0 has {} joints; the arm has {N_JOINTS}", q0.len())));
+        }
+        let base = with_sensors(&without_body(&strip_comments(&text), "table"));
+        // first load: the tip sphere radius and checks
+        let m0 = load(mjcf, &base)?;
+        let need = |obj, name: &str, what: &str| {
+            id(&m0, obj, name).ok_or_else(|| mjcf_err(mjcf, format!("no {what} '{name}' (the plant needs it: add it to the model)")))
+        };
+        let site_ee = need(ffi::mjtObj::mjOBJ_SITE, "ee", "site")?;
+        need(ffi::mjtObj::mjOBJ_SITE, "nft_sensor", "site")?;
+        let tip_body = need(ffi::mjtObj::mjOBJ_BODY, "tip", "body")?;
+        let mf = m0.ffi();
+        if mf.nv as usize != N_JOINTS || mf.nq as usize != N_JOINTS {
+            return Err(mjcf_err(mjcf, format!("the model has nq = {}, nv = {}; the plant needs a {N_JOINTS}-joint arm of hinges", mf.nq, mf.nv)));
+        }
+        let r_tip = (0..mf.ngeom as usize)
+            .find(|&g| unsafe { *mf.geom_bodyid.add(g) } == tip_body)
+            .map(|g| unsafe { *mf.geom_size.add(3 * g) })
+            .unwrap_or(0.0);
+        // the tip's start position in naic's model (same kinematics; checked below)
+        let mut q0a = [0.0; N_JOINTS];
+        q0a.copy_from_slice(q0);
+        let (tip0, _) = naic_core::task::tip_pose(&p.model, &q0a);
+        let regs = regions(&p.env, tip0, r_tip);
+        let xml = match base.rfind("</worldbody>") {
+            Some(i) => format!("{}{}{}", &base[..i], table_xml(&regs), &base[i..]),
+            None => return Err(mjcf_err(mjcf, "no </worldbody>")),
+        };
+        let model = load(mjcf, &xml)?;
+        let force_sensor = id(&model, ffi::mjtObj::mjOBJ_SENSOR, "naic_ft_force").ok_or_else(|| mjcf_err(mjcf, "no <sensor> block could be added"))?;
+        let torque_sensor = id(&model, ffi::mjtObj::mjOBJ_SENSOR, "naic_ft_torque").ok_or_else(|| mjcf_err(mjcf, "no <sensor> block could be added"))?;
+        let mut table = Vec::with_capacity(regs.len());
+        for (i, r) in regs.iter().enumerate() {
+            let g = id(&model, ffi::mjtObj::mjOBJ_GEOM, &format!("naic_table_{i}")).ok_or_else(|| mjcf_err(mjcf, "table geom lost"))?;
+            table.push(TableGeom { id: g as usize, surface_point: r.surface_point, solref: solref_for(&r.material) });
+        }
+        let mf = model.ffi();
+        let (force_adr, torque_adr) =
+            unsafe { (*mf.sensor_adr.add(force_sensor as usize) as usize, *mf.sensor_adr.add(torque_sensor as usize) as usize) };
+        let mut qadr = [0; N_JOINTS];
+        let mut vadr = [0; N_JOINTS];
+        for j in 0..N_JOINTS {
+            unsafe {
+                if *mf.jnt_type.add(j) != ffi::mjtJoint::mjJNT_HINGE as i32 {
+                    return Err(mjcf_err(mjcf, format!("joint {j} is not a hinge")));
+                }
+                qadr[j] = *mf.jnt_qposadr.add(j) as usize;
+                vadr[j] = *mf.jnt_dofadr.add(j) as usize;
+            }
+        }
+        let mut lower = [0.0; N_JOINTS];
+        let mut upper = [0.0; N_JOINTS];
+        for (i, j) in p.model.joints().iter().enumerate().take(N_JOINTS) {
+            lower[i] = j.limits.lower;
+            upper[i] = j.limits.upper;
+        }
+        let mut model = Box::new(model);
+        unsafe {
+            model.ffi_mut().opt.timestep = p.dt / p.substeps as f64;
+        }
+        let data = MjData::new(model);
+        let mut plant = Self {
+            data,
+            dt: p.dt,
+            substeps: p.substeps,
+            effort: p.effort_limit,
+            lower,
+            upper,
+            env: p.env.clone(),
+            ft: p.ft.clone(),
+            encoders: p.encoders,
+            rng: Rng::seed(seed),
+            k: 0,
+            q: q0a,
+            dq: [0.0; N_JOINTS],
+            obs: Observation {
+                meas: RawMeasurements { t: 0.0, q: q0a, dq: [0.0; N_JOINTS], joints_stamp: 0.0, wrench: [0.0; 6], wrench_stamp: 0.0 },
+                truth: Truth {
+                    tip: Isometry3::identity(),
+                    tip_velocity: Vector3::zeros(),
+                    contact: Contact::default(),
+                    tau_applied: [0.0; N_JOINTS],
+                    tau_friction: [0.0; N_JOINTS],
+                    saturated: false,
+                    limit_violation: false,
+                    wrench_true: [0.0; 6],
+                },
+            },
+            force_adr,
+            torque_adr,
+            site_ee,
+            table,
+            qadr,
+            vadr,
+        };
+        {
+            let qp = plant.data.qpos_mut();
+            for j in 0..N_JOINTS {
+                qp[qadr[j]] = q0a[j];
+            }
+        }
+        plant.data.qvel_mut().fill(0.0);
+        plant.data.qfrc_applied_mut().fill(0.0);
+        plant.data.forward();
+        // At rest means held at rest (as the own plant's static sensor model assumes):
+        // the first reading is taken under the torque that holds the arm, q̈ = 0.
+        let mut hold = [0.0; N_JOINTS];
+        for j in 0..N_JOINTS {
+            hold[j] = plant.data.qfrc_bias()[vadr[j]];
+        }
+        {
+            let f = plant.data.qfrc_applied_mut();
+            for j in 0..N_JOINTS {
+                f[vadr[j]] = hold[j];
+            }
+        }
+        plant.data.forward();
+        // same kinematics as naic's model: the tips agree at q0
+        let p_mj = plant.site_pos();
+        if (p_mj - tip0).norm() > 1e-6 {
+            return Err(mjcf_err(
+                mjcf,
+                format!("its site 'ee' at q0 is at {p_mj:?}, naic's URDF tip at {tip0:?}: the MJCF and --urdf must describe the same arm"),
+            ));
+        }
+        plant.observe(hold, false);
+        Ok(plant)
+    }
+
+    fn site_pos(&self) -> Vector3<f64> {
+        let x = self.data.site_xpos()[self.site_ee as usize];
+        Vector3::new(x[0], x[1], x[2])
+    }
+
+    fn site_rot(&self) -> Matrix3<f64> {
+        let m = self.data.site_xmat()[self.site_ee as usize];
+        Matrix3::new(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8])
+    }
+
+    /// Apply the material in effect at time `t` to each table geom (stiffness schedule).
+    fn update_materials(&mut self, t: f64) {
+        for g in &mut self.table {
+            let sr = solref_for(&self.env.material.at(t, &g.surface_point));
+            if sr != g.solref {
+                g.solref = sr;
+                unsafe {
+                    let m = self.data.model_mut().ffi_mut();
+                    *m.geom_solref.add(2 * g.id) = sr[0];
+                    *m.geom_solref.add(2 * g.id + 1) = sr[1];
+                }
+            }
+        }
+    }
+
+    /// Contact of the table on the robot: total force at the tip, deepest penetration.
+    fn contact(&self, t: f64, tip: &Vector3<f64>) -> Contact {
+        let n_env = self.env.normal.into_inner();
+        let mut force = Vector3::zeros();
+        let mut pen = f64::NEG_INFINITY;
+        let mut any = false;
+        let d = self.data.ffi();
+        let m = self.data.model().ffi();
+        for c in 0..d.ncon as usize {
+            let con = unsafe { &*d.contact.add(c) };
+            let t1 = self.table.iter().any(|g| g.id as i32 == con.geom1);
+            let t2 = self.table.iter().any(|g| g.id as i32 == con.geom2);
+            if t1 == t2 {
+                continue;
+            }
+            let mut f = [0.0; 6];
+            unsafe { ffi::mj_contactForce(m, d, c as i32, &mut f) };
+            let nrm = Vector3::new(con.frame[0], con.frame[1], con.frame[2]);
+            // the normal points from geom1 to geom2; f[0] ≥ 0 pushes them apart
+            let on_robot = if t1 { nrm * f[0] } else { -nrm * f[0] };
+            force += on_robot;
+            pen = pen.max(-con.dist);
+            any = true;
+        }
+        let k_e = self.env.material.at(t, tip).k_e;
+        if !any {
+            let pen = n_env.dot(&(self.env.point - tip));
+            return Contact { penetration: pen, k_e, ..Default::default() };
+        }
+        Contact { penetration: pen, normal_force: n_env.dot(&force).max(0.0), force, k_e, in_contact: true }
+    }
+
+    fn observe(&mut self, tau_applied: JointVec, saturated: bool) {
+        let t = self.k as f64 * self.dt;
+        {
+            let qp = self.data.qpos();
+            let qv = self.data.qvel();
+            for j in 0..N_JOINTS {
+                self.q[j] = qp[self.qadr[j]];
+                self.dq[j] = qv[self.vadr[j]];
+            }
+        }
+        let sd = self.data.sensordata();
+        let (fa, ta) = (self.force_adr, self.torque_adr);
+        let w_true = [-sd[fa], -sd[fa + 1], -sd[fa + 2], -sd[ta], -sd[ta + 1], -sd[ta + 2]];
+        let wrench = self.ft.read(&w_true, &mut self.rng);
+        let (qm, dqm) = self.encoders.measure(&self.q, &self.dq, &mut self.rng);
+        let pos = self.site_pos();
+        let rot = Rotation3::from_matrix_unchecked(self.site_rot());
+        let mut v6 = [0.0; 6];
+        unsafe {
+            ffi::mj_objectVelocity(self.data.model().ffi(), self.data.ffi(), ffi::mjtObj::mjOBJ_SITE as i32, self.site_ee, &mut v6, 0);
+        }
+        let contact = self.contact(t, &pos);
+        let mut limit_violation = false;
+        for j in 0..N_JOINTS {
+            limit_violation |= self.q[j] < self.lower[j] || self.q[j] > self.upper[j];
+        }
+        self.obs = Observation {
+            meas: RawMeasurements { t, q: qm, dq: dqm, joints_stamp: t, wrench, wrench_stamp: t },
+            truth: Truth {
+                tip: Isometry3::from_parts(Translation3::from(pos), UnitQuaternion::from_rotation_matrix(&rot)),
+                tip_velocity: Vector3::new(v6[3], v6[4], v6[5]),
+                contact,
+                tau_applied,
+                tau_friction: [0.0; N_JOINTS],
+                saturated,
+                limit_violation,
+                wrench_true: w_true,
+            },
+        };
+    }
+
+    /// Hold the tip on the surface with a constant push `f_n` [N] along −n (a
+    /// Cartesian force law on MuJoCo's own Jacobian and bias forces, tangential
+    /// position and orientation held by springs), for `seconds`; returns the mean
+    /// contact normal force [N] and penetration [m] over the last 0.2 s.
+    fn push(&mut self, f_n: f64, seconds: f64) -> (f64, f64) {
+        let nv = N_JOINTS;
+        let n = self.env.normal.into_inner();
+        let p0 = self.site_pos();
+        let r0 = self.site_rot();
+        let (k_t, d_t, d_n, k_r, d_r, d_q) = (3000.0, 150.0, 30.0, 60.0, 3.0, 0.3);
+        let steps = (seconds / self.dt).round() as usize;
+        let tail = (0.2 / self.dt).round() as usize;
+        let (mut f_sum, mut p_sum) = (0.0, 0.0);
+        let mut jp = vec![0.0; 3 * nv];
+        let mut jr = vec![0.0; 3 * nv];
+        for k in 0..steps {
+            unsafe {
+                ffi::mj_jacSite(self.data.model().ffi(), self.data.ffi(), jp.as_mut_ptr(), jr.as_mut_ptr(), self.site_ee);
+            }
+            let p = self.site_pos();
+            let r = self.site_rot();
+            let mut v6 = [0.0; 6];
+            unsafe {
+                ffi::mj_objectVelocity(self.data.model().ffi(), self.data.ffi(), ffi::mjtObj::mjOBJ_SITE as i32, self.site_ee, &mut v6, 0);
+            }
+            let v = Vector3::new(v6[3], v6[4], v6[5]);
+            let w = Vector3::new(v6[0], v6[1], v6[2]);
+            let dp = p0 - p;
+            let dp_t = dp - n * n.dot(&dp);
+            let v_t = v - n * n.dot(&v);
+            let f = -n * f_n + dp_t * k_t - v_t * d_t - n * (d_n * n.dot(&v));
+            let rot_err = Rotation3::from_matrix_unchecked(r0 * r.transpose()).scaled_axis();
+            let mm = rot_err * k_r - w * d_r;
+            let bias: Vec<f64> = self.data.qfrc_bias().to_vec();
+            let qv: Vec<f64> = self.data.qvel().to_vec();
+            let mut tau = [0.0; N_JOINTS];
+            for j in 0..nv {
+                let mut s = bias[self.vadr[j]] - d_q * qv[self.vadr[j]];
+                for a in 0..3 {
+                    s += jp[a * nv + self.vadr[j]] * f[a] + jr[a * nv + self.vadr[j]] * mm[a];
+                }
+                tau[j] = s;
+            }
+            crate::plants::Plant::step(self, &tau);
+            if k + tail >= steps {
+                f_sum += self.obs.truth.contact.normal_force;
+                p_sum += self.obs.truth.contact.penetration;
+            }
+        }
+        (f_sum / tail as f64, p_sum / tail as f64)
+    }
+}
+
+impl crate::plants::Plant for MujocoPlant {
+    fn name(&self) -> &'static str {
+        "mujoco"
+    }
+    fn dof(&self) -> usize {
+        N_JOINTS
+    }
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+    fn step(&mut self, tau_cmd: &[f64]) {
+        let mut tau = [0.0; N_JOINTS];
+        let mut sat = false;
+        for j in 0..N_JOINTS {
+            let v = tau_cmd.get(j).copied().unwrap_or(0.0);
+            let v2 = if v.is_finite() { v } else { 0.0 };
+            tau[j] = v2.clamp(-self.effort[j], self.effort[j]);
+            sat |= tau[j] != v;
+        }
+        {
+            let f = self.data.qfrc_applied_mut();
+            for j in 0..N_JOINTS {
+                f[self.vadr[j]] = tau[j];
+            }
+        }
+        let h = self.dt / self.substeps as f64;
+        for s in 0..self.substeps {
+            self.update_materials(self.k as f64 * self.dt + s as f64 * h);
+            self.data.step();
+        }
+        self.k += 1;
+        self.update_materials(self.k as f64 * self.dt);
+        self.data.forward();
+        self.observe(tau, sat);
+    }
+    fn observation(&self) -> &Observation {
+        &self.obs
+    }
+    fn q(&self) -> &[f64] {
+        &self.q
+    }
+    fn dq(&self) -> &[f64] {
+        &self.dq
+    }
+}
+
+/// The static stiffness MuJoCo's contact gives for one material of a scenario.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StaticStiffness {
+    /// The naic material's k_e [N/m] and the MuJoCo `solref` it maps to.
+    pub k_e: f64,
+    pub solref: [f64; 2],
+    /// Normal force [N] and penetration [mm] at the two pushes.
+    pub forces_n: [f64; 2],
+    pub penetration_mm: [f64; 2],
+    /// Secant stiffness between the two pushes [N/m].
+    pub k_static: f64,
+}
+
+/// Measure the static stiffness of each material of `p.env` on MuJoCo: from `q0`,
+/// push the tip onto that material's surface (15 N for 1 s), then with each of `pushes` [N] (MuJoCo's own
+/// Jacobian and bias forces), 3 s each, and take the secant Δf/Δpenetration.
+pub fn static_stiffness(mjcf: &Path, p: &PlantParams, q0: &[f64], pushes: [f64; 2]) -> Result<Vec<StaticStiffness>, PlantError> {
+    let mats: Vec<Material> = match &p.env.material {
+        MaterialMap::Uniform(m) => vec![*m],
+        MaterialMap::StiffnessSchedule { base, switches } => {
+            let mut v = vec![*base];
+            for &(_, k) in switches {
+                if !v.iter().any(|m| m.k_e == k) {
+                    v.push(Material { k_e: k, ..*base });
+                }
+            }
+            v
+        }
+        MaterialMap::SplitX { high_x, low_x, .. } => vec![*high_x, *low_x],
+    };
+    let mut out = Vec::new();
+    for m in mats {
+        let mut pp = p.clone();
+        pp.env.material = MaterialMap::Uniform(m);
+        let mut fp = [(0.0, 0.0); 2];
+        for (i, f) in pushes.iter().enumerate() {
+            let mut plant = MujocoPlant::new(mjcf, &pp, q0, 0)?;
+            plant.push(15.0, 1.0); // onto the surface
+            fp[i] = plant.push(*f, 3.0);
+        }
+        let k_static = (fp[1].0 - fp[0].0) / (fp[1].1 - fp[0].1);
+        out.push(StaticStiffness {
+            k_e: m.k_e,
+            solref: solref_for(&m),
+            forces_n: [fp[0].0, fp[1].0],
+            penetration_mm: [fp[0].1 * 1e3, fp[1].1 * 1e3],
+            k_static,
+        });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn comments_and_the_table_body_come_out() {
+        let x = "<a><!-- <body name=\"table\"> --><body name=\"table\" pos=\"0 0 0\"><geom/><body name=\"in\"></body></body><b/></a>";
+        let s = without_body(&strip_comments(x), "table");
+        assert_eq!(s, "<a><b/></a>");
+        assert!(with_sensors("<mujoco></mujoco>").contains("<sensor><force name=\"naic_ft_force\" site=\"nft_sensor\"/>"));
+    }
+}

@@ -1,0 +1,157 @@
+//! The MuJoCo plant against the own plant (cargo feature `mujoco`; tests/run_all.sh
+//! turns it on): the same arm, start pose, table and sensor convention, checked on
+//! MuJoCo's physics, which no one here wrote.
+#![cfg(feature = "mujoco")]
+
+use naic_core::model::Data6;
+use naic_core::{dynamics, N_JOINTS};
+use naic_sim::plant::PlantParams;
+use naic_sim::plants::{Plant, PlantChoice};
+use naic_sim::scenario::{self, Scenario};
+use naic_sim::test_support::{model, ROOT};
+use nalgebra::{Vector3, Vector6};
+use std::path::PathBuf;
+
+fn mjcf() -> PathBuf {
+    let p = PathBuf::from(format!("{ROOT}/../shared/reference/jk5/jk5_table.nomesh.mjcf.xml"));
+    assert!(p.exists(), "the authors' MJCF is missing at {} (../shared from the repository)", p.display());
+    p
+}
+
+fn tool() -> (f64, Vector3<f64>) {
+    naic_sim::sensor::tool_from_urdf(std::path::Path::new(&format!("{ROOT}/urdf/jk5.urdf"))).unwrap()
+}
+
+/// Scenario `name` without joint friction; contact on or off.
+fn setup(name: &str, contact: bool) -> (Scenario, PlantParams) {
+    let mut s = scenario::preset(name, &model()).unwrap();
+    s.env.enabled = contact;
+    let p = scenario::plant_for(&s, model(), None, tool()).unwrap();
+    (s, p)
+}
+
+fn both(s: &Scenario, p: &PlantParams) -> (Box<dyn Plant + Send>, Box<dyn Plant + Send>) {
+    let own = PlantChoice::Own.build(p, &s.task.q0, s.seed).unwrap();
+    let mj = PlantChoice::Mujoco { mjcf: mjcf() }.build(p, &s.task.q0, s.seed).unwrap();
+    (own, mj)
+}
+
+#[test]
+fn open_loop_free_space_the_same_torques_give_the_same_joint_trajectory_within_1e_3_rad() {
+    // The torques: a computed-torque joint PD on the own plant tracking q0 + 0.2 sin(2πft)
+    // per joint; MuJoCo gets the same sequence open loop (it never sees its own state).
+    let (s, p) = setup("flat", false);
+    let (mut own, mut mj) = both(&s, &p);
+    let m = model();
+    let mut data = Data6::try_new(&m).unwrap();
+    let freq = [0.7, 1.1, 0.9, 1.3, 1.7, 2.0];
+    let n = (1.0 / p.dt).round() as usize;
+    let (mut worst, mut lo, mut hi) = (0.0_f64, [f64::INFINITY; N_JOINTS], [f64::NEG_INFINITY; N_JOINTS]);
+    for k in 0..n {
+        let t = k as f64 * p.dt;
+        let q = Vector6::from_column_slice(own.q());
+        let dq = Vector6::from_column_slice(own.dq());
+        let q_ref = Vector6::from_fn(|i, _| s.task.q0[i] + 0.2 * (2.0 * std::f64::consts::PI * freq[i] * t).sin());
+        let g = *dynamics::gravity_torques(&m, &mut data, &q);
+        let ma = *dynamics::crba(&m, &mut data, &q) * ((q_ref - q) * 400.0 - dq * 40.0);
+        let tau: [f64; N_JOINTS] = std::array::from_fn(|i| g[i] + ma[i]);
+        own.step(&tau);
+        mj.step(&tau);
+        for i in 0..N_JOINTS {
+            worst = worst.max((own.q()[i] - mj.q()[i]).abs());
+            lo[i] = lo[i].min(mj.q()[i]);
+            hi[i] = hi[i].max(mj.q()[i]);
+        }
+    }
+    let moved: Vec<f64> = (0..N_JOINTS).map(|i| hi[i] - lo[i]).collect();
+    println!("open loop 1 s, free space, no joint friction: max |q_own − q_mujoco| = {worst:.3e} rad; joint ranges {moved:.3?} rad");
+    assert!(moved.iter().all(|r| *r > 0.1), "the torques must move every joint: {moved:?}");
+    assert!(worst <= 1e-3, "joint trajectories differ by {worst:.3e} rad");
+}
+
+#[test]
+fn held_at_rest_the_mujoco_sensor_reads_the_tool_weight_in_naics_convention() {
+    for name in ["flat", "foam"] {
+        let (s, p) = setup(name, true);
+        let (own, mj) = both(&s, &p);
+        let (a, b) = (own.observation().truth.wrench_true, mj.observation().truth.wrench_true);
+        let e = (0..6).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max);
+        println!("{name}: own {a:.6?}\n      mujoco {b:.6?}");
+        assert!(a[..3].iter().map(|x| x * x).sum::<f64>().sqrt() > 4.0, "the tool weight (4.16 N) is in the reading");
+        assert!(e < 1e-6, "{name}: MuJoCo's nft_sensor and the own sensor model differ by {e:.3e}");
+    }
+}
+
+#[test]
+fn the_same_descent_touches_the_table_at_the_same_time_on_both_plants() {
+    // The own plant (no friction) under a computed-torque joint PD (ω = 8 rad/s) towards a
+    // pose 5 cm under the surface; the torques it applied are applied to MuJoCo too.
+    for name in ["flat", "foam", "slope"] {
+        let (s, p) = setup(name, true);
+        let (mut own, mut mj) = both(&s, &p);
+        let m = model();
+        let (tip0, r0) = scenario::tip_pose(&m, &s.task.q0);
+        let below = Vector3::new(tip0.x, tip0.y, s.env.height_at(tip0.x, tip0.y) - 0.05);
+        let (q_t, ik_err) = scenario::inverse_kinematics(&m, &s.task.q0, &below, &r0);
+        assert!(ik_err < 1e-6, "IK to {below:?}: residual {ik_err}");
+        let mut data = Data6::try_new(&m).unwrap();
+        let (mut t_own, mut t_mj) = (None, None);
+        let mut gap = 0.0_f64;
+        for k in 0..4000 {
+            let q = Vector6::from_column_slice(own.q());
+            let dq = Vector6::from_column_slice(own.dq());
+            let g = *dynamics::gravity_torques(&m, &mut data, &q);
+            let mm = *dynamics::crba(&m, &mut data, &q);
+            let w = 8.0;
+            let a = (Vector6::from(q_t) - q) * (w * w) - dq * (2.0 * w);
+            let ma = mm * a;
+            let tau: [f64; N_JOINTS] = std::array::from_fn(|i| g[i] + ma[i]);
+            own.step(&tau);
+            mj.step(&tau);
+            if t_own.is_none() && t_mj.is_none() {
+                gap = (0..N_JOINTS).map(|i| (own.q()[i] - mj.q()[i]).abs()).fold(gap, f64::max);
+            }
+            let t = (k + 1) as f64 * p.dt;
+            if t_own.is_none() && own.observation().truth.contact.in_contact {
+                t_own = Some(t);
+            }
+            if t_mj.is_none() && mj.observation().truth.contact.in_contact {
+                t_mj = Some(t);
+            }
+            if t_own.is_some() && t_mj.is_some() {
+                break;
+            }
+        }
+        println!("{name}: first contact own {t_own:?} s, MuJoCo {t_mj:?} s; max |q_own − q_mujoco| before it {gap:.2e} rad");
+        let (a, b) = (t_own.expect("the own plant touched"), t_mj.expect("MuJoCo touched"));
+        assert!((a - b).abs() <= 0.002, "{name}: first contact at {a} s (own) vs {b} s (MuJoCo)");
+    }
+}
+
+#[test]
+fn every_scenario_has_a_measured_static_stiffness_on_mujoco() {
+    for name in scenario::SCENARIOS {
+        let s = scenario::preset(name, &model()).unwrap();
+        let p = scenario::plant_for(&s, model(), None, tool()).unwrap();
+        let rows = naic_sim::mujoco_plant::static_stiffness(&mjcf(), &p, &s.task.q0, [5.0, 15.0]).unwrap();
+        assert!(!rows.is_empty());
+        for r in rows {
+            println!(
+                "{name}: k_e {} N/m -> solref {:?}: {:.2} N at {:.3} mm, {:.2} N at {:.3} mm: static stiffness {:.0} N/m",
+                r.k_e, r.solref, r.forces_n[0], r.penetration_mm[0], r.forces_n[1], r.penetration_mm[1], r.k_static
+            );
+            // the pushes reached the surface: in contact at both, deeper at the larger
+            assert!(r.forces_n[0] > 0.5 && r.forces_n[1] > r.forces_n[0] + 5.0, "{name}: {r:?}");
+            assert!(r.penetration_mm[0] > 0.0 && r.penetration_mm[1] > r.penetration_mm[0], "{name}: {r:?}");
+            assert!(r.k_static.is_finite() && r.k_static > 0.0, "{name}: {r:?}");
+        }
+    }
+}
+
+#[test]
+fn a_missing_mjcf_is_an_error_that_names_it() {
+    let (s, p) = setup("flat", true);
+    let e = PlantChoice::Mujoco { mjcf: "no/such/model.xml".into() }.build(&p, &s.task.q0, 1).err().expect("must fail");
+    let m = e.to_string();
+    assert!(m.contains("no/such/model.xml") && m.contains("--mjcf"), "{m}");
+}
