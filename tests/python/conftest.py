@@ -103,7 +103,7 @@ def _no_process_left_behind(request):
 def _thread_states(pid):
     """Each thread of `pid` as (name, state, CPU time [s], last CPU, policy, RT priority),
     from /proc: a chain that cannot stop because one real-time thread never blocks shows
-    that thread in state R with the CPU time (docs/nodes.md, "A start-up freeze")."""
+    that thread in state R with the CPU time (docs/notes/2026-12-dds-test-forensics.md, "A start-up freeze")."""
     policies = {0: "other", 1: "fifo", 2: "rr", 3: "batch", 5: "idle"}
     out = []
     tick = os.sysconf("SC_CLK_TCK")

@@ -134,7 +134,7 @@ def test_ros_sensor_faults_hold_and_resume_in_either_mode(bins, composed):
         # (`actuation_timeout`, 0.1 s: the newest command answers a state 0.1 s old), which
         # holds the force law as a safe hold does: a loaded run failed on "no
         # /joint_effort_cmd for 101 ms" after the resume, the 100 ms signature of the VM
-        # standing still (docs/nodes.md, "Reliable observers").
+        # standing still (docs/notes/2026-12-dds-test-forensics.md, "Reliable observers").
         late = [f for f in r["faults_tail"] if f]
         assert all(f.startswith(("no fresh", "no /joint_effort_cmd for")) for f in late), (fault, late, r)
         assert not [f for f in r["faults_all"] if "joint velocity" in f or "force_limit" in f], (fault, r)

@@ -35,7 +35,7 @@ def test_first_request_of_a_new_participant_is_answered():
     try:
         # The new participants join after the nodes have announced their endpoints: a
         # participant created during those announcements can lose some of them inside Fast
-        # DDS (docs/nodes.md, "The 10 s failure, traced"), which is not what this test is about.
+        # DDS (docs/notes/2026-12-dds-test-forensics.md, "The 10 s failure, traced"), which is not what this test is about.
         t_start = time.time()
         while not all("started /" in p.output() for p in procs.values()):
             assert time.time() - t_start < 30, {n: p.output()[-1500:] for n, p in procs.items()}

@@ -71,7 +71,7 @@ def _src_ns(m):
 
 # NAIC_TAKEOVER_OBSERVERS=best_effort: rclpy and `naic record` subscribe best effort
 # (`rclpy:best_effort` or `record:best_effort`: only that one). An experiment's switch
-# (docs/nodes.md, "Reliable observers"); the tests then judge from what a lossy reader saw,
+# (docs/notes/2026-12-dds-test-forensics.md, "Reliable observers"); the tests then judge from what a lossy reader saw,
 # so keep it off for the suite. Default: reliable, as `ros2 topic echo`.
 _OBSERVERS = os.environ.get("NAIC_TAKEOVER_OBSERVERS", "reliable")
 if _OBSERVERS not in ("reliable", "best_effort", "rclpy:best_effort", "record:best_effort"):
@@ -100,7 +100,7 @@ def run(tmp_path_factory):
         rec = ru.Proc([str(bins / "naic"), "record", "--topics", "/joint_effort_cmd", "/joint_states",
                        "--out", str(bag), *(["--best-effort"] if RECORD_BEST_EFFORT else [])], env)
     # NAIC_TAKEOVER_DUMP=DIR: every node thread's CPU time every 20 ms, written to DIR with
-    # every state and command rclpy saw (docs/nodes.md, "The take-over failure, caught";
+    # every state and command rclpy saw (docs/notes/2026-12-dds-test-forensics.md, "The take-over failure, caught";
     # docs/figures/nodes/takeover_dump.py reads them). Off by default.
     samples, stop_sampler = [], []
     if os.environ.get("NAIC_TAKEOVER_DUMP"):
@@ -341,7 +341,7 @@ def test_process_fault_takeovers_keep_the_arm_calm_and_the_outage_is_reported(ru
 
 def test_process_fault_takeover_torque_report(run):
     """The applied torque over the 300 ms after each restarted node's first command, printed
-    (the numbers of docs/nodes.md, "The take-over blend"; the default is no blend, compare
+    (the numbers of docs/notes/2026-12-dds-test-forensics.md, "The take-over blend"; the default is no blend, compare
     with NAIC_TAKEOVER_BLEND=0.1 and with a window before each kill,
     NAIC_TAKEOVER_WINDOW=before). Asserts only that the
     window is there and that the arm got finite torques within its effort limits."""

@@ -1,4 +1,4 @@
-"""Does rclpy's graph go back? (docs/nodes.md, "The graph that went back"; issue 13.)
+"""Does rclpy's graph go back? (docs/notes/2026-12-dds-test-forensics.md, "The graph that went back"; issue 13.)
 
     python tests/ros/graph_flip_probe.py [--trials N] [--three-processes] [--bins DIR]
 

@@ -289,7 +289,7 @@ def param_client(node, target, timeout=20.0):
     services are matched. When they are not within `timeout` but `target` itself is in the
     graph (its ros_discovery_info arrived) and its get_parameters service is not, the failure
     names the loss of a RustDDS node's first SEDP announcements inside Fast DDS that the
-    vendored re-announcement patch exists for (issue 13; docs/nodes.md, "The 10 s failure,
+    vendored re-announcement patch exists for (issue 13; docs/notes/2026-12-dds-test-forensics.md, "The 10 s failure,
     traced"). Until 2026-12-04 that case was an xfail; it is a failure now, so that a case
     the patch does not cover is seen."""
     from rclpy.parameter_client import AsyncParameterClient

@@ -10,7 +10,7 @@ writer/reader, SW/SR = DCPSSubscription writer/reader) and the submessage: DATA 
 sequence number and the first ROS topic name in it, HEARTBEAT first..last, ACKNACK base and
 the sequence numbers it asks for, GAP. With `--domain` only that domain's ports are kept.
 Run it beside `discovery_probe.py` to see which announcements a participant received,
-acknowledged or asked again for (docs/nodes.md, "The 10 s failure, traced").
+acknowledged or asked again for (docs/notes/2026-12-dds-test-forensics.md, "The 10 s failure, traced").
 """
 import argparse
 import re

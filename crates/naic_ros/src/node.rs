@@ -597,7 +597,7 @@ pub fn pin_to_cpu(cpu: usize) -> std::io::Result<()> {
 /// (`/proc/sys/kernel/sched_rr_timeslice_ms`, 100 ms) without blocking. Under FIFO such a
 /// thread keeps its CPU from every other thread of its priority for ever, and RT throttling
 /// gives the CPU's 5 % to normal threads only: a chain pinned to one CPU at one priority
-/// froze that way once while starting (docs/nodes.md, "A start-up freeze"), the driver's
+/// froze that way once while starting (docs/notes/2026-12-dds-test-forensics.md, "A start-up freeze"), the driver's
 /// watchdog and hold with it. Under RR the others get the CPU every time slice, so the
 /// driver's hold still runs.
 pub fn set_realtime(priority: i32) -> std::io::Result<()> {

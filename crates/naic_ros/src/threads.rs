@@ -1,5 +1,5 @@
 //! Which threads of this process kept a CPU busy: read at exit, so that a thread that
-//! stopped blocking (docs/nodes.md, "A start-up freeze") is named in the node's log.
+//! stopped blocking (docs/notes/2026-12-dds-test-forensics.md, "A start-up freeze") is named in the node's log.
 //!
 //! Every thread of a node blocks in each cycle; at 1 kHz the busiest (the driver's loop)
 //! uses 10–20 % of a CPU. A thread whose CPU time is most of the process's run time did not
@@ -62,7 +62,7 @@ pub fn warn_busy_threads(process: &str, elapsed: Duration) {
     for t in busy_threads(thread_cpu_times(), elapsed, 0.5) {
         log::warn!(
             "{process}: thread {:?} (tid {}) used {:.1} s of CPU in {:.1} s: it did not block as a node's threads do; \
-             please report it with this line (docs/nodes.md, \"A start-up freeze\")",
+             please report it with this line (docs/notes/2026-12-dds-test-forensics.md, \"A start-up freeze\")",
             t.name,
             t.tid,
             t.cpu_s,

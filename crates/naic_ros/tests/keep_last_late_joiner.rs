@@ -1,5 +1,5 @@
 //! The vendored rustdds patch "Late joiners of a KeepLast writer"
-//! (crates/vendor/rustdds/PATCHED.md; docs/nodes.md, "The graph that went back"): a reader
+//! (crates/vendor/rustdds/PATCHED.md; docs/notes/2026-12-dds-test-forensics.md, "The graph that went back"): a reader
 //! that joins a transient-local, KeepLast(1) writer without key late gets the newest sample
 //! only, not the writer's older samples that its history still holds.
 //!

@@ -1,6 +1,6 @@
 //! The bound that `realtime_priority` gives (`naic_ros::node::set_realtime`): a thread at the
 //! nodes' priority that never blocks does not freeze the other threads of that priority on
-//! its CPU. Under SCHED_FIFO it would (docs/nodes.md, "A start-up freeze"); under SCHED_RR
+//! its CPU. Under SCHED_FIFO it would (docs/notes/2026-12-dds-test-forensics.md, "A start-up freeze"); under SCHED_RR
 //! they get the CPU every time slice.
 //!
 //! Needs CAP_SYS_NICE (root, or an rtprio limit), as the nodes' real-time scheduling does.

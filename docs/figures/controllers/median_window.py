@@ -1,5 +1,5 @@
 """What the paper's 5-sample velocity median costs at one and two cycles of loop delay, as
-quoted in docs/nodes.md, "The second cycle of delay", and docs/controller.md, "The
+quoted in docs/notes/2026-12-dds-test-forensics.md, "The second cycle of delay", and docs/controller.md, "The
 baselines' velocity filter".
 
 In process (default): `naic sim --scenario flat --delay-cycles D --median-window W` for

@@ -1,6 +1,6 @@
 """Reads what observer_qos_pairs.sh wrote and prints, per variant (A: reliable observers,
 B: best-effort observers, C / D: only `naic record` / only rclpy best effort), the driver's own wake-up report over the runs: wake-ups late by
-more than 1 ms, runs of missed cycles, the latest wake-up. docs/nodes.md, "Reliable
+more than 1 ms, runs of missed cycles, the latest wake-up. docs/notes/2026-12-dds-test-forensics.md, "Reliable
 observers".
 
     python3 docs/figures/nodes/observer_qos.py OUT

@@ -3,7 +3,7 @@ prints, per 0.5 s of the run: the gaps of more than 2 ms between the driver's st
 up late), the states stamped within 0.3 ms of the one before (it ran missed cycles back to
 back), each busy node thread's CPU ticks; then the loop's delay (how many states the
 command applied at each state is behind the state it answers), outside the outages.
-docs/nodes.md, "The take-over failure, caught".
+docs/notes/2026-12-dds-test-forensics.md, "The take-over failure, caught".
 
     python3 docs/figures/nodes/takeover_dump.py DIR
 """
