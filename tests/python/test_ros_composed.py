@@ -103,7 +103,7 @@ def test_ros_sensor_faults_hold_and_resume_in_either_mode(bins, composed):
     # the paper's laws no margin: in process at `--delay-cycles 2` fixed, AIC and NAIC
     # drive joint 2 between its +-100 N m limits from the start and NAIC spins joint 4 at
     # 7-9 rad/s, past the 6.28 rad/s plausibility limit this test asserts against (twice in
-    # CI). Window 1: joint 4 below 0.8 rad/s in every law (docs/nodes.md, "The second
+    # CI). Window 1: joint 4 below 0.8 rad/s in every law (docs/notes/2026-12-dds-test-forensics.md, "The second
     # cycle of delay").
     median_off = ["-p", "naic_controller:median_window:=1", "-p", "friction_compensation:median_window:=1"]
     launch = ru.Proc([str(bins / "naic"), "launch", *(["--composed"] if composed else []), *median_off], ru.ros_env(domain))

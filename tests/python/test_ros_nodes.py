@@ -234,7 +234,7 @@ def test_ros_rclpy_commands_joint_effort_and_driver_obeys(lone_driver):
     msg.layout.dim = [MultiArrayDimension(label="joints", size=6, stride=6)]
     # Publish until the driver applies the command: a new rclpy writer is matched on the
     # driver's side up to one Fast DDS heartbeat (3 s) after rclpy sees the match, and the
-    # commands sent before are dropped (docs/nodes.md, "A fresh client's first request").
+    # commands sent before are dropped (docs/notes/2026-12-dds-test-forensics.md, "A fresh client's first request").
     def applied():
         return bool(js) and js[-1].effort.tolist() == pytest.approx(tau, abs=1e-9)
     t0 = time.time()

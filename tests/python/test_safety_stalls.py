@@ -8,7 +8,7 @@ the chain's CPU (params/*.yaml cpu_affinity) takes it for 5-30 ms every 0.1-0.4 
 (a vCPU steal of the hypervisor looks the same to the nodes). Asserted: the stalls did make
 take-overs (else the test proved nothing), and no joint went past the plausibility limit.
 
-Measured (docs/nodes.md, "The blend is off by default"): with the 0.1 s blend 6, 13 and 7 velocity
+Measured (docs/notes/2026-12-dds-test-forensics.md, "The blend is off by default"): with the 0.1 s blend 6, 13 and 7 velocity
 faults in three runs, with the rate limit alone 0, 0, 0. NAIC_TAKEOVER_BLEND=0.1 runs it with
 the blend, to compare.
 """

@@ -1,4 +1,4 @@
-//! The vendored rustdds patch (crates/vendor/rustdds/PATCHED.md; docs/nodes.md, "The 10 s
+//! The vendored rustdds patch (crates/vendor/rustdds/PATCHED.md; docs/notes/2026-12-dds-test-forensics.md, "The 10 s
 //! failure, traced"): when a participant discovers a new remote participant, it announces
 //! its user endpoints again, as new DCPSSubscription / DCPSPublication samples.
 //!
