@@ -52,7 +52,7 @@ def _domain_port_free(domain):
 
 def takeover_blend_override(node_prefix=""):
     """`-p [node:]takeover_blend:=X` when NAIC_TAKEOVER_BLEND=X is set (to compare take-overs
-    with a blend; docs/nodes.md, "The blend is off by default"), else nothing. `node_prefix`
+    with a blend; docs/notes/2026-12-dds-test-forensics.md, "The blend is off by default"), else nothing. `node_prefix`
     is "friction_compensation:" for `naic launch`, "" for the node itself."""
     v = os.environ.get("NAIC_TAKEOVER_BLEND")
     return ["-p", f"{node_prefix}takeover_blend:={float(v)}"] if v else []
