@@ -30,11 +30,11 @@ pub struct Outcome {
 /// Apply the accepted parameters `new` to the running controller `c` in state `s`.
 /// `Err` (the core refused `new`): nothing changes. Allocates (a new [`Controller`]
 /// holds its own model): called on a parameter change, never in the 1 kHz step.
-pub fn apply(
-    c: &Controller,
-    s: &ControllerState,
-    new: ControllerParams,
-) -> Result<(Controller, ControllerState, Outcome), super::ConfigError> {
+pub fn apply<const N: usize>(
+    c: &Controller<N>,
+    s: &ControllerState<N>,
+    new: ControllerParams<N>,
+) -> Result<(Controller<N>, ControllerState<N>, Outcome), super::ConfigError> {
     let next = c.with_params(new)?;
     let was_retracting = s.control.retracting();
     let mut state = *s;
