@@ -1,4 +1,5 @@
 use super::*;
+use naic_ros::msgs::JOINT_NAMES;
 use naic_core::{
     model::Model,
     pipeline::{
