@@ -147,6 +147,40 @@ def test_jk5_matches_pinocchio(root, dump_bin, tmp_path):
     compare_with_pinocchio(model, out, states, FRAMES).report("naic vs Pinocchio, urdf/jk5.urdf")
 
 
+def example_robot_data_urdf(*parts):
+    """A URDF of the pip package `example-robot-data` (tests/requirements.txt), read where
+    the package installs it (its cmeel prefix's share folder), never copied."""
+    import sysconfig
+    for key in ("purelib", "platlib"):
+        base = pathlib.Path(sysconfig.get_paths()[key]) / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+        if base.is_dir():
+            path = base.joinpath(*parts)
+            assert path.is_file(), f"example-robot-data has no {path}"
+            return path
+    pytest.skip("example-robot-data is not installed (pip install -r tests/requirements.txt)")
+
+
+# Issue 37's arms: the Panda of urdf/, UR5 and UR10 of example-robot-data. Each: RNEA, bias,
+# gravity, CRBA, ABA, frame poses, Jacobians and J̇q̇ at random states, 1e-9 relative.
+ARMS = {
+    "panda": (lambda root: root / "urdf" / "panda.urdf", ["flange", "link7"], 7),
+    "ur5": (lambda root: example_robot_data_urdf("ur_description", "urdf", "ur5_robot.urdf"), ["tool0", "ee_link"], 6),
+    "ur10": (lambda root: example_robot_data_urdf("ur_description", "urdf", "ur10_robot.urdf"), ["tool0", "ee_link"], 6),
+}
+
+
+@pytest.mark.parametrize("arm", sorted(ARMS))
+def test_arms_match_pinocchio(root, dump_bin, tmp_path, arm):
+    where, frames, nv = ARMS[arm]
+    urdf = where(root)
+    model = pin.buildModelFromUrdf(str(urdf))
+    assert model.nv == nv, f"{arm}: Pinocchio reads {model.nv} joints"
+    states = random_states(model, 100, SEED + 4)
+    out = run_dump(dump_bin, urdf, frames, states, tmp_path)
+    assert len(out["results"]) == len(states)
+    compare_with_pinocchio(model, out, states, frames).report(f"naic vs Pinocchio, {arm} ({urdf.name})")
+
+
 @pytest.mark.parametrize("name,frames", [("arm6", ["tip", "camera", "s4"]), ("planar3", ["tip", "l2"])])
 def test_test_urdfs_match_pinocchio(dump_bin, tmp_path, name, frames):
     """General axes, prismatic and continuous joints, merged fixed links."""

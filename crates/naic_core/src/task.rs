@@ -29,11 +29,11 @@
 //!   height 0.538 m as in §5.2.1 (the paper gives none for §5.2.2).
 
 use crate::dynamics;
-use crate::model::{Data6, Model};
+use crate::model::{DataN, Model};
 use crate::pipeline::control::ImpedanceParams;
 use crate::JointVec;
 pub use crate::pipeline::controller::Reference;
-use nalgebra::{UnitQuaternion, Vector3, Vector6};
+use nalgebra::{SVector, UnitQuaternion, Vector3, Vector6};
 
 /// The preset names of [`preset`] (`naic sim --scenario`).
 pub const PRESETS: [&str; 6] = ["flat", "stiffness-step", "slope", "foam", "two-material", "acrylic"];
@@ -156,30 +156,34 @@ impl From<TaskError> for String {
 }
 
 /// Degrees to radians for a joint vector.
-pub fn deg(q: JointVec) -> JointVec {
+pub fn deg<const N: usize>(q: JointVec<N>) -> JointVec<N> {
     q.map(f64::to_radians)
 }
 
 /// Tip position and orientation at `q`.
-pub fn tip_pose(model: &Model, q: &JointVec) -> (Vector3<f64>, UnitQuaternion<f64>) {
-    let mut data = Data6::try_new(model).expect("6-joint model");
+///
+/// # Panics
+/// If `model` has another joint count than `N` or no `tip` frame (a programming error:
+/// the robot is checked when loaded).
+pub fn tip_pose<const N: usize>(model: &Model, q: &JointVec<N>) -> (Vector3<f64>, UnitQuaternion<f64>) {
+    let mut data = DataN::<N>::try_new(model).expect("an N-joint model");
     let tip = model.frame_id("tip").expect("tip frame");
-    dynamics::forward_kinematics(model, &mut data, &Vector6::from(*q));
+    dynamics::forward_kinematics(model, &mut data, &SVector::<f64, N>::from(*q));
     let iso = data.frame_placement(tip);
     (iso.translation.vector, iso.rotation)
 }
 
 /// Damped-least-squares inverse kinematics of the tip pose (position +
 /// orientation) from `q_start`. Returns the joints and the final position error.
-pub fn inverse_kinematics(
+pub fn inverse_kinematics<const N: usize>(
     model: &Model,
-    q_start: &JointVec,
+    q_start: &JointVec<N>,
     p_target: &Vector3<f64>,
     r_target: &UnitQuaternion<f64>,
-) -> (JointVec, f64) {
-    let mut data = Data6::try_new(model).expect("6-joint model");
+) -> (JointVec<N>, f64) {
+    let mut data = DataN::<N>::try_new(model).expect("an N-joint model");
     let tip = model.frame_id("tip").expect("tip frame");
-    let mut q = Vector6::from(*q_start);
+    let mut q = SVector::<f64, N>::from(*q_start);
     let mut err_p = f64::INFINITY;
     for _ in 0..200 {
         let j = *dynamics::frame_jacobian(model, &mut data, &q, tip);

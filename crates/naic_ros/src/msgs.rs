@@ -55,7 +55,7 @@ pub fn effort_msg(tau: &[f64], source_stamp_ns: Option<i64>) -> Float64MultiArra
 }
 
 /// The label of the first dimension of a `/naic/effort` that also carries the friction
-/// feedforward's joint velocity (2 × 6: torques, then velocities).
+/// feedforward's joint velocity (2 × N: torques, then velocities).
 const EFFORT_AND_VELOCITY: &str = "effort,friction_velocity";
 
 /// [`effort_msg`] written into `m` in place: once `m`'s label and data have reached their
@@ -65,11 +65,11 @@ const EFFORT_AND_VELOCITY: &str = "effort,friction_velocity";
 /// published message the API forces.
 ///
 /// With `friction_velocity` (the controller's `ControlOutputs::dq_ff`, the scheduled law's
-/// velocity for the friction feedforward) the array is 2 × 6: dimension 0
-/// `effort,friction_velocity` (size 2, stride 12), dimension 1 `joints` (size 6, stride 6),
-/// the torques first. A reader of six torques ([`effort_values`]) reads the first row as
+/// velocity for the friction feedforward) the array is 2 × N for an N-joint arm: dimension 0
+/// `effort,friction_velocity` (size 2, stride 2N), dimension 1 `joints` (size N, stride N),
+/// the torques first. A reader of N torques ([`effort_values`]) reads the first row as
 /// before; the friction node reads the second with [`effort_friction_velocity`].
-pub fn set_effort_msg(m: &mut Float64MultiArray, tau: &[f64], source_stamp_ns: Option<i64>, friction_velocity: Option<&JointVec>) {
+pub fn set_effort_msg(m: &mut Float64MultiArray, tau: &[f64], source_stamp_ns: Option<i64>, friction_velocity: Option<&[f64]>) {
     use std::fmt::Write;
     let dims = if friction_velocity.is_some() { 2 } else { 1 };
     if m.layout.dim.len() != dims {
@@ -102,14 +102,14 @@ pub fn set_effort_msg(m: &mut Float64MultiArray, tau: &[f64], source_stamp_ns: O
 /// The joint velocity a `/naic/effort` names for the friction feedforward (its second row,
 /// [`set_effort_msg`]) into `out`: `Ok(false)` when it carries torques only (evaluate at
 /// the measured velocity), an error when the second row is short or not finite.
-pub fn effort_friction_velocity(m: &Float64MultiArray, out: &mut JointVec) -> Result<bool, EffortError> {
+pub fn effort_friction_velocity<const N: usize>(m: &Float64MultiArray, out: &mut JointVec<N>) -> Result<bool, EffortError> {
     let two_rows = m.layout.dim.len() == 2
         && m.layout.dim[0].size == 2
         && m.layout.dim[0].label.split(';').next() == Some(EFFORT_AND_VELOCITY);
     if !two_rows {
         return Ok(false);
     }
-    six_finite(&m.data, m.layout.data_offset as usize + N_JOINTS, out)?;
+    n_finite(&m.data, m.layout.data_offset as usize + N, out)?;
     Ok(true)
 }
 
@@ -122,32 +122,32 @@ pub fn effort_source_stamp(m: &Float64MultiArray) -> Option<i64> {
 /// Why a torque command was refused (allocation-free; `Display` gives the message).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum EffortError {
-    /// Fewer than six values after `data_offset`.
-    TooFew(usize),
-    /// A NaN or ±Inf among the six.
+    /// Fewer than `need` (the arm's joint count) values after `data_offset`: `got`.
+    TooFew { need: usize, got: usize },
+    /// A NaN or ±Inf among the N.
     NonFinite(f64),
 }
 
 impl std::fmt::Display for EffortError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            EffortError::TooFew(n) => write!(f, "torque command needs {N_JOINTS} values (joint1..joint6, N m), got {n}"),
+            EffortError::TooFew { need, got } => write!(f, "torque command needs {need} values (one per joint of the arm in its `joints` order, N m), got {got}"),
             EffortError::NonFinite(v) => write!(f, "torque command contains a non-finite value ({v})"),
         }
     }
 }
 
-/// Check a 6-joint torque command: six finite numbers, data_offset 0.
-pub fn effort_values(m: &Float64MultiArray, out: &mut JointVec) -> Result<(), EffortError> {
-    six_finite(&m.data, m.layout.data_offset as usize, out)
+/// Check an N-joint torque command: N finite numbers from data_offset.
+pub fn effort_values<const N: usize>(m: &Float64MultiArray, out: &mut JointVec<N>) -> Result<(), EffortError> {
+    n_finite(&m.data, m.layout.data_offset as usize, out)
 }
 
-/// `data[off..off + 6]` into `out` when all six are there and finite.
-fn six_finite(data: &[f64], off: usize, out: &mut JointVec) -> Result<(), EffortError> {
-    if data.len() < off + N_JOINTS {
-        return Err(EffortError::TooFew(data.len().saturating_sub(off)));
+/// `data[off..off + N]` into `out` when all N are there and finite.
+fn n_finite<const N: usize>(data: &[f64], off: usize, out: &mut JointVec<N>) -> Result<(), EffortError> {
+    if data.len() < off + N {
+        return Err(EffortError::TooFew { need: N, got: data.len().saturating_sub(off) });
     }
-    for (o, v) in out.iter_mut().zip(&data[off..off + N_JOINTS]) {
+    for (o, v) in out.iter_mut().zip(&data[off..off + N]) {
         if !v.is_finite() {
             return Err(EffortError::NonFinite(*v));
         }
@@ -209,7 +209,7 @@ mod tests {
         bad.data[8] = f64::INFINITY;
         assert!(effort_friction_velocity(&bad, &mut got).unwrap_err().to_string().contains("non-finite"));
         bad.data.truncate(9);
-        assert!(matches!(effort_friction_velocity(&bad, &mut got), Err(EffortError::TooFew(3))));
+        assert!(matches!(effort_friction_velocity(&bad, &mut got), Err(EffortError::TooFew { need: 6, got: 3 })));
         // Back to one row.
         set_effort_msg(&mut m, &[3.0; 6], None, None);
         assert_eq!(m, effort_msg(&[3.0; 6], None));

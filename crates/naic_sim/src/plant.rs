@@ -1,7 +1,7 @@
 //! The simulated JK5 + ATI mini45: rigid-body dynamics of `urdf/jk5.urdf`
 //! with joint friction, torque saturation, a compliant contact at `tip`,
 //! encoders and the F/T sensor, as a pure step function
-//! `step(&PlantParams, &PlantState, &tau_cmd, &mut PlantWorkspace) -> (PlantState, Observation)`.
+//! `step(&PlantParams, &PlantState, &tau_cmd, &mut PlantWorkspace) -> (PlantState<N>, Observation<N>)`.
 //!
 //! Equation 1 of the paper, `M q̈ + C q̇ + G + τ_f = τ + τ_ext`, with
 //! `τ_ext = J_tip,linᵀ F_contact` (eq 2; `F_contact` acts at the tip origin, so
@@ -39,9 +39,9 @@ use crate::rng::Rng;
 use crate::sensor::{Encoders, Mini45};
 use naic_core::dynamics;
 use naic_core::friction::FrictionModel;
-use naic_core::model::{Data6, FrameId, Model};
+use naic_core::model::{DataN, FrameId, Model};
 use naic_core::{JointVec, N_JOINTS};
-use nalgebra::{Isometry3, Matrix3x6, Matrix6, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Isometry3, Rotation3, SMatrix, SVector, Translation3, UnitQuaternion, Vector3};
 
 mod implicit;
 
@@ -90,7 +90,7 @@ pub enum PlantError {
 
 /// Immutable parameters of the simulated robot and its world.
 #[derive(Clone, Debug)]
-pub struct PlantParams {
+pub struct PlantParams<const N: usize = N_JOINTS> {
     pub model: Model,
     pub tip: FrameId,
     pub sensor_frame: FrameId,
@@ -102,7 +102,7 @@ pub struct PlantParams {
     /// Integration steps per control period.
     pub substeps: u32,
     /// |τ_i| ≤ effort_limit[i] (URDF `<limit effort>`).
-    pub effort_limit: JointVec,
+    pub effort_limit: JointVec<N>,
     pub env: Environment,
     pub ft: Mini45,
     pub encoders: Encoders,
@@ -110,35 +110,35 @@ pub struct PlantParams {
 
 /// The plant state: small and `Copy`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PlantState {
+pub struct PlantState<const N: usize = N_JOINTS> {
     /// Control periods since the start (time is `k · dt`, no accumulated rounding).
     pub k: u64,
     pub t: f64,
-    pub q: JointVec,
-    pub dq: JointVec,
+    pub q: JointVec<N>,
+    pub dq: JointVec<N>,
     pub rng: Rng,
 }
 
-impl PlantState {
+impl<const N: usize> PlantState<N> {
     /// At rest at `q` at t = 0 with the RNG seeded from `seed`.
-    pub fn at_rest(q: JointVec, seed: u64) -> Self {
-        Self { k: 0, t: 0.0, q, dq: [0.0; N_JOINTS], rng: Rng::seed(seed) }
+    pub fn at_rest(q: JointVec<N>, seed: u64) -> Self {
+        Self { k: 0, t: 0.0, q, dq: [0.0; N], rng: Rng::seed(seed) }
     }
 }
 
 /// Preallocated workspace (scratch memory; results never depend on its contents).
 #[derive(Clone, Debug)]
-pub struct PlantWorkspace {
-    data: Data6,
+pub struct PlantWorkspace<const N: usize = N_JOINTS> {
+    data: DataN<N>,
     /// The friction torques and slopes at the last implicit step's solution,
     /// reused when the next step starts from that bit-identical velocity.
-    friction: implicit::FrictionAt,
+    friction: implicit::FrictionAt<N>,
 }
 
-impl PlantWorkspace {
-    pub fn new(p: &PlantParams) -> Self {
+impl<const N: usize> PlantWorkspace<N> {
+    pub fn new(p: &PlantParams<N>) -> Self {
         Self {
-            data: Data6::try_new(&p.model).expect("PlantParams::new checked the model has 6 joints"),
+            data: DataN::<N>::try_new(&p.model).expect("PlantParams::new checked the model has N joints"),
             friction: implicit::FrictionAt::default(),
         }
     }
@@ -151,14 +151,14 @@ pub use naic_core::pipeline::sense::RawMeasurements;
 
 /// Ground truth for logging and metrics (never fed to the controller).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Truth {
+pub struct Truth<const N: usize = N_JOINTS> {
     pub tip: Isometry3<f64>,
     pub tip_velocity: Vector3<f64>,
     pub contact: Contact,
     /// Torque applied to the joints after saturation (last period) [N·m].
-    pub tau_applied: JointVec,
+    pub tau_applied: JointVec<N>,
     /// Joint friction torque at the end of the period [N·m].
-    pub tau_friction: JointVec,
+    pub tau_friction: JointVec<N>,
     /// Some commanded torque was clipped at the effort limit.
     pub saturated: bool,
     /// Some joint is outside its position limits.
@@ -168,12 +168,12 @@ pub struct Truth {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Observation {
-    pub meas: RawMeasurements,
-    pub truth: Truth,
+pub struct Observation<const N: usize = N_JOINTS> {
+    pub meas: RawMeasurements<N>,
+    pub truth: Truth<N>,
 }
 
-impl PlantParams {
+impl<const N: usize> PlantParams<N> {
     /// Checks frames, joint count and settings. Never panics on input.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -186,8 +186,8 @@ impl PlantParams {
         ft: Mini45,
         encoders: Encoders,
     ) -> Result<Self, PlantError> {
-        if model.nv() != N_JOINTS {
-            return Err(PlantError::Model(format!("the simulator needs a 6-joint arm; the URDF has {} moving joints", model.nv())));
+        if model.nv() != N {
+            return Err(PlantError::Model(format!("this simulator was set up for a {N}-joint arm; the URDF has {} moving joints", model.nv())));
         }
         let frame = |name: &str| {
             model.frame_id(name).ok_or_else(|| {
@@ -203,11 +203,11 @@ impl PlantParams {
             return Err(PlantError::Config("substeps must be at least 1".into()));
         }
         if let Some(f) = &friction {
-            if f.n_joints() != N_JOINTS {
-                return Err(PlantError::Config(format!("the friction model has {} joints; the arm has 6", f.n_joints())));
+            if f.n_joints() != N {
+                return Err(PlantError::Config(format!("the friction model has {} joints; the arm has {N}", f.n_joints())));
             }
         }
-        let mut effort_limit = [0.0; N_JOINTS];
+        let mut effort_limit = [0.0; N];
         for (i, j) in model.joints().iter().enumerate() {
             let e = j.limits.effort;
             if !(e > 0.0) {
@@ -226,14 +226,14 @@ impl PlantParams {
     /// Sub-steps per control period so that the stiffest contact is resolved:
     /// `ω h ≤ 0.1` with `ω = √(k_e,max / m_tip)`, `m_tip` the smallest apparent
     /// mass of the arm at the tip along the surface normal at `q`.
-    pub fn substeps_for_contact(&self, q: &JointVec, dt: f64) -> u32 {
-        let mut data = Data6::try_new(&self.model).expect("checked");
-        let qv = Vector6::from(*q);
+    pub fn substeps_for_contact(&self, q: &JointVec<N>, dt: f64) -> u32 {
+        let mut data = DataN::<N>::try_new(&self.model).expect("checked");
+        let qv = SVector::<f64, N>::from(*q);
         let m = dynamics::crba(&self.model, &mut data, &qv).clone_owned();
         let j = *dynamics::frame_jacobian(&self.model, &mut data, &qv, self.tip);
         let n = self.env.normal.into_inner();
         let jn = n.transpose() * j.fixed_rows::<3>(0);
-        let minv = m.try_inverse().unwrap_or_else(Matrix6::identity);
+        let minv = m.try_inverse().unwrap_or_else(SMatrix::<f64, N, N>::identity);
         let inv_mass = (jn * minv * jn.transpose())[(0, 0)];
         let m_tip = if inv_mass > 0.0 { 1.0 / inv_mass } else { 1.0 };
         let omega = (self.env.material.max_stiffness() / m_tip).sqrt();
@@ -242,23 +242,23 @@ impl PlantParams {
 }
 
 /// Joint friction torques at velocity `v` (zero if the plant is frictionless).
-fn friction_torques(p: &PlantParams, v: &Vector6<f64>) -> Vector6<f64> {
+fn friction_torques<const N: usize>(p: &PlantParams<N>, v: &SVector<f64, N>) -> SVector<f64, N> {
     match &p.friction {
-        None => Vector6::zeros(),
-        Some(f) => Vector6::from_fn(|i, _| f.tau_f(i, v[i])),
+        None => SVector::<f64, N>::zeros(),
+        Some(f) => SVector::<f64, N>::from_fn(|i, _| f.tau_f(i, v[i])),
     }
 }
 
 /// Tip pose, tip velocity, linear Jacobian and contact at `(t, q, v)`.
-fn tip_contact(
-    p: &PlantParams,
-    ws: &mut PlantWorkspace,
+fn tip_contact<const N: usize>(
+    p: &PlantParams<N>,
+    ws: &mut PlantWorkspace<N>,
     t: f64,
-    q: &Vector6<f64>,
-    v: &Vector6<f64>,
-) -> (Vector3<f64>, Vector3<f64>, Matrix3x6<f64>, Contact) {
+    q: &SVector<f64, N>,
+    v: &SVector<f64, N>,
+) -> (Vector3<f64>, Vector3<f64>, SMatrix<f64, 3, N>, Contact) {
     let j = dynamics::frame_jacobian(&p.model, &mut ws.data, q, p.tip);
-    let jl: Matrix3x6<f64> = j.fixed_rows::<3>(0).into_owned();
+    let jl: SMatrix<f64, 3, N> = j.fixed_rows::<3>(0).into_owned();
     let pos = ws.data.frame_se3(p.tip).trans;
     let vel = jl * v;
     let c = p.env.contact(t, &pos, &vel);
@@ -266,7 +266,7 @@ fn tip_contact(
 }
 
 /// Joint accelerations for the explicit schemes: ABA with `τ + τ_ext − τ_f(v)`.
-fn accel(p: &PlantParams, ws: &mut PlantWorkspace, t: f64, q: &Vector6<f64>, v: &Vector6<f64>, tau: &Vector6<f64>) -> Vector6<f64> {
+fn accel<const N: usize>(p: &PlantParams<N>, ws: &mut PlantWorkspace<N>, t: f64, q: &SVector<f64, N>, v: &SVector<f64, N>, tau: &SVector<f64, N>) -> SVector<f64, N> {
     let (_, _, jl, c) = tip_contact(p, ws, t, q, v);
     let tau_tot = tau + jl.transpose() * c.force - friction_torques(p, v);
     *dynamics::aba(&p.model, &mut ws.data, q, v, &tau_tot)
@@ -274,15 +274,15 @@ fn accel(p: &PlantParams, ws: &mut PlantWorkspace, t: f64, q: &Vector6<f64>, v: 
 
 /// One integration step of length `h` from `(t, q, v)` with torque `tau`:
 /// `(q⁺, q̇⁺)` and, if the scheme computed it, `τ_f(q̇⁺)`.
-fn integrate(
-    p: &PlantParams,
-    ws: &mut PlantWorkspace,
+fn integrate<const N: usize>(
+    p: &PlantParams<N>,
+    ws: &mut PlantWorkspace<N>,
     t: f64,
-    q: &Vector6<f64>,
-    v: &Vector6<f64>,
-    tau: &Vector6<f64>,
+    q: &SVector<f64, N>,
+    v: &SVector<f64, N>,
+    tau: &SVector<f64, N>,
     h: f64,
-) -> (Vector6<f64>, Vector6<f64>, Option<Vector6<f64>>) {
+) -> (SVector<f64, N>, SVector<f64, N>, Option<SVector<f64, N>>) {
     match p.integrator {
         Integrator::SemiImplicitEuler => {
             let a = accel(p, ws, t, q, v, tau);
@@ -313,10 +313,10 @@ fn integrate(
 }
 
 /// Saturate the commanded torque at the effort limits.
-fn saturate(p: &PlantParams, tau_cmd: &JointVec) -> (JointVec, bool) {
-    let mut out = [0.0; N_JOINTS];
+fn saturate<const N: usize>(p: &PlantParams<N>, tau_cmd: &JointVec<N>) -> (JointVec<N>, bool) {
+    let mut out = [0.0; N];
     let mut sat = false;
-    for i in 0..N_JOINTS {
+    for i in 0..N {
         let l = p.effort_limit[i];
         let v = if tau_cmd[i].is_finite() { tau_cmd[i] } else { 0.0 };
         out[i] = v.clamp(-l, l);
@@ -327,21 +327,21 @@ fn saturate(p: &PlantParams, tau_cmd: &JointVec) -> (JointVec, bool) {
 
 /// Measure the current state (encoders, F/T sensor) and collect the truth.
 /// Pure: returns the state with its RNG advanced.
-pub fn observe(p: &PlantParams, s: &PlantState, ws: &mut PlantWorkspace, tau_applied: JointVec, saturated: bool) -> (PlantState, Observation) {
+pub fn observe<const N: usize>(p: &PlantParams<N>, s: &PlantState<N>, ws: &mut PlantWorkspace<N>, tau_applied: JointVec<N>, saturated: bool) -> (PlantState<N>, Observation<N>) {
     observe_with_friction(p, s, ws, tau_applied, saturated, None)
 }
 
 /// [`observe`], with `τ_f(q̇)` at the state if the integrator already has it.
-fn observe_with_friction(
-    p: &PlantParams,
-    s: &PlantState,
-    ws: &mut PlantWorkspace,
-    tau_applied: JointVec,
+fn observe_with_friction<const N: usize>(
+    p: &PlantParams<N>,
+    s: &PlantState<N>,
+    ws: &mut PlantWorkspace<N>,
+    tau_applied: JointVec<N>,
     saturated: bool,
-    tau_f: Option<Vector6<f64>>,
-) -> (PlantState, Observation) {
-    let q = Vector6::from(s.q);
-    let v = Vector6::from(s.dq);
+    tau_f: Option<SVector<f64, N>>,
+) -> (PlantState<N>, Observation<N>) {
+    let q = SVector::<f64, N>::from(s.q);
+    let v = SVector::<f64, N>::from(s.dq);
     let (pos, vel, _, contact) = tip_contact(p, ws, s.t, &q, &v);
     let tip_se3 = *ws.data.frame_se3(p.tip);
     dynamics::forward_kinematics(&p.model, &mut ws.data, &q);
@@ -379,12 +379,12 @@ fn observe_with_friction(
 
 /// One control period: saturate `tau_cmd`, integrate `substeps` steps, observe.
 /// Pure: `(params, state, input) -> (state, outputs)`; allocation-free.
-pub fn step(p: &PlantParams, s: &PlantState, tau_cmd: &JointVec, ws: &mut PlantWorkspace) -> (PlantState, Observation) {
+pub fn step<const N: usize>(p: &PlantParams<N>, s: &PlantState<N>, tau_cmd: &JointVec<N>, ws: &mut PlantWorkspace<N>) -> (PlantState<N>, Observation<N>) {
     let (tau, saturated) = saturate(p, tau_cmd);
-    let tau_v = Vector6::from(tau);
+    let tau_v = SVector::<f64, N>::from(tau);
     let h = p.h();
-    let mut q = Vector6::from(s.q);
-    let mut v = Vector6::from(s.dq);
+    let mut q = SVector::<f64, N>::from(s.q);
+    let mut v = SVector::<f64, N>::from(s.dq);
     let mut tau_f = None;
     for k in 0..p.substeps {
         let t = s.t + k as f64 * h;
@@ -397,7 +397,7 @@ pub fn step(p: &PlantParams, s: &PlantState, tau_cmd: &JointVec, ws: &mut PlantW
 /// Open-loop replay: from `(q0, dq0)` apply `torques[k]` over period `k` and
 /// return the true state after every period (the first entry is the start).
 /// For cross-checks against other simulators (contact and friction as in `p`).
-pub fn replay(p: &PlantParams, q0: JointVec, dq0: JointVec, torques: &[JointVec]) -> Vec<PlantState> {
+pub fn replay<const N: usize>(p: &PlantParams<N>, q0: JointVec<N>, dq0: JointVec<N>, torques: &[JointVec<N>]) -> Vec<PlantState<N>> {
     let mut ws = PlantWorkspace::new(p);
     let mut s = PlantState { dq: dq0, ..PlantState::at_rest(q0, 0) };
     let mut out = Vec::with_capacity(torques.len() + 1);

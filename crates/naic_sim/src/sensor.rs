@@ -24,7 +24,7 @@
 //! the control rate (1 kHz; the mini45 electronics go up to 7 kHz, §5.2.1).
 
 use crate::rng::Rng;
-use naic_core::{JointVec, N_JOINTS};
+use naic_core::JointVec;
 use nalgebra::{Rotation3, Vector3};
 
 /// Parameters of the F/T sensor model.
@@ -158,11 +158,11 @@ impl Encoders {
         2.0 * std::f64::consts::PI / self.counts_per_rev
     }
 
-    pub fn measure(&self, q: &JointVec, dq: &JointVec, rng: &mut Rng) -> (JointVec, JointVec) {
+    pub fn measure<const N: usize>(&self, q: &JointVec<N>, dq: &JointVec<N>, rng: &mut Rng) -> (JointVec<N>, JointVec<N>) {
         let step = self.resolution_rad();
         let mut qm = *q;
         let mut dqm = *dq;
-        for i in 0..N_JOINTS {
+        for i in 0..N {
             if step > 0.0 {
                 qm[i] = (q[i] / step).round() * step;
             }

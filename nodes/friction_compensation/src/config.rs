@@ -23,6 +23,7 @@ pub fn core_params(p: &ParamView, sense: &SenseParams) -> Result<Params, ParamEr
         takeover_blend_ns: ns("takeover_blend"),
         actuate: actuate_params(p),
         sense: SenseParams { median_window: p.i64("median_window") as usize, ..*sense },
+        joints: crate::core::jk5_joints(),
     })
 }
 

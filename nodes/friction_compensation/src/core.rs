@@ -16,6 +16,7 @@ use naic_core::{
     },
     JointVec, N_JOINTS,
 };
+use naic_ros::msgs::JOINT_NAMES;
 use naic_ros::{
     joints::{finite, JointMap, Layout},
     msgs::{self, EffortError, Float64MultiArray, JointState},
@@ -26,7 +27,7 @@ use naic_ros::{
 
 /// Everything the step reads and never changes (rebuilt on a parameter change).
 #[derive(Clone, Debug)]
-pub struct Params {
+pub struct Params<const N: usize = N_JOINTS> {
     pub friction: FrictionModel,
     /// Add the feedforward (false: the actuation guard only).
     pub enabled: bool,
@@ -39,18 +40,26 @@ pub struct Params {
     /// After a take-over the command is blended from the measured torque over this time
     /// [ns] ([`actuate::Blend`]), ahead of the rate limit; 0: the rate limit alone.
     pub takeover_blend_ns: i64,
-    pub actuate: actuate::ActuateParams,
+    pub actuate: actuate::ActuateParams<N>,
     /// The velocity filter (the controller's sense stage; the wrench is not used here).
-    pub sense: SenseParams,
+    pub sense: SenseParams<N>,
+    /// The arm's joint names in joint order: `/joint_states` is read by them, and
+    /// `/joint_effort_cmd` carries the torques in their order.
+    pub joints: [String; N],
+}
+
+/// The JK5's joint names ([`JOINT_NAMES`]) as [`Params::joints`].
+pub fn jk5_joints() -> [String; N_JOINTS] {
+    JOINT_NAMES.map(String::from)
 }
 
 /// A command waiting for the joint state of its stamp (lockstep).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Pending {
-    tau: JointVec,
+struct Pending<const N: usize> {
+    tau: JointVec<N>,
     /// The velocity the command names for the feedforward (the scheduled law's; `None`:
     /// the measured one).
-    dq_ff: Option<JointVec>,
+    dq_ff: Option<JointVec<N>>,
     src: Option<i64>,
     /// Give up waiting at this wall time [ns] (then: no feedforward this cycle).
     until_ns: i64,
@@ -58,22 +67,22 @@ struct Pending {
 
 /// All the node remembers.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct State {
-    joints: JointMap,
-    sense: SenseState,
+pub struct State<const N: usize = N_JOINTS> {
+    joints: JointMap<N>,
+    sense: SenseState<N>,
     /// Filtered joint velocity, its wall-clock arrival and its stamp [ns].
-    dq: JointVec,
+    dq: JointVec<N>,
     dq_rx_ns: i64,
     dq_stamp_ns: Option<i64>,
     /// Torque the driver applies now (`/joint_states` effort).
-    effort_meas: Option<JointVec>,
-    actuate: actuate::ActuateState,
+    effort_meas: Option<JointVec<N>>,
+    actuate: actuate::ActuateState<N>,
     /// The take-over blend under way, if any.
-    blend: Option<actuate::Blend>,
+    blend: Option<actuate::Blend<N>>,
     /// When the last command went out (node time base) [ns].
     last_pub_ns: i64,
-    replay: Replay<JointVec>,
-    pending: Option<Pending>,
+    replay: Replay<JointVec<N>>,
+    pending: Option<Pending<N>>,
     warn: Throttle,
     /// Commands published.
     pub published: u64,
@@ -81,12 +90,12 @@ pub struct State {
     pub takeovers: u64,
 }
 
-impl Default for State {
+impl<const N: usize> Default for State<N> {
     fn default() -> Self {
         Self {
             joints: JointMap::default(),
             sense: SenseState::default(),
-            dq: [0.0; N_JOINTS],
+            dq: [0.0; N],
             dq_rx_ns: i64::MIN,
             dq_stamp_ns: None,
             effort_meas: None,
@@ -115,15 +124,17 @@ pub struct Inbox<'a> {
 pub enum Event {
     /// A `/naic/effort` command was refused (rate-limited: one per second).
     BadCommand(EffortError),
-    /// `/joint_states` lacks this joint name: no feedforward until it has it.
-    MissingJoint(&'static str),
+    /// `/joint_states` lacks the arm's joint of this index ([`Params::joints`]): no
+    /// feedforward until it has it.
+    MissingJoint(usize),
 }
 
 /// What one step produces.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Outbox {
-    /// `/joint_effort_cmd`: six torques and the `/joint_states` stamp they answer.
-    pub command: Option<(JointVec, Option<i64>)>,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Outbox<const N: usize = N_JOINTS> {
+    /// `/joint_effort_cmd`: N torques (in [`Params::joints`] order) and the `/joint_states`
+    /// stamp they answer.
+    pub command: Option<(JointVec<N>, Option<i64>)>,
     /// Lockstep: a command waits for the joint state of its stamp; step again with each
     /// `/joint_states` sample until this wall time [ns], then with an empty inbox.
     pub wait_until_ns: Option<i64>,
@@ -131,15 +142,15 @@ pub struct Outbox {
 }
 
 /// One step at wall time `now_ns`.
-pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64) -> (State, Outbox) {
+pub fn step<const N: usize>(p: &Params<N>, s: &State<N>, inbox: &Inbox, now_ns: i64) -> (State<N>, Outbox<N>) {
     let mut s = *s;
-    let mut out = Outbox::default();
+    let mut out = Outbox { command: None, wait_until_ns: None, event: None };
     if let Some(js) = inbox.joint_states {
         absorb(p, &mut s, js, now_ns, &mut out);
     }
     if let Some(m) = inbox.command {
-        let mut tau = [0.0; N_JOINTS];
-        let mut dq_ff = [0.0; N_JOINTS];
+        let mut tau = [0.0; N];
+        let mut dq_ff = [0.0; N];
         let named = msgs::effort_values(m, &mut tau).and_then(|()| msgs::effort_friction_velocity(m, &mut dq_ff));
         let named = match named {
             Ok(named) => named,
@@ -213,7 +224,7 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64) -> (State, Outbox
 }
 
 /// Take one `/joint_states` sample: the filtered velocity and the measured torque.
-fn absorb(p: &Params, s: &mut State, js: &JointState, now_ns: i64, out: &mut Outbox) {
+fn absorb<const N: usize>(p: &Params<N>, s: &mut State<N>, js: &JointState, now_ns: i64, out: &mut Outbox<N>) {
     let stamp = js.header.stamp.to_nanos();
     if s.dq_stamp_ns == Some(stamp) {
         // The same state published again (lockstep, paused): the median filter takes
@@ -221,9 +232,9 @@ fn absorb(p: &Params, s: &mut State, js: &JointState, now_ns: i64, out: &mut Out
         s.dq_rx_ns = now_ns;
         return;
     }
-    let (j, layout) = s.joints.sample(js);
+    let (j, layout) = s.joints.sample_named(js, &p.joints);
     if let Layout::Missing(i) = layout {
-        out.event = Some(Event::MissingJoint(msgs::JOINT_NAMES[i]));
+        out.event = Some(Event::MissingJoint(i));
     }
     if let (Some(q), Some(v)) = (finite(&j.q), finite(&j.dq)) {
         let raw = RawMeasurements { t: 0.0, q, dq: v, joints_stamp: 0.0, wrench: [0.0; 6], wrench_stamp: 0.0 };
@@ -267,6 +278,7 @@ mod tests {
             takeover_gap_ns: 20 * MS,
             takeover_blend_ns: 0,
             actuate: actuate::ActuateParams { effort_limit: [100.0; 6], max_delta: [10.0; 6] },
+            joints: jk5_joints(),
             sense: SenseParams {
                 wrench_max: [f64::INFINITY; 6],
                 joint_timeout: 1.0,
@@ -406,7 +418,7 @@ mod tests {
         // The arm has that torque now, so the take-over's rate limit passes it unchanged.
         let (s, _) = run(&p, &State::default(), Inbox { joint_states: Some(&js(2000, ORDER, measured, want)), ..Default::default() }, MS);
         let mut cmd = effort_msg(&[1.0; 6], Some(2000));
-        naic_ros::msgs::set_effort_msg(&mut cmd, &[1.0; 6], Some(2000), Some(&named));
+        naic_ros::msgs::set_effort_msg(&mut cmd, &[1.0; 6], Some(2000), Some(&named[..]));
         let (_, o) = run(&p, &s, Inbox { command: Some(&cmd), ..Default::default() }, MS);
         let tau = o.command.unwrap().0;
         assert_eq!(tau, want);
@@ -457,7 +469,7 @@ mod tests {
         let mut bad = js(2, ORDER, dq, [1.0; 6]);
         bad.name[2] = "elbow".into();
         let (s, o) = step(&p, &State::default(), &Inbox { joint_states: Some(&bad), ..Default::default() }, 0);
-        assert_eq!(o.event, Some(Event::MissingJoint("joint3")));
+        assert_eq!(o.event, Some(Event::MissingJoint(2)));
         let (_, o) = run(&p, &s, Inbox { command: Some(&cmd), ..Default::default() }, MS);
         assert_eq!(o.command, None, "no measured torque known: nothing published");
     }

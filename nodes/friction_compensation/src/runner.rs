@@ -55,7 +55,7 @@ impl Runner {
         let (p, s) = (&self.p, &self.s);
         let (next, out) = alloc_check::check(NODE, &mut self.warned, || core::step(p, s, &inbox, now_ns));
         self.s = next;
-        log_event(&out.event);
+        log_event(&self.p, &out.event);
         out
     }
 
@@ -80,10 +80,12 @@ impl Runner {
     }
 }
 
-pub fn log_event(e: &Option<core::Event>) {
+pub fn log_event<const N: usize>(p: &core::Params<N>, e: &Option<core::Event>) {
     match e {
         Some(core::Event::BadCommand(e)) => log::warn!("ignoring /naic/effort: {e}"),
-        Some(core::Event::MissingJoint(j)) => log::error!("/joint_states has no '{j}': no friction feedforward"),
+        Some(core::Event::MissingJoint(j)) => {
+            log::error!("/joint_states has no '{}' (joint {} of the arm's joints {:?}): no friction feedforward", p.joints[*j], j + 1, p.joints)
+        }
         None => {}
     }
 }

@@ -322,7 +322,7 @@ mod tests {
         assert_eq!(o.tau, [1.0; 6]);
         let mut bad = effort_msg(&[1.0; 6], None);
         bad.data.truncate(3);
-        assert_eq!(rx(&mut c, &bad, 2 * MS), Some(EffortError::TooFew(3)));
+        assert_eq!(rx(&mut c, &bad, 2 * MS), Some(EffortError::TooFew { need: 6, got: 3 }));
         assert_eq!(rx(&mut c, &bad, 3 * MS), None, "rate-limited");
         assert_eq!(c.rejected, 2);
         // The next cycle holds (well before command_timeout).

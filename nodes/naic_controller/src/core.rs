@@ -19,11 +19,11 @@ use naic_core::{
         estimate::{NotAtRest, TareState, TARE_REST_VELOCITY},
         sense::{Fault, RawMeasurements},
     },
-    JointVec,
+    JointVec, N_JOINTS,
 };
 use naic_ros::{
     joints::{finite, JointMap, JointSample, Layout},
-    msgs::{self, Float64MultiArray, JointState, PoseStamped, WrenchStamped, JOINT_NAMES},
+    msgs::{self, Float64MultiArray, JointState, PoseStamped, WrenchStamped},
     replay::Replay,
     throttle::Throttle,
     timebase::{TimeBase, FIRST_PAIR_TIMEOUT_NS},
@@ -57,8 +57,8 @@ pub struct Settings {
 
 /// Everything the step reads and never changes (changed by [`set_params`] only).
 #[derive(Clone)]
-pub struct Params {
-    pub controller: Controller,
+pub struct Params<const N: usize = N_JOINTS> {
+    pub controller: Controller<N>,
     pub settings: Settings,
     /// The scenario's position reference (`None`: the start pose moved along n).
     pub reference: Option<ScenarioReference>,
@@ -66,18 +66,21 @@ pub struct Params {
     /// `/naic/desired_wrench`; built once from the ROS parameters, see `config::reference_params`).
     pub reference_params: ReferenceParams,
     tip: FrameId,
+    /// The arm's joint names in joint order (`/joint_states` is read by them).
+    pub joints: [String; N],
 }
 
-impl Params {
+impl<const N: usize> Params<N> {
     pub fn new(
-        controller: Controller,
+        controller: Controller<N>,
         settings: Settings,
         reference: Option<ScenarioReference>,
         reference_params: ReferenceParams,
-    ) -> Result<Params, ConfigError> {
+        joints: [String; N],
+    ) -> Result<Params<N>, ConfigError> {
         let tip = controller.model().frame_id(controller::TIP_FRAME).ok_or_else(|| ConfigError::Model("the URDF has no 'tip' frame".into()))?;
         reference_params.validate()?;
-        Ok(Params { controller, settings, reference, reference_params, tip })
+        Ok(Params { controller, settings, reference, reference_params, tip, joints })
     }
 }
 
@@ -136,9 +139,9 @@ pub struct ActiveReference {
 
 /// The answer to one joint state: the torque (when finite) and the report.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Answer {
-    tau: Option<JointVec>,
-    friction_velocity: Option<JointVec>,
+struct Answer<const N: usize> {
+    tau: Option<JointVec<N>>,
+    friction_velocity: Option<JointVec<N>>,
     report: Report,
 }
 
@@ -154,18 +157,18 @@ struct WrenchIn {
 
 /// A joint state waiting for the wrench of its stamp (lockstep).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Pending {
-    joints: JointSample,
+struct Pending<const N: usize> {
+    joints: JointSample<N>,
     until_ns: i64,
 }
 
 /// All the node remembers.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct State {
-    pub ctl: ControllerState,
-    joints: JointMap,
+pub struct State<const N: usize = N_JOINTS> {
+    pub ctl: ControllerState<N>,
+    joints: JointMap<N>,
     wrench: Option<WrenchIn>,
-    pending: Option<Pending>,
+    pending: Option<Pending<N>>,
     /// Stamp of the first joint state: controller time 0 [ns].
     t0_ns: Option<i64>,
     /// Tip pose at start (the reference without a scenario).
@@ -178,7 +181,7 @@ pub struct State {
     /// The last cycle's torque did not reach the arm.
     not_actuated: bool,
     fault_log: Throttle,
-    replay: Replay<Answer>,
+    replay: Replay<Answer<N>>,
     /// The reference stage (scenario none), from the first valid joint state on.
     pub reference: Option<ReferenceState>,
     /// Controller time of the last cycle [s]: reference samples are taken at it.
@@ -186,14 +189,14 @@ pub struct State {
     reference_log: Throttle,
     tare_log: Throttle,
     /// The last cycle's joint velocity and force along n (for `~/zero_wrench`'s checks).
-    last_dq: Option<JointVec>,
+    last_dq: Option<JointVec<N>>,
     last_f_ext: f64,
     /// Controller cycles run (replays not counted).
     pub cycles: u64,
 }
 
-impl State {
-    pub fn new(p: &Params) -> State {
+impl<const N: usize> State<N> {
+    pub fn new(p: &Params<N>) -> State<N> {
         State {
             ctl: p.controller.initial_state(),
             joints: JointMap::default(),
@@ -269,8 +272,9 @@ pub const NO_FORCE_LIMIT_TO_RESET: &str =
 /// Things for the shell to log (each at most once per step).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Events {
-    /// `/joint_states` lacks this joint: the controller holds.
-    pub missing_joint: Option<&'static str>,
+    /// `/joint_states` lacks the arm's joint of this index ([`Params::joints`]): the
+    /// controller holds.
+    pub missing_joint: Option<usize>,
     /// The start tip position was taken [m].
     pub start_tip: Option<[f64; 3]>,
     /// The force limit was just exceeded: measured force [N].
@@ -304,12 +308,12 @@ pub enum Actuation {
 
 /// What one step produces.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Outbox {
+pub struct Outbox<const N: usize = N_JOINTS> {
     /// `/naic/effort`: torque and the `/joint_states` stamp it answers.
-    pub effort: Option<(JointVec, i64)>,
+    pub effort: Option<(JointVec<N>, i64)>,
     /// With the effort, the joint velocity the friction node is to evaluate its
     /// feedforward at (`ControlOutputs::dq_ff`: the scheduled law's); `None`: the measured one.
-    pub friction_velocity: Option<JointVec>,
+    pub friction_velocity: Option<JointVec<N>>,
     /// `/naic/params`.
     pub report: Option<Report>,
     /// The answer to [`Inbox::reset_force_limit`].
@@ -323,7 +327,7 @@ pub struct Outbox {
 }
 
 /// One step at wall time `now_ns`; `ws` is scratch memory only.
-pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspace) -> (State, Outbox) {
+pub fn step<const N: usize>(p: &Params<N>, s: &State<N>, inbox: &Inbox, now_ns: i64, ws: &mut Workspace<N>) -> (State<N>, Outbox<N>) {
     let mut s = *s;
     let mut out = Outbox::default();
     if let Some(w) = inbox.wrench {
@@ -365,9 +369,9 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
             s.pending = None;
             return (s, out);
         }
-        let (joints, layout) = s.joints.sample(js);
+        let (joints, layout) = s.joints.sample_named(js, &p.joints);
         if let Layout::Missing(i) = layout {
-            out.events.missing_joint = Some(JOINT_NAMES[i]);
+            out.events.missing_joint = Some(i);
         }
         let wait = if s.wrench.is_some() { PAIR_TIMEOUT_NS } else { FIRST_PAIR_TIMEOUT_NS };
         // (In wall-clock time nothing waits: see below.)
@@ -387,7 +391,7 @@ pub fn step(p: &Params, s: &State, inbox: &Inbox, now_ns: i64, ws: &mut Workspac
 }
 
 /// `~/zero_wrench`: start a new tare when the arm is in free space and at rest, else refuse.
-fn zero_wrench(p: &Params, s: &mut State) -> TriggerAnswer {
+fn zero_wrench<const N: usize>(p: &Params<N>, s: &mut State<N>) -> TriggerAnswer {
     let refuse = |message| TriggerAnswer { success: false, message };
     let ctl = &s.ctl;
     let cp = p.controller.params();
@@ -416,7 +420,7 @@ fn zero_wrench(p: &Params, s: &mut State) -> TriggerAnswer {
 }
 
 /// One controller cycle on the joint state `j`.
-fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Workspace, out: &mut Outbox) {
+fn cycle<const N: usize>(p: &Params<N>, s: &mut State<N>, j: &JointSample<N>, now_ns: i64, ws: &mut Workspace<N>, out: &mut Outbox<N>) {
     let time = p.settings.time;
     let t0 = *s.t0_ns.get_or_insert(j.stamp_ns);
     let sec = |ns: i64| (ns - t0) as f64 * 1e-9;
@@ -435,7 +439,7 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
     // moved `approach_depth` along n (above force_limit the core backs off from it).
     let model = p.controller.model();
     if s.start.is_none() && finite(&j.q).is_some() {
-        dynamics::forward_kinematics(model, &mut ws.data, &Vector6::from(j.q));
+        dynamics::forward_kinematics(model, &mut ws.data, &nalgebra::SVector::<f64, N>::from(j.q));
         let pose = ws.data.frame_se3(p.tip);
         s.start = Some((pose.trans, UnitQuaternion::from_matrix(&pose.rot)));
         out.events.start_tip = Some([pose.trans.x, pose.trans.y, pose.trans.z]);
@@ -546,7 +550,7 @@ fn cycle(p: &Params, s: &mut State, j: &JointSample, now_ns: i64, ws: &mut Works
 /// The reference topics' samples into the reference stage, at the last cycle's controller
 /// time (the next cycle moves the reference). Refusals are counted by the stage and
 /// reported here rate-limited.
-fn take_reference_samples(p: &Params, s: &mut State, inbox: &Inbox, now_ns: i64, out: &mut Outbox) {
+fn take_reference_samples<const N: usize>(p: &Params<N>, s: &mut State<N>, inbox: &Inbox, now_ns: i64, out: &mut Outbox<N>) {
     if p.reference.is_some() {
         return; // a scenario's trajectory: the shell does not subscribe the topics
     }
@@ -584,10 +588,10 @@ fn take_reference_samples(p: &Params, s: &mut State, inbox: &Inbox, now_ns: i64,
 /// restart when the force law or impedance changed; a force-limit retraction is kept: only
 /// [`Inbox::reset_force_limit`] ends it).
 /// `Err`: the core refused `cp`; the settings still apply, the controller is unchanged.
-pub fn set_params(
-    p: &mut Params,
-    s: &mut State,
-    cp: ControllerParams,
+pub fn set_params<const N: usize>(
+    p: &mut Params<N>,
+    s: &mut State<N>,
+    cp: ControllerParams<N>,
     settings: Settings,
     mut reference_params: ReferenceParams,
 ) -> Result<param_change::Outcome, ConfigError> {

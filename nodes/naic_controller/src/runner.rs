@@ -138,9 +138,9 @@ impl Runner {
             let now = if w.is_some() { wall_ns() } else { wall_ns().max(until) };
             out = self.step(core::Inbox { wrench: w.as_ref(), ..Default::default() }, now);
         }
-        log_events(&out.events, self.p.settings.force_limit);
+        log_events(&out.events, self.p.settings.force_limit, &self.p.joints);
         if let Some((tau, stamp)) = out.effort {
-            msgs::set_effort_msg(&mut self.effort, &tau, Some(stamp), out.friction_velocity.as_ref());
+            msgs::set_effort_msg(&mut self.effort, &tau, Some(stamp), out.friction_velocity.as_ref().map(|v| &v[..]));
         }
         if let Some(r) = &out.report {
             fill_report(&mut self.report, r, &self.p.reference_params.base_frame);
@@ -210,9 +210,9 @@ impl Services {
     }
 }
 
-pub fn log_events(e: &core::Events, force_limit: f64) {
+pub fn log_events(e: &core::Events, force_limit: f64, joints: &[String]) {
     if let Some(j) = e.missing_joint {
-        log::error!("/joint_states has no '{j}'; holding");
+        log::error!("/joint_states has no '{}' (joint {} of the arm's joints {joints:?}); holding", joints[j], j + 1);
     }
     if let Some(p) = e.start_tip {
         log::info!("start tip position {p:?}");

@@ -47,7 +47,7 @@ impl Setup {
         let reference =
             ScenarioReference::new(&scenario, &model).map_err(|e| RosError::param(format!("scenario '{scenario}': {e}")))?;
         let rp = table.with(config::reference_params);
-        let params = core::Params::new(ctl, table.with(config::settings), reference, rp).map_err(bad_model)?;
+        let params = core::Params::new(ctl, table.with(config::settings), reference, rp, naic_ros::msgs::JOINT_NAMES.map(String::from)).map_err(bad_model)?;
         Ok(Setup { params, base })
     }
 

@@ -54,9 +54,11 @@ pub mod spatial;
 
 mod cartesian;
 mod damped;
+pub mod task_inverse;
 
 pub use cartesian::{cartesian_terms, CartesianError, CartesianTerms, Damping};
 pub use damped::solve_damped;
+pub use task_inverse::{consistent_inverse, TaskInverse};
 
 use crate::model::{Data, FrameId, Model};
 use nalgebra::allocator::Allocator;

@@ -55,10 +55,13 @@ where
     pub j: OMatrix<f64, U6, D>,
 }
 
-/// The 6-DOF fast-path workspace (stack joint-space matrices) for the
-/// [`crate::N_JOINTS`] joints of the arm; its joint-space vectors are the
-/// nalgebra form of a [`crate::JointVec`].
-pub type Data6 = Data<U6>;
+/// The fixed-size workspace of an `N`-joint arm (stack joint-space matrices,
+/// compile-time loop bounds): the one of the 1 kHz path; its joint-space
+/// vectors are the nalgebra form of a [`crate::JointVec<N>`].
+pub type DataN<const N: usize> = Data<nalgebra::Const<N>>;
+
+/// [`DataN`] of the JK5's six joints.
+pub type Data6 = DataN<6>;
 
 impl Data<Dyn> {
     /// Workspace for any model (dynamic size).

@@ -33,7 +33,7 @@ mod data;
 mod error;
 mod urdf;
 
-pub use data::{Data, Data6};
+pub use data::{Data, Data6, DataN};
 pub use error::ModelError;
 
 use crate::dynamics::spatial::{Inertia, Motion, Se3};

@@ -11,31 +11,43 @@ use crate::{JointVec, N_JOINTS};
 
 /// Limits of the actuation stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ActuateParams {
+pub struct ActuateParams<const N: usize = N_JOINTS> {
     /// Effort limit per joint [N·m].
-    pub effort_limit: JointVec,
+    pub effort_limit: JointVec<N>,
     /// Largest change per control cycle [N·m] (`f64::INFINITY` disables it).
-    pub max_delta: JointVec,
+    pub max_delta: JointVec<N>,
 }
 
 /// The command sent last cycle.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct ActuateState {
-    pub tau_prev: JointVec,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ActuateState<const N: usize = N_JOINTS> {
+    pub tau_prev: JointVec<N>,
     /// False until the first command has gone out (the rate limit starts from it).
     pub started: bool,
 }
 
 /// What the stage did this cycle.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct ActuateReport {
-    pub tau: JointVec,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ActuateReport<const N: usize = N_JOINTS> {
+    pub tau: JointVec<N>,
     /// Joints whose command was saturated at the effort limit.
-    pub saturated: [bool; N_JOINTS],
+    pub saturated: [bool; N],
     /// Joints whose command was rate limited.
-    pub rate_limited: [bool; N_JOINTS],
+    pub rate_limited: [bool; N],
     /// The input had a NaN or Inf; the previous command was held.
     pub rejected_non_finite: bool,
+}
+
+impl<const N: usize> Default for ActuateState<N> {
+    fn default() -> Self {
+        Self { tau_prev: [0.0; N], started: false }
+    }
+}
+
+impl<const N: usize> Default for ActuateReport<N> {
+    fn default() -> Self {
+        Self { tau: [0.0; N], saturated: [false; N], rate_limited: [false; N], rejected_non_finite: false }
+    }
 }
 
 /// A take-over blend: `τ = τ_from + α(x)·(τ_cmd − τ_from)`, `x = (t − t0)/duration`,
@@ -43,17 +55,17 @@ pub struct ActuateReport {
 /// 1.5·|τ_cmd − τ_from|/duration in between). It follows the command as it moves, so the
 /// output is the command itself once `x ≥ 1`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Blend {
+pub struct Blend<const N: usize = N_JOINTS> {
     /// The torque the arm had at the take-over [N·m].
-    pub from: JointVec,
+    pub from: JointVec<N>,
     /// When the take-over happened [ns, the caller's time base].
     pub t0_ns: i64,
 }
 
-impl Blend {
+impl<const N: usize> Blend<N> {
     /// The blended torque at `t_ns`, and whether the blend has ended (`duration_ns` ≤ 0:
     /// at once).
-    pub fn apply(&self, tau: &JointVec, t_ns: i64, duration_ns: i64) -> (JointVec, bool) {
+    pub fn apply(&self, tau: &JointVec<N>, t_ns: i64, duration_ns: i64) -> (JointVec<N>, bool) {
         let x = if duration_ns > 0 { t_ns.saturating_sub(self.t0_ns) as f64 / duration_ns as f64 } else { 1.0 };
         if x >= 1.0 {
             return (*tau, true);
@@ -68,10 +80,10 @@ impl Blend {
 /// clipped. A non-finite entry becomes 0 and counts as clipped (callers that can hold
 /// the previous command instead, like [`step`], reject non-finite input before this).
 /// Also the last guard of a driver, on whatever it is about to apply.
-pub fn saturate(limit: &JointVec, tau: &JointVec) -> (JointVec, [bool; N_JOINTS]) {
-    let mut out = [0.0; N_JOINTS];
-    let mut clipped = [false; N_JOINTS];
-    for i in 0..N_JOINTS {
+pub fn saturate<const N: usize>(limit: &JointVec<N>, tau: &JointVec<N>) -> (JointVec<N>, [bool; N]) {
+    let mut out = [0.0; N];
+    let mut clipped = [false; N];
+    for i in 0..N {
         let t = if tau[i].is_finite() { tau[i] } else { 0.0 };
         out[i] = t.clamp(-limit[i], limit[i]);
         clipped[i] = out[i] != tau[i];
@@ -80,14 +92,14 @@ pub fn saturate(limit: &JointVec, tau: &JointVec) -> (JointVec, [bool; N_JOINTS]
 }
 
 /// One cycle. Pure: `(params, state, input) -> (state, outputs)`.
-pub fn step(p: &ActuateParams, s: &ActuateState, tau_in: &JointVec) -> (ActuateState, ActuateReport) {
+pub fn step<const N: usize>(p: &ActuateParams<N>, s: &ActuateState<N>, tau_in: &JointVec<N>) -> (ActuateState<N>, ActuateReport<N>) {
     let mut r = ActuateReport::default();
     if tau_in.iter().any(|t| !t.is_finite()) {
         r.rejected_non_finite = true;
         r.tau = s.tau_prev;
         return (*s, r);
     }
-    for i in 0..N_JOINTS {
+    for i in 0..N {
         let mut t = tau_in[i];
         if s.started {
             let lo = s.tau_prev[i] - p.max_delta[i];

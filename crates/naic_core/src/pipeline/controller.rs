@@ -29,7 +29,7 @@
 //! the fault is reported; the next valid cycle resumes in free space and
 //! re-detects contact.
 
-use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix6, Rotation3, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
 use super::control::force_law::Mode;
 use super::ConfigError;
@@ -38,13 +38,13 @@ use super::estimate::{self, TareState, ToolParams};
 use super::feedforward;
 use super::sense::{self, Fault, RawMeasurements, SenseParams, SenseState};
 use crate::dynamics::{self, Damping};
-use crate::model::{Data6, FrameId, Model};
+use crate::model::{DataN, FrameId, Model};
 use crate::{JointVec, N_JOINTS};
 
 /// Everything the controller needs besides the robot model.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ControllerParams {
-    pub sense: SenseParams,
+pub struct ControllerParams<const N: usize = N_JOINTS> {
+    pub sense: SenseParams<N>,
     pub tool: ToolParams,
     /// Free-space samples averaged for the F/T tare at start.
     pub tare_samples: u32,
@@ -55,31 +55,52 @@ pub struct ControllerParams {
     pub tare_at_rest: bool,
     pub control: ControlParams,
     /// Joint damping of the safe hold [N·m·s/rad].
-    pub hold_damping: JointVec,
+    pub hold_damping: JointVec<N>,
     /// Jacobian inverse near singularities.
     pub damping: Damping,
+    /// The null-space posture task of an arm with more than 6 joints (unused on 6).
+    pub nullspace: NullSpace<N>,
+}
+
+/// The posture task in the Jacobian's null space (eq 6 → τ below; an arm of N > 6 joints):
+/// `τ₀ = k (q_n − q) − d q̇`, projected by `(I − Jᵀ J̄ᵀ)` so that it moves nothing of the task.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NullSpace<const N: usize = N_JOINTS> {
+    /// Stiffness towards the posture [N·m/rad].
+    pub stiffness: f64,
+    /// Joint damping [N·m·s/rad], capped per joint for stability at the control period
+    /// as the hold's ([`super::hold::stable_damping`]).
+    pub damping: f64,
+    /// The posture `q_n` [rad]; `None`: the first valid joint position (the start pose).
+    pub q: Option<JointVec<N>>,
+}
+
+impl<const N: usize> Default for NullSpace<N> {
+    fn default() -> Self {
+        Self { stiffness: 20.0, damping: 2.0, q: None }
+    }
 }
 
 /// The immutable half: the 6-joint model, its frames and the parameters.
 #[derive(Clone, Debug)]
-pub struct Controller {
+pub struct Controller<const N: usize = N_JOINTS> {
     model: Model,
     /// A workspace sized for the model, cloned by [`Controller::workspace`].
-    blank: Data6,
+    blank: DataN<N>,
     tip: FrameId,
     sensor: FrameId,
-    params: ControllerParams,
+    params: ControllerParams<N>,
 }
 
 /// Names of the frames the controller needs in the URDF.
 pub const TIP_FRAME: &str = "tip";
 pub const SENSOR_FRAME: &str = "ft_sensor";
 
-impl Controller {
-    /// Checks the model (6 joints, `tip` and `ft_sensor` frames) and the parameters.
-    pub fn new(model: Model, params: ControllerParams) -> Result<Self, ConfigError> {
-        if model.nv() != N_JOINTS {
-            return Err(ConfigError::Model(format!("the controller needs a 6-joint arm; this model has {} joints", model.nv())));
+impl<const N: usize> Controller<N> {
+    /// Checks the model (N joints, `tip` and `ft_sensor` frames) and the parameters.
+    pub fn new(model: Model, params: ControllerParams<N>) -> Result<Self, ConfigError> {
+        if model.nv() != N {
+            return Err(ConfigError::Model(format!("this controller was set up for a {N}-joint arm; this model has {} joints", model.nv())));
         }
         let frame = |name: &str| {
             model.frame_id(name).ok_or_else(|| ConfigError::Model(format!("the URDF has no frame '{name}': add a link named '{name}'")))
@@ -93,7 +114,14 @@ impl Controller {
         if params.hold_damping.iter().any(|d| !(*d >= 0.0 && d.is_finite())) {
             return Err(ConfigError::invalid("hold_damping", format!("{:?}", params.hold_damping), "must be finite and >= 0"));
         }
-        let blank = Data6::try_new(&model).map_err(|e| ConfigError::Model(e.to_string()))?;
+        let ns = &params.nullspace;
+        if !(ns.stiffness >= 0.0 && ns.stiffness.is_finite() && ns.damping >= 0.0 && ns.damping.is_finite()) {
+            return Err(ConfigError::invalid("nullspace stiffness", format!("{} N·m/rad (damping {} N·m·s/rad)", ns.stiffness, ns.damping), "must both be finite and >= 0"));
+        }
+        if ns.q.is_some_and(|q| q.iter().any(|x| !x.is_finite())) {
+            return Err(ConfigError::invalid("nullspace_q", format!("{:?}", ns.q), "must be finite joint positions [rad], one per joint"));
+        }
+        let blank = DataN::<N>::try_new(&model).map_err(|e| ConfigError::Model(e.to_string()))?;
         Ok(Self { model, blank, tip, sensor, params })
     }
 
@@ -101,17 +129,17 @@ impl Controller {
         &self.model
     }
 
-    pub fn params(&self) -> &ControllerParams {
+    pub fn params(&self) -> &ControllerParams<N> {
         &self.params
     }
 
     /// A copy with other parameters (validated); the state stays compatible.
-    pub fn with_params(&self, params: ControllerParams) -> Result<Self, ConfigError> {
+    pub fn with_params(&self, params: ControllerParams<N>) -> Result<Self, ConfigError> {
         Self::new(self.model.clone(), params)
     }
 
     /// The state before the first cycle.
-    pub fn initial_state(&self) -> ControllerState {
+    pub fn initial_state(&self) -> ControllerState<N> {
         ControllerState {
             sense: SenseState::default(),
             tare: TareState::default(),
@@ -119,33 +147,36 @@ impl Controller {
             fault: None,
             fault_count: 0,
             last_q: None,
+            q_posture: None,
         }
     }
 
     /// A preallocated workspace for [`step`].
-    pub fn workspace(&self) -> Workspace {
+    pub fn workspace(&self) -> Workspace<N> {
         Workspace { data: self.blank.clone() }
     }
 }
 
 /// Scratch memory of [`step`]: no state lives here.
 #[derive(Clone, Debug)]
-pub struct Workspace {
-    pub data: Data6,
+pub struct Workspace<const N: usize = N_JOINTS> {
+    pub data: DataN<N>,
 }
 
 /// What the controller remembers between cycles (all of it).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ControllerState {
-    pub sense: SenseState,
-    pub tare: TareState,
+pub struct ControllerState<const N: usize = N_JOINTS> {
+    pub sense: SenseState<N>,
+    pub tare: TareState<N>,
     pub control: ControlState,
     /// The fault of the last cycle, if it was rejected.
     pub fault: Option<Fault>,
     /// Fault events (transitions into a fault) since start.
     pub fault_count: u32,
     /// Last valid joint position (the hold uses it when q itself is bad).
-    pub last_q: Option<JointVec>,
+    pub last_q: Option<JointVec<N>>,
+    /// The null-space posture `q_n` in use (an arm of N > 6 joints; [`NullSpace::q`]).
+    pub q_posture: Option<JointVec<N>>,
 }
 
 /// The reference of one cycle: where the tip should be and what force it should apply.
@@ -210,17 +241,17 @@ pub struct Status {
 
 /// Output of one cycle.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ControlOutputs {
+pub struct ControlOutputs<const N: usize = N_JOINTS> {
     /// Joint torques before friction feedforward and actuation limits [N·m].
-    pub tau: JointVec,
+    pub tau: JointVec<N>,
     /// The (median-filtered) joint velocity this cycle used [rad/s].
-    pub dq: JointVec,
+    pub dq: JointVec<N>,
     /// The joint velocity the friction feedforward is to be evaluated at [rad/s], when the
     /// law names one: with the scheduled law's `friction_reference`, the blend of `dq` and
     /// the reference twist's joint velocity `J⁻¹ Ẋ_ref` ([`super::feedforward::blend`]).
     /// `None`: at `dq` (the paper's laws). Over DDS it travels with the torque on
     /// `/naic/effort` to the friction node (`naic_ros::msgs::set_effort_msg`).
-    pub dq_ff: Option<JointVec>,
+    pub dq_ff: Option<JointVec<N>>,
     pub status: Status,
 }
 
@@ -232,21 +263,21 @@ fn orientation_error(r_d: &UnitQuaternion<f64>, r: &Matrix3<f64>) -> Vector3<f64
 
 /// One cycle of the controller. Pure: `(params, state, inputs) -> (state, outputs)`;
 /// the workspace is scratch memory only. No heap allocation.
-pub fn step(
-    c: &Controller,
-    s: &ControllerState,
-    m: &RawMeasurements,
+pub fn step<const N: usize>(
+    c: &Controller<N>,
+    s: &ControllerState<N>,
+    m: &RawMeasurements<N>,
     r: &Reference,
-    ws: &mut Workspace,
-) -> (ControllerState, ControlOutputs) {
+    ws: &mut Workspace<N>,
+) -> (ControllerState<N>, ControlOutputs<N>) {
     let p = &c.params;
     let (sense_state, sensed) = sense::step(&p.sense, &s.sense, m);
     let sensed = match sensed {
         Ok(x) => x,
         Err(fault) => return hold(c, s, m, r, ws, fault),
     };
-    let q = Vector6::from(sensed.q);
-    let dq = Vector6::from(sensed.dq);
+    let q = SVector::<f64, N>::from(sensed.q);
+    let dq = SVector::<f64, N>::from(sensed.dq);
     let mut next = ControllerState { sense: sense_state, fault: None, last_q: Some(sensed.q), ..*s };
 
     // Kinematics: sensor orientation, tip pose and velocity.
@@ -315,7 +346,9 @@ pub fn step(
     next.control.sched.shaper = shaper;
 
     // Eq 6 → τ: J q̈* = V − J̇q̇, τ = RNEA(q, q̇, q̈*) + Jᵀ F_e.
-    let (qdd, damped) = dynamics::solve_damped(&j, &(out.v - jdot_qdot), &p.damping);
+    let posture = if N == 6 { None } else { Some(s.q_posture.or(p.nullspace.q).unwrap_or(sensed.q)) };
+    next.q_posture = posture;
+    let (qdd, damped) = solve_eq6(c, ws, &q, &dq, &j, &(out.v - jdot_qdot), posture.as_ref());
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
     let mut tau = tau_id + j.transpose() * f_e;
     // The scheduled law's gravity correction by the learnt model gain (scheduled::gain::GravityCorrection).
@@ -325,7 +358,7 @@ pub fn step(
         // the free fall's acceleration along n from the model at this pose.
         let gp = &p.control.force_law.scheduled.model_gain;
         if next.control.phase == Phase::Free && next.control.sched.gain.wants_heavy(gp, p.control.force_law.lambda) {
-            let zero = Vector6::zeros();
+            let zero = SVector::<f64, N>::zeros();
             let qdd_free = *dynamics::aba(&c.model, &mut ws.data, &q, &zero, &zero);
             let a_free = p.control.force_axis.sign * (j * qdd_free)[p.control.force_axis.axis];
             next.control.sched.gain = next.control.sched.gain.with_heavy(next.control.sched.approach_integral, a_free);
@@ -341,7 +374,7 @@ pub fn step(
     // (`friction_fast`), the measured one otherwise.
     let dq_ff = match (p.control.force_law.mode, &p.control.force_law.scheduled.friction_reference) {
         (Mode::Scheduled, Some(b)) => {
-            let (dq_ref, _) = dynamics::solve_damped(&j, &out.v_ref, &p.damping);
+            let (dq_ref, _) = solve_eq6(c, ws, &q, &dq, &j, &out.v_ref, None);
             let dq_ref = dq_ref.into();
             Some(match &p.control.force_law.scheduled.friction_fast {
                 Some(f) => {
@@ -399,28 +432,28 @@ pub const TARE_HOLD_OMEGA: f64 = 20.0;
 
 /// A cycle of the tare: the arm held at the tare's first position ([`TARE_HOLD_OMEGA`], no
 /// fault), the tare advanced to `tare`; phase free, no force.
-fn taring(
-    c: &Controller,
-    next: &ControllerState,
-    q: &JointVec,
-    dq: &JointVec,
-    tare: TareState,
+fn taring<const N: usize>(
+    c: &Controller<N>,
+    next: &ControllerState<N>,
+    q: &JointVec<N>,
+    dq: &JointVec<N>,
+    tare: TareState<N>,
     r: &Reference,
-    ws: &mut Workspace,
-) -> (ControllerState, ControlOutputs) {
+    ws: &mut Workspace<N>,
+) -> (ControllerState<N>, ControlOutputs<N>) {
     let p = &c.params;
     let tip = ws.data.frame_se3(c.tip).trans; // forward kinematics at q: the caller's
     let q_hold = tare.q_hold.unwrap_or(*q);
     let mut tare = tare;
     tare.q_hold = Some(q_hold);
-    let qv = Vector6::from(*q);
-    let m_diag: JointVec = {
+    let qv = SVector::<f64, N>::from(*q);
+    let m_diag: JointVec<N> = {
         let m = dynamics::crba(&c.model, &mut ws.data, &qv);
         std::array::from_fn(|i| m[(i, i)])
     };
     let g = *dynamics::gravity_torques(&c.model, &mut ws.data, &qv);
     let w = TARE_HOLD_OMEGA;
-    let tau: JointVec = std::array::from_fn(|i| g[i] + m_diag[i] * (w * w * (q_hold[i] - q[i]) - 2.0 * w * dq[i]));
+    let tau: JointVec<N> = std::array::from_fn(|i| g[i] + m_diag[i] * (w * w * (q_hold[i] - q[i]) - 2.0 * w * dq[i]));
     let next = ControllerState { tare, ..*next };
     let law = &next.control.law;
     let status = Status {
@@ -454,27 +487,65 @@ fn taring(
     (next, ControlOutputs { tau, dq: *dq, dq_ff: None, status })
 }
 
+/// Solves eq 6's `J q̈ = b` for the joint acceleration (module docs), with whether the
+/// inverse was damped. Six joints: the square solve of [`dynamics::solve_damped`] (the
+/// JK5's path, unchanged). Any other count: the dynamically consistent damped inverse
+/// `q̈ = J̄ b` ([`dynamics::consistent_inverse`]) plus, with a `posture`, the null-space
+/// posture task `(I − J̄ J) M⁻¹ τ₀`, `τ₀ = k (q_n − q) − d q̇` ([`NullSpace`]), so that
+/// `τ = M q̈ + C q̇ + G` adds `(I − Jᵀ J̄ᵀ) τ₀` to the task's torque. A failed
+/// decomposition (non-finite state) gives `q̈ = 0` and `true`, as the square solve does.
+fn solve_eq6<const N: usize>(
+    c: &Controller<N>,
+    ws: &mut Workspace<N>,
+    q: &SVector<f64, N>,
+    dq: &SVector<f64, N>,
+    j: &SMatrix<f64, 6, N>,
+    b: &Vector6<f64>,
+    posture: Option<&JointVec<N>>,
+) -> (SVector<f64, N>, bool) {
+    let p = &c.params;
+    if N == 6 {
+        let j6 = Matrix6::from_fn(|r, k| j[(r, k)]);
+        let (x, damped) = dynamics::solve_damped(&j6, b, &p.damping);
+        return (SVector::<f64, N>::from_fn(|i, _| x[i]), damped);
+    }
+    let m = *dynamics::crba(&c.model, &mut ws.data, q);
+    let Some(inv) = dynamics::consistent_inverse(j, &m, &p.damping) else {
+        return (SVector::<f64, N>::zeros(), true);
+    };
+    let mut qdd = inv.j_bar * b;
+    if let Some(q_n) = posture {
+        let m_diag: JointVec<N> = std::array::from_fn(|i| m[(i, i)]);
+        let d = super::hold::stable_damping(&m_diag, &[p.nullspace.damping; N], p.control.force_law.lambda);
+        let tau0 = SVector::<f64, N>::from_fn(|i, _| p.nullspace.stiffness * (q_n[i] - q[i]) - d[i] * dq[i]);
+        if let Some(ch) = m.cholesky() {
+            qdd += dynamics::task_inverse::null_space_project(&inv, j, &ch.solve(&tau0));
+        }
+    }
+    (qdd, inv.damped)
+}
+
 /// The safe hold: gravity compensation + joint damping at the last valid state.
-fn hold(
-    c: &Controller,
-    s: &ControllerState,
-    m: &RawMeasurements,
+fn hold<const N: usize>(
+    c: &Controller<N>,
+    s: &ControllerState<N>,
+    m: &RawMeasurements<N>,
     r: &Reference,
-    ws: &mut Workspace,
+    ws: &mut Workspace<N>,
     fault: Fault,
-) -> (ControllerState, ControlOutputs) {
+) -> (ControllerState<N>, ControlOutputs<N>) {
     let p = &c.params;
     // Use q and q̇ only if they are plausible themselves (the fault reported may be another
     // signal's): an implausible q̇ times the damping could be an infinite torque.
     let sp = &p.sense;
-    let q_ok = (0..N_JOINTS).all(|i| m.q[i] >= sp.q_min[i] - sp.q_margin && m.q[i] <= sp.q_max[i] + sp.q_margin);
+    let q_ok = (0..N).all(|i| m.q[i] >= sp.q_min[i] - sp.q_margin && m.q[i] <= sp.q_max[i] + sp.q_margin);
     let q = if q_ok { Some(m.q) } else { s.last_q };
-    let mut tau = [0.0; N_JOINTS];
+    let mut tau = [0.0; N];
     if let Some(q) = q {
         // Damping at q̇ clamped to its plausible range (a finite reading beyond it may be a
         // real spin, which must be damped, not left to run: seen on the JK5's joint 4 after
         // a hold), none at a non-finite q̇; capped per joint for stability at the period λ.
-        let dq: JointVec = std::array::from_fn(|i| if m.dq[i].is_finite() { m.dq[i].clamp(-sp.dq_max[i], sp.dq_max[i]) } else { 0.0 });
+        let dq: JointVec<N> = std::array::from_fn(|i| if m.dq[i].is_finite() { m.dq[i].clamp(-sp.dq_max[i], sp.dq_max[i]) } else { 0.0 });
         tau = super::hold::torque(&c.model, &mut ws.data, &q, &dq, &p.hold_damping, p.control.force_law.lambda);
     }
     let next = ControllerState {
@@ -513,10 +584,10 @@ fn hold(
         jacobian_damped: false,
         force_limited: false,
     };
-    (next, ControlOutputs { tau, dq: [0.0; N_JOINTS], dq_ff: None, status })
+    (next, ControlOutputs { tau, dq: [0.0; N], dq_ff: None, status })
 }
 
-impl ControllerParams {
+impl<const N: usize> ControllerParams<N> {
     /// The paper's §4.1 settings on a model: the impedance and σ of
     /// [`crate::task::PAPER_IMPEDANCE`], force along −z (pushing
     /// down), 1 ms period; sense limits from the model's URDF limits; the
@@ -556,8 +627,9 @@ impl ControllerParams {
                 contact: ContactDetect { enter_n: 1.0, scheduled_enter_n: control::SCHEDULED_CONTACT_ENTER_N, exit_n: 0.2, exit_cycles: 0 },
                 force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
             },
-            hold_damping: [5.0; N_JOINTS],
+            hold_damping: [5.0; N],
             damping: Damping::default(),
+            nullspace: NullSpace::default(),
         }
     }
 }

@@ -89,15 +89,15 @@ pub struct ToolParams {
 }
 
 /// The tare: the sensor bias, estimated over `samples` consecutive readings at rest.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct TareState {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TareState<const N: usize = N_JOINTS> {
     /// Readings accumulated so far.
     pub count: u32,
     sum: [f64; 6],
     /// Joint velocities summed over the window's first and second half, and the times of
     /// its first and last sample [s] (the rest check).
-    dq_first: JointVec,
-    dq_second: JointVec,
+    dq_first: JointVec<N>,
+    dq_second: JointVec<N>,
     t_first: f64,
     t_last: f64,
     /// Why the window was last started again (`None`: never).
@@ -106,10 +106,26 @@ pub struct TareState {
     pub restarts: u32,
     /// Where the arm is held while taring: the joint position of the tare's first cycle
     /// (kept when a window starts again).
-    pub q_hold: Option<JointVec>,
+    pub q_hold: Option<JointVec<N>>,
 }
 
-impl TareState {
+impl<const N: usize> Default for TareState<N> {
+    fn default() -> Self {
+        TareState {
+            count: 0,
+            sum: [0.0; 6],
+            dq_first: [0.0; N],
+            dq_second: [0.0; N],
+            t_first: 0.0,
+            t_last: 0.0,
+            not_at_rest: None,
+            restarts: 0,
+            q_hold: None,
+        }
+    }
+}
+
+impl<const N: usize> TareState<N> {
     /// True once `samples` readings have been averaged.
     pub fn done(&self, samples: u32) -> bool {
         self.count >= samples
@@ -136,7 +152,14 @@ pub fn tool_weight_wrench(tool: &ToolParams, r_ws: &Matrix3<f64>) -> Vector6<f64
 /// than [`TARE_REST_ACCELERATION`], starts the window again (the reason in
 /// [`TareState::not_at_rest`]), so the bias is the mean of `samples` consecutive readings at
 /// rest. `None`: every reading counts.
-pub fn tare_step(tool: &ToolParams, samples: u32, s: &TareState, raw: &[f64; 6], r_ws: &Matrix3<f64>, rest: Option<(f64, &JointVec)>) -> TareState {
+pub fn tare_step<const N: usize>(
+    tool: &ToolParams,
+    samples: u32,
+    s: &TareState<N>,
+    raw: &[f64; 6],
+    r_ws: &Matrix3<f64>,
+    rest: Option<(f64, &JointVec<N>)>,
+) -> TareState<N> {
     if s.done(samples) {
         return *s;
     }
@@ -165,7 +188,7 @@ pub fn tare_step(tool: &ToolParams, samples: u32, s: &TareState, raw: &[f64; 6],
     next.t_last = t;
     let half = samples / 2;
     let dq_sum = if next.count < half { &mut next.dq_first } else { &mut next.dq_second };
-    for i in 0..N_JOINTS {
+    for i in 0..N {
         dq_sum[i] += dq[i];
     }
     next.count += 1;
@@ -174,7 +197,7 @@ pub fn tare_step(tool: &ToolParams, samples: u32, s: &TareState, raw: &[f64; 6],
         // the time between the two halves' centres (half the window).
         let span = 0.5 * (next.t_last - next.t_first) * samples as f64 / (samples - 1).max(1) as f64;
         let (n1, n2) = (half as f64, (samples - half) as f64);
-        for i in 0..N_JOINTS {
+        for i in 0..N {
             let accel = (next.dq_second[i] / n2 - next.dq_first[i] / n1) / span.max(f64::MIN_POSITIVE);
             if !(accel.abs() <= TARE_REST_ACCELERATION) {
                 return restart(NotAtRest::Accelerating { joint: i, accel });
@@ -234,7 +257,7 @@ mod tests {
         let bias = [0.7, -0.3, 1.9, 0.02, -0.01, 0.005];
         // Tare with the tool pointing down (sensor frame = base rotated 180° about y, paper Fig 7).
         let r0 = *Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI).matrix();
-        let mut s = TareState::default();
+        let mut s: TareState = TareState::default();
         for _ in 0..50 {
             s = tare_step(&t, 50, &s, &reading(&t, &r0, Vector3::zeros(), bias), &r0, None);
         }
@@ -292,7 +315,7 @@ mod tests {
         let raw = reading(&t, &r0, Vector3::zeros(), [0.5, -0.3, 1.0, 0.01, 0.0, -0.02]);
         let at = |s: &TareState, k: usize, dq: JointVec| tare_step(&t, 100, s, &raw, &r0, Some((k as f64 * 1e-3, &dq)));
         // 60 samples at rest, then joint 3 moves: the window starts again.
-        let mut s = TareState::default();
+        let mut s: TareState = TareState::default();
         for k in 0..60 {
             s = at(&s, k, [0.0; N_JOINTS]);
         }
@@ -303,7 +326,7 @@ mod tests {
         assert!(s.not_at_rest.unwrap().to_string().contains("joint 3 moves at 0.050 rad/s"));
         // Slowly accelerating, always below the speed bound: 0.3 rad/s² on joint 1 over
         // 100 ms (0 → 0.03 rad/s would exceed the speed bound, so 0 → -0.015 → 0.015).
-        let mut s = TareState::default();
+        let mut s: TareState = TareState::default();
         for k in 0..100 {
             let v = -0.015 + 0.3 * k as f64 * 1e-3;
             s = at(&s, k, [v, 0.0, 0.0, 0.0, 0.0, 0.0]);
@@ -314,7 +337,7 @@ mod tests {
         }
         assert!(!s.done(100));
         // At rest with encoder-like noise (±0.004 rad/s): done, the bias exact.
-        let mut s = TareState::default();
+        let mut s: TareState = TareState::default();
         for k in 0..100 {
             let v = if k % 2 == 0 { 0.004 } else { -0.004 };
             s = at(&s, k, [v; N_JOINTS]);

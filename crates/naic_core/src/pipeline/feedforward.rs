@@ -34,7 +34,7 @@
 
 use crate::friction::FrictionModel;
 use crate::pipeline::ConfigError;
-use crate::{JointVec, N_JOINTS};
+use crate::{JointVec, MAX_JOINTS};
 
 /// The blend of measured and reference joint velocity for the friction feedforward
 /// (module docs): the reference velocity where both the measured and the reference speed
@@ -62,14 +62,14 @@ impl ReferenceBlend {
 /// measured `dq` where `|dq|` or `|dq_ref|` is at least `v_hi`, the reference `dq_ref`
 /// where both are at most `v_lo`, linear in between. A non-finite `dq_ref` entry gives the
 /// measured velocity.
-pub fn blend(b: &ReferenceBlend, dq: &JointVec, dq_ref: &JointVec) -> JointVec {
+pub fn blend<const N: usize>(b: &ReferenceBlend, dq: &JointVec<N>, dq_ref: &JointVec<N>) -> JointVec<N> {
     mix(b, dq, dq, dq_ref)
 }
 
 /// The blend's mix per joint: `w measured + (1 − w) dq_ref` with the weights `w` of the
 /// median `dq` and of `dq_ref` ([`blend`]: `measured` = `dq`; [`blend_fast`]: `dq` moved
 /// towards the unfiltered velocity). A non-finite `dq_ref` entry gives `measured`.
-fn mix(b: &ReferenceBlend, dq: &JointVec, measured: &JointVec, dq_ref: &JointVec) -> JointVec {
+fn mix<const N: usize>(b: &ReferenceBlend, dq: &JointVec<N>, measured: &JointVec<N>, dq_ref: &JointVec<N>) -> JointVec<N> {
     std::array::from_fn(|i| {
         if !dq_ref[i].is_finite() {
             return measured[i];
@@ -98,7 +98,7 @@ pub struct FastVelocity {
     /// Per joint the velocity intervals where the friction law falls with speed (its
     /// Stribeck drop, [`drop_bands`]): `[lo⁻, hi⁻, lo⁺, hi⁺]` [rad/s], the unfiltered velocity
     /// only where the median lies in one of them; `None`: at every speed.
-    pub drop: Option<[[f64; 4]; N_JOINTS]>,
+    pub drop: Option<[[f64; 4]; MAX_JOINTS]>,
     /// Periods by which the unfiltered velocity is extrapolated (round 11): `q̇_f = q̇_raw +
     /// (lead / base) (q̇_raw − q̇_raw,−base)`, `q̇_raw,−base` the unfiltered velocity `base`
     /// cycles before. The unfiltered velocity is still `d` periods old (and the torque held
@@ -164,7 +164,7 @@ impl FastVelocity {
 /// each the outermost points of negative slope found on a grid of 1 mrad/s-ish steps from
 /// 0.1 mrad/s to 1 rad/s; `[0; 4]` where there is none (or the model has no such joint).
 /// Not for the 1 kHz path (a few thousand evaluations).
-pub fn drop_bands(model: &FrictionModel) -> [[f64; 4]; N_JOINTS] {
+pub fn drop_bands(model: &FrictionModel) -> [[f64; 4]; MAX_JOINTS] {
     std::array::from_fn(|i| {
         let mut band = [0.0; 4];
         if i >= model.n_joints() {
@@ -214,10 +214,10 @@ pub fn fast_weight(v_on: f64, dq: f64, dq_raw: f64) -> f64 {
 /// surface's stiffness [N/m] (known or estimated), the lead only where it is at least
 /// `f.lead_k_min`.
 #[allow(clippy::too_many_arguments)]
-pub fn blend_fast(b: &ReferenceBlend, f: &FastVelocity, gate: f64, k_e: f64, dq: &JointVec, dq_raw: &JointVec, dq_prev: &[JointVec; 2], dq_ref: &JointVec) -> JointVec {
+pub fn blend_fast<const N: usize>(b: &ReferenceBlend, f: &FastVelocity, gate: f64, k_e: f64, dq: &JointVec<N>, dq_raw: &JointVec<N>, dq_prev: &[JointVec<N>; 2], dq_ref: &JointVec<N>) -> JointVec<N> {
     let base = f.lead_base.clamp(1, 2);
     let lead = if k_e >= f.lead_k_min { f.lead } else { 0.0 };
-    let measured: JointVec = std::array::from_fn(|i| {
+    let measured: JointVec<N> = std::array::from_fn(|i| {
         if f.drop.is_some_and(|d| !in_drop(&d[i], dq[i])) {
             return dq[i];
         }
@@ -232,10 +232,10 @@ pub fn blend_fast(b: &ReferenceBlend, f: &FastVelocity, gate: f64, k_e: f64, dq:
     mix(b, dq, &measured, dq_ref)
 }
 
-/// One cycle: `τ_ctrl + τ_f(q̇)`. A model with a joint count other than [`N_JOINTS`]
-/// adds nothing.
-pub fn step(model: &FrictionModel, dq: &JointVec, tau_ctrl: &JointVec) -> JointVec {
-    let mut tau_f = [0.0; N_JOINTS];
+/// One cycle: `τ_ctrl + τ_f(q̇)`. A model with a joint count other than `N` adds
+/// nothing.
+pub fn step<const N: usize>(model: &FrictionModel, dq: &JointVec<N>, tau_ctrl: &JointVec<N>) -> JointVec<N> {
+    let mut tau_f = [0.0; N];
     if model.tau_f_into(dq, &mut tau_f).is_err() {
         return *tau_ctrl;
     }
@@ -347,10 +347,10 @@ mod tests {
 
     #[test]
     fn a_fast_velocity_band_that_is_not_positive_is_refused() {
-        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), drop: Some([[0.0; 4]; N_JOINTS]), lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
+        let ok = FastVelocity { v_on: 0.016, contact_age: Some(0.1), drop: Some([[0.0; 4]; crate::MAX_JOINTS]), lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
         assert!(ok.validate().is_ok());
         assert!(FastVelocity { contact_age: None, drop: None, ..ok }.validate().is_ok());
-        let mut nan = [[0.0; 4]; N_JOINTS];
+        let mut nan = [[0.0; 4]; crate::MAX_JOINTS];
         nan[3][2] = f64::NAN;
         for bad in [
             FastVelocity { v_on: 0.0, ..ok },
@@ -407,7 +407,7 @@ mod tests {
     #[test]
     fn outside_its_drop_a_joint_keeps_the_median() {
         let b = ReferenceBlend { v_lo: 0.004, v_hi: 0.008 };
-        let mut drop = [[0.0; 4]; N_JOINTS];
+        let mut drop = [[0.0; 4]; crate::MAX_JOINTS];
         drop[0] = [-0.06, -0.005, 0.01, 0.1];
         let f = FastVelocity { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop), lead: 0.0, lead_base: 1, lead_k_min: 0.0 };
         let dq = [0.05, 0.05, 0.2, 0.0, 0.0, 0.0];

@@ -9,12 +9,12 @@
 //! rate below 25 kHz (seen: joint 6 chattering at ±24 rad/s under the driver's hold after
 //! a torque burst). Each gain is therefore capped at `KAPPA · M_ii(q) / T`.
 
-use nalgebra::Vector6;
+use nalgebra::SVector;
 
 use crate::{
     dynamics,
     JointVec,
-    model::{Data6, Model},
+    model::{DataN, Model},
 };
 
 /// Fraction of the per-joint deadbeat gain `M_ii / T` the damping may reach (at most
@@ -22,16 +22,16 @@ use crate::{
 pub const KAPPA: f64 = 0.5;
 
 /// `min(damping_i, KAPPA · M_ii / period)` per joint; `m_diag` is the diagonal of `M(q)`.
-pub fn stable_damping(m_diag: &JointVec, damping: &JointVec, period: f64) -> JointVec {
+pub fn stable_damping<const N: usize>(m_diag: &JointVec<N>, damping: &JointVec<N>, period: f64) -> JointVec<N> {
     std::array::from_fn(|i| damping[i].min(KAPPA * m_diag[i] / period).max(0.0))
 }
 
 /// `τ = G(q) − b ⊙ q̇` with `b` = [`stable_damping`] at `q`. No heap allocation.
 /// Pass `dq = 0` for gravity compensation only (e.g. when q̇ itself is implausible).
-pub fn torque(model: &Model, data: &mut Data6, q: &JointVec, dq: &JointVec, damping: &JointVec, period: f64) -> JointVec {
-    let qv = Vector6::from(*q);
+pub fn torque<const N: usize>(model: &Model, data: &mut DataN<N>, q: &JointVec<N>, dq: &JointVec<N>, damping: &JointVec<N>, period: f64) -> JointVec<N> {
+    let qv = SVector::<f64, N>::from(*q);
     let m = dynamics::crba(model, data, &qv);
-    let m_diag: JointVec = std::array::from_fn(|i| m[(i, i)]);
+    let m_diag: JointVec<N> = std::array::from_fn(|i| m[(i, i)]);
     let b = stable_damping(&m_diag, damping, period);
     let g = dynamics::gravity_torques(model, data, &qv);
     std::array::from_fn(|i| g[i] - b[i] * dq[i])
@@ -40,6 +40,8 @@ pub fn torque(model: &Model, data: &mut Data6, q: &JointVec, dq: &JointVec, damp
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Vector6;
+    use crate::model::Data6;
     use crate::N_JOINTS;
 
     fn jk5() -> Model {

@@ -26,7 +26,7 @@ pub mod reference;
 pub mod sense;
 
 use crate::friction::FrictionModel;
-use crate::JointVec;
+use crate::{JointVec, N_JOINTS};
 
 /// Why the core refuses a parameter set: which parameter, the value given and the rule it
 /// breaks (the text a node returns as a parameter service's reason), or a model it cannot use.
@@ -56,44 +56,44 @@ impl ConfigError {
 
 /// The whole pipeline: controller, friction feedforward and actuation limits.
 #[derive(Clone, Debug)]
-pub struct Pipeline {
-    pub controller: controller::Controller,
+pub struct Pipeline<const N: usize = N_JOINTS> {
+    pub controller: controller::Controller<N>,
     /// The friction feedforward model (`None`: no feedforward).
     pub friction: Option<FrictionModel>,
-    pub actuate: actuate::ActuateParams,
+    pub actuate: actuate::ActuateParams<N>,
 }
 
 /// State of the whole pipeline.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PipelineState {
-    pub controller: controller::ControllerState,
-    pub actuate: actuate::ActuateState,
+pub struct PipelineState<const N: usize = N_JOINTS> {
+    pub controller: controller::ControllerState<N>,
+    pub actuate: actuate::ActuateState<N>,
 }
 
 /// Output of one cycle of the whole pipeline.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PipelineOutputs {
+pub struct PipelineOutputs<const N: usize = N_JOINTS> {
     /// Torque to the drives [N·m].
-    pub tau: JointVec,
+    pub tau: JointVec<N>,
     /// The controller's torque and report.
-    pub control: controller::ControlOutputs,
-    pub actuate: actuate::ActuateReport,
+    pub control: controller::ControlOutputs<N>,
+    pub actuate: actuate::ActuateReport<N>,
 }
 
-impl Pipeline {
-    pub fn initial_state(&self) -> PipelineState {
+impl<const N: usize> Pipeline<N> {
+    pub fn initial_state(&self) -> PipelineState<N> {
         PipelineState { controller: self.controller.initial_state(), actuate: actuate::ActuateState::default() }
     }
 }
 
 /// One cycle of all five stages. Pure; `ws` is scratch memory.
-pub fn step(
-    p: &Pipeline,
-    s: &PipelineState,
-    m: &sense::RawMeasurements,
+pub fn step<const N: usize>(
+    p: &Pipeline<N>,
+    s: &PipelineState<N>,
+    m: &sense::RawMeasurements<N>,
     r: &controller::Reference,
-    ws: &mut controller::Workspace,
-) -> (PipelineState, PipelineOutputs) {
+    ws: &mut controller::Workspace<N>,
+) -> (PipelineState<N>, PipelineOutputs<N>) {
     let (cs, control) = controller::step(&p.controller, &s.controller, m, r, ws);
     // Friction feedforward only while the measurements are valid (not in the hold), at the
     // velocity the controller names (the measured one, or the scheduled law's blend with

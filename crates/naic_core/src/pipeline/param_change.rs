@@ -29,11 +29,11 @@ pub struct Outcome {
 /// Apply the accepted parameters `new` to the running controller `c` in state `s`.
 /// `Err` (the core refused `new`): nothing changes. Allocates (a new [`Controller`]
 /// holds its own model): called on a parameter change, never in the 1 kHz step.
-pub fn apply(
-    c: &Controller,
-    s: &ControllerState,
-    new: ControllerParams,
-) -> Result<(Controller, ControllerState, Outcome), super::ConfigError> {
+pub fn apply<const N: usize>(
+    c: &Controller<N>,
+    s: &ControllerState<N>,
+    new: ControllerParams<N>,
+) -> Result<(Controller<N>, ControllerState<N>, Outcome), super::ConfigError> {
     let next = c.with_params(new)?;
     let mut state = *s;
     let restarted = new.control != c.params().control;
@@ -52,7 +52,7 @@ pub fn apply(
 /// The operator's acknowledgement of an over-force event: a force-limit retraction, in
 /// progress or latched, ends ([`ControlState::resume`]: free space, contact re-detected,
 /// the learned weights kept). `None` when none is in progress: nothing changes.
-pub fn reset_force_limit(s: &ControllerState) -> Option<ControllerState> {
+pub fn reset_force_limit<const N: usize>(s: &ControllerState<N>) -> Option<ControllerState<N>> {
     s.control.retracting().then(|| ControllerState { control: s.control.resume(), ..*s })
 }
 

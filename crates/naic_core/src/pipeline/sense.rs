@@ -66,13 +66,13 @@ impl std::fmt::Display for Fault {
 
 /// Limits and filter settings of the sense stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SenseParams {
+pub struct SenseParams<const N: usize = N_JOINTS> {
     /// Joint position limits [rad] (from the URDF), widened by `q_margin`.
-    pub q_min: JointVec,
-    pub q_max: JointVec,
+    pub q_min: JointVec<N>,
+    pub q_max: JointVec<N>,
     pub q_margin: f64,
     /// Largest plausible |q̇| per joint [rad/s] (for example 2× the URDF velocity limit).
-    pub dq_max: JointVec,
+    pub dq_max: JointVec<N>,
     /// Largest plausible |wrench| component (force N, torque N·m), e.g. 1.5× the sensor range.
     pub wrench_max: [f64; 6],
     /// Median window for the joint velocity (1 = no filtering, at most [`MAX_MEDIAN_WINDOW`]).
@@ -83,16 +83,16 @@ pub struct SenseParams {
     pub wrench_timeout: f64,
 }
 
-impl SenseParams {
+impl<const N: usize> SenseParams<N> {
     /// The settings for a robot model: joint position limits as the URDF gives them,
     /// widened by `q_margin` = 0.1 rad; |q̇| up to 2× the URDF velocity limit
     /// (2π rad/s where it gives none), the ATI mini45 SI-145-5 range ×1.5 as the wrench
     /// limit, a 5-sample velocity median and 10 ms staleness (the paper's §4.1 setup).
-    pub fn for_model(model: &crate::model::Model) -> SenseParams {
-        let mut q_min = [-std::f64::consts::PI; N_JOINTS];
-        let mut q_max = [std::f64::consts::PI; N_JOINTS];
-        let mut dq_max = [2.0 * std::f64::consts::PI; N_JOINTS];
-        for (i, j) in model.joints().iter().take(N_JOINTS).enumerate() {
+    pub fn for_model(model: &crate::model::Model) -> SenseParams<N> {
+        let mut q_min = [-std::f64::consts::PI; N];
+        let mut q_max = [std::f64::consts::PI; N];
+        let mut dq_max = [2.0 * std::f64::consts::PI; N];
+        for (i, j) in model.joints().iter().take(N).enumerate() {
             q_min[i] = j.limits.lower;
             q_max[i] = j.limits.upper;
             if j.limits.velocity.is_finite() {
@@ -128,26 +128,26 @@ impl SenseParams {
 
 /// The velocity history of the median filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SenseState {
-    hist: [JointVec; MAX_MEDIAN_WINDOW],
+pub struct SenseState<const N: usize = N_JOINTS> {
+    hist: [JointVec<N>; MAX_MEDIAN_WINDOW],
     len: usize,
     next: usize,
 }
 
-impl Default for SenseState {
+impl<const N: usize> Default for SenseState<N> {
     fn default() -> Self {
-        Self { hist: [[0.0; N_JOINTS]; MAX_MEDIAN_WINDOW], len: 0, next: 0 }
+        Self { hist: [[0.0; N]; MAX_MEDIAN_WINDOW], len: 0, next: 0 }
     }
 }
 
 /// Raw measurements of one cycle.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RawMeasurements {
+pub struct RawMeasurements<const N: usize = N_JOINTS> {
     /// Controller time now [s].
     pub t: f64,
     /// Joint positions [rad] and velocities [rad/s], and their stamp [s].
-    pub q: JointVec,
-    pub dq: JointVec,
+    pub q: JointVec<N>,
+    pub dq: JointVec<N>,
     pub joints_stamp: f64,
     /// Raw F/T reading in the `ft_sensor` frame (Fx, Fy, Fz [N], Tx, Ty, Tz [N·m]) and its stamp [s].
     pub wrench: [f64; 6],
@@ -156,41 +156,44 @@ pub struct RawMeasurements {
 
 /// Conditioned measurements.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sensed {
-    pub q: JointVec,
+pub struct Sensed<const N: usize = N_JOINTS> {
+    pub q: JointVec<N>,
     /// Median-filtered joint velocity.
-    pub dq: JointVec,
+    pub dq: JointVec<N>,
     /// The newest joint velocity unfiltered (two periods younger than `dq` behind the
     /// 5-sample median): the scheduled law's friction feedforward may use it while a joint
     /// slides (`feedforward::FastVelocity`).
-    pub dq_raw: JointVec,
+    pub dq_raw: JointVec<N>,
     /// The unfiltered joint velocity 1 and 2 cycles before `dq_raw` (`dq_raw_prev[k − 1]`, k
     /// cycles before), from the median's own history; where that history is shorter (the
     /// first cycles, a median window below 3) the oldest sample it has, `dq_raw` itself at
     /// worst. The friction feedforward's lead uses them (`feedforward::FastVelocity::lead`).
-    pub dq_raw_prev: [JointVec; 2],
+    pub dq_raw_prev: [JointVec<N>; 2],
     pub wrench: [f64; 6],
 }
 
 /// The first thing wrong with a cycle's measurements, if any.
-pub fn check(p: &SenseParams, m: &RawMeasurements) -> Option<Fault> {
+pub fn check<const N: usize>(p: &SenseParams<N>, m: &RawMeasurements<N>) -> Option<Fault> {
     use Signal::*;
-    let groups: [(Signal, &[f64; 6]); 3] = [(JointPosition, &m.q), (JointVelocity, &m.dq), (Wrench, &m.wrench)];
+    let groups: [(Signal, &[f64]); 3] = [(JointPosition, &m.q), (JointVelocity, &m.dq), (Wrench, &m.wrench)];
     for (signal, v) in groups {
         if let Some(index) = v.iter().position(|x| !x.is_finite()) {
             return Some(Fault::NonFinite { signal, index });
         }
     }
-    for i in 0..6 {
-        let (lo, hi) = (p.q_min[i] - p.q_margin, p.q_max[i] + p.q_margin);
-        if m.q[i] < lo || m.q[i] > hi {
-            let limit = if m.q[i] < lo { lo } else { hi };
-            return Some(Fault::OutOfRange { signal: JointPosition, index: i, value: m.q[i], limit });
+    // Joint i and wrench component i in turn (for N = 6 the order the JK5 always had).
+    for i in 0..N.max(6) {
+        if i < N {
+            let (lo, hi) = (p.q_min[i] - p.q_margin, p.q_max[i] + p.q_margin);
+            if m.q[i] < lo || m.q[i] > hi {
+                let limit = if m.q[i] < lo { lo } else { hi };
+                return Some(Fault::OutOfRange { signal: JointPosition, index: i, value: m.q[i], limit });
+            }
+            if m.dq[i].abs() > p.dq_max[i] {
+                return Some(Fault::OutOfRange { signal: JointVelocity, index: i, value: m.dq[i], limit: p.dq_max[i] });
+            }
         }
-        if m.dq[i].abs() > p.dq_max[i] {
-            return Some(Fault::OutOfRange { signal: JointVelocity, index: i, value: m.dq[i], limit: p.dq_max[i] });
-        }
-        if m.wrench[i].abs() > p.wrench_max[i] {
+        if i < 6 && m.wrench[i].abs() > p.wrench_max[i] {
             return Some(Fault::OutOfRange { signal: Wrench, index: i, value: m.wrench[i], limit: p.wrench_max[i] });
         }
     }
@@ -226,7 +229,7 @@ fn median(buf: &[f64; MAX_MEDIAN_WINDOW], n: usize) -> f64 {
 
 /// One cycle of the sense stage. Pure: `(params, state, inputs) -> (state, outputs)`.
 /// Faulty measurements do not enter the filter history.
-pub fn step(p: &SenseParams, s: &SenseState, m: &RawMeasurements) -> (SenseState, Result<Sensed, Fault>) {
+pub fn step<const N: usize>(p: &SenseParams<N>, s: &SenseState<N>, m: &RawMeasurements<N>) -> (SenseState<N>, Result<Sensed<N>, Fault>) {
     if let Some(f) = check(p, m) {
         return (*s, Err(f));
     }
@@ -235,7 +238,7 @@ pub fn step(p: &SenseParams, s: &SenseState, m: &RawMeasurements) -> (SenseState
     next.hist[next.next] = m.dq;
     next.next = (next.next + 1) % w;
     next.len = (next.len + 1).min(w);
-    let mut dq = [0.0; N_JOINTS];
+    let mut dq = [0.0; N];
     for (j, out) in dq.iter_mut().enumerate() {
         let mut col = [0.0; MAX_MEDIAN_WINDOW];
         for k in 0..next.len {

@@ -34,8 +34,7 @@
 //! most), against 4.3 (30 at most) for the clamped Newton with a fixed trust region.
 
 use naic_core::friction::{FrictionModel, Smoothing};
-use naic_core::N_JOINTS;
-use nalgebra::{Matrix6, Vector6};
+use nalgebra::{SMatrix, SVector};
 
 /// Velocity scale of the trust region for the exact (unsmoothed) laws [rad/s]
 /// (the default smoothing velocity `DEFAULT_V_S`; a tanh model uses its own v_s).
@@ -46,11 +45,11 @@ pub(super) const TOLERANCE: f64 = 1e-10;
 
 /// The solved velocity, the friction acting at it, and how the solve went.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Solution {
+pub(super) struct Solution<const N: usize> {
     /// `q̇⁺` [rad/s].
-    pub v1: Vector6<f64>,
+    pub v1: SVector<f64, N>,
     /// `τ_f(q̇⁺)` [N·m] (zero without friction).
-    pub tau_f: Vector6<f64>,
+    pub tau_f: SVector<f64, N>,
     /// Newton steps taken (read by the tests).
     #[cfg_attr(not(test), allow(dead_code))]
     pub iterations: u32,
@@ -62,23 +61,29 @@ pub(super) struct Solution {
 /// Friction torques and slopes at one velocity: the solution of the last solve,
 /// which is where the next step starts (one friction evaluation of the ~4 per
 /// step saved). Only used for a bit-identical velocity, so results do not depend on it.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct FrictionAt {
-    at: Option<[u64; N_JOINTS]>,
-    tau_f: Vector6<f64>,
-    slope: Vector6<f64>,
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FrictionAt<const N: usize> {
+    at: Option<[u64; N]>,
+    tau_f: SVector<f64, N>,
+    slope: SVector<f64, N>,
 }
 
-fn bits(u: &Vector6<f64>) -> [u64; N_JOINTS] {
+impl<const N: usize> Default for FrictionAt<N> {
+    fn default() -> Self {
+        Self { at: None, tau_f: SVector::zeros(), slope: SVector::zeros() }
+    }
+}
+
+fn bits<const N: usize>(u: &SVector<f64, N>) -> [u64; N] {
     std::array::from_fn(|i| u[i].to_bits())
 }
 
 /// Friction torques and slopes at `u` (zero without friction).
 #[inline]
-fn friction(f: Option<&FrictionModel>, u: &Vector6<f64>) -> (Vector6<f64>, Vector6<f64>) {
-    let (mut tau, mut slope) = (Vector6::zeros(), Vector6::zeros());
+fn friction<const N: usize>(f: Option<&FrictionModel>, u: &SVector<f64, N>) -> (SVector<f64, N>, SVector<f64, N>) {
+    let (mut tau, mut slope) = (SVector::<f64, N>::zeros(), SVector::<f64, N>::zeros());
     if let Some(f) = f {
-        for i in 0..6 {
+        for i in 0..N {
             (tau[i], slope[i]) = f.tau_f_and_slope(i, u[i]);
         }
     }
@@ -87,9 +92,9 @@ fn friction(f: Option<&FrictionModel>, u: &Vector6<f64>) -> (Vector6<f64>, Vecto
 
 /// `(M + h diag(d))⁻¹ r`, or `None` if that matrix is not positive definite.
 #[inline]
-fn solve_shifted(m: &Matrix6<f64>, h: f64, d: &Vector6<f64>, r: &Vector6<f64>) -> Option<Vector6<f64>> {
+fn solve_shifted<const N: usize>(m: &SMatrix<f64, N, N>, h: f64, d: &SVector<f64, N>, r: &SVector<f64, N>) -> Option<SVector<f64, N>> {
     let mut a = *m;
-    for i in 0..6 {
+    for i in 0..N {
         a[(i, i)] += h * d[i];
     }
     a.cholesky().map(|c| c.solve(r))
@@ -98,15 +103,15 @@ fn solve_shifted(m: &Matrix6<f64>, h: f64, d: &Vector6<f64>, r: &Vector6<f64>) -
 /// Solve `M (q̇⁺ − v) = h (rhs0 − τ_f(q̇⁺))` for `q̇⁺` (module docs).
 /// `last` holds the friction at the previous solution (read if `v` is that
 /// velocity, then overwritten with this solution's).
-pub(super) fn solve(
+pub(super) fn solve<const N: usize>(
     f: Option<&FrictionModel>,
-    m: &Matrix6<f64>,
-    v: &Vector6<f64>,
-    rhs0: &Vector6<f64>,
+    m: &SMatrix<f64, N, N>,
+    v: &SVector<f64, N>,
+    rhs0: &SVector<f64, N>,
     h: f64,
-    last: &mut FrictionAt,
-) -> Solution {
-    let residual = |u: &Vector6<f64>, tau_f: &Vector6<f64>| m * (u - v) - (rhs0 - tau_f) * h;
+    last: &mut FrictionAt<N>,
+) -> Solution<N> {
+    let residual = |u: &SVector<f64, N>, tau_f: &SVector<f64, N>| m * (u - v) - (rhs0 - tau_f) * h;
     let mut u = *v;
     let (mut tau_f, mut slope) = match last.at {
         Some(at) if f.is_some() && at == bits(v) => (last.tau_f, last.slope),
@@ -132,9 +137,9 @@ pub(super) fn solve(
         // Direction: the Newton step, but for a joint inside the tanh zone taken in
         // t = tanh(q̇/v_s) (the step's first-order change of t, then q̇ = v_s atanh t):
         // there the friction is ≈ linear in t, not in q̇.
-        let mut warp = [None; N_JOINTS];
+        let mut warp = [None; N];
         let mut alpha: f64 = 1.0;
-        for i in 0..6 {
+        for i in 0..N {
             let (from, to) = (u[i], u[i] - dv[i]);
             if tanh_zone && from.abs() < 3.0 * v_s {
                 let t = (from / v_s).tanh();
@@ -155,7 +160,7 @@ pub(super) fn solve(
         let alpha_min = 1e-9 * alpha;
         let mut improved = false;
         while alpha >= alpha_min {
-            let trial = Vector6::from_fn(|i, _| match warp[i] {
+            let trial = SVector::<f64, N>::from_fn(|i, _| match warp[i] {
                 Some((t, dt)) => v_s * (t + alpha * dt).atanh(),
                 None => u[i] - alpha * dv[i],
             });
@@ -180,6 +185,8 @@ pub(super) fn solve(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use naic_core::N_JOINTS;
+    use nalgebra::{Matrix6, Vector6};
     use crate::rng::Rng;
     use naic_core::dynamics;
     use crate::test_support::{model, table1_friction as table1};

@@ -1,4 +1,5 @@
 use super::*;
+use naic_ros::msgs::JOINT_NAMES;
 use naic_core::{
     model::Model,
     pipeline::{
@@ -34,7 +35,7 @@ fn settings(time: TimeBase) -> Settings {
 fn params(time: TimeBase) -> Params {
     let m = model();
     let rp = ReferenceParams::new("base_link", base(&m).control.force_axis, 10.0);
-    Params::new(Controller::new(m.clone(), base(&m)).unwrap(), settings(time), None, rp).unwrap()
+    Params::new(Controller::new(m.clone(), base(&m)).unwrap(), settings(time), None, rp, JOINT_NAMES.map(String::from)).unwrap()
 }
 
 fn js(stamp: i64, order: [usize; N_JOINTS]) -> JointState {
@@ -205,7 +206,7 @@ fn another_joint_order_gives_the_same_cycle() {
     let s = State::new(&p);
     let (s, _) = run(&p, &s, Inbox { wrench: Some(&wrench(0, 1.0)), ..Default::default() }, 0);
     let (_, o) = run(&p, &s, Inbox { joint_states: Some(&bad), ..Default::default() }, MS);
-    assert_eq!(o.events.missing_joint, Some("joint5"));
+    assert_eq!(o.events.missing_joint, Some(4));
     assert_eq!(o.report.unwrap().status.phase, Phase::Hold);
 }
 
@@ -637,7 +638,7 @@ fn zero_wrench_re_tares_at_rest_in_free_space_and_is_refused_otherwise() {
     let mut cp = base(&m);
     cp.tare_at_rest = true;
     let rp = ReferenceParams::new("base_link", cp.control.force_axis, 10.0);
-    let p = Params::new(Controller::new(m.clone(), cp).unwrap(), settings(TimeBase::Wall), None, rp).unwrap();
+    let p = Params::new(Controller::new(m.clone(), cp).unwrap(), settings(TimeBase::Wall), None, rp, JOINT_NAMES.map(String::from)).unwrap();
     let zero = |s: &State, now| run(&p, s, Inbox { zero_wrench: true, ..Default::default() }, now);
     let s = State::new(&p);
     let (s, o) = zero(&s, 0);

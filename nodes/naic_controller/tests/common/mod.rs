@@ -131,7 +131,7 @@ impl Chain {
         }
         let report = out.report;
         if let Some((tau, src)) = out.effort {
-            msgs::set_effort_msg(&mut self.effort, &tau, Some(src), out.friction_velocity.as_ref());
+            msgs::set_effort_msg(&mut self.effort, &tau, Some(src), out.friction_velocity.as_ref().map(|v| &v[..]));
             let f = |s: &mut fc::State, inbox: fc::Inbox, now: i64| {
                 let (next, out) = fc::step(&self.fp, s, &inbox, now);
                 *s = next;
