@@ -455,35 +455,7 @@ fn taring<const N: usize>(
     let w = TARE_HOLD_OMEGA;
     let tau: JointVec<N> = std::array::from_fn(|i| g[i] + m_diag[i] * (w * w * (q_hold[i] - q[i]) - 2.0 * w * dq[i]));
     let next = ControllerState { tare, ..*next };
-    let law = &next.control.law;
-    let status = Status {
-        mode: p.control.force_law.mode,
-        phase: next.control.phase,
-        force_axis: p.control.force_axis.axis,
-        f_d: r.f_d,
-        f_ext: 0.0,
-        e_f: -r.f_d,
-        m_d: law.m_d,
-        b_d: law.b_d,
-        k_d: 0.0,
-        sigma: law.sigma,
-        phi: law.phi,
-        gamma: 0.0,
-        gamma_bound: f64::INFINITY,
-        gamma_clipped: false,
-        weights_projected: false,
-        k_e_hat: 0.0,
-        k_e_confidence: 0.0,
-        model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
-        gravity_scale: 1.0,
-        fault: None,
-        fault_count: next.fault_count,
-        tared: tare.done(p.tare_samples),
-        tip_position: tip,
-        f_e: Vector6::zeros(),
-        jacobian_damped: false,
-        force_limited: next.control.retracting(),
-    };
+    let status = status_without_force(p, &next, r, next.control.phase, 0.0, None, tip, next.control.retracting());
     (next, ControlOutputs { tau, dq: *dq, dq_ff: None, status })
 }
 
@@ -555,14 +527,31 @@ fn hold<const N: usize>(
         last_q: q,
         ..*s
     };
+    let status = status_without_force(p, &next, r, Phase::Hold, f64::NAN, Some(fault), Vector3::repeat(f64::NAN), false);
+    (next, ControlOutputs { tau, dq: [0.0; N], dq_ff: None, status })
+}
+
+/// The status of a cycle whose force law did not run (the tare's hold, the safe hold):
+/// the law's present impedance, no force estimate of its own (`e_f = f_ext − f_d`).
+#[allow(clippy::too_many_arguments)]
+fn status_without_force<const N: usize>(
+    p: &ControllerParams<N>,
+    next: &ControllerState<N>,
+    r: &Reference,
+    phase: Phase,
+    f_ext: f64,
+    fault: Option<Fault>,
+    tip_position: Vector3<f64>,
+    force_limited: bool,
+) -> Status {
     let law = &next.control.law;
-    let status = Status {
+    Status {
         mode: p.control.force_law.mode,
-        phase: Phase::Hold,
+        phase,
         force_axis: p.control.force_axis.axis,
         f_d: r.f_d,
-        f_ext: f64::NAN,
-        e_f: f64::NAN,
+        f_ext,
+        e_f: f_ext - r.f_d,
         m_d: law.m_d,
         b_d: law.b_d,
         k_d: 0.0,
@@ -576,15 +565,14 @@ fn hold<const N: usize>(
         k_e_confidence: 0.0,
         model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
         gravity_scale: 1.0,
-        fault: Some(fault),
+        fault,
         fault_count: next.fault_count,
-        tared: s.tare.done(p.tare_samples),
-        tip_position: Vector3::new(f64::NAN, f64::NAN, f64::NAN),
+        tared: next.tare.done(p.tare_samples),
+        tip_position,
         f_e: Vector6::zeros(),
         jacobian_damped: false,
-        force_limited: false,
-    };
-    (next, ControlOutputs { tau, dq: [0.0; N], dq_ff: None, status })
+        force_limited,
+    }
 }
 
 impl<const N: usize> ControllerParams<N> {
