@@ -33,6 +33,21 @@ impl Default for Damping {
     }
 }
 
+impl Damping {
+    /// Whether an inverse with smallest singular value `sigma_min` is damped, and its `λ²`
+    /// (the variable damping above; 0 when not damped).
+    pub fn lambda2(&self, sigma_min: f64) -> (bool, f64) {
+        let damped = sigma_min < self.sigma_threshold;
+        let lambda2 = if damped {
+            let r = sigma_min / self.sigma_threshold;
+            self.lambda_max * self.lambda_max * (1.0 - r * r)
+        } else {
+            0.0
+        };
+        (damped, lambda2)
+    }
+}
+
 /// `D` and `h` of eq. 3 (`D Ẍ + h + F_f = F − F_ext`) at a frame, with what they were built from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CartesianTerms {

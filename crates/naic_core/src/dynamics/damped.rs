@@ -26,13 +26,7 @@ impl DampedSvd {
         let (u, v_t) = (svd.u?, svd.v_t?);
         let sigma = svd.singular_values;
         let sigma_min = sigma.min();
-        let damped = sigma_min < damping.sigma_threshold;
-        let lambda2 = if damped {
-            let r = sigma_min / damping.sigma_threshold;
-            damping.lambda_max * damping.lambda_max * (1.0 - r * r)
-        } else {
-            0.0
-        };
+        let (damped, lambda2) = damping.lambda2(sigma_min);
         let gain = sigma.map(|s| if damped { s / (s * s + lambda2) } else { 1.0 / s });
         Some(Self { u, v_t, gain, sigma_min, lambda: lambda2.sqrt(), damped })
     }

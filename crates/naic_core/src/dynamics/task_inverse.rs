@@ -54,13 +54,7 @@ pub fn consistent_inverse<const N: usize>(j: &SMatrix<f64, 6, N>, m: &SMatrix<f6
     sorted.sort_by(|x, y| y.total_cmp(x));
     let rank = N.min(6);
     let sigma_min = sorted[rank - 1].sqrt();
-    let damped = sigma_min < damping.sigma_threshold;
-    let lambda2 = if damped {
-        let r = sigma_min / damping.sigma_threshold;
-        damping.lambda_max * damping.lambda_max * (1.0 - r * r)
-    } else {
-        0.0
-    };
+    let (damped, lambda2) = damping.lambda2(sigma_min);
     // Directions beyond the rank (eigenvalue 0 for N < 6) carry nothing: Jᵀ u = 0 there.
     let cut = if rank < 6 { sorted[rank - 1] * 1e-12 } else { -1.0 };
     for x in e.iter_mut() {
