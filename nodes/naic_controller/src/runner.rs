@@ -89,25 +89,13 @@ impl Runner {
     /// A call of `~/reset_force_limit`: the core's answer (logged here).
     pub fn reset_force_limit(&mut self) -> core::TriggerAnswer {
         let out = self.step(core::Inbox { reset_force_limit: true, ..Default::default() }, wall_ns());
-        let a = out.reset_force_limit.unwrap_or(core::TriggerAnswer { success: false, message: "the core did not answer" });
-        if a.success {
-            log::info!("~/reset_force_limit: {}", a.message);
-        } else {
-            log::warn!("~/reset_force_limit: {}", a.message);
-        }
-        a
+        logged("~/reset_force_limit", out.reset_force_limit)
     }
 
     /// A call of `~/zero_wrench`: the core's answer (logged here).
     pub fn zero_wrench(&mut self) -> core::TriggerAnswer {
         let out = self.step(core::Inbox { zero_wrench: true, ..Default::default() }, wall_ns());
-        let a = out.zero_wrench.unwrap_or(core::TriggerAnswer { success: false, message: "the core did not answer" });
-        if a.success {
-            log::info!("~/zero_wrench: {}", a.message);
-        } else {
-            log::warn!("~/zero_wrench: {}", a.message);
-        }
-        a
+        logged("~/zero_wrench", out.zero_wrench)
     }
 
     /// A `/joint_effort_cmd` sample: which joint state the torque reaching the arm answers.
@@ -366,4 +354,16 @@ mod tests {
         // A refused value never reaches the runner (the table refuses it).
         assert!(table.set_atomically(&[("learning_rate".into(), ParameterValue::Double(-1.0))]).is_err());
     }
+}
+
+/// A Trigger call's answer from the core (a refusal if it gave none), logged as the ROS CLI
+/// user sees it: info when accepted, a warning with the reason when refused.
+fn logged(service: &str, answer: Option<core::TriggerAnswer>) -> core::TriggerAnswer {
+    let a = answer.unwrap_or(core::TriggerAnswer { success: false, message: "the core did not answer" });
+    if a.success {
+        log::info!("{service}: {}", a.message);
+    } else {
+        log::warn!("{service}: {}", a.message);
+    }
+    a
 }
