@@ -378,8 +378,8 @@ impl WakeStats {
 
 /// Diagnostics: with `NAIC_TRACE_MARKER=FILE` (a kernel trace's `trace_marker`, e.g.
 /// `/sys/kernel/tracing/trace_marker`), each missed cycle writes `naic missed N` there, so a
-/// scheduler trace shows what ran around it (BENCHMARKS.md, "Where the three-process misses
-/// come from"). Unset: nothing (one branch per missed cycle).
+/// scheduler trace shows what ran around it (docs/notes/2026-12-benchmark-history.md, "Where the
+/// three-process misses come from"). Unset: nothing (one branch per missed cycle).
 pub struct MissMarker(Option<std::fs::File>);
 
 impl MissMarker {
