@@ -1,0 +1,60 @@
+"""The README and the reference docs state what is true now; history lives in docs/notes/
+(issue 40). This check fails when a reference page names a tuning round, a try, a session,
+a commit hash or a CI run: the marks of a lab notebook. docs/notes/ and CHANGELOG.md are
+exempt; so are file names (a raw-data file may carry the commit it was measured on)."""
+import re
+
+REFERENCE_GLOBS = ["README.md", "BENCHMARKS.md", "docs/*.md", "urdf/README.md", "bench/reference/README.md", "examples/**/*.md"]
+
+# Each pattern names one kind of history, so a failure says which.
+HISTORY = {
+    "a tuning round": re.compile(r"(?<!--)\brounds? \d+", re.I),
+    "a numbered try": re.compile(r"\btry \d+", re.I),
+    "a session": re.compile(r"\bsession \d+|\b(this|last|earlier|previous) session\b", re.I),
+    "a CI story": re.compile(r"\bCI (run|runs|failed|failure|passed)\b|\bflak(y|e)\b", re.I),
+    "a branch of the team's work": re.compile(r"\bbranch `[a-z0-9]+`"),
+}
+# A commit hash: 7-40 hex digits with at least one letter and one digit, not inside a path or file name.
+# A source's version (an upstream repository's commit next to its github.com address) is provenance,
+# not history: a line with such an address, or right after one, is exempt.
+HASH = re.compile(r"(?<![\w./-])(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7,40}(?![\w./-])")
+
+
+def pages(root):
+    seen = set()
+    for g in REFERENCE_GLOBS:
+        for p in sorted(root.glob(g)):
+            if p.is_file() and p not in seen and "notes" not in p.parts:
+                seen.add(p)
+                yield p
+
+
+def findings(text):
+    out = []
+    prev = ""
+    for n, line in enumerate(text.splitlines(), 1):
+        upstream = "github.com/" in line or "github.com/" in prev
+        prev = line
+        for what, rx in HISTORY.items():
+            m = rx.search(line)
+            if m:
+                out.append((n, what, m.group(0)))
+        for m in HASH.finditer("" if upstream else line):
+            out.append((n, "a commit hash", m.group(0)))
+    return out
+
+
+def test_the_check_sees_history_when_it_is_there():
+    sample = "Tuned in round 13 on 0a0ad4b; the CI run failed, fixed in try 4 (session 7)."
+    kinds = {k for _, k, _ in findings(sample)}
+    assert kinds == {"a tuning round", "a numbered try", "a session", "a CI story", "a commit hash"}, kinds
+    # ... and not where there is none: a file name with a hash, a hex colour, a word with hex letters.
+    assert findings("raw JSON `bench/chain/quiet_600s_6d79da4.json`, colour ffffff, a decade 2026") == []
+    assert findings("`multihost.py --rounds 2`; github.com/yinzikang/torque-control at commit b77be752eb0a") == []
+
+
+def test_reference_docs_carry_no_history(root):
+    found = list(pages(root))
+    assert any(p.name == "README.md" for p in found) and any(p.parent.name == "docs" for p in found), found
+    bad = [f"{p.relative_to(root)}:{n}: {what} ({tok!r})" for p in found for n, what, tok in findings(p.read_text())]
+    assert not bad, "history in reference docs (move it to docs/notes/):\n" + "\n".join(bad)
