@@ -38,6 +38,8 @@ enum Command {
     Explain(cmd::explain::ExplainArgs),
     /// Start the three ROS 2 nodes (driver, controller, friction compensation) as processes.
     Launch(cmd::launch::LaunchArgs),
+    /// Every ROS parameter of the three nodes, as they declare it (`--markdown`: docs/parameters.md).
+    Params(cmd::params::ParamsArgs),
 }
 
 fn main() {
@@ -54,6 +56,7 @@ fn main() {
         Command::Replay(a) => cmd::record::replay(a),
         Command::Plot(a) => cmd::plot::run(a),
         Command::Launch(a) => cmd::launch::run(a),
+        Command::Params(a) => cmd::params::run(a),
     };
     if let Err(e) = result {
         eprintln!("naic: error: {e}");
