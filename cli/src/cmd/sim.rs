@@ -410,6 +410,8 @@ pub fn run(a: SimArgs) -> CliResult {
             ("--sigma-margin", a.sigma_margin.is_some()),
             ("--median-window", a.median_window.is_some()),
             ("--scheduled-contact-threshold", a.scheduled_contact_threshold.is_some()),
+            // The table is the JK5's (docs/controller.md); other arms: naic sim --robot FILE --seeds 5.
+            ("--robot", a.robot.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
             return Err(CliError::usage(format!("--table runs every scenario, controller and delay with the default settings: drop {flag}")));

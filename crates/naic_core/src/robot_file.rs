@@ -146,7 +146,7 @@ impl Robot {
             Some(_) => return Err(err("urdf", "must be a path (relative to the robot file) or a package://pkg/path URI".into())),
             None => return Err(err("urdf", "missing: give the robot's URDF (a path relative to the robot file, or package://pkg/path)".into())),
         };
-        let urdf = resolve_uri(&urdf_s, &dir, env).map_err(|p| err("urdf", p))?;
+        let urdf = resolve_uri(&urdf_s, &dir, env).map_err(|e| err("urdf", e.to_string()))?;
         if !urdf.is_file() {
             return Err(err("urdf", format!("'{}' is not a file (a path is relative to the robot file's folder {})", urdf.display(), dir.display())));
         }
@@ -154,8 +154,8 @@ impl Robot {
         let robot = urdf_rs::read_from_string(&xml).map_err(|e| err("urdf", format!("{} is not a valid URDF: {e}", urdf.display())))?;
 
         // Frames.
-        let tip_spec = frame_spec(get("tip_frame"), "tip_frame").map_err(|p| err("tip_frame", p))?;
-        let sensor_spec = frame_spec(get("sensor_frame"), "sensor_frame").map_err(|p| err("sensor_frame", p))?;
+        let tip_spec = frame_spec(get("tip_frame"), "tip_frame").map_err(|e| err("tip_frame", e.to_string()))?;
+        let sensor_spec = frame_spec(get("sensor_frame"), "sensor_frame").map_err(|e| err("sensor_frame", e.to_string()))?;
         // The link the chain ends at: a link, a joint's child link, or a new frame's parent.
         let link_of = |spec: &FrameSpec, field: &str| -> Result<String, RobotFileError> {
             let name = match spec {
@@ -299,7 +299,7 @@ impl Robot {
             None => None,
             Some(Value::String(s)) if s == "none" => None,
             Some(Value::String(s)) => {
-                let p = resolve_uri(s, &dir, env).map_err(|p| err("friction", p))?;
+                let p = resolve_uri(s, &dir, env).map_err(|e| err("friction", e.to_string()))?;
                 let m = FrictionParams::load_feedforward_model(&p)
                     .map_err(|e| err("friction", format!("{}: {e} (or give `friction: none`)", p.display())))?;
                 if m.n_joints() != n {
@@ -386,6 +386,14 @@ impl Robot {
         self.model.frame_id(TIP_FRAME).expect("checked when loaded")
     }
 
+    /// The tip's position in the sensor frame [m] (the controller's `tool.tip`), when both
+    /// frames ride on the same body (always, unless a joint lies between sensor and tip).
+    pub fn tip_in_sensor(&self) -> Option<Vector3<f64>> {
+        let tip = self.model.frame(self.tip());
+        let sensor = self.model.frame(self.model.frame_id(SENSOR_FRAME)?);
+        (tip.parent == sensor.parent).then(|| sensor.placement.inverse().compose(&tip.placement).trans)
+    }
+
     /// The tool as `(mass, com)`.
     pub fn tool_tuple(&self) -> (f64, Vector3<f64>) {
         (self.tool.mass, self.tool.com)
@@ -398,26 +406,37 @@ impl Robot {
     }
 }
 
-fn frame_spec(v: Option<&Value>, field: &str) -> Result<FrameSpec, String> {
+/// Why a frame field is not a frame (the field is named by the caller).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum FrameSpecError {
+    #[error("missing: give a frame of the URDF, or {{parent: LINK, xyz: [x, y, z], rpy: [r, p, y]}} for a new one")]
+    Missing,
+    #[error("'{0}' is not a field of a new frame; use parent, xyz [m] and rpy [rad]")]
+    UnknownKey(String),
+    #[error("a new {0} needs `parent`: the URDF link it is fixed to")]
+    NoParent(String),
+    #[error("{key}: {source}")]
+    Value { key: String, source: ValueError },
+    #[error("must be a frame name or {{parent: LINK, xyz: [x, y, z], rpy: [r, p, y]}}")]
+    NotAFrame,
+}
+
+fn frame_spec(v: Option<&Value>, field: &str) -> Result<FrameSpec, FrameSpecError> {
     match v {
-        None => Err(format!("missing: give a frame of the URDF, or {{parent: LINK, xyz: [x, y, z], rpy: [r, p, y]}} for a new one")),
+        None => Err(FrameSpecError::Missing),
         Some(Value::String(s)) if !s.is_empty() => Ok(FrameSpec::Named(s.clone())),
         Some(Value::Mapping(m)) => {
             for k in m.keys() {
                 let k = k.as_str().unwrap_or("?");
                 if !["parent", "xyz", "rpy"].contains(&k) {
-                    return Err(format!("'{k}' is not a field of a new frame; use parent, xyz [m] and rpy [rad]"));
+                    return Err(FrameSpecError::UnknownKey(k.to_string()));
                 }
             }
-            let parent = m
-                .get("parent")
-                .and_then(Value::as_str)
-                .ok_or_else(|| format!("a new {field} needs `parent`: the URDF link it is fixed to"))?
-                .to_string();
-            let v3 = |k: &str| -> Result<[f64; 3], String> {
+            let parent = m.get("parent").and_then(Value::as_str).ok_or_else(|| FrameSpecError::NoParent(field.to_string()))?.to_string();
+            let v3 = |k: &str| -> Result<[f64; 3], FrameSpecError> {
                 match m.get(k).filter(|v| !v.is_null()) {
                     None => Ok([0.0; 3]),
-                    Some(v) => numbers(v, 3, false).map(|x| [x[0], x[1], x[2]]).map_err(|p| format!("{k}: {p}")),
+                    Some(v) => numbers(v, 3, false).map(|x| [x[0], x[1], x[2]]).map_err(|source| FrameSpecError::Value { key: k.to_string(), source }),
                 }
             };
             let xyz = v3("xyz")?;
@@ -425,7 +444,7 @@ fn frame_spec(v: Option<&Value>, field: &str) -> Result<FrameSpec, String> {
             let r = Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]);
             Ok(FrameSpec::New { parent, offset: Se3::new(*r.matrix(), Vector3::from(xyz)) })
         }
-        Some(_) => Err("must be a frame name or {parent: LINK, xyz: [x, y, z], rpy: [r, p, y]}".into()),
+        Some(_) => Err(FrameSpecError::NotAFrame),
     }
 }
 
@@ -433,40 +452,64 @@ fn strings(v: &Value) -> Option<Vec<String>> {
     v.as_sequence()?.iter().map(|x| x.as_str().map(String::from)).collect()
 }
 
+/// Why a value is not the list of numbers a field needs.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum ValueError {
+    #[error("must be a list of {0} numbers")]
+    NotAList(usize),
+    #[error("has {got} numbers; give {n}")]
+    Count { got: usize, n: usize },
+    #[error("{0} is not a positive number")]
+    NotPositive(f64),
+    #[error("{0} is not a finite number")]
+    NotFinite(f64),
+}
+
 /// `n` finite numbers (`positive`: each > 0).
-fn numbers(v: &Value, n: usize, positive: bool) -> Result<Vec<f64>, String> {
-    let Some(seq) = v.as_sequence() else { return Err(format!("must be a list of {n} numbers")) };
-    let x: Option<Vec<f64>> = seq.iter().map(Value::as_f64).collect();
-    let Some(x) = x else { return Err(format!("must be a list of {n} numbers")) };
+fn numbers(v: &Value, n: usize, positive: bool) -> Result<Vec<f64>, ValueError> {
+    let seq = v.as_sequence().ok_or(ValueError::NotAList(n))?;
+    let x: Vec<f64> = seq.iter().map(Value::as_f64).collect::<Option<_>>().ok_or(ValueError::NotAList(n))?;
     if x.len() != n {
-        return Err(format!("has {} numbers; give {n}", x.len()));
+        return Err(ValueError::Count { got: x.len(), n });
     }
-    if let Some(bad) = x.iter().find(|v| !v.is_finite() || (positive && **v <= 0.0)) {
-        return Err(format!("{bad} is not {}", if positive { "a positive number" } else { "a finite number" }));
+    if let Some(&bad) = x.iter().find(|v| !v.is_finite()) {
+        return Err(ValueError::NotFinite(bad));
+    }
+    if let Some(&bad) = x.iter().find(|v| positive && **v <= 0.0) {
+        return Err(ValueError::NotPositive(bad));
     }
     Ok(x)
 }
 
+/// Why a `package://` URI names no folder.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PackageError {
+    #[error("'{uri}' names no package: write package://PACKAGE/path")]
+    NoPackage { uri: String },
+    #[error("package '{package}' of '{uri}' not found (looked in {looked}); install it, or set NAIC_PACKAGE_PATH to a folder holding {package}/ or share/{package}/ (for pip's example-robot-data: set NAIC_VENV or activate the venv)")]
+    NotFound { package: String, uri: String, looked: String },
+}
+
 /// A path relative to `dir`, or a `package://pkg/rest` URI (see the module documentation).
-pub fn resolve_uri(s: &str, dir: &Path, env: Env) -> Result<PathBuf, String> {
+pub fn resolve_uri(s: &str, dir: &Path, env: Env) -> Result<PathBuf, PackageError> {
     let Some(rest) = s.strip_prefix("package://") else {
         let p = Path::new(s);
         return Ok(if p.is_absolute() { p.to_path_buf() } else { dir.join(p) });
     };
     let (pkg, inner) = rest.split_once('/').unwrap_or((rest, ""));
     if pkg.is_empty() {
-        return Err(format!("'{s}' names no package: write package://PACKAGE/path"));
+        return Err(PackageError::NoPackage { uri: s.to_string() });
     }
     let candidates = package_dirs(pkg, env);
-    for c in &candidates {
-        if c.is_dir() {
-            return Ok(c.join(inner));
-        }
+    if let Some(c) = candidates.iter().find(|c| c.is_dir()) {
+        return Ok(c.join(inner));
     }
-    Err(format!(
-        "package '{pkg}' of '{s}' not found (looked in {}); install it, or set NAIC_PACKAGE_PATH to a folder holding {pkg}/ or share/{pkg}/ (for pip's example-robot-data: set NAIC_VENV or activate the venv)",
-        if candidates.is_empty() { "no folder: NAIC_PACKAGE_PATH, AMENT_PREFIX_PATH, ROS_PACKAGE_PATH, NAIC_VENV and VIRTUAL_ENV are unset".into() } else { candidates.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ") }
-    ))
+    let looked = if candidates.is_empty() {
+        "no folder: NAIC_PACKAGE_PATH, AMENT_PREFIX_PATH, ROS_PACKAGE_PATH, NAIC_VENV and VIRTUAL_ENV are unset".to_string()
+    } else {
+        candidates.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+    };
+    Err(PackageError::NotFound { package: pkg.to_string(), uri: s.to_string(), looked })
 }
 
 /// Where `package://pkg` may be, in search order.

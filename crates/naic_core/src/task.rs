@@ -149,6 +149,9 @@ pub enum TaskError {
     /// A relative preset needs the tool along a base axis at the start joints.
     #[error("at the start joints (start_q) the tool's z axis is {angle_deg:.1}° from the nearest base axis; the scenarios push along a base axis (±x, ±y or ±z): choose a start_q with the tool pointing along one (within {max_deg}°)")]
     ToolAxis { angle_deg: f64, max_deg: f64 },
+    /// A relative preset needs start joints and the robot file gives none.
+    #[error("the robot file {file} has no start_q: the scenarios start there; add start_q (joints [rad], the tool pointing along a base axis)")]
+    NoStartJoints { file: String },
     /// The path of a relative preset leaves the arm's reach.
     #[error("the {name} path leaves the arm's reach at {point} m (inverse kinematics error {error:.2e} m): choose a start_q closer to the base or the arm's middle")]
     OutOfReach { name: String, point: String, error: f64 },

@@ -75,6 +75,7 @@ fn the_panda_file_adds_sensor_tip_and_tool_to_the_stock_urdf() {
     let (p, z) = tip_at_start::<7>(&r);
     assert!((p - Vector3::new(0.45, -0.225, 0.30)).norm() < 2e-4, "{p}");
     assert!((z + Vector3::z()).norm() < 1e-3, "{z}");
+    assert!((r.tip_in_sensor().unwrap() - Vector3::new(0.0, 0.0, 0.169)).norm() < 1e-12);
     // The default limits are the URDF's.
     assert_eq!(r.model.effort_limits(), stock.effort_limits());
 }
@@ -133,7 +134,7 @@ fn package_uris_follow_the_documented_search_order() {
     // A plain path is relative to the robot file's folder.
     assert_eq!(resolve_uri("../u.urdf", Path::new("/a/b"), &no_env).unwrap(), Path::new("/a/b/../u.urdf"));
     let e = resolve_uri("package:///x.urdf", Path::new("/"), &no_env).unwrap_err();
-    assert!(e.contains("names no package"), "{e}");
+    assert!(e.to_string().contains("names no package"), "{e}");
 }
 
 #[test]
