@@ -115,3 +115,49 @@ def test_a_urdf_that_is_not_the_jk5_is_refused_cleanly(naic_bin, root, tmp_path)
     assert r.returncode == 2, r.stderr
     assert "--urdf" in r.stderr and "6-joint" in r.stderr
     assert "panicked" not in r.stderr
+
+
+def test_sim_robot_panda_records_seven_named_joints_read_by_mcap_ros2(naic_bin, root, tmp_path):
+    """`naic sim --robot params/robots/panda.yaml`: a 7-joint run whose bag an independent
+    reader (mcap-ros2-support) decodes with the Panda's 7 joint names and 7 torques."""
+    from mcap_ros2 import reader as mcap_ros2_reader
+
+    out = tmp_path / "panda"
+    r = run(naic_bin, "sim", "--robot", "params/robots/panda.yaml", "--scenario", "flat", "--controller", "scheduled",
+            "--duration", "2.5", "--out", out, cwd=root)
+    assert r.returncode == 0, r.stderr
+    m = json.loads((out / "metrics.json").read_text())["controllers"]["scheduled"]
+    assert 0.5 < m["contact_time_s"] < 2.5
+    assert m["phases"][0]["overshoot_pct"] <= 5.0
+    names, efforts = set(), set()
+    for msg in mcap_ros2_reader.read_ros2_messages(str(out / "scheduled.mcap"), topics=["/joint_states", "/joint_effort_cmd"]):
+        if msg.channel.topic == "/joint_states":
+            names.add(tuple(msg.ros_msg.name))
+        else:
+            efforts.add(len(msg.ros_msg.data))
+    assert names == {tuple(f"joint{k}" for k in range(1, 8))}
+    assert efforts == {7}
+    header = (out / "scheduled.truth.csv").read_text().splitlines()[0].split(",")
+    assert "q7" in header and "tau7" in header and "q8" not in header
+
+
+@pytest.mark.parametrize(
+    "body, needle",
+    [
+        ("urdf: {root}/urdf/panda.urdf\ntip_frame: flange\nsensor_frame: link7\n", "start_q"),
+        ("urdf: {root}/urdf/panda.urdf\ntip_frame: nose\nsensor_frame: link7\n", "`tip_frame`"),
+        ("urdf: {root}/urdf/jk5.urdf\ntip_frame: tip\nsensor_frame: ft_sensor\nstart_q: [0, 0, 0]\n", "`start_q`"),
+    ],
+)
+def test_sim_bad_robot_file_is_named_with_exit_code_2(naic_bin, root, tmp_path, body, needle):
+    f = tmp_path / "robot.yaml"
+    f.write_text(body.replace("{root}", str(root)))
+    r = run(naic_bin, "sim", "--robot", f, "--controller", "scheduled", "--duration", "0.5", "--out", tmp_path / "x", cwd=root)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert needle in r.stderr and str(f.name) in r.stderr
+    assert "panicked" not in r.stderr
+
+
+def test_sim_robot_and_urdf_together_are_refused(naic_bin, root, tmp_path):
+    r = run(naic_bin, "sim", "--robot", "params/robots/panda.yaml", "--urdf", "urdf/jk5.urdf", "--out", tmp_path / "x", cwd=root)
+    assert r.returncode == 2 and "--urdf and --robot" in r.stderr

@@ -37,7 +37,12 @@ pub struct SimArgs {
     /// Output folder [default: a new folder runs/<UTC time>-<scenario>/].
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Robot model [default: urdf/jk5.urdf].
+    /// The arm: a robot file (docs/robots.md: URDF, frames, start joints, friction, sensor,
+    /// tool) [default: params/robots/jk5.yaml]. Scenarios are placed relative to its start
+    /// tip pose (the JK5 keeps the paper's placements).
+    #[arg(long, value_name = "FILE")]
+    pub robot: Option<PathBuf>,
+    /// Robot model, replacing the robot file's URDF (a JK5 variant) [default: the robot file's].
     #[arg(long)]
     pub urdf: Option<PathBuf>,
     /// Joint friction of the plant and of the feedforward [default: params/friction_jk5.yaml].
@@ -175,13 +180,19 @@ fn parse_joints(s: &str, what: &str) -> Result<JointVec, CliError> {
 }
 
 /// Plant of a scenario (see `naic_sim::scenario::plant_for`).
-pub fn scenario_plant(
-    s: &Scenario,
+pub fn scenario_plant<const N: usize>(
+    s: &Scenario<N>,
     model: Model,
     friction: Option<FrictionModel>,
     tool: (f64, Vector3<f64>),
-) -> Result<PlantParams, CliError> {
+) -> Result<PlantParams<N>, CliError> {
     scenario::plant_for(s, model, friction, tool).map_err(|e| CliError::usage(e.to_string()))
+}
+
+/// The robot file of `--robot` (default `params/robots/jk5.yaml`), loaded and checked.
+pub fn load_robot(path: Option<&Path>) -> Result<naic_core::robot_file::Robot, CliError> {
+    let p = path.map_or_else(|| default_path(naic_core::robot_file::DEFAULT_ROBOT_FILE), Path::to_path_buf);
+    naic_core::robot_file::Robot::load(&p).map_err(|e| CliError::usage(format!("--robot: {e}")))
 }
 
 /// `--stiffness-report`: MuJoCo's static stiffness on every scenario's materials.
@@ -282,19 +293,23 @@ fn fmt_opt(v: Option<f64>) -> String {
     v.map_or_else(|| "never".to_string(), |x| format!("{x:.3}"))
 }
 
-/// Run the scenario with the given controllers; returns the runs.
+/// A plant builder of [`run_scenario`]: the plant's parameters, start joints and seed in.
+pub type BuildPlant<'a, const N: usize> =
+    &'a dyn Fn(&PlantParams<N>, &JointVec<N>, u64) -> Result<Box<dyn naic_sim::plants::Plant<N> + Send>, naic_sim::plant::PlantError>;
+
+/// Run the scenario with the given controllers on the plants `build` makes; returns the runs.
 #[allow(clippy::too_many_arguments)]
-pub fn run_scenario(
-    s: &Scenario,
-    choice: &PlantChoice,
-    plant: &PlantParams,
+pub fn run_scenario<const N: usize>(
+    s: &Scenario<N>,
+    build: BuildPlant<'_, N>,
+    plant: &PlantParams<N>,
     model: &Model,
     friction_ff: Option<&FrictionModel>,
     tool: (f64, Vector3<f64>),
     controllers: &[&str],
     settings: &LoopSettings,
     show_progress: bool,
-) -> Result<Vec<RunResult>, CliError> {
+) -> Result<Vec<RunResult<N>>, CliError> {
     let mut runs = Vec::new();
     for &name in controllers {
         let mut c = PipelineController::by_name(name, s, model, friction_ff.cloned(), tool, settings).map_err(CliError::usage)?;
@@ -311,7 +326,7 @@ pub fn run_scenario(
                 let _ = std::io::stderr().flush();
             }
         };
-        let mut p = choice.build(plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
+        let mut p = build(plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
         let r = runner::run_on(s, &mut *p, &mut c, &mut progress);
         if show_progress {
             eprintln!();
@@ -322,7 +337,7 @@ pub fn run_scenario(
 }
 
 /// The summary table (markdown) of a scenario's runs.
-pub fn summary_table(s: &Scenario, runs: &[RunResult]) -> String {
+pub fn summary_table<const N: usize>(s: &Scenario<N>, runs: &[RunResult<N>]) -> String {
     let mut t = String::new();
     t.push_str("| scenario | controller | contact [s] | phase start [s] | f_d [N] | settle 2 % [s] | settle 5 % [s] | overshoot [%] | ss error [N] | RMS error [N] | max force [N] |\n");
     t.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -356,7 +371,7 @@ pub fn summary_table(s: &Scenario, runs: &[RunResult]) -> String {
 /// robot side publishes; `naic bag export-csv` turns it into CSV), and
 /// `<controller>.truth.csv` with the simulator's ground truth that no ROS topic
 /// carries (true contact force, surface height under the tip, …).
-pub fn write_outputs(out: &Path, s: &Scenario, runs: &[RunResult]) -> Result<(), CliError> {
+pub fn write_outputs<const N: usize>(out: &Path, s: &Scenario<N>, runs: &[RunResult<N>], joint_names: &[String]) -> Result<(), CliError> {
     let fail = |p: &Path, e: std::io::Error| CliError::failure(format!("cannot write {}: {e}", p.display()));
     std::fs::create_dir_all(out).map_err(|e| fail(out, e))?;
     let n = s.task.force_axis;
@@ -365,7 +380,7 @@ pub fn write_outputs(out: &Path, s: &Scenario, runs: &[RunResult]) -> Result<(),
     for r in runs {
         controllers.insert(r.controller.clone(), r.metrics.clone());
         let p = out.join(format!("{}.mcap", r.controller));
-        super::bag::write_sim_run(&p, &r.controller, &r.records, force_axis)?;
+        super::bag::write_sim_run(&p, &r.controller, &r.records, force_axis, joint_names)?;
         let p = out.join(format!("{}.truth.csv", r.controller));
         std::fs::write(&p, runner::to_csv(&r.records)).map_err(|e| fail(&p, e))?;
     }
@@ -395,6 +410,8 @@ pub fn run(a: SimArgs) -> CliResult {
             ("--sigma-margin", a.sigma_margin.is_some()),
             ("--median-window", a.median_window.is_some()),
             ("--scheduled-contact-threshold", a.scheduled_contact_threshold.is_some()),
+            // The table is the JK5's (docs/controller.md); other arms: naic sim --robot FILE --seeds 5.
+            ("--robot", a.robot.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
             return Err(CliError::usage(format!("--table runs every scenario, controller and delay with the default settings: drop {flag}")));
@@ -416,24 +433,39 @@ pub fn run(a: SimArgs) -> CliResult {
             None => return Err(CliError::usage(format!("--controller '{which}': use one of {} or all", CONTROLLERS.join(", ")))),
         }
     };
-    let model = load_model(a.urdf.as_deref())?;
+    let robot = load_robot(a.robot.as_deref())?;
     let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
+    // --urdf replaces the robot file's URDF (a JK5 variant: the paper's placements).
+    let paper_jk5 = a.urdf.is_some() || robot.is_paper_jk5();
+    if a.urdf.is_some() && a.robot.is_some() {
+        return Err(CliError::usage("--urdf and --robot: give the URDF in the robot file (its `urdf` field), or drop --robot"));
+    }
+    let model = if a.urdf.is_some() { load_model(a.urdf.as_deref())? } else { robot.model.clone() };
     if a.stiffness_report {
         return stiffness_report(&choice, &model, a.urdf.as_deref());
     }
-    let friction = friction_for(&choice, a.friction.as_deref(), a.no_friction)?;
-    let mut s = scenario::preset(&name, &model).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
-    if let Some(seed) = a.seed {
-        s.seed = seed;
-    }
-    if let Some(k) = a.stiffness {
-        s = s.with_stiffness(k).map_err(|e| CliError::usage(format!("--stiffness: {e}")))?;
-    }
+    // The robot file's friction, unless --friction / --no-friction or MuJoCo say otherwise.
+    let friction = match (&choice, &a.friction, a.no_friction, &a.urdf) {
+        (PlantChoice::Own, None, false, None) => robot.friction.as_ref().map(|f| f.1.clone()),
+        _ => friction_for(&choice, a.friction.as_deref(), a.no_friction)?,
+    };
     if let Some(d) = a.duration {
         if !(d > 0.0 && d.is_finite()) {
             return Err(CliError::usage(format!("--duration {d}: must be a positive number of seconds")));
         }
-        s.task.duration = d;
+    }
+    // The paper's JK5: its placements (another arm's scenario is placed in run_robot).
+    let mut s = if paper_jk5 { Some(scenario::preset(&name, &model).map_err(|e| CliError::usage(format!("--urdf: {e}")))?) } else { None };
+    if let Some(s) = &mut s {
+        if let Some(seed) = a.seed {
+            s.seed = seed;
+        }
+        if let Some(k) = a.stiffness {
+            *s = s.with_stiffness(k).map_err(|e| CliError::usage(format!("--stiffness: {e}")))?;
+        }
+        if let Some(d) = a.duration {
+            s.task.duration = d;
+        }
     }
     let mut settings = LoopSettings::default();
     if let Some(g) = a.gamma {
@@ -478,8 +510,66 @@ pub fn run(a: SimArgs) -> CliResult {
         }
         settings.scheduled_contact_enter_n = t;
     }
-    let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
-    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    let Some(s) = s else {
+        let n = robot.model.nv();
+        return naic_core::with_joints!(n, N => run_robot::<N>(&a, &name, &robot, &choice, friction, &modes, &settings))
+            .map_err(|e| CliError::usage(format!("--robot {}: {e}", robot.file.display())))?;
+    };
+    let tool = match &a.urdf {
+        Some(urdf_path) => naic_sim::sensor::tool_from_urdf(urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?,
+        None => robot.tool_tuple(),
+    };
+    let build = |p: &PlantParams, q0: &JointVec, seed: u64| choice.build(p, q0, seed);
+    run_seeds(&a, s, &build, &model, friction, tool, &modes, &settings, &robot)
+}
+
+/// `naic sim --robot FILE` for an arm that is not the paper's JK5: the scenario placed
+/// relative to the robot file's start joints, on the own plant, `N` joints.
+#[allow(clippy::too_many_arguments)]
+fn run_robot<const N: usize>(
+    a: &SimArgs,
+    name: &str,
+    robot: &naic_core::robot_file::Robot,
+    choice: &PlantChoice,
+    friction: Option<FrictionModel>,
+    modes: &[&str],
+    settings: &LoopSettings,
+) -> CliResult {
+    let Some(q) = &robot.start_q else {
+        return Err(CliError::usage(format!(
+            "--robot {}: the scenarios start at the robot file's `start_q`, and it has none: add start_q (joints [rad], the tool pointing along a base axis)",
+            robot.file.display()
+        )));
+    };
+    let q0: JointVec<N> = std::array::from_fn(|i| q[i]);
+    let mut s = scenario::preset_relative::<N>(name, &robot.model, q0).map_err(|e| CliError::usage(format!("--robot {}: {e}", robot.file.display())))?;
+    if let Some(seed) = a.seed {
+        s.seed = seed;
+    }
+    if let Some(k) = a.stiffness {
+        s = s.with_stiffness(k).map_err(|e| CliError::usage(format!("--stiffness: {e}")))?;
+    }
+    if let Some(d) = a.duration {
+        s.task.duration = d;
+    }
+    let build = |p: &PlantParams<N>, q0: &JointVec<N>, seed: u64| choice.build_n::<N>(p, q0, seed);
+    run_seeds(a, s, &build, &robot.model, friction, robot.tool_tuple(), modes, settings, robot)
+}
+
+/// Run `s` for `--seeds` seeds with every controller of `modes`, write the outputs and print
+/// the summary (any joint count).
+#[allow(clippy::too_many_arguments)]
+fn run_seeds<const N: usize>(
+    a: &SimArgs,
+    s: Scenario<N>,
+    build: BuildPlant<'_, N>,
+    model: &Model,
+    friction: Option<FrictionModel>,
+    tool: (f64, Vector3<f64>),
+    modes: &[&str],
+    settings: &LoopSettings,
+    robot: &naic_core::robot_file::Robot,
+) -> CliResult {
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", utc_stamp(), s.task.name)));
     let show = std::io::stderr().is_terminal();
     let n_seeds = a.seeds.unwrap_or(1);
@@ -493,10 +583,12 @@ pub fn run(a: SimArgs) -> CliResult {
         let mut s = s.clone();
         s.seed = first_seed + u64::from(k);
         let dir = if a.seeds.is_some() { out.join(format!("seed-{}", s.seed)) } else { out.clone() };
-        let plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
+        let mut plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
+        scenario::apply_sensor_spec(&mut plant, &robot.sensor);
         eprintln!(
-            "naic sim: {} plant, scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
-            choice.name(),
+            "naic sim: {} plant, {}, scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
+            a.plant.as_deref().unwrap_or("own"),
+            robot.file.display(),
             s.task.name,
             s.seed,
             s.task.duration,
@@ -504,8 +596,8 @@ pub fn run(a: SimArgs) -> CliResult {
             plant.h() * 1e3,
             dir.display()
         );
-        let runs = run_scenario(&s, &choice, &plant, &model, friction.as_ref(), tool, &modes, &settings, show)?;
-        write_outputs(&dir, &s, &runs)?;
+        let runs = run_scenario(&s, build, &plant, model, friction.as_ref(), tool, modes, settings, show)?;
+        write_outputs(&dir, &s, &runs, &robot.joints)?;
         for r in &runs {
             if r.limit_violation {
                 eprintln!("naic sim: warning: {} left the joint position limits", r.controller);

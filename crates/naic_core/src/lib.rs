@@ -26,6 +26,7 @@ pub mod friction;
 pub mod model;
 pub mod pipeline;
 pub mod rng;
+pub mod robot_file;
 pub mod task;
 
 /// Joints of the JK5 (six revolute joints): the default joint count of the

@@ -31,7 +31,7 @@
 use crate::dynamics;
 use crate::model::{DataN, Model};
 use crate::pipeline::control::ImpedanceParams;
-use crate::JointVec;
+use crate::{JointVec, N_JOINTS};
 pub use crate::pipeline::controller::Reference;
 use nalgebra::{SVector, UnitQuaternion, Vector3, Vector6};
 
@@ -73,7 +73,7 @@ pub struct Ramp {
 
 /// One of the paper's tasks, as the controller sees it.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Task {
+pub struct Task<const N: usize = N_JOINTS> {
     /// The preset name (one of [`PRESETS`]).
     pub name: String,
     /// Duration of the task [s].
@@ -81,7 +81,7 @@ pub struct Task {
     /// Control period [s].
     pub dt: f64,
     /// Start joints [rad].
-    pub q0: JointVec,
+    pub q0: JointVec<N>,
     /// Force axis `n`, base frame (−z: pushing down).
     pub force_axis: Vector3<f64>,
     /// `(t, f_d)` steps, ascending, first at t = 0.
@@ -98,7 +98,7 @@ pub struct Task {
     pub expected_surface: Option<f64>,
 }
 
-impl Task {
+impl<const N: usize> Task<N> {
     /// Desired force at time `t`.
     pub fn f_d(&self, t: f64) -> f64 {
         let mut f = self.f_d_steps.first().map_or(0.0, |s| s.1);
@@ -146,6 +146,15 @@ pub enum TaskError {
     /// The start pose is out of reach of this model.
     #[error("inverse kinematics for the {name} start pose failed (error {error:.2e} m)")]
     InverseKinematics { name: String, error: f64 },
+    /// A relative preset needs the tool along a base axis at the start joints.
+    #[error("at the start joints (start_q) the tool's z axis is {angle_deg:.1}° from the nearest base axis; the scenarios push along a base axis (±x, ±y or ±z): choose a start_q with the tool pointing along one (within {max_deg}°)")]
+    ToolAxis { angle_deg: f64, max_deg: f64 },
+    /// A relative preset needs start joints and the robot file gives none.
+    #[error("the robot file {file} has no start_q: the scenarios start there; add start_q (joints [rad], the tool pointing along a base axis)")]
+    NoStartJoints { file: String },
+    /// The path of a relative preset leaves the arm's reach.
+    #[error("the {name} path leaves the arm's reach at {point} m (inverse kinematics error {error:.2e} m): choose a start_q closer to the base or the arm's middle")]
+    OutOfReach { name: String, point: String, error: f64 },
 }
 
 impl From<TaskError> for String {
@@ -257,6 +266,109 @@ pub fn preset(name: &str, model: &Model) -> Result<Task, TaskError> {
         other => return Err(TaskError::UnknownPreset { name: other.to_string() }),
     };
     Ok(t)
+}
+
+/// Geometry of the paper's JK5 tasks that [`preset_relative`] carries over to any arm,
+/// measured on the JK5's placements above (so that a JK5 run both ways agrees).
+pub mod relative {
+    /// Start tip height above the §4.1 table: 0.247 − 0.08 m.
+    pub const FLAT_CLEARANCE: f64 = 0.167;
+    /// §5.2.1: start 0.538 m, foam at 0.3813 m.
+    pub const FOAM_CLEARANCE: f64 = 0.538 - 0.3813;
+    /// §5.2.2: start 0.538 m, acrylic at 0.3648 m.
+    pub const TWO_MATERIAL_CLEARANCE: f64 = 0.538 - 0.3648;
+    /// z_d lies this far beyond the surface along the force axis (§4.1: 0.05 vs 0.08 m).
+    pub const TARGET_DEPTH: f64 = 0.03;
+    /// Length of the §4.1 path (−0.3 → −0.75 m) in its 5 s.
+    pub const PATH_LENGTH: f64 = 0.45;
+    /// §5.2.2: the target moves 0.06 m from t = 5 s to 8 s.
+    pub const TWO_MATERIAL_SHIFT: f64 = 0.06;
+    /// The tool's z may be this far from a base axis at the start [°].
+    pub const MAX_TOOL_AXIS_DEG: f64 = 10.0;
+}
+
+/// The force axis and path direction of [`preset_relative`] at the start tip pose:
+/// `n` is the base axis (±x, ±y or ±z) nearest the tool's z axis; the path runs along the
+/// base axis perpendicular to `n` on which the start tip is nearer 0 (across the front of
+/// the arm), towards and past 0.
+pub fn relative_axes(p0: &Vector3<f64>, r0: &UnitQuaternion<f64>) -> Result<(Vector3<f64>, Vector3<f64>), TaskError> {
+    let z = r0 * Vector3::z();
+    let k = (0..3).max_by(|&a, &b| z[a].abs().total_cmp(&z[b].abs())).unwrap_or(2);
+    let mut n = Vector3::zeros();
+    n[k] = z[k].signum();
+    let angle_deg = z.dot(&n).clamp(-1.0, 1.0).acos().to_degrees();
+    if angle_deg > relative::MAX_TOOL_AXIS_DEG {
+        return Err(TaskError::ToolAxis { angle_deg, max_deg: relative::MAX_TOOL_AXIS_DEG });
+    }
+    let others: Vec<usize> = (0..3).filter(|&a| a != k).collect();
+    let a = if p0[others[0]].abs() <= p0[others[1]].abs() { others[0] } else { others[1] };
+    let mut t = Vector3::zeros();
+    t[a] = if p0[a] > 0.0 { -1.0 } else { 1.0 };
+    Ok((n, t))
+}
+
+/// A task preset placed relative to the arm (issue 37): the start joints `q0` (the robot
+/// file's `start_q`), the force axis `n` and the path direction `t̂` from [`relative_axes`],
+/// and the JK5 tasks' distances ([`relative`]) along them: the surface `FLAT_CLEARANCE`
+/// beyond the start tip along `n` (foam and two-material: their own clearances), `z_d`
+/// `TARGET_DEPTH` beyond the surface, the path `PATH_LENGTH` along `t̂` in 5 s starting
+/// under the start tip; `f_d`, durations, impedance and the force steps as in [`preset`].
+/// `surface` and `expected_surface` are coordinates along `n`'s base axis, as for the JK5.
+/// Every point of the path is checked reachable (damped inverse kinematics).
+pub fn preset_relative<const N: usize>(name: &str, model: &Model, q0: JointVec<N>) -> Result<Task<N>, TaskError> {
+    if model.frame_id("tip").is_none() {
+        return Err(TaskError::MissingFrame { frame: "tip".to_string() });
+    }
+    let (p0, r0) = tip_pose(model, &q0);
+    let (n, t) = relative_axes(&p0, &r0)?;
+    let k = (0..3).find(|&a| n[a] != 0.0).unwrap_or(2);
+    let clearance = match name {
+        "foam" => relative::FOAM_CLEARANCE,
+        "two-material" => relative::TWO_MATERIAL_CLEARANCE,
+        _ => relative::FLAT_CLEARANCE,
+    };
+    let surface_point = p0 + n * clearance;
+    let surface = surface_point[k];
+    let from = surface_point + n * relative::TARGET_DEPTH;
+    let path = Ramp { from, to: from + t * relative::PATH_LENGTH, t0: 0.0, t1: 5.0 };
+    let base = Task {
+        name: name.to_string(),
+        duration: 5.0,
+        dt: 1e-3,
+        q0,
+        force_axis: n,
+        f_d_steps: vec![(0.0, 10.0)],
+        ramp: path,
+        r_d: r0,
+        impedance: PAPER_IMPEDANCE,
+        surface,
+        expected_surface: None,
+    };
+    let task = match name {
+        "flat" => Task { f_d_steps: vec![(0.0, 10.0), (3.0, 20.0)], ..base },
+        "acrylic" => Task { expected_surface: Some(surface), ..base },
+        "stiffness-step" | "slope" => base,
+        "foam" => Task { duration: 8.0, ramp: Ramp { from, to: from, t0: 0.0, t1: 8.0 }, ..base },
+        "two-material" => Task {
+            duration: 10.0,
+            f_d_steps: vec![(0.0, 3.0)],
+            ramp: Ramp { from, to: from + t * relative::TWO_MATERIAL_SHIFT, t0: 5.0, t1: 8.0 },
+            expected_surface: Some(surface),
+            ..base
+        },
+        other => return Err(TaskError::UnknownPreset { name: other.to_string() }),
+    };
+    // The path on the surface (the contact stops the tip there, short of z_d).
+    let mut q = q0;
+    for i in 0..=10 {
+        let p = task.ramp.from + (task.ramp.to - task.ramp.from) * (i as f64 / 10.0) - n * relative::TARGET_DEPTH;
+        let (qi, err) = inverse_kinematics(model, &q, &p, &r0);
+        if !(err < 1e-6) {
+            return Err(TaskError::OutOfReach { name: name.to_string(), point: format!("({:.3}, {:.3}, {:.3})", p.x, p.y, p.z), error: err });
+        }
+        q = qi;
+    }
+    Ok(task)
 }
 
 #[cfg(test)]

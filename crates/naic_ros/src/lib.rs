@@ -30,6 +30,7 @@ pub mod params;
 pub mod joints;
 pub mod params_file;
 pub mod replay;
+pub mod robot;
 pub mod service;
 mod reply;
 pub mod threads;

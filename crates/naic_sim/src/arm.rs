@@ -10,28 +10,28 @@ use crate::plant::{self, Observation, PlantParams, PlantState, PlantWorkspace};
 use naic_core::{JointVec, N_JOINTS};
 
 /// The simulated JK5 + mini45 in one scenario's world.
-pub struct SimArm {
-    params: PlantParams,
-    state: PlantState,
-    ws: PlantWorkspace,
-    obs: Observation,
+pub struct SimArm<const N: usize = N_JOINTS> {
+    params: PlantParams<N>,
+    state: PlantState<N>,
+    ws: PlantWorkspace<N>,
+    obs: Observation<N>,
 }
 
-impl SimArm {
+impl<const N: usize> SimArm<N> {
     /// At rest at `q0`, noise seeded with `seed`. The control period is `params.dt`.
-    pub fn new(params: PlantParams, q0: JointVec, seed: u64) -> Self {
+    pub fn new(params: PlantParams<N>, q0: JointVec<N>, seed: u64) -> Self {
         let mut ws = PlantWorkspace::new(&params);
-        let (state, obs) = plant::observe(&params, &PlantState::at_rest(q0, seed), &mut ws, [0.0; N_JOINTS], false);
+        let (state, obs) = plant::observe(&params, &PlantState::at_rest(q0, seed), &mut ws, [0.0; N], false);
         Self { params, state, ws, obs }
     }
 
     /// Advance one control period (`params().dt`) under `tau` [N·m] (saturated at the effort limits).
-    pub fn step(&mut self, tau: &JointVec) {
+    pub fn step(&mut self, tau: &JointVec<N>) {
         (self.state, self.obs) = plant::step(&self.params, &self.state, tau, &mut self.ws);
     }
 
     /// Measured joint positions [rad], velocities [rad/s], and the applied joint torques [N·m].
-    pub fn joints(&self) -> (JointVec, JointVec, JointVec) {
+    pub fn joints(&self) -> (JointVec<N>, JointVec<N>, JointVec<N>) {
         (self.obs.meas.q, self.obs.meas.dq, self.obs.truth.tau_applied)
     }
 
@@ -46,16 +46,16 @@ impl SimArm {
     }
 
     /// The last observation (measurements and ground truth).
-    pub fn observation(&self) -> &Observation {
+    pub fn observation(&self) -> &Observation<N> {
         &self.obs
     }
 
     /// The true state (positions, velocities, time).
-    pub fn true_state(&self) -> &PlantState {
+    pub fn true_state(&self) -> &PlantState<N> {
         &self.state
     }
 
-    pub fn params(&self) -> &PlantParams {
+    pub fn params(&self) -> &PlantParams<N> {
         &self.params
     }
 }

@@ -69,24 +69,24 @@ impl Default for LoopSettings {
 
 /// The core pipeline + friction feedforward + actuation, as the simulator drives it.
 #[derive(Clone)]
-pub struct PipelineController {
+pub struct PipelineController<const N: usize = N_JOINTS> {
     name: String,
-    pipeline: Pipeline,
-    state: PipelineState,
-    ws: Workspace,
+    pipeline: Pipeline<N>,
+    state: PipelineState<N>,
+    ws: Workspace<N>,
     /// The scheduled law is given the true stiffness (the `oracle` benchmark).
     oracle: bool,
     /// The last `delay + 1` measurements, newest first.
-    delayed: [Option<RawMeasurements>; MAX_DELAY_CYCLES + 1],
+    delayed: [Option<RawMeasurements<N>>; MAX_DELAY_CYCLES + 1],
     delay: usize,
 }
 
-impl PipelineController {
+impl<const N: usize> PipelineController<N> {
     /// The controller `mode` with the scenario's impedance settings, the
     /// force axis of the scenario, and `friction` as feedforward (None: off).
     pub fn new(
         mode: Mode,
-        scenario: &Scenario,
+        scenario: &Scenario<N>,
         model: &Model,
         friction: Option<FrictionModel>,
         tool_mass: f64,
@@ -133,7 +133,7 @@ impl PipelineController {
             // docs/controller.md): the drops are the feedforward model's.
             c.force_law.scheduled.friction_fast = friction.as_ref().map(FastVelocity::for_model);
         }
-        let mut effort = [0.0; N_JOINTS];
+        let mut effort = [0.0; N];
         for (e, j) in effort.iter_mut().zip(model.joints()) {
             *e = j.limits.effort;
         }
@@ -142,7 +142,7 @@ impl PipelineController {
         let pipeline = Pipeline {
             controller,
             friction,
-            actuate: ActuateParams { effort_limit: effort, max_delta: [f64::INFINITY; N_JOINTS] },
+            actuate: ActuateParams { effort_limit: effort, max_delta: [f64::INFINITY; N] },
         };
         let state = pipeline.initial_state();
         let delayed = [None; MAX_DELAY_CYCLES + 1];
@@ -152,7 +152,7 @@ impl PipelineController {
     /// A controller by its `naic sim` name (one of [`CONTROLLERS`]).
     pub fn by_name(
         name: &str,
-        scenario: &Scenario,
+        scenario: &Scenario<N>,
         model: &Model,
         friction: Option<FrictionModel>,
         tool: (f64, Vector3<f64>),
@@ -169,22 +169,22 @@ impl PipelineController {
     }
 }
 
-impl PipelineController {
+impl<const N: usize> PipelineController<N> {
     /// The controller's parameters now.
-    pub fn params(&self) -> &ControllerParams {
+    pub fn params(&self) -> &ControllerParams<N> {
         self.pipeline.controller.params()
     }
 
     /// The pipeline's state after the last step (read-only: traces of the law's internals,
     /// e.g. `examples/contact_trace.rs`).
-    pub fn state(&self) -> &naic_core::pipeline::PipelineState {
+    pub fn state(&self) -> &naic_core::pipeline::PipelineState<N> {
         &self.state
     }
 
     /// Change the parameters mid-run by the node's policy
     /// (`naic_core::pipeline::param_change`: the NAIC weights restart when the force law or
     /// impedance changed; a force-limit retraction is kept). Not in the 1 kHz path.
-    pub fn set_params(&mut self, new: ControllerParams) -> Result<param_change::Outcome, ConfigError> {
+    pub fn set_params(&mut self, new: ControllerParams<N>) -> Result<param_change::Outcome, ConfigError> {
         let (c, s, outcome) = param_change::apply(&self.pipeline.controller, &self.state.controller, new)?;
         self.pipeline.controller = c;
         self.state.controller = s;
@@ -192,7 +192,7 @@ impl PipelineController {
     }
 }
 
-impl SimController for PipelineController {
+impl<const N: usize> SimController<N> for PipelineController<N> {
     fn name(&self) -> &str {
         &self.name
     }
@@ -203,7 +203,7 @@ impl SimController for PipelineController {
         }
     }
 
-    fn step(&mut self, m: &RawMeasurements, r: &Reference) -> (JointVec, Status) {
+    fn step(&mut self, m: &RawMeasurements<N>, r: &Reference) -> (JointVec<N>, Status) {
         // The loop delay: the controller works on the measurement of `delay` periods ago.
         self.delayed.rotate_right(1);
         self.delayed[0] = Some(*m);

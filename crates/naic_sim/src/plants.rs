@@ -16,7 +16,7 @@ use std::path::PathBuf;
 
 /// A simulated robot + F/T sensor in one scenario's world, advanced one control
 /// period at a time. Implementations preallocate; `step` does not allocate.
-pub trait Plant {
+pub trait Plant<const N: usize = { naic_core::N_JOINTS }> {
     /// `own` or `mujoco` (files and reports).
     fn name(&self) -> &'static str;
     /// Number of joints; every joint slice in and out has this length.
@@ -27,7 +27,7 @@ pub trait Plant {
     /// (`tau.len() == dof()`; saturated at the effort limits, non-finite entries read as 0).
     fn step(&mut self, tau: &[f64]);
     /// Measurements and ground truth at the current time.
-    fn observation(&self) -> &Observation;
+    fn observation(&self) -> &Observation<N>;
     /// True joint positions [rad] (ground truth, for records).
     fn q(&self) -> &[f64];
     /// True joint velocities [rad/s] (ground truth, for records).
@@ -89,26 +89,37 @@ impl PlantChoice {
             Self::Mujoco { .. } => Err(PlantError::MujocoNotBuilt),
         }
     }
+
+    /// [`PlantChoice::build`] for an arm of any joint count `N` (a robot file's arm): the own
+    /// plant; MuJoCo steps the paper's JK5 MJCF only, so it is an error here.
+    pub fn build_n<const N: usize>(&self, p: &PlantParams<N>, q0: &naic_core::JointVec<N>, seed: u64) -> Result<Box<dyn Plant<N> + Send>, PlantError> {
+        match self {
+            Self::Own => Ok(Box::new(crate::arm::SimArm::<N>::new(p.clone(), *q0, seed))),
+            Self::Mujoco { .. } => Err(PlantError::Config(
+                "--plant mujoco steps the JK5's MJCF only; drop --plant mujoco for this robot file (the own plant runs any robot file)".into(),
+            )),
+        }
+    }
 }
 
-impl Plant for crate::arm::SimArm {
+impl<const N: usize> Plant<N> for crate::arm::SimArm<N> {
     fn name(&self) -> &'static str {
         "own"
     }
     fn dof(&self) -> usize {
-        naic_core::N_JOINTS
+        N
     }
     fn dt(&self) -> f64 {
         self.params().dt
     }
     fn step(&mut self, tau: &[f64]) {
-        let mut t = [0.0; naic_core::N_JOINTS];
+        let mut t = [0.0; N];
         for (o, v) in t.iter_mut().zip(tau) {
             *o = *v;
         }
         crate::arm::SimArm::step(self, &t);
     }
-    fn observation(&self) -> &Observation {
+    fn observation(&self) -> &Observation<N> {
         crate::arm::SimArm::observation(self)
     }
     fn q(&self) -> &[f64] {

@@ -21,7 +21,7 @@ fn label(name: &str) -> String {
 }
 
 /// The three-panel figure for `runs` of scenario `s`.
-pub fn figure(s: &Scenario, runs: &[RunResult]) -> Figure {
+pub fn figure<const N: usize>(s: &Scenario<N>, runs: &[RunResult<N>]) -> Figure {
     let mut force = Panel {
         title: "(a) Contact force along the force axis (robot on environment)".into(),
         y_label: "f_ext [N]".into(),
@@ -30,7 +30,7 @@ pub fn figure(s: &Scenario, runs: &[RunResult]) -> Figure {
     let mut z = Panel { title: "(b) Tip height and the surface under it".into(), y_label: "z [m]".into(), ..Default::default() };
     let mut b = Panel { title: "(c) Damping b_d on the force axis (adaptation)".into(), y_label: "b_d [N·s/m]".into(), ..Default::default() };
     for r in runs {
-        let pts = |f: &dyn Fn(&crate::runner::Record) -> f64| r.records.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
+        let pts = |f: &dyn Fn(&crate::runner::Record<N>) -> f64| r.records.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
         force.series.push(Series { name: label(&r.controller), color: color(&r.controller), dashed: false, points: pts(&|x| x.f_ext) });
         z.series.push(Series { name: label(&r.controller), color: color(&r.controller), dashed: false, points: pts(&|x| x.tip[2]) });
         b.series.push(Series { name: label(&r.controller), color: color(&r.controller), dashed: false, points: pts(&|x| x.b_d) });
@@ -57,7 +57,7 @@ pub fn figure(s: &Scenario, runs: &[RunResult]) -> Figure {
     };
     if let Some(r) = runs.iter().find(|r| r.controller == "naic") {
         if let Some(r0) = r.records.first() {
-            let rel = |f: &dyn Fn(&crate::runner::Record) -> f64, x0: f64| {
+            let rel = |f: &dyn Fn(&crate::runner::Record<N>) -> f64, x0: f64| {
                 r.records.iter().map(|x| (x.t, f(x) / x0)).collect::<Vec<_>>()
             };
             w.series.push(Series { name: "m_d / m_d(0)".into(), color: "#ff7f0e", dashed: false, points: rel(&|x| x.m_d, r0.m_d) });

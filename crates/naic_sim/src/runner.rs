@@ -14,23 +14,23 @@ use naic_core::{JointVec, N_JOINTS};
 /// and the reference in, torque out. Implementations keep their own state and
 /// preallocated workspace (the pure `(params, state, inputs)` step lives
 /// inside; this trait only threads the state through).
-pub trait Controller {
+pub trait Controller<const N: usize = N_JOINTS> {
     /// Name used in files and legends (`naic`, `aic`, `fixed`).
     fn name(&self) -> &str;
     /// The torque to the drives and the controller's report of this period.
-    fn step(&mut self, meas: &RawMeasurements, reference: &Reference) -> (JointVec, Status);
+    fn step(&mut self, meas: &RawMeasurements<N>, reference: &Reference) -> (JointVec<N>, Status);
     /// The simulator's true stiffness under the tip before each step: only the
     /// `oracle` benchmark uses it (default: ignored).
     fn set_true_stiffness(&mut self, _k_e: f64) {}
 }
 
 /// One recorded control period.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Record {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Record<const N: usize = N_JOINTS> {
     pub t: f64,
-    pub q: JointVec,
-    pub dq: JointVec,
-    pub tau: JointVec,
+    pub q: JointVec<N>,
+    pub dq: JointVec<N>,
+    pub tau: JointVec<N>,
     pub tip: [f64; 3],
     /// Reference tip position.
     pub p_d: [f64; 3],
@@ -62,11 +62,43 @@ pub struct Record {
     pub gravity_scale: f64,
 }
 
+impl<const N: usize> Default for Record<N> {
+    fn default() -> Self {
+        Self {
+            t: 0.0,
+            q: [0.0; N],
+            dq: [0.0; N],
+            tau: [0.0; N],
+            tip: [0.0; 3],
+            p_d: [0.0; 3],
+            f_ext: 0.0,
+            f_ext_est: 0.0,
+            f_d: 0.0,
+            surface_z: 0.0,
+            penetration: 0.0,
+            in_contact: false,
+            k_e: 0.0,
+            wrench: [0.0; 6],
+            m_d: 0.0,
+            b_d: 0.0,
+            sigma: 0.0,
+            gamma: 0.0,
+            gamma_bound: 0.0,
+            phase: Phase::default(),
+            saturated: false,
+            k_e_hat: 0.0,
+            k_e_confidence: 0.0,
+            model_gain: 0.0,
+            gravity_scale: 0.0,
+        }
+    }
+}
+
 /// The outcome of one closed-loop run.
 #[derive(Clone, Debug)]
-pub struct RunResult {
+pub struct RunResult<const N: usize = N_JOINTS> {
     pub controller: String,
-    pub records: Vec<Record>,
+    pub records: Vec<Record<N>>,
     pub metrics: ControllerMetrics,
     /// A joint left its position limits at some point.
     pub limit_violation: bool,
@@ -74,10 +106,10 @@ pub struct RunResult {
     pub saturated: bool,
 }
 
-fn record(s: &Scenario, k: usize, obs: &Observation, rep: &Status, reference: &Reference, plant: &dyn Plant) -> Record {
+fn record<const N: usize>(s: &Scenario<N>, k: usize, obs: &Observation<N>, rep: &Status, reference: &Reference, plant: &dyn Plant<N>) -> Record<N> {
     let tr = &obs.truth;
     let tip = tr.tip.translation.vector;
-    let (mut q, mut dq) = ([0.0; N_JOINTS], [0.0; N_JOINTS]);
+    let (mut q, mut dq) = ([0.0; N], [0.0; N]);
     q.copy_from_slice(plant.q());
     dq.copy_from_slice(plant.dq());
     Record {
@@ -120,7 +152,7 @@ pub fn run(s: &Scenario, p: &PlantParams, controller: &mut dyn Controller, progr
 
 /// [`run`] on any plant (built by [`crate::plants::PlantChoice::build`] at rest at
 /// `scenario.task.q0`, seeded with `scenario.seed`).
-pub fn run_on(s: &Scenario, plant: &mut dyn Plant, controller: &mut dyn Controller, progress: &mut dyn FnMut(f64)) -> RunResult {
+pub fn run_on<const N: usize>(s: &Scenario<N>, plant: &mut dyn Plant<N>, controller: &mut dyn Controller<N>, progress: &mut dyn FnMut(f64)) -> RunResult<N> {
     let n = s.steps();
     let mut records = Vec::with_capacity(n + 1);
     let mut limit_violation = false;
@@ -148,7 +180,7 @@ pub fn run_on(s: &Scenario, plant: &mut dyn Plant, controller: &mut dyn Controll
 }
 
 /// Contact time and phase metrics of a recorded run.
-pub fn metrics_of(s: &Scenario, records: &[Record]) -> ControllerMetrics {
+pub fn metrics_of<const N: usize>(s: &Scenario<N>, records: &[Record<N>]) -> ControllerMetrics {
     let t: Vec<f64> = records.iter().map(|r| r.t).collect();
     let f: Vec<f64> = records.iter().map(|r| r.f_ext).collect();
     let c: Vec<bool> = records.iter().map(|r| r.in_contact).collect();
@@ -165,10 +197,16 @@ pub fn metrics_of(s: &Scenario, records: &[Record]) -> ControllerMetrics {
 }
 
 /// The records as CSV (one row per control period).
-pub fn to_csv(records: &[Record]) -> String {
+pub fn to_csv<const N: usize>(records: &[Record<N>]) -> String {
     use std::fmt::Write;
     let mut out = String::with_capacity(records.len() * 400);
-    out.push_str("t,q1,q2,q3,q4,q5,q6,dq1,dq2,dq3,dq4,dq5,dq6,tau1,tau2,tau3,tau4,tau5,tau6,");
+    out.push('t');
+    for name in ["q", "dq", "tau"] {
+        for j in 1..=N {
+            let _ = write!(out, ",{name}{j}");
+        }
+    }
+    out.push(',');
     out.push_str("tip_x,tip_y,tip_z,p_d_x,p_d_y,p_d_z,f_ext,f_ext_est,f_d,surface_z,penetration,in_contact,k_e,");
     out.push_str("ft_fx,ft_fy,ft_fz,ft_tx,ft_ty,ft_tz,m_d,b_d,sigma,gamma,gamma_bound,phase,saturated,k_e_hat,k_e_confidence,model_gain,gravity_scale\n");
     for r in records {
@@ -275,7 +313,7 @@ pub fn bench_closed_loop<C: Controller + Clone>(
 
 /// RMS of `f_ext − f_d` from the first contact to the end of the run [N]
 /// (`None` without contact).
-pub fn contact_rms(records: &[Record]) -> Option<f64> {
+pub fn contact_rms<const N: usize>(records: &[Record<N>]) -> Option<f64> {
     let i0 = records.iter().position(|r| r.in_contact)?;
     let n = (records.len() - i0) as f64;
     Some((records[i0..].iter().map(|r| (r.f_ext - r.f_d).powi(2)).sum::<f64>() / n).sqrt())
@@ -306,7 +344,7 @@ pub struct RunSummary {
 }
 
 /// The table's numbers of a run (`naic sim --table`, the closed-loop goal tests).
-pub fn summarize(r: &RunResult) -> RunSummary {
+pub fn summarize<const N: usize>(r: &RunResult<N>) -> RunSummary {
     let m = &r.metrics;
     let mut n = RunSummary { contact_time_s: m.contact_time_s, rms_n: contact_rms(&r.records), ..Default::default() };
     if let Some(p) = m.phases.first() {

@@ -33,6 +33,7 @@
 use crate::environment::{Environment, Material, MaterialMap};
 use crate::metrics::{PhaseSpec, PhaseStart};
 use naic_core::model::Model;
+use naic_core::N_JOINTS;
 use naic_core::task::{self, Task, TaskError};
 use nalgebra::{Unit, Vector3};
 
@@ -48,10 +49,10 @@ pub use naic_core::pipeline::controller::Reference;
 
 /// A complete scenario: a paper task on a simulated surface.
 #[derive(Clone, Debug)]
-pub struct Scenario {
+pub struct Scenario<const N: usize = N_JOINTS> {
     /// What the controller is asked to do (name, duration, control period, start joints,
     /// reference, `f_d`, impedance).
-    pub task: Task,
+    pub task: Task<N>,
     pub description: String,
     pub env: Environment,
     /// RNG seed of the plant (noise, sensor bias).
@@ -76,7 +77,7 @@ impl From<ScenarioError> for String {
     }
 }
 
-impl Scenario {
+impl<const N: usize> Scenario<N> {
     /// Desired force at time `t` (the task's).
     pub fn f_d(&self, t: f64) -> f64 {
         self.task.f_d(t)
@@ -107,7 +108,7 @@ impl Scenario {
     /// The same scenario on a surface of stiffness `k_e` (`naic sim --stiffness`): a
     /// uniform surface gets `k_e`; a stiffness schedule (eq 22) is scaled so that its
     /// first value is `k_e`. The two-material surface has no single stiffness: an error.
-    pub fn with_stiffness(&self, k_e: f64) -> Result<Scenario, ScenarioError> {
+    pub fn with_stiffness(&self, k_e: f64) -> Result<Scenario<N>, ScenarioError> {
         if !(k_e > 0.0 && k_e.is_finite()) {
             return Err(ScenarioError::Stiffness { k_e });
         }
@@ -139,12 +140,12 @@ impl Scenario {
 /// with the given tool (mass, COM in the sensor frame; see
 /// [`crate::sensor::tool_from_urdf`]) and its bias drawn from the scenario
 /// seed, and the default encoders.
-pub fn plant_for(
-    s: &Scenario,
+pub fn plant_for<const N: usize>(
+    s: &Scenario<N>,
     model: Model,
     friction: Option<naic_core::friction::FrictionModel>,
     tool: (f64, Vector3<f64>),
-) -> Result<crate::plant::PlantParams, crate::plant::PlantError> {
+) -> Result<crate::plant::PlantParams<N>, crate::plant::PlantError> {
     let mut rng = crate::rng::Rng::seed(s.seed ^ 0x005E_EDF7);
     let ft = crate::sensor::Mini45::si_145_5(tool.0, tool.1, &mut rng);
     let mut p = crate::plant::PlantParams::new(
@@ -223,4 +224,61 @@ pub fn preset(name: &str, model: &Model) -> Result<Scenario, TaskError> {
         other => return Err(TaskError::UnknownPreset { name: other.to_string() }),
     };
     Ok(Scenario { task, description, env, seed: 1, paper_notes: paper_notes.into() })
+}
+
+/// A scenario placed relative to the arm (issue 37): the task of
+/// [`naic_core::task::preset_relative`] (start joints `q0`, the surface beyond the start tip
+/// along the tool's axis, the path across the front of the arm) on the preset's materials:
+/// `flat`, `acrylic`, `stiffness-step` and `foam` as for the JK5; `slope` a plane through
+/// the point 0.044 m above the table where the path is at t = 0.621 s, falling along the path
+/// to the table height at its end (the JK5's §4.2 plane, measured along the path).
+/// `two-material` is not placed relative to the arm yet (an error).
+pub fn preset_relative<const N: usize>(name: &str, model: &Model, q0: naic_core::JointVec<N>) -> Result<Scenario<N>, TaskError> {
+    if name == "two-material" {
+        return Err(TaskError::UnknownPreset { name: "two-material (placed for the JK5 only: its material boundary is a plane x = const of the JK5 table)".into() });
+    }
+    let task = task::preset_relative(name, model, q0)?;
+    let k_paper = Material { k_e: 2000.0, b_e: 0.0, mu: 0.0 };
+    let n = task.force_axis;
+    // The plane through the surface point under the path's start, facing the tool (normal −n).
+    let surface_point = task.ramp.from - n * task::relative::TARGET_DEPTH;
+    let plane = |material: MaterialMap| Environment { point: surface_point, normal: Unit::new_normalize(-n), material, v_slip: 1e-3, enabled: true };
+    let at = |p: &Vector3<f64>| format!("({:.3}, {:.3}, {:.3}) m", p.x, p.y, p.z);
+    let (description, env) = match name {
+        "flat" => (format!("§4.1 relative to the arm: surface through {}, normal {:?}, k_e = 2000 N/m, f_d = 10 N then 20 N at t = 3 s", at(&surface_point), -n), plane(MaterialMap::Uniform(k_paper))),
+        "acrylic" => (format!("acrylic (k_e = 50 000 N/m) through {}, f_d = 10 N", at(&surface_point)), plane(MaterialMap::Uniform(acrylic()))),
+        "stiffness-step" => (
+            format!("eq 22 relative to the arm: surface through {}, k_e = 2000 → 5000 → 2000 N/m at 2 s and 4 s, f_d = 10 N", at(&surface_point)),
+            plane(MaterialMap::StiffnessSchedule { base: k_paper, switches: vec![(2.0, 5000.0), (4.0, 2000.0)] }),
+        ),
+        "foam" => (format!("§5.2.1 relative to the arm: foam through {}, f_d = 10 N", at(&surface_point)), plane(MaterialMap::Uniform(foam()))),
+        "slope" => {
+            let t_hat = (task.ramp.to - task.ramp.from).normalize();
+            let s_c = 0.09 * 0.621;
+            let rise = 0.124 - 0.08;
+            let slope = rise / (task::relative::PATH_LENGTH - s_c);
+            let point = surface_point + t_hat * s_c - n * rise;
+            let normal = Unit::new_normalize(-n + t_hat * slope);
+            (
+                format!("§4.2 relative to the arm: plane through {} falling along the path by {:.2}°, k_e = 2000 N/m, f_d = 10 N", at(&point), slope.atan().to_degrees()),
+                Environment { point, normal, material: MaterialMap::Uniform(k_paper), v_slip: 1e-3, enabled: true },
+            )
+        }
+        other => return Err(TaskError::UnknownPreset { name: other.to_string() }),
+    };
+    Ok(Scenario { task, description, env, seed: 1, paper_notes: "placed relative to the arm (issue 37): no paper figure".into() })
+}
+
+/// The robot file's F/T sensor model on a plant: each of range, resolution and noise the
+/// file gives replaces the ATI mini45's (nothing given: nothing changes).
+pub fn apply_sensor_spec<const N: usize>(p: &mut crate::plant::PlantParams<N>, spec: &naic_core::robot_file::SensorSpec) {
+    if let Some(r) = spec.range {
+        p.ft.range = r;
+    }
+    if let Some(r) = spec.resolution {
+        p.ft.resolution = r;
+    }
+    if let Some(r) = spec.noise {
+        p.ft.noise_sigma = r;
+    }
 }

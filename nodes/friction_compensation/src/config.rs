@@ -12,7 +12,7 @@ use crate::core::Params;
 /// The core's parameters from the ROS parameters; `sense` is the velocity filter for the
 /// robot model (its median window comes from the parameters). Fails when the friction
 /// file does not load.
-pub fn core_params(p: &ParamView, sense: &SenseParams) -> Result<Params, ParamError> {
+pub fn core_params(p: &ParamView, sense: &SenseParams, joints: &[String; N_JOINTS]) -> Result<Params, ParamError> {
     let ns = |name: &str| (p.f64(name) * 1e9) as i64;
     Ok(Params {
         friction: load_model(p)?,
@@ -23,7 +23,7 @@ pub fn core_params(p: &ParamView, sense: &SenseParams) -> Result<Params, ParamEr
         takeover_blend_ns: ns("takeover_blend"),
         actuate: actuate_params(p),
         sense: SenseParams { median_window: p.i64("median_window") as usize, ..*sense },
-        joints: crate::core::jk5_joints(),
+        joints: joints.clone(),
     })
 }
 
@@ -41,7 +41,7 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
     vec![
         ParamSpec::doubles("effort_limit", urdf_effort, 0.0, EFFORT_CAP, "Per-joint torque saturation [N m], at most the URDF effort limit (default: the URDF's)"),
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model: effort limits of the actuation guard").read_only(),
-        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Friction model YAML (naic_core::friction format; Table 1 of the paper by default)"),
+        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Friction model YAML (naic_core::friction format; Table 1 of the paper by default; '': no friction model, the command passes through the actuation guard; with -p robot:=FILE the robot file's, none by default)"),
         ParamSpec::boolean("enabled", true, "Add the friction feedforward (false: pass the controller torque through the actuation guard only)"),
         ParamSpec::double("smoothing_velocity", DEFAULT_V_S, 0.0, 1.0, "v_s [rad/s] of sgn(q̇) → tanh(q̇/v_s) near rest (0: the printed discontinuous law; the file's own value when it sets one)"),
         ParamSpec::doubles("torque_rate_limit", &DEFAULT_RATE_LIMIT, 0.001, 1000.0, "Largest torque change per command, per joint joint1..joint6 [N m per cycle]; one number sets all six (1 N m on every joint destabilises the paper's impedance gains on the simulated JK5; 10 does not)").scalar_fills(),
@@ -52,9 +52,12 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
     ]
 }
 
-/// Load the friction model the parameters name.
-pub fn load_model(p: &ParamView) -> Result<FrictionModel, ParamError> {
+/// Load the friction model the parameters name (`friction_file: ''`: none).
+pub fn load_model(p: &ParamView) -> Result<Option<FrictionModel>, ParamError> {
     let path = p.str("friction_file");
+    if path.is_empty() {
+        return Ok(None);
+    }
     const FIX: &str = "set -p friction_file:=PATH, e.g. params/friction_jk5.yaml";
     let bad = |problem: String| ParamError::file("friction_file", path, problem, FIX);
     let model = FrictionParams::from_yaml_file(path)
@@ -65,8 +68,8 @@ pub fn load_model(p: &ParamView) -> Result<FrictionModel, ParamError> {
     }
     let v_s = p.f64("smoothing_velocity");
     match (model.smoothing(), v_s > 0.0) {
-        (Smoothing::Exact, true) => model.with_smoothing(Smoothing::Tanh { v_s }).map_err(|e| bad(format!("friction_file '{path}': {e}"))),
-        _ => Ok(model),
+        (Smoothing::Exact, true) => model.with_smoothing(Smoothing::Tanh { v_s }).map(Some).map_err(|e| bad(format!("friction_file '{path}': {e}"))),
+        _ => Ok(Some(model)),
     }
 }
 

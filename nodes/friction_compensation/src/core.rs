@@ -28,7 +28,9 @@ use naic_ros::{
 /// Everything the step reads and never changes (rebuilt on a parameter change).
 #[derive(Clone, Debug)]
 pub struct Params<const N: usize = N_JOINTS> {
-    pub friction: FrictionModel,
+    /// The friction model (`None`: none, a robot file's `friction: none`; the command then
+    /// passes through the actuation guard only).
+    pub friction: Option<FrictionModel>,
     /// Add the feedforward (false: the actuation guard only).
     pub enabled: bool,
     pub time: TimeBase,
@@ -184,7 +186,10 @@ pub fn step<const N: usize>(p: &Params<N>, s: &State<N>, inbox: &Inbox, now_ns: 
     // At the velocity the controller names (the scheduled law's, `/naic/effort`'s second
     // row), else at the measured one.
     let dq = cmd.dq_ff.as_ref().unwrap_or(&s.dq);
-    let tau = if p.enabled && fresh { feedforward::step(&p.friction, dq, &cmd.tau) } else { cmd.tau };
+    let tau = match (&p.friction, p.enabled && fresh) {
+        (Some(f), true) => feedforward::step(f, dq, &cmd.tau),
+        _ => cmd.tau,
+    };
     // Smooth take-over (first command, or after a gap in which the driver held the arm
     // itself): the rate limit starts from the torque the arm has now.
     let t_ns = if sim { cmd.src.unwrap_or_default() } else { now_ns };
@@ -271,7 +276,7 @@ mod tests {
         let robot = Model::from_urdf_file(root.join("urdf/jk5.urdf")).unwrap();
         let friction = FrictionParams::from_yaml_file(root.join("params/friction_jk5.yaml")).unwrap().to_model().unwrap();
         Params {
-            friction,
+            friction: Some(friction),
             enabled: true,
             time,
             joint_state_timeout_ns: 20 * MS,
@@ -325,7 +330,7 @@ mod tests {
         assert_eq!(answers[0], answers[1]);
         assert_eq!(answers[0], answers[2]);
         // The feedforward is there (joint 6 turns at 1 rad/s) and on the right joint.
-        let ff = feedforward::step(&p.friction, &dq, &[1.5, 2.5, 3.5, 4.5, 5.5, 6.5]);
+        let ff = feedforward::step(p.friction.as_ref().unwrap(), &dq, &[1.5, 2.5, 3.5, 4.5, 5.5, 6.5]);
         assert_eq!(answers[0], ff);
         assert!(ff[5] > 6.5 + 0.01, "{ff:?}");
     }
@@ -393,7 +398,7 @@ mod tests {
         let (s, o) = run(&p, &s, Inbox { joint_states: Some(&js(2000, ORDER, dq, [0.0; 6])), ..Default::default() }, 2 * MS);
         let (tau, src) = o.command.unwrap();
         assert_eq!(src, Some(2000));
-        assert_eq!(tau, feedforward::step(&p.friction, &dq, &[1.0; 6]), "the velocity of stamp 2000 was used");
+        assert_eq!(tau, feedforward::step(p.friction.as_ref().unwrap(), &dq, &[1.0; 6]), "the velocity of stamp 2000 was used");
         // The same stamp again (the driver published its state again): the same answer,
         // nothing advances, also when the command's values differ.
         let again = effort_msg(&[9.0; 6], Some(2000));
@@ -404,7 +409,7 @@ mod tests {
         // no gap (rate limit continues from the last output, not from the measured effort).
         let (s, _) = run(&p, &s, Inbox { joint_states: Some(&js(3000, ORDER, [0.0; 6], [-50.0; 6])), ..Default::default() }, 70 * MS);
         let (_, o) = run(&p, &s, Inbox { command: Some(&effort_msg(&[1.0; 6], Some(3000))), ..Default::default() }, 70 * MS);
-        assert_eq!(o.command.unwrap().0, feedforward::step(&p.friction, &[0.0; 6], &[1.0; 6]), "not restarted from -50");
+        assert_eq!(o.command.unwrap().0, feedforward::step(p.friction.as_ref().unwrap(), &[0.0; 6], &[1.0; 6]), "not restarted from -50");
     }
 
     #[test]
@@ -414,7 +419,7 @@ mod tests {
         let p = params(TimeBase::Sim);
         let measured = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
         let named = [0.5, -0.5, 0.0, 0.0, 0.0, 0.0];
-        let want = feedforward::step(&p.friction, &named, &[1.0; 6]);
+        let want = feedforward::step(p.friction.as_ref().unwrap(), &named, &[1.0; 6]);
         // The arm has that torque now, so the take-over's rate limit passes it unchanged.
         let (s, _) = run(&p, &State::default(), Inbox { joint_states: Some(&js(2000, ORDER, measured, want)), ..Default::default() }, MS);
         let mut cmd = effort_msg(&[1.0; 6], Some(2000));
@@ -443,7 +448,7 @@ mod tests {
         assert_eq!((o.command, o.wait_until_ns), (None, Some(MS + naic_ros::timebase::FIRST_PAIR_TIMEOUT_NS)));
         let dq = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
         let (_, o) = run(&p, &s, Inbox { joint_states: Some(&js(2000, ORDER, dq, [0.0; 6])), ..Default::default() }, 2_000 * MS);
-        assert_eq!(o.command, Some((feedforward::step(&p.friction, &dq, &[1.0; 6]), Some(2000))));
+        assert_eq!(o.command, Some((feedforward::step(p.friction.as_ref().unwrap(), &dq, &[1.0; 6]), Some(2000))));
     }
 
     #[test]

@@ -25,6 +25,8 @@ pub struct Runner {
     pub p: core::Params,
     pub s: core::State,
     sense: SenseParams,
+    /// The arm's joint names (the robot file's, or the JK5's).
+    joints: [String; naic_core::N_JOINTS],
     /// Generation of the parameter table last applied.
     gen: u64,
     cmd: Float64MultiArray,
@@ -36,15 +38,16 @@ impl Runner {
     /// the friction file does not load (named).
     pub fn new(setup: &Setup, params: &ParamTable) -> Result<Runner, naic_ros::params::ParamError> {
         let sense = setup.sense.clone();
-        let p = params.with(|v| config::core_params(v, &sense))?;
-        Ok(Runner { p, s: core::State::default(), sense, gen: params.generation(), cmd: Float64MultiArray::default(), warned: false })
+        let joints = setup.joints.clone();
+        let p = params.with(|v| config::core_params(v, &sense, &joints))?;
+        Ok(Runner { p, s: core::State::default(), sense, joints, gen: params.generation(), cmd: Float64MultiArray::default(), warned: false })
     }
 
     /// Take the node's parameters when a set was accepted since the last call.
     pub fn reload(&mut self, params: &ParamTable) {
         if params.generation() != self.gen {
             self.gen = params.generation();
-            match params.with(|v| config::core_params(v, &self.sense)) {
+            match params.with(|v| config::core_params(v, &self.sense, &self.joints)) {
                 Ok(np) => self.p = np,
                 Err(e) => log::error!("{e}"),
             }

@@ -17,19 +17,42 @@ pub struct Setup {
     pub effort_limit: JointVec,
     /// The velocity filter: the controller's sense stage (joint limits of the model).
     pub sense: SenseParams,
+    /// The arm's joint names in command order (the robot file's, or the JK5's).
+    pub joints: [String; naic_core::N_JOINTS],
+    /// What the robot file changes in the parameters' defaults.
+    pub defaults: naic_ros::robot::Defaults,
 }
 
 impl Setup {
     pub fn from_args(args: &RosArgs) -> Result<Setup, RosError> {
-        let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
-        let effort_limit = naic_ros::params::urdf_effort_limits(&urdf)?;
-        let robot = Model::from_urdf_file(&urdf).map_err(|e| RosError::param(format!("robot model '{urdf}': {e}")))?;
+        // A robot file (`-p robot:=FILE`, docs/robots.md): its URDF, joint names and friction
+        // file (none when it gives none); without one, the JK5 as always.
+        let file = naic_ros::robot::from_args(args, NODE)?;
+        let joints = naic_ros::robot::joint_names(file.as_ref(), NODE)?;
+        let (effort_limit, robot, defaults) = match &file {
+            None => {
+                let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
+                let effort_limit = naic_ros::params::urdf_effort_limits(&urdf)?;
+                let robot = Model::from_urdf_file(&urdf).map_err(|e| RosError::param(format!("robot model '{urdf}': {e}")))?;
+                (effort_limit, robot, naic_ros::robot::Defaults::new(None, "urdf/jk5.urdf", "params/friction_jk5.yaml"))
+            }
+            Some(r) => {
+                let urdf = r.urdf.display().to_string();
+                if args.peek_string(NODE, "urdf", &urdf)? != urdf {
+                    return Err(RosError::param(format!("-p urdf:=... and -p robot:={}: give the URDF in the robot file, or drop robot", r.file.display())));
+                }
+                let l = r.model.effort_limits();
+                let effort_limit: JointVec = std::array::from_fn(|i| l[i].min(naic_ros::params::EFFORT_CAP));
+                let friction = r.friction.as_ref().map(|f| f.0.display().to_string()).unwrap_or_default();
+                (effort_limit, r.model.clone(), naic_ros::robot::Defaults::new(Some(r), &urdf, &friction))
+            }
+        };
         let sense = SenseParams { wrench_max: [f64::INFINITY; 6], joint_timeout: 1.0, wrench_timeout: 1.0, ..SenseParams::for_model(&robot) };
-        Ok(Setup { effort_limit, sense })
+        Ok(Setup { effort_limit, sense, joints, defaults })
     }
 
     pub fn specs(&self) -> Vec<ParamSpec> {
-        config::specs(&self.effort_limit)
+        self.defaults.apply(config::specs(&self.effort_limit))
     }
 
     /// A friction file that does not load, or a saturation above the URDF's, is rejected

@@ -23,6 +23,20 @@ impl ScenarioReference {
         Ok(Some(ScenarioReference { task }))
     }
 
+    /// The scenario `name` placed relative to the robot file's arm (its `start_q`;
+    /// `naic_core::task::preset_relative`, as `naic sim --robot` places it). `None` for "none".
+    pub fn for_robot(name: &str, robot: &naic_core::robot_file::Robot) -> Result<Option<Self>, TaskError> {
+        if name == "none" {
+            return Ok(None);
+        }
+        let Some(q) = robot.start_q.as_ref().filter(|q| q.len() == 6) else {
+            return Err(TaskError::NoStartJoints { file: robot.file.display().to_string() });
+        };
+        let q0: [f64; 6] = std::array::from_fn(|i| q[i]);
+        let task = naic_core::task::preset_relative(name, &robot.model, q0)?;
+        Ok(Some(ScenarioReference { task }))
+    }
+
     /// The reference at controller time `t` [s] (allocation-free).
     pub fn at(&self, t: f64) -> Reference {
         self.task.reference(t)

@@ -18,41 +18,67 @@ pub struct Setup {
     pub params: core::Params,
     /// The core's paper settings on the loaded model: the parameters' defaults.
     pub base: ControllerParams,
+    /// What the robot file changes in the parameters' defaults.
+    pub defaults: naic_ros::robot::Defaults,
 }
 
 impl Setup {
     /// Read and check everything that reads a file or can reject the model: the start-up
     /// parameters, the model (6 joints, 'tip' and 'ft_sensor' frames) and the scenario.
     pub fn from_args(args: &RosArgs) -> Result<Setup, RosError> {
-        let urdf = args.peek_string(NODE, "urdf", "urdf/jk5.urdf")?;
-        let model = Model::from_urdf_file(&urdf)
-            .map_err(|e| RosError::param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?;
+        // A robot file (`-p robot:=FILE`, docs/robots.md) gives the URDF, the joint names, the
+        // friction file and the frames; without one, the JK5 as always.
+        let robot = naic_ros::robot::from_args(args, NODE)?;
+        let joints = naic_ros::robot::joint_names(robot.as_ref(), NODE)?;
+        let (urdf_default, friction_default) = match &robot {
+            Some(r) => (r.urdf.display().to_string(), r.friction.as_ref().map(|f| f.0.display().to_string()).unwrap_or_default()),
+            None => ("urdf/jk5.urdf".to_string(), config::FRICTION_FILE.to_string()),
+        };
+        let urdf = args.peek_string(NODE, "urdf", &urdf_default)?;
+        let model = match &robot {
+            Some(r) if urdf == urdf_default => r.model.clone(),
+            Some(r) => return Err(RosError::param(format!("-p urdf:={urdf} and -p robot:={}: give the URDF in the robot file, or drop robot", r.file.display()))),
+            None => Model::from_urdf_file(&urdf)
+                .map_err(|e| RosError::param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?,
+        };
         // Defaults: the core's paper settings on this model (learning rate: not in the paper).
         let mut base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
+        // Another arm's tool (the JK5's is the paper defaults' already).
+        if let Some(r) = robot.as_ref().filter(|r| !r.is_paper_jk5()) {
+            base.tool.mass = r.tool.mass;
+            base.tool.com = r.tool.com;
+            if let Some(tip) = r.tip_in_sensor() {
+                base.tool.tip = tip;
+            }
+        }
         // Mode scheduled: the unfiltered velocity in contact in the friction model's Stribeck
         // drops (round 10 of issue 12, docs/controller.md), as `naic sim` sets it.
-        let friction_file = args.peek_string(NODE, "friction_file", config::FRICTION_FILE)?;
+        let friction_file = args.peek_string(NODE, "friction_file", &friction_default)?;
         if !friction_file.is_empty() {
             let model = FrictionParams::load_feedforward_model(&friction_file).map_err(|e| {
                 RosError::param(format!("cannot load the friction model '{friction_file}': {e} (set -p friction_file:=PATH, or '' for none)"))
             })?;
             base.control.force_law.scheduled.friction_fast = Some(FastVelocity::for_model(&model));
         }
-        let table = ParamTable::new(config::specs(&base), Some(config::check(base)), &args.overrides(NODE)?)?;
+        let defaults = naic_ros::robot::Defaults::new(robot.as_ref(), &urdf_default, &friction_default);
+        let table = ParamTable::new(defaults.apply(config::specs(&base)), Some(config::check(base)), &args.overrides(NODE)?)?;
         let bad_model = |e: naic_core::pipeline::ConfigError| RosError::param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
         let cp = table.with(|p| config::controller_params(p, &base))?;
         // The model first (its message names the URDF file), then the scenario.
         let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
         let scenario = table.with(|p| p.str("scenario").to_string());
-        let reference =
-            ScenarioReference::new(&scenario, &model).map_err(|e| RosError::param(format!("scenario '{scenario}': {e}")))?;
+        let reference = match &robot {
+            Some(r) if !r.is_paper_jk5() => ScenarioReference::for_robot(&scenario, r),
+            _ => ScenarioReference::new(&scenario, &model),
+        }
+        .map_err(|e| RosError::param(format!("scenario '{scenario}': {e} (-p scenario:=none for a real arm)")))?;
         let rp = table.with(config::reference_params);
-        let params = core::Params::new(ctl, table.with(config::settings), reference, rp, naic_ros::msgs::JOINT_NAMES.map(String::from)).map_err(bad_model)?;
-        Ok(Setup { params, base })
+        let params = core::Params::new(ctl, table.with(config::settings), reference, rp, joints).map_err(bad_model)?;
+        Ok(Setup { params, base, defaults })
     }
 
     pub fn specs(&self) -> Vec<ParamSpec> {
-        config::specs(&self.base)
+        self.defaults.apply(config::specs(&self.base))
     }
 
     pub fn check(&self) -> naic_ros::params::SetCheck {

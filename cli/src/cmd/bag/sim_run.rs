@@ -11,12 +11,14 @@ use std::path::Path;
 /// `ft_sensor`), `/joint_effort_cmd` (applied τ), `/naic/params` (mode = `controller`,
 /// measured force = the controller's estimate) and `/clock`. Fields a simulation record does
 /// not carry are NaN (`k_d`, `phi`); `gamma_clipped` is derived as γ ≥ its eq-15 bound.
-/// `force_axis` is the axis index 0..2 (x, y, z) of the scenario's force direction.
-pub fn write_sim_run(
+/// `force_axis` is the axis index 0..2 (x, y, z) of the scenario's force direction; `names`
+/// are the arm's joints (`/joint_states`, and the size of `/joint_effort_cmd`).
+pub fn write_sim_run<const N: usize>(
     path: &Path,
     controller: &str,
-    records: &[naic_sim::runner::Record],
+    records: &[naic_sim::runner::Record<N>],
     force_axis: u8,
+    names: &[String],
 ) -> Result<u64, CliError> {
     let mut w = naic_bag::BagWriter::create(path).map_err(bag_err)?;
     let q = naic_bag::Qos::default();
@@ -25,8 +27,8 @@ pub fn write_sim_run(
     let ef = w.add_topic::<Float64MultiArray>("/joint_effort_cmd", q).map_err(bag_err)?;
     let pa = w.add_topic::<NaicParams>("/naic/params", q).map_err(bag_err)?;
     let ck = w.add_topic::<Clock>("/clock", q).map_err(bag_err)?;
-    let names: Vec<String> = (1..=6).map(|j| format!("joint{j}")).collect();
-    let dim = vec![MultiArrayDimension { label: "joints".into(), size: 6, stride: 6 }];
+    let names: Vec<String> = names.to_vec();
+    let dim = vec![MultiArrayDimension { label: "joints".into(), size: N as u32, stride: N as u32 }];
     for r in records {
         let ns = (r.t * 1e9).round().max(0.0) as u64;
         let stamp = Time::from_nanos(ns as i64);
@@ -111,7 +113,8 @@ mod tests {
             })
             .collect();
         let p = std::env::temp_dir().join(format!("naic_sim_bag_{}.mcap", std::process::id()));
-        let n = write_sim_run(&p, "naic", &recs, 2).unwrap();
+        let names: Vec<String> = (1..=6).map(|j| format!("joint{j}")).collect();
+        let n = write_sim_run(&p, "naic", &recs, 2, &names).unwrap();
         assert_eq!(n, 5 * 500);
         let bag = Bag::open(&p).unwrap();
         let run = naic_bag::RunData::load(&bag, ..);

@@ -48,6 +48,10 @@ pub enum ModelError {
     BadLimits { joint: String, lower: f64, upper: f64 },
     #[error("joint '{joint}' moves no mass or inertia about its axis (all links after it are massless or on its axis), so the mass matrix is singular; give the links after it an <inertial>")]
     SingularJoint { joint: String },
+    #[error("the URDF has no link named '{link}'; name one of its links")]
+    UnknownLink { link: String },
+    #[error("a frame named '{name}' exists already; give the new frame another name")]
+    FrameExists { name: String },
     #[error("this workspace is for {expected} joints but the model has {found}; use Data::new (dynamic size) or a model with {expected} joints")]
     WrongDof { expected: usize, found: usize },
 }

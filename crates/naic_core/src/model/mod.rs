@@ -219,6 +219,50 @@ impl Model {
         urdf::from_str(xml, "")
     }
 
+    /// The actuated chain from the root to the link `tip_link` of the URDF file `path`:
+    /// moving joints off that chain (a gripper's fingers, a second arm) are locked at 0,
+    /// their links' mass kept on the body they hang from. Returns the model and the
+    /// locked joints' names. A URDF that is already a chain to `tip_link` gives exactly
+    /// [`Model::from_urdf_file`]'s model.
+    pub fn from_urdf_file_chain(path: impl AsRef<std::path::Path>, tip_link: &str) -> Result<(Model, Vec<String>), ModelError> {
+        let path = path.as_ref();
+        if !path.exists() {
+            return Err(ModelError::FileNotFound { path: path.to_path_buf() });
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| ModelError::Io { path: path.to_path_buf(), reason: e.to_string() })?;
+        urdf::from_str_chain(&text, &format!(" {}", path.display()), tip_link)
+    }
+
+    /// Add a frame `name` rigidly attached to the frame `parent` at `offset` (the new frame's
+    /// pose in `parent`'s frame), e.g. a sensor or tool frame a stock URDF lacks.
+    pub fn add_frame(&mut self, name: &str, parent: FrameId, offset: Se3) -> Result<FrameId, ModelError> {
+        if self.frame_id(name).is_some() {
+            return Err(ModelError::FrameExists { name: name.to_string() });
+        }
+        let p = &self.frames[parent.0];
+        let frame = Frame { name: name.to_string(), kind: FrameKind::FixedJoint, parent: p.parent, placement: p.placement.compose(&offset) };
+        self.frames.push(frame);
+        Ok(FrameId(self.frames.len() - 1))
+    }
+
+    /// Add a point mass `mass` [kg] at `com` [m] in the frame `at` to the body carrying that
+    /// frame (a tool the URDF does not model). A frame on the fixed base changes nothing.
+    pub fn add_point_mass(&mut self, at: FrameId, mass: f64, com: Vector3<f64>) {
+        let f = &self.frames[at.0];
+        let Some(b) = f.parent else { return };
+        let point = Inertia { mass, com: f.placement.act_point(&com), inertia: Matrix3::zeros() };
+        self.joints[b].inertia = self.joints[b].inertia.add(&point);
+    }
+
+    /// Replace the effort [N·m or N] and velocity [rad/s or m/s] limits, joint `i` first.
+    /// The slices have [`Model::nv`] entries (checked by the caller).
+    pub fn set_effort_velocity_limits(&mut self, effort: &[f64], velocity: &[f64]) {
+        for ((j, e), v) in self.joints.iter_mut().zip(effort).zip(velocity) {
+            j.limits.effort = *e;
+            j.limits.velocity = *v;
+        }
+    }
+
     /// Number of configuration variables (= `nv` for these joints).
     pub fn nq(&self) -> usize {
         self.joints.len()

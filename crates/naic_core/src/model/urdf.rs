@@ -106,16 +106,50 @@ fn link_inertia(link: &urdf_rs::Link) -> Result<Inertia, ModelError> {
 }
 
 pub(super) fn from_str(xml: &str, origin: &str) -> Result<Model, ModelError> {
-    let robot = match urdf_rs::read_from_string(xml) {
-        Ok(r) => r,
+    build(&parse(xml, origin)?)
+}
+
+fn parse(xml: &str, origin: &str) -> Result<urdf_rs::Robot, ModelError> {
+    match urdf_rs::read_from_string(xml) {
+        Ok(r) => Ok(r),
         Err(e) => {
             if let Some((joint, kind)) = find_unknown_joint_type(xml) {
                 return Err(ModelError::UnknownJointType { joint, kind });
             }
-            return Err(ModelError::Parse { origin: origin.to_string(), reason: e.to_string() });
+            Err(ModelError::Parse { origin: origin.to_string(), reason: e.to_string() })
         }
-    };
-    build(&robot)
+    }
+}
+
+/// The actuated chain from the root to `tip_link`: every moving joint that is not an
+/// ancestor of `tip_link` is locked at 0 (turned into a fixed joint, so its links' mass
+/// stays on the body they hang from, as Pinocchio's `buildReducedModel` does). Returns the
+/// model and the names of the locked joints. Without such joints the model is exactly
+/// [`from_str`]'s.
+pub(super) fn from_str_chain(xml: &str, origin: &str, tip_link: &str) -> Result<(Model, Vec<String>), ModelError> {
+    let mut robot = parse(xml, origin)?;
+    if !robot.links.iter().any(|l| l.name == tip_link) {
+        return Err(ModelError::UnknownLink { link: tip_link.to_string() });
+    }
+    // Walk from the tip link up to the root through the parent joints.
+    let mut on_path: Vec<&str> = Vec::new();
+    let mut link = tip_link.to_string();
+    for _ in 0..=robot.joints.len() {
+        let Some(j) = robot.joints.iter().find(|j| j.child.link == link) else { break };
+        on_path.push(j.name.as_str());
+        link = j.parent.link.clone();
+    }
+    let on_path: Vec<String> = on_path.into_iter().map(String::from).collect();
+    let mut locked = Vec::new();
+    for j in &mut robot.joints {
+        use urdf_rs::JointType as T;
+        let moving = matches!(j.joint_type, T::Revolute | T::Continuous | T::Prismatic);
+        if moving && !on_path.contains(&j.name) {
+            j.joint_type = T::Fixed;
+            locked.push(j.name.clone());
+        }
+    }
+    Ok((build(&robot)?, locked))
 }
 
 /// Where a link sits: on which joint's body (None = base) and at which pose in it.

@@ -74,7 +74,7 @@ impl Chain {
         let f = fc_shell::Setup::from_args(&fa).unwrap();
         let fp = ParamTable::new(f.specs(), None, &fa.overrides(fc_shell::NODE).unwrap())
             .unwrap()
-            .with(|v| fc_config::core_params(v, &f.sense))
+            .with(|v| fc_config::core_params(v, &f.sense, &f.joints))
             .unwrap();
         let cs = ctl::State::new(&c.params);
         let ws = c.params.controller.workspace();
