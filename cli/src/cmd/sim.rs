@@ -174,14 +174,23 @@ fn parse_joints(s: &str, what: &str) -> Result<JointVec, CliError> {
     Ok(std::array::from_fn(|i| v[i]))
 }
 
-/// Plant of a scenario (see `naic_sim::scenario::plant_for`).
+/// Plant of a scenario (see `naic_sim::scenario::plant_for`), its sensor with the tool's
+/// inertia about its centre of mass (the inertial wrench a real sensor reads; issue 36).
 pub fn scenario_plant(
     s: &Scenario,
     model: Model,
     friction: Option<FrictionModel>,
     tool: (f64, Vector3<f64>),
+    tool_inertia: &nalgebra::Matrix3<f64>,
 ) -> Result<PlantParams, CliError> {
-    scenario::plant_for(s, model, friction, tool).map_err(|e| CliError::usage(e.to_string()))
+    let mut p = scenario::plant_for(s, model, friction, tool).map_err(|e| CliError::usage(e.to_string()))?;
+    p.ft = p.ft.with_tool_inertia(*tool_inertia);
+    Ok(p)
+}
+
+/// The tool's inertia about its centre of mass, from the `ft_sensor` link of the URDF.
+pub fn tool_inertia(urdf_path: &Path) -> Result<nalgebra::Matrix3<f64>, CliError> {
+    naic_sim::sensor::tool_inertia_from_urdf(urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))
 }
 
 /// `--stiffness-report`: MuJoCo's static stiffness on every scenario's materials.
@@ -192,11 +201,12 @@ fn stiffness_report(choice: &PlantChoice, model: &Model, urdf: Option<&Path>) ->
     };
     let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    let tool_i = tool_inertia(&urdf_path)?;
     println!("| scenario | naic k_e [N/m] | MuJoCo solref | force [N] | penetration [mm] | static stiffness [N/m] |");
     println!("|---|---|---|---|---|---|");
     for name in SCENARIOS {
         let s = scenario::preset(name, model).map_err(CliError::usage)?;
-        let p = scenario_plant(&s, model.clone(), None, tool)?;
+        let p = scenario_plant(&s, model.clone(), None, tool, &tool_i)?;
         let rows = naic_sim::mujoco_plant::static_stiffness(mjcf, &p, &s.task.q0, [5.0, 15.0])
             .map_err(|e| CliError::usage(format!("--plant: {e}")))?;
         for r in rows {
@@ -480,6 +490,7 @@ pub fn run(a: SimArgs) -> CliResult {
     }
     let urdf_path = a.urdf.clone().unwrap_or_else(|| default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    let tool_i = tool_inertia(&urdf_path)?;
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", utc_stamp(), s.task.name)));
     let show = std::io::stderr().is_terminal();
     let n_seeds = a.seeds.unwrap_or(1);
@@ -493,7 +504,7 @@ pub fn run(a: SimArgs) -> CliResult {
         let mut s = s.clone();
         s.seed = first_seed + u64::from(k);
         let dir = if a.seeds.is_some() { out.join(format!("seed-{}", s.seed)) } else { out.clone() };
-        let plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
+        let plant = scenario_plant(&s, model.clone(), friction.clone(), tool, &tool_i)?;
         eprintln!(
             "naic sim: {} plant, scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
             choice.name(),
@@ -584,7 +595,8 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     let s = scenario::preset("flat", &model).map_err(CliError::failure)?;
     let urdf_path = default_path("urdf/jk5.urdf");
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::failure(e.to_string()))?;
-    let plant = scenario_plant(&s, model.clone(), Some(friction.clone()), tool)?;
+    let tool_i = tool_inertia(&urdf_path)?;
+    let plant = scenario_plant(&s, model.clone(), Some(friction.clone()), tool, &tool_i)?;
     let c = PipelineController::new(Mode::Naic, &s, &model, Some(friction), tool.0, tool.1, &LoopSettings::default())
         .map_err(CliError::failure)?;
     let t_start = 2.5;
@@ -592,7 +604,7 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     let steps = a.steps.min(max_steps.max(1));
     let (rate, last) = runner::bench_closed_loop(&s, &plant, &c, t_start, steps, a.repeats);
     // the same without joint friction (as MuJoCo's model): plant Euler-like, no feedforward
-    let plant_nf = scenario_plant(&s, model.clone(), None, tool)?;
+    let plant_nf = scenario_plant(&s, model.clone(), None, tool, &tool_i)?;
     let c_nf = PipelineController::new(Mode::Naic, &s, &model, None, tool.0, tool.1, &LoopSettings::default())
         .map_err(CliError::failure)?;
     let (rate_nf, _) = runner::bench_closed_loop(&s, &plant_nf, &c_nf, t_start, steps, a.repeats);
