@@ -62,7 +62,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::double("approach_band", ap.band, 0.0, 0.5, "Mode 'scheduled', with use_expected_surface: distance before the expected surface where the approach slows [m]"),
         ParamSpec::double("approach_band_speed", ap.speed, 1.0e-4, 0.5, "Mode 'scheduled', with use_expected_surface: approach speed along n inside approach_band [m/s]"),
         ParamSpec::double("force_observer", fl.scheduled.force_observer, 0.0, 2000.0, "Mode 'scheduled': bandwidth of the disturbance observer that reads the force on stiff surfaces [rad/s] (0: off, the velocity observer alone)"),
-        ParamSpec::string("base_frame", "base_link", "With scenario 'none': the only header.frame_id accepted on /naic/target_pose and /naic/desired_wrench (the URDF's root link)"),
+        ParamSpec::string("base_frame", "base_link", "The URDF's root link: the frame of /naic/params and of the reference; with scenario 'none', /naic/target_pose and /naic/desired_wrench in any frame of the model (or '' for this one) are expressed in it"),
         ParamSpec::double("tf_rate", crate::tf::DEFAULT_TF_RATE, 0.0, 1000.0, "Rate of /tf [Hz]: the moving joints' transforms from the measured joint states, stamped with them (0: none; the fixed joints go to /tf_static once)"),
         ParamSpec::double("max_speed", rd.linear.max_speed, 1.0e-4, 2.0, "With scenario 'none': speed limit of the position reference [m/s]"),
         ParamSpec::double("max_accel", rd.linear.max_accel, 1.0e-3, 20.0, "With scenario 'none': acceleration limit of the position reference [m/s^2]"),
