@@ -23,6 +23,20 @@ use naic_ros::{
 /// asks for 100 Hz: smooth in RViz at the arm's speeds, 1 % of the 1 kHz loop's messages).
 pub const DEFAULT_TF_RATE: f64 = 100.0;
 
+/// Why the link tree of a URDF could not be built for `/tf`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TfError {
+    /// The robot model does not load (the model's own message).
+    #[error("{0}")]
+    Model(#[from] naic_core::model::ModelError),
+    /// urdf-rs refuses the text.
+    #[error("cannot read the URDF: {0}")]
+    Urdf(String),
+    /// A joint names a link that is not a link frame of the model.
+    #[error("joint '{joint}': link '{link}' is not a frame of the model")]
+    Link { joint: String, link: String },
+}
+
 /// One URDF joint: its parent and child links as model frames.
 #[derive(Clone, Debug)]
 struct Edge {
@@ -47,20 +61,20 @@ pub struct TfTree {
 
 impl TfTree {
     /// From the URDF text the controller loaded (`urdf`). Errors name the link or joint.
-    pub fn new(urdf: &str, rate_hz: f64) -> Result<TfTree, String> {
-        let model = Model::from_urdf_str(urdf).map_err(|e| e.to_string())?;
-        let robot = urdf_rs::read_from_string(urdf).map_err(|e| format!("cannot read the URDF: {e}"))?;
-        let link = |name: &str| -> Result<FrameId, String> {
+    pub fn new(urdf: &str, rate_hz: f64) -> Result<TfTree, TfError> {
+        let model = Model::from_urdf_str(urdf)?;
+        let robot = urdf_rs::read_from_string(urdf).map_err(|e| TfError::Urdf(e.to_string()))?;
+        let link = |joint: &str, name: &str| -> Result<FrameId, TfError> {
             model
                 .frames()
                 .iter()
                 .position(|f| f.kind == FrameKind::Link && f.name == name)
                 .map(FrameId)
-                .ok_or_else(|| format!("link '{name}' is not a frame of the model"))
+                .ok_or_else(|| TfError::Link { joint: joint.to_string(), link: name.to_string() })
         };
         let (mut moving, mut fixed) = (Vec::new(), Vec::new());
         for j in &robot.joints {
-            let e = Edge { parent: link(&j.parent.link)?, child: link(&j.child.link)? };
+            let e = Edge { parent: link(&j.name, &j.parent.link)?, child: link(&j.name, &j.child.link)? };
             if matches!(j.joint_type, urdf_rs::JointType::Fixed) {
                 fixed.push(e);
             } else {
