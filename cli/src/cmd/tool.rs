@@ -283,6 +283,22 @@ mod tests {
     }
 
     #[test]
+    fn what_identify_writes_is_what_naic_sim_tool_file_reads() {
+        let dir = std::env::temp_dir().join(format!("naic_tool_file_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let bag = dir.join("poses.mcap");
+        sim_bag(&bag, 0.45, Vector3::new(0.0, 0.002, 0.02), &POSES[..6]);
+        let out = dir.join("tool.yaml");
+        identify(&IdentifyArgs { out: Some(out.clone()), ..args(&bag) }).unwrap();
+        let (m, c) = crate::cmd::sim::tool_file(&out).unwrap();
+        assert!((m - 0.45).abs() < 0.009 && (c - Vector3::new(0.0, 0.002, 0.02)).norm() < 0.002, "{m} {c:?}");
+        std::fs::write(&out, "tool:\n  mass: 0.3\n").unwrap();
+        let e = crate::cmd::sim::tool_file(&out).unwrap_err();
+        assert!(e.message.contains("tool.com must be [x, y, z]"), "{}", e.message);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn bags_that_cannot_identify_a_tool_get_a_reason() {
         let dir = std::env::temp_dir().join(format!("naic_tool_id_bad_{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
