@@ -52,9 +52,16 @@ pub struct Mini45 {
     pub tool_com: Vector3<f64>,
     /// Tool inertia about its centre of mass, sensor frame axes [kg m²].
     pub tool_inertia: Matrix3<f64>,
+    /// Whether the reading includes the tool's inertial wrench (a real sensor's does;
+    /// [`INERTIAL_WRENCH`] by default). `false`: the tool's weight only, as before issue 36.
+    pub inertial: bool,
     /// Gravity, base frame [m/s²].
     pub gravity: Vector3<f64>,
 }
+
+/// Whether [`Mini45::si_145_5`] reads the tool's inertial wrench (issue 36 item 4: "on both
+/// plants"). The controllers do not yet stay stable with it (docs/notes/2026-12-06-sensor-inertial-wrench.md).
+pub const INERTIAL_WRENCH: bool = true;
 
 /// SI-145-5 range (ATI Mini45 datasheet, via the team brief).
 pub const MINI45_SI_145_5_RANGE: [f64; 6] = [145.0, 145.0, 290.0, 5.0, 5.0, 5.0];
@@ -78,6 +85,7 @@ impl Mini45 {
             tool_mass,
             tool_com,
             tool_inertia: Matrix3::zeros(),
+            inertial: INERTIAL_WRENCH,
             gravity: Vector3::new(0.0, 0.0, -9.81),
         }
     }
@@ -110,6 +118,8 @@ impl Mini45 {
     /// The true wrench of the moving tool on the sensor, sensor frame: weight, contact
     /// and inertial wrench (Newton–Euler; module docs). `m`: the sensor frame's motion.
     pub fn true_wrench_moving(&self, r_ws: &Rotation3<f64>, r_tip: &Vector3<f64>, f_contact: &Vector3<f64>, m: &SensorMotion) -> [f64; 6] {
+        let rest = SensorMotion::default();
+        let m = if self.inertial { m } else { &rest };
         let r_com = r_ws * self.tool_com;
         let a_com = m.accel + m.alpha.cross(&r_com) + m.omega.cross(&m.omega.cross(&r_com));
         let f_tool = (self.gravity - a_com) * self.tool_mass;
@@ -272,7 +282,7 @@ mod tests {
     #[test]
     fn a_moving_tool_adds_its_inertial_wrench() {
         let i_c = Matrix3::from_diagonal(&Vector3::new(2e-4, 3e-4, 1e-4));
-        let s = tool().with_tool_inertia(i_c);
+        let s = Mini45 { inertial: true, ..tool().with_tool_inertia(i_c) };
         let r = down();
         let r_tip = r * Vector3::new(0.0, 0.0, 0.169);
         let rest = s.true_wrench(&r, &r_tip, &Vector3::zeros());
@@ -298,6 +308,8 @@ mod tests {
         let w = s.true_wrench_moving(&r, &r_tip, &Vector3::zeros(), &swing);
         let extra = w[2] - rest[2];
         assert!((extra - 0.424 * omega * omega * 0.015).abs() < 1e-12, "{extra}");
+        let weight_only = Mini45 { inertial: false, ..s.clone() };
+        assert_eq!(weight_only.true_wrench_moving(&r, &r_tip, &Vector3::zeros(), &swing), rest);
         let urdf = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../urdf/jk5.urdf"));
         let i = tool_inertia_from_urdf(urdf).unwrap();
         assert_eq!((i[(0, 0)], i[(2, 2)], i[(0, 1)]), (0.00019875, 0.0001908, 0.0));

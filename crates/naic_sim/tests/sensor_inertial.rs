@@ -17,9 +17,12 @@ const URDF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../urdf/jk5.urdf");
 #[test]
 fn the_plants_sensor_acceleration_matches_its_trajectory_and_the_inertial_wrench_is_read() {
     let m = Model::from_urdf_file(URDF).unwrap();
-    let ft = Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(1))
-        .ideal()
-        .with_tool_inertia(tool_inertia_from_urdf(std::path::Path::new(URDF)).unwrap());
+    let ft = Mini45 {
+        inertial: true,
+        ..Mini45::si_145_5(0.424, Vector3::new(0.0, 0.0, 0.015), &mut Rng::seed(1))
+            .ideal()
+            .with_tool_inertia(tool_inertia_from_urdf(std::path::Path::new(URDF)).unwrap())
+    };
     let env = Environment { enabled: false, ..Environment::horizontal(0.0, MaterialMap::Uniform(Material { k_e: 0.0, b_e: 0.0, mu: 0.0 })) };
     let dt = 1e-3;
     let p = PlantParams::new(m.clone(), None, Integrator::Rk4, dt, 10, env, ft.clone(), Encoders::ideal()).unwrap();
