@@ -6,7 +6,7 @@ Drives naic_controller from your own rclpy code through its reference topics:
   /naic/desired_wrench (geometry_msgs/WrenchStamped, base frame): the force the tool applies
 and checks the result on /naic/params. The controller treats both as a reference: it
 limits speed and acceleration, holds the last target if this script stops, and refuses
-any frame but the base frame.
+a header.frame_id that is not a frame of the robot model (this script uses the base frame).
 
 Steps:
   0. the controller settings of this profile (CONTROLLER_PARAMS, set on naic_controller by

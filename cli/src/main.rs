@@ -20,6 +20,9 @@ enum Command {
     /// Joint friction: fit equation 4/5 models to measured data.
     #[command(subcommand)]
     Friction(cmd::friction::FrictionCmd),
+    /// The tool on the F/T sensor: identify its mass and centre of mass from static poses.
+    #[command(subcommand)]
+    Tool(cmd::tool::ToolCmd),
     /// Benchmarks that print JSON numbers.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -49,6 +52,7 @@ fn main() {
     let result = match command {
         Command::Friction(c) => cmd::friction::run(c),
         Command::Bench(c) => cmd::bench::run(c),
+        Command::Tool(c) => cmd::tool::run(c),
         Command::Sim(a) => cmd::sim::run(a),
         Command::Explain(a) => cmd::explain::run(a),
         Command::Bag(c) => cmd::bag::run(c),

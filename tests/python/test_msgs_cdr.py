@@ -39,36 +39,50 @@ def test_type_hashes_equal_jazzy(naic_hashes):
     for type_name, h in naic_hashes.items():
         pkg, _, name = type_name.split("/")
         f = SHARE / pkg / "msg" / f"{name}.json"
-        if pkg == "naic_msgs":
-            continue
+        if pkg in ("naic_msgs", "tf2_msgs"):
+            continue  # no wheel ships them: rosidl's pipeline below
         assert f.exists(), f"{f} missing: are the ros-jazzy message wheels installed?"
         want = json.loads(f.read_text())["type_hashes"][0]["hash_string"]
         assert h == want, type_name
         checked += 1
-    assert checked == 14
+    assert checked == 16
 
 
-def test_naic_params_hash_equals_rosidl(naic_hashes, root):
+def rosidl_hash(pkg, name, msg_text, dep):
     """rosidl's own pipeline: .msg -> .idl (rosidl_adapter) -> parse (rosidl_parser) ->
-    type description and hash (rosidl_generator_type_description)."""
+    type description and hash (rosidl_generator_type_description); `dep` (pkg, Type) is the
+    one nested type, whose description comes from the Jazzy wheel's .json."""
     from rosidl_adapter.msg import convert_msg_to_idl
     from rosidl_parser.definition import IdlLocator, Message
     from rosidl_parser.parser import parse_idl_file
     import rosidl_generator_type_description as g
 
-    msg = root / "msgs" / "naic_msgs" / "msg" / "NaicParams.msg"
     with tempfile.TemporaryDirectory() as d:
         d = pathlib.Path(d)
         (d / "msg").mkdir()
-        (d / "msg" / msg.name).write_text(msg.read_text())
-        convert_msg_to_idl(d, "naic_msgs", pathlib.Path("msg") / msg.name, d / "out")
-        idl = parse_idl_file(IdlLocator(d / "out", pathlib.Path("NaicParams.idl")))
+        (d / "msg" / f"{name}.msg").write_text(msg_text)
+        convert_msg_to_idl(d, pkg, pathlib.Path("msg") / f"{name}.msg", d / "out")
+        idl = parse_idl_file(IdlLocator(d / "out", pathlib.Path(f"{name}.idl")))
     m = [e for e in idl.content.elements if isinstance(e, Message)][0]
     td = g.serialize_individual_type_description(m.structure.namespaced_type, m.structure.members)
-    header = json.loads((SHARE / "std_msgs" / "msg" / "Header.json").read_text())["type_description_msg"]
-    refs = [header["type_description"]] + header["referenced_type_descriptions"]
+    nested = json.loads((SHARE / dep[0] / "msg" / f"{dep[1]}.json").read_text())["type_description_msg"]
+    refs = [nested["type_description"]] + nested["referenced_type_descriptions"]
     full = {"type_description": td, "referenced_type_descriptions": sorted(refs, key=lambda t: t["type_name"])}
-    assert naic_hashes["naic_msgs/msg/NaicParams"] == g.calculate_type_hash(full)
+    return g.calculate_type_hash(full)
+
+
+def test_naic_params_hash_equals_rosidl(naic_hashes, root):
+    msg = root / "msgs" / "naic_msgs" / "msg" / "NaicParams.msg"
+    want = rosidl_hash("naic_msgs", "NaicParams", msg.read_text(), ("std_msgs", "Header"))
+    assert naic_hashes["naic_msgs/msg/NaicParams"] == want
+
+
+def test_tf_message_hash_equals_rosidl(naic_hashes):
+    """tf2_msgs/msg/TFMessage (/tf, /tf_static): no PyPI wheel ships tf2_msgs, so its
+    upstream one-line definition goes through rosidl's pipeline."""
+    want = rosidl_hash("tf2_msgs", "TFMessage", "geometry_msgs/TransformStamped[] transforms\n",
+                       ("geometry_msgs", "TransformStamped"))
+    assert naic_hashes["tf2_msgs/msg/TFMessage"] == want
 
 
 def to_dict(msg):

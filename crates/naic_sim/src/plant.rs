@@ -36,7 +36,7 @@
 
 use crate::environment::{Contact, Environment};
 use crate::rng::Rng;
-use crate::sensor::{Encoders, Mini45};
+use crate::sensor::{Encoders, Mini45, SensorMotion};
 use naic_core::dynamics;
 use naic_core::friction::FrictionModel;
 use naic_core::model::{DataN, FrameId, Model};
@@ -342,17 +342,29 @@ fn observe_with_friction<const N: usize>(
 ) -> (PlantState<N>, Observation<N>) {
     let q = SVector::<f64, N>::from(s.q);
     let v = SVector::<f64, N>::from(s.dq);
-    let (pos, vel, _, contact) = tip_contact(p, ws, s.t, &q, &v);
+    let (pos, vel, jl, contact) = tip_contact(p, ws, s.t, &q, &v);
     let tip_se3 = *ws.data.frame_se3(p.tip);
+    let tf = tau_f.unwrap_or_else(|| friction_torques(p, &v));
+    // The sensor frame's motion at this state under the applied torque (the plant's own
+    // forward dynamics, as in `accel`): what the tool's inertial wrench answers.
+    let tau_tot = SVector::<f64, N>::from(tau_applied) + jl.transpose() * contact.force - tf;
+    let ddq = *dynamics::aba(&p.model, &mut ws.data, &q, &v, &tau_tot);
+    let jdqd = dynamics::frame_jdot_qdot(&p.model, &mut ws.data, &q, &v, p.sensor_frame);
+    let js = dynamics::frame_jacobian(&p.model, &mut ws.data, &q, p.sensor_frame);
+    let (a6, v6) = (js * ddq + jdqd, js * v);
+    let motion = SensorMotion {
+        accel: a6.fixed_rows::<3>(0).into_owned(),
+        omega: v6.fixed_rows::<3>(3).into_owned(),
+        alpha: a6.fixed_rows::<3>(3).into_owned(),
+    };
     dynamics::forward_kinematics(&p.model, &mut ws.data, &q);
     let sen = *ws.data.frame_se3(p.sensor_frame);
     let r_ws = Rotation3::from_matrix_unchecked(sen.rot);
     let r_tip = pos - sen.trans;
     let mut rng = s.rng;
-    let wrench = p.ft.measure(&r_ws, &r_tip, &contact.force, &mut rng);
-    let wrench_true = p.ft.true_wrench(&r_ws, &r_tip, &contact.force);
+    let wrench = p.ft.measure_moving(&r_ws, &r_tip, &contact.force, &motion, &mut rng);
+    let wrench_true = p.ft.true_wrench_moving(&r_ws, &r_tip, &contact.force, &motion);
     let (qm, dqm) = p.encoders.measure(&s.q, &s.dq, &mut rng);
-    let tf = tau_f.unwrap_or_else(|| friction_torques(p, &v));
     let mut limit_violation = false;
     for (i, j) in p.model.joints().iter().enumerate() {
         limit_violation |= s.q[i] < j.limits.lower || s.q[i] > j.limits.upper;

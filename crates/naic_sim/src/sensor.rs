@@ -8,9 +8,17 @@
 //! the `ft_sensor` frame, force then torque, about the sensor origin. In static
 //! equilibrium that is the tool weight plus the contact force at the tip:
 //! `F = m g + F_contact`, `T = r_com × m g + r_tip × F_contact`
-//! (`r_tip` = 0.169 m along the sensor z axis). **Inertial forces of the tool
-//! are not included** (static weight only): at the accelerations of these
-//! scenarios (< 1 m/s²) they would add < 0.42 N.
+//! (`r_tip` = 0.169 m along the sensor z axis). A moving tool adds its inertial
+//! wrench, as on a real sensor: with `a_c` the acceleration of the tool's centre
+//! of mass, `ω`, `α` its angular velocity and acceleration and `I_c` its inertia
+//! about the centre of mass (all in the base frame here),
+//! `F = m (g − a_c) + F_contact`,
+//! `T = r_com × m (g − a_c) + r_tip × F_contact − (I_c α + ω × I_c ω)`
+//! (Newton–Euler for the tool, whose other wrenches are gravity and the contact:
+//! [`Mini45::true_wrench_moving`]; the own plant passes the sensor frame's motion
+//! from its forward dynamics, issue 36 item 4). The tool's inertia is the
+//! `ft_sensor` link's `<inertial>` ([`tool_inertia_from_urdf`]); a sensor made
+//! without it (`tool_inertia` zero) still has the `m (g − a_c)` part.
 //!
 //! Errors added on top, in this order: a constant bias (drawn once per run
 //! from the seed), white Gaussian noise, saturation at the calibrated range,
@@ -25,7 +33,7 @@
 
 use crate::rng::Rng;
 use naic_core::JointVec;
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Vector3};
 
 /// Parameters of the F/T sensor model.
 #[derive(Clone, Debug, PartialEq)]
@@ -42,9 +50,19 @@ pub struct Mini45 {
     pub tool_mass: f64,
     /// Tool centre of mass in the sensor frame [m].
     pub tool_com: Vector3<f64>,
+    /// Tool inertia about its centre of mass, sensor frame axes [kg m²].
+    pub tool_inertia: Matrix3<f64>,
+    /// Whether the reading includes the tool's inertial wrench (a real sensor's does;
+    /// [`INERTIAL_WRENCH`] by default). `false`: the tool's weight only, as before issue 36.
+    pub inertial: bool,
     /// Gravity, base frame [m/s²].
     pub gravity: Vector3<f64>,
 }
+
+/// Whether [`Mini45::si_145_5`] reads the tool's inertial wrench (a real sensor's does, and the
+/// MuJoCo plant's). Off by default on naic's own plant until the controllers stay stable with it:
+/// with it on, the force laws lose contact (docs/notes/2026-12-06-sensor-inertial-wrench.md).
+pub const INERTIAL_WRENCH: bool = false;
 
 /// SI-145-5 range (ATI Mini45 datasheet, via the team brief).
 pub const MINI45_SI_145_5_RANGE: [f64; 6] = [145.0, 145.0, 290.0, 5.0, 5.0, 5.0];
@@ -67,8 +85,15 @@ impl Mini45 {
             bias,
             tool_mass,
             tool_com,
+            tool_inertia: Matrix3::zeros(),
+            inertial: INERTIAL_WRENCH,
             gravity: Vector3::new(0.0, 0.0, -9.81),
         }
+    }
+
+    /// The same sensor with the tool's inertia about its centre of mass (sensor frame).
+    pub fn with_tool_inertia(self, inertia: Matrix3<f64>) -> Self {
+        Self { tool_inertia: inertia, ..self }
     }
 
     /// A perfect sensor (no bias, noise, saturation or quantisation), same tool.
@@ -86,14 +111,37 @@ impl Mini45 {
     /// `r_ws`: orientation of the sensor frame in the base frame;
     /// `r_tip`: tip origin minus sensor origin, base frame;
     /// `f_contact`: force of the environment on the tip, base frame.
+    /// The tool at rest: [`Mini45::true_wrench_moving`] with no motion.
     pub fn true_wrench(&self, r_ws: &Rotation3<f64>, r_tip: &Vector3<f64>, f_contact: &Vector3<f64>) -> [f64; 6] {
-        let weight = self.gravity * self.tool_mass;
+        self.true_wrench_moving(r_ws, r_tip, f_contact, &SensorMotion::default())
+    }
+
+    /// The true wrench of the moving tool on the sensor, sensor frame: weight, contact
+    /// and inertial wrench (Newton–Euler; module docs). `m`: the sensor frame's motion.
+    pub fn true_wrench_moving(&self, r_ws: &Rotation3<f64>, r_tip: &Vector3<f64>, f_contact: &Vector3<f64>, m: &SensorMotion) -> [f64; 6] {
+        let rest = SensorMotion::default();
+        let m = if self.inertial { m } else { &rest };
         let r_com = r_ws * self.tool_com;
-        let f_world = weight + f_contact;
-        let t_world = r_com.cross(&weight) + r_tip.cross(f_contact);
+        let a_com = m.accel + m.alpha.cross(&r_com) + m.omega.cross(&m.omega.cross(&r_com));
+        let f_tool = (self.gravity - a_com) * self.tool_mass;
+        let i_w = r_ws.matrix() * self.tool_inertia * r_ws.matrix().transpose();
+        let f_world = f_tool + f_contact;
+        let t_world = r_com.cross(&f_tool) + r_tip.cross(f_contact) - (i_w * m.alpha + m.omega.cross(&(i_w * m.omega)));
         let f = r_ws.inverse_transform_vector(&f_world);
         let t = r_ws.inverse_transform_vector(&t_world);
         [f.x, f.y, f.z, t.x, t.y, t.z]
+    }
+
+    /// One reading of the moving tool ([`Mini45::true_wrench_moving`]) through [`Mini45::read`].
+    pub fn measure_moving(
+        &self,
+        r_ws: &Rotation3<f64>,
+        r_tip: &Vector3<f64>,
+        f_contact: &Vector3<f64>,
+        m: &SensorMotion,
+        rng: &mut Rng,
+    ) -> [f64; 6] {
+        self.read(&self.true_wrench_moving(r_ws, r_tip, f_contact, m), rng)
     }
 
     /// One reading: true wrench + bias + noise, saturated and quantised.
@@ -125,6 +173,16 @@ impl Mini45 {
         }
         out
     }
+}
+
+/// The motion of the sensor frame, base frame axes: the classical acceleration of its
+/// origin [m/s²] (without gravity), its angular velocity [rad/s] and angular
+/// acceleration [rad/s²]. Zero: at rest.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SensorMotion {
+    pub accel: Vector3<f64>,
+    pub omega: Vector3<f64>,
+    pub alpha: Vector3<f64>,
 }
 
 /// Joint encoders and the drive's velocity signal.
@@ -223,6 +281,42 @@ mod tests {
     }
 
     #[test]
+    fn a_moving_tool_adds_its_inertial_wrench() {
+        let i_c = Matrix3::from_diagonal(&Vector3::new(2e-4, 3e-4, 1e-4));
+        let s = Mini45 { inertial: true, ..tool().with_tool_inertia(i_c) };
+        let r = down();
+        let r_tip = r * Vector3::new(0.0, 0.0, 0.169);
+        let rest = s.true_wrench(&r, &r_tip, &Vector3::zeros());
+        // Accelerating straight down at g: the tool is weightless, the sensor reads nothing.
+        let fall = SensorMotion { accel: Vector3::new(0.0, 0.0, -9.81), ..Default::default() };
+        let w = s.true_wrench_moving(&r, &r_tip, &Vector3::zeros(), &fall);
+        assert!(w.iter().all(|x| x.abs() < 1e-12), "{w:?} (at rest {rest:?})");
+        // Spinning about the tool axis (sensor z, base −z) at a constant rate: the COM is
+        // on the axis, a principal axis: no wrench beyond the weight.
+        let spin = SensorMotion { omega: Vector3::new(0.0, 0.0, 7.0), ..Default::default() };
+        let w = s.true_wrench_moving(&r, &r_tip, &Vector3::zeros(), &spin);
+        assert!(w.iter().zip(&rest).all(|(a, b)| (a - b).abs() < 1e-12), "{w:?}");
+        // Angular acceleration about the tool axis: base +z is sensor −z, so α_s = (0, 0, −50)
+        // and the tool's reaction on the sensor is −I α_s = +I_zz 50 about sensor z.
+        let alpha = SensorMotion { alpha: Vector3::new(0.0, 0.0, 50.0), ..Default::default() };
+        let w = s.true_wrench_moving(&r, &r_tip, &Vector3::zeros(), &alpha);
+        assert!((w[5] - 1e-4 * 50.0).abs() < 1e-12, "{w:?}");
+        assert!((w[3] - rest[3]).abs() < 1e-12 && (w[4] - rest[4]).abs() < 1e-12);
+        // Spinning about a horizontal axis through the sensor origin: the COM's centripetal
+        // acceleration (ω² c toward the axis) is felt as m ω² c outward, along sensor z.
+        let omega = 10.0;
+        let swing = SensorMotion { omega: Vector3::new(omega, 0.0, 0.0), ..Default::default() };
+        let w = s.true_wrench_moving(&r, &r_tip, &Vector3::zeros(), &swing);
+        let extra = w[2] - rest[2];
+        assert!((extra - 0.424 * omega * omega * 0.015).abs() < 1e-12, "{extra}");
+        let weight_only = Mini45 { inertial: false, ..s.clone() };
+        assert_eq!(weight_only.true_wrench_moving(&r, &r_tip, &Vector3::zeros(), &swing), rest);
+        let urdf = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../urdf/jk5.urdf"));
+        let i = tool_inertia_from_urdf(urdf).unwrap();
+        assert_eq!((i[(0, 0)], i[(2, 2)], i[(0, 1)]), (0.00019875, 0.0001908, 0.0));
+    }
+
+    #[test]
     fn horizontal_tool_weight_makes_a_moment() {
         let s = tool();
         // sensor z along base x: COM lever 0.015 m, weight 4.16 N
@@ -289,6 +383,23 @@ pub enum ToolError {
     Urdf { path: String, problem: String },
     #[error("{path}: no link 'ft_sensor' (the F/T sensor + tool link) in the URDF; add it with the tool's <inertial>")]
     NoSensorLink { path: String },
+}
+
+/// The tool's inertia about its centre of mass in the sensor frame [kg m²]: the
+/// `<inertial>` of link `ft_sensor` (its `rpy` applied).
+pub fn tool_inertia_from_urdf(path: &std::path::Path) -> Result<Matrix3<f64>, ToolError> {
+    let shown = || path.display().to_string();
+    let robot = urdf_rs::read_file(path).map_err(|e| ToolError::Urdf { path: shown(), problem: e.to_string() })?;
+    let l = robot
+        .links
+        .iter()
+        .find(|l| l.name == "ft_sensor")
+        .ok_or_else(|| ToolError::NoSensorLink { path: shown() })?;
+    let i = &l.inertial.inertia;
+    let m = Matrix3::new(i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz);
+    let rpy = l.inertial.origin.rpy;
+    let r = Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]);
+    Ok(r.matrix() * m * r.matrix().transpose())
 }
 
 /// The tool of the `ft_sensor` link of a URDF: its mass [kg] and centre of

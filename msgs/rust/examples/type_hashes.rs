@@ -6,6 +6,7 @@ fn main() {
         Wrench::type_info(), WrenchStamped::type_info(), Float64MultiArray::type_info(),
         MultiArrayLayout::type_info(), MultiArrayDimension::type_info(), Clock::type_info(),
         Point::type_info(), Quaternion::type_info(), Pose::type_info(), PoseStamped::type_info(),
+        Transform::type_info(), TransformStamped::type_info(), TFMessage::type_info(),
         NaicParams::type_info(),
     ] {
         println!("{}\t{}", info.name, type_hash(info));

@@ -125,6 +125,25 @@ ros_message! {
 }
 
 ros_message! {
+    /// `geometry_msgs/msg/Transform`: translation [m] and rotation (unit quaternion).
+    Transform = "geometry_msgs/msg/Transform", msg: "Vector3 translation\nQuaternion rotation\n",
+    { translation: Vector3, rotation: Quaternion }
+}
+
+ros_message! {
+    /// `geometry_msgs/msg/TransformStamped`: `child_frame_id`'s pose in `header.frame_id`.
+    TransformStamped = "geometry_msgs/msg/TransformStamped",
+    msg: "std_msgs/Header header\nstring child_frame_id\nTransform transform\n",
+    { header: Header, child_frame_id: String, transform: Transform }
+}
+
+ros_message! {
+    /// `tf2_msgs/msg/TFMessage` (`/tf`, `/tf_static`).
+    TFMessage = "tf2_msgs/msg/TFMessage", msg: "geometry_msgs/TransformStamped[] transforms\n",
+    { transforms: Vec<TransformStamped> }
+}
+
+ros_message! {
     /// `std_msgs/msg/MultiArrayDimension`.
     MultiArrayDimension = "std_msgs/msg/MultiArrayDimension",
     msg: "string label\nuint32 size\nuint32 stride\n",

@@ -21,6 +21,11 @@ const JAZZY_HASHES: &[(&str, &str)] = &[
     ("geometry_msgs/msg/Quaternion", "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684"),
     ("geometry_msgs/msg/Pose", "RIHS01_d501954e9476cea2996984e812054b68026ae0bfae789d9a10b23daf35cc90fa"),
     ("geometry_msgs/msg/PoseStamped", "RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8"),
+    ("geometry_msgs/msg/Transform", "RIHS01_beb83fbe698636351461f6f35d1abb20010c43d55374d81bd041f1ba2581fddc"),
+    ("geometry_msgs/msg/TransformStamped", "RIHS01_0a241f87d04668d94099cbb5ba11691d5ad32c2f29682e4eb5653424bd275206"),
+    // tf2_msgs is not among the PyPI wheels: rosidl's own pipeline on its one-line .msg
+    // (tests/python/test_msgs_cdr.py recomputes it; the value rclpy announces on /tf).
+    ("tf2_msgs/msg/TFMessage", "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087"),
 ];
 
 fn infos() -> Vec<&'static TypeInfo> {
@@ -29,6 +34,7 @@ fn infos() -> Vec<&'static TypeInfo> {
         Wrench::type_info(), WrenchStamped::type_info(), Float64MultiArray::type_info(),
         MultiArrayLayout::type_info(), MultiArrayDimension::type_info(), Clock::type_info(),
         Point::type_info(), Quaternion::type_info(), Pose::type_info(), PoseStamped::type_info(),
+        Transform::type_info(), TransformStamped::type_info(), TFMessage::type_info(),
     ]
 }
 

@@ -43,8 +43,11 @@ pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
     let tool = tool_from_urdf(std::path::Path::new(urdf)).map_err(|e| bad_urdf(e.to_string()))?;
     // MuJoCo's joints have no friction (the MJCF has none).
     let friction = if choice == PlantChoice::Own { Some(friction) } else { None };
-    let params = scenario::plant_for(&scen, model, friction, tool)
+    let mut params = scenario::plant_for(&scen, model, friction, tool)
         .map_err(|e| bad_urdf(format!("robot model '{urdf}' in scenario '{name}': {e}")))?;
+    // The tool's inertial wrench on the sensor (issue 36 item 4), as `naic sim`.
+    let inertia = naic_sim::sensor::tool_inertia_from_urdf(std::path::Path::new(urdf)).map_err(|e| bad_urdf(e.to_string()))?;
+    params.ft = params.ft.with_tool_inertia(inertia);
     let data = Data6::try_new(&params.model).map_err(|e| bad_urdf(format!("robot model '{urdf}': {e}")))?;
     let dt = scen.task.dt;
     let arm = choice

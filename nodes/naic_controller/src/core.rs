@@ -356,7 +356,7 @@ pub fn step<const N: usize>(p: &Params<N>, s: &State<N>, inbox: &Inbox, now_ns: 
         s.actuated_src_ns = Some(s.actuated_src_ns.map_or(src, |a| a.max(src)));
     }
     if inbox.target_pose.is_some() || inbox.desired_wrench.is_some() {
-        take_reference_samples(p, &mut s, inbox, now_ns, &mut out);
+        take_reference_samples(p, &mut s, inbox, now_ns, &mut out, ws);
     }
     if let Some(js) = inbox.joint_states {
         let stamp = js.header.stamp.to_nanos();
@@ -547,10 +547,38 @@ fn cycle<const N: usize>(p: &Params<N>, s: &mut State<N>, j: &JointSample<N>, no
     out.report = Some(report);
 }
 
+/// Where a reference sample's `header.frame_id` is, resolved against the robot model
+/// (issue 39 item 3): the base frame (its name or empty), another frame of the model (its
+/// pose in the base frame at the last measured joint position), or not a frame of the model
+/// (the stage then refuses the sample as [`Rejection::Frame`]; the shell names the frames
+/// that exist). Allocation-free.
+enum SampleFrame {
+    Base,
+    Model(nalgebra::Isometry3<f64>),
+    Unknown,
+}
+
+fn resolve_frame<const N: usize>(p: &Params<N>, s: &State<N>, frame_id: &str, ws: &mut Workspace<N>) -> SampleFrame {
+    if frame_id.is_empty() || frame_id == p.reference_params.base_frame {
+        return SampleFrame::Base;
+    }
+    let model = p.controller.model();
+    match (model.frame_id(frame_id), s.ctl.last_q) {
+        (Some(id), Some(q)) => {
+            dynamics::forward_kinematics(model, &mut ws.data, &nalgebra::SVector::<f64, N>::from(q));
+            SampleFrame::Model(ws.data.frame_placement(id))
+        }
+        _ => SampleFrame::Unknown,
+    }
+}
+
 /// The reference topics' samples into the reference stage, at the last cycle's controller
-/// time (the next cycle moves the reference). Refusals are counted by the stage and
+/// time (the next cycle moves the reference). A sample in another frame of the model is
+/// expressed in the base frame first (pose: `ᵇT_f · pose`; wrench: force and torque rotated
+/// by `ᵇR_f`), with the model's kinematics at the last measured joint position, so the stage
+/// forms the reference in the base frame as before. Refusals are counted by the stage and
 /// reported here rate-limited.
-fn take_reference_samples<const N: usize>(p: &Params<N>, s: &mut State<N>, inbox: &Inbox, now_ns: i64, out: &mut Outbox<N>) {
+fn take_reference_samples<const N: usize>(p: &Params<N>, s: &mut State<N>, inbox: &Inbox, now_ns: i64, out: &mut Outbox<N>, ws: &mut Workspace<N>) {
     if p.reference.is_some() {
         return; // a scenario's trajectory: the shell does not subscribe the topics
     }
@@ -560,14 +588,41 @@ fn take_reference_samples<const N: usize>(p: &Params<N>, s: &mut State<N>, inbox
         }
         return;
     };
+    let base = p.reference_params.base_frame.as_str();
     let secs = |h: &naic_ros::msgs::Header| h.stamp.to_nanos() as f64 * 1e-9;
     let target = inbox.target_pose.map(|m| {
         let (x, o) = (&m.pose.position, &m.pose.orientation);
-        TargetPose { frame_id: &m.header.frame_id, stamp: secs(&m.header), position: [x.x, x.y, x.z], orientation: [o.x, o.y, o.z, o.w] }
+        let (position, orientation) = ([x.x, x.y, x.z], [o.x, o.y, o.z, o.w]);
+        let sample = |frame_id, position, orientation| TargetPose { frame_id, stamp: secs(&m.header), position, orientation };
+        match resolve_frame(p, s, &m.header.frame_id, ws) {
+            SampleFrame::Base => sample(base, position, orientation),
+            SampleFrame::Unknown => sample(&m.header.frame_id, position, orientation),
+            SampleFrame::Model(t) => {
+                // A non-unit quaternion is left for the stage to refuse (its norm kept).
+                let q = nalgebra::Quaternion::new(o.w, o.x, o.y, o.z);
+                let qb = t.rotation.quaternion() * q;
+                let pb = t * nalgebra::Point3::new(x.x, x.y, x.z);
+                sample(base, [pb.x, pb.y, pb.z], [qb.i, qb.j, qb.k, qb.w])
+            }
+        }
     });
     let wrench = inbox.desired_wrench.map(|m| {
         let (f, t) = (&m.wrench.force, &m.wrench.torque);
-        DesiredWrench { frame_id: &m.header.frame_id, stamp: secs(&m.header), force: [f.x, f.y, f.z], torque: [t.x, t.y, t.z] }
+        let (force, torque) = ([f.x, f.y, f.z], [t.x, t.y, t.z]);
+        let sample = |frame_id, force, torque| DesiredWrench { frame_id, stamp: secs(&m.header), force, torque };
+        // The base-frame force goes to the stage, which takes its component along today's
+        // force axis (±x/y/z of the base frame). When the force axis becomes any unit vector
+        // (naic_core pipeline/control/, the force-law work), it plugs in here unchanged:
+        // the stage's `ReferenceParams::n()` is the only place the axis is read.
+        match resolve_frame(p, s, &m.header.frame_id, ws) {
+            SampleFrame::Base => sample(base, force, torque),
+            SampleFrame::Unknown => sample(&m.header.frame_id, force, torque),
+            SampleFrame::Model(tf) => {
+                let r = tf.rotation;
+                let (fb, tb) = (r * Vector3::from(force), r * Vector3::from(torque));
+                sample(base, fb.into(), tb.into())
+            }
+        }
     });
     let (next, o) = refstage::step(&p.reference_params, &rs, &refstage::Inbox { target, wrench }, s.last_t);
     s.reference = Some(next);

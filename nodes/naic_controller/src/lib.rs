@@ -1,6 +1,6 @@
 //! `naic_controller` as a library: the node's pure core ([`core`]), its ROS parameters
 //! ([`config`]), the position reference ([`reference`]), its set-up from the command line
-//! ([`setup`]) and its loop body ([`runner`]), used by the DDS shell (`main.rs`) and by
+//! ([`setup`]), its loop body ([`runner`]) and `/tf` ([`tf`]), used by the DDS shell (`main.rs`) and by
 //! `naic launch --composed`.
 
 pub mod config;
@@ -8,6 +8,7 @@ pub mod core;
 pub mod reference;
 pub mod runner;
 pub mod setup;
+pub mod tf;
 
 #[cfg(test)]
 #[global_allocator]

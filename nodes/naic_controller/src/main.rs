@@ -2,12 +2,13 @@
 //!
 //! Subscribes `/joint_states`, `/wrench`, `/joint_effort_cmd` (what reaches the driver:
 //! actuation supervision) and, with `scenario: none`, the reference topics; publishes the
-//! torque on `/naic/effort` and the controller's state on `/naic/params`. All it does with the messages is the library's
+//! torque on `/naic/effort`, the controller's state on `/naic/params`, and the robot model
+//! (`/robot_description`, `/tf_static`, `/tf` from the measured joint states). All it does with the messages is the library's
 //! (`naic_controller::runner`, over the pure `core`); this shell only moves them.
 
 use std::time::Duration;
 
-use naic_controller::{runner::{ReferenceSubs, Runner, Services}, setup::{Setup, NODE}};
+use naic_controller::{runner::{ReferenceSubs, Runner, Services}, setup::{Setup, NODE}, tf::ModelTopics};
 use naic_ros::{
     msgs::{self, Float64MultiArray, JointState, NaicParams, WrenchStamped},
     node::{data_qos, pub_qos, QOS_SUB},
@@ -38,17 +39,8 @@ fn run() -> Result<(), RosError> {
     let mut services = Services::new(&mut node)?;
     let effort_pub = node.publisher::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, node.params.with(data_qos).0)?;
     let params_pub = node.publisher::<NaicParams>("naic/params", msgs::NAIC_PARAMS, node.params.with(pub_qos))?;
-    // The robot model for RViz, Foxglove and late joiners (robot_state_publisher's topic).
-    let urdf = node.params.with(|p| p.str("urdf").to_string());
-    let description_pub = node.publisher::<msgs::StringMsg>("robot_description", msgs::STRING, naic_ros::node::QOS_LATCHED)?;
-    match std::fs::read_to_string(&urdf) {
-        Ok(data) => {
-            if let Err(e) = description_pub.publish(msgs::StringMsg { data }) {
-                log::warn!("cannot publish /robot_description: {e:?}");
-            }
-        }
-        Err(e) => log::warn!("/robot_description not published: cannot read '{urdf}': {e}"),
-    }
+    // The robot model for RViz, Foxglove and late joiners (robot_state_publisher's topics).
+    let (mut model_topics, tf_pub) = ModelTopics::advertise(&mut node, naic_ros::time::wall_ns())?;
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut js_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 
@@ -80,6 +72,9 @@ fn run() -> Result<(), RosError> {
         }
         if let Some(m) = out.report {
             let _ = params_pub.publish(m.clone());
+        }
+        if let Some(m) = model_topics.joint_states(&node.params, &js) {
+            let _ = tf_pub.publish(m.clone());
         }
     }
     log::info!("stopped after {} cycles", r.s.cycles);

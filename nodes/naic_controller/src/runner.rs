@@ -112,7 +112,7 @@ impl Runner {
     pub fn reference(&mut self, tp: Option<&PoseStamped>, dw: Option<&WrenchStamped>) {
         if tp.is_some() || dw.is_some() {
             let out = self.step(core::Inbox { target_pose: tp, desired_wrench: dw, ..Default::default() }, wall_ns());
-            log_reference_events(&out.events, tp, dw, &self.p.reference_params.base_frame);
+            log_reference_events(&out.events, tp, dw, &self.p.reference_params.base_frame, self.p.controller.model());
         }
     }
 
@@ -234,15 +234,24 @@ pub fn log_events(e: &core::Events, force_limit: f64, joints: &[String]) {
     }
 }
 
-pub fn log_reference_events(e: &core::Events, tp: Option<&PoseStamped>, dw: Option<&WrenchStamped>, base: &str) {
+pub fn log_reference_events(e: &core::Events, tp: Option<&PoseStamped>, dw: Option<&WrenchStamped>, base: &str, model: &naic_core::model::Model) {
     if e.reference_too_early {
         log::warn!("reference sample before the first /joint_states (no start pose yet): ignored");
     }
+    // An unknown frame: name the frames that exist (rate-limited with the refusal).
+    let frames = |r: &naic_core::pipeline::reference::Rejection| {
+        if *r == naic_core::pipeline::reference::Rejection::Frame {
+            let names: Vec<&str> = model.frames().iter().map(|f| f.name.as_str()).collect();
+            format!("; the frames of the model: {}", names.join(", "))
+        } else {
+            String::new()
+        }
+    };
     if let (Some((r, n)), Some(m)) = (e.target_rejected, tp) {
-        log::warn!("/naic/target_pose (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far)", m.header.frame_id);
+        log::warn!("/naic/target_pose (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far){}", m.header.frame_id, frames(&r));
     }
     if let (Some((r, n)), Some(m)) = (e.wrench_rejected, dw) {
-        log::warn!("/naic/desired_wrench (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far)", m.header.frame_id);
+        log::warn!("/naic/desired_wrench (frame '{}'; base frame '{base}') refused: {r} ({n} refused so far){}", m.header.frame_id, frames(&r));
     }
 }
 

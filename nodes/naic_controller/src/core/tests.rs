@@ -688,3 +688,44 @@ fn zero_wrench_re_tares_at_rest_in_free_space_and_is_refused_otherwise() {
     assert!(!a.success && a.message.contains("in contact"), "{a:?}");
     assert_eq!(s8.ctl.tare, s7.ctl.tare);
 }
+
+/// Reference samples in other frames of the model (issue 39 item 3): a target pose and a
+/// desired wrench given in the tip frame land where the same sample in the base frame
+/// would; an empty frame is the base frame; an unknown frame is refused and nothing moves.
+#[test]
+fn reference_samples_in_other_frames_of_the_model_are_expressed_in_the_base_frame() {
+    let p = params(TimeBase::Sim);
+    let (p0, r0) = start_pose(&p);
+    let (mut s, _, _) = cycle_at(&p, &State::new(&p), 0, Inbox::default());
+    // 4 cm along the tip's own z axis (the tool axis), orientation kept: in the tip frame
+    // that is position (0, 0, 0.04) and the identity.
+    let msg = pose_msg(MS, "tip", [0.0, 0.0, 0.04], UnitQuaternion::identity());
+    // 5 N pushing along the force axis (-z of the base), written in the tip frame.
+    let f_tip = r0.inverse() * Vector3::new(0.0, 0.0, -5.0);
+    let mut w = desired(MS, 0.0);
+    w.header.frame_id = "tip".into();
+    (w.wrench.force.x, w.wrench.force.y, w.wrench.force.z) = (f_tip.x, f_tip.y, f_tip.z);
+    let mut last = None;
+    for k in 1..2000 {
+        let extra = if k == 1 { Inbox { target_pose: Some(&msg), desired_wrench: Some(&w), ..Default::default() } } else { Inbox::default() };
+        let (n, r, ev) = cycle_at(&p, &s, k, extra);
+        assert_eq!((ev.target_rejected, ev.wrench_rejected), (None, None), "cycle {k}");
+        s = n;
+        last = Some(r);
+    }
+    let r = last.unwrap();
+    let goal = p0 + r0 * Vector3::new(0.0, 0.0, 0.04);
+    let err = (Vector3::from(r.reference.position) - goal).norm();
+    assert!(err < 1e-9, "reference {err} m from the tip-frame target");
+    assert!((r.status.f_d - 5.0).abs() < 1e-9, "f_d {}", r.status.f_d);
+    assert_eq!((r.reference.source, r.reference.rejected), ("target_pose", 0));
+    // The empty frame is the base frame.
+    let here: [f64; 3] = Vector3::from(r.reference.position).into();
+    let (s, r, ev) = cycle_at(&p, &s, 2000, Inbox { target_pose: Some(&pose_msg(2000 * MS, "", here, r0)), ..Default::default() });
+    assert_eq!((ev.target_rejected, r.reference.rejected), (None, 0));
+    // A frame the model does not have: refused, counted, the goal unchanged.
+    let (_, r2, ev) = cycle_at(&p, &s, 2001, Inbox { target_pose: Some(&pose_msg(2001 * MS, "camera_link", [0.0; 3], r0)), ..Default::default() });
+    assert_eq!(ev.target_rejected, Some((Rejection::Frame, 1)));
+    assert!(Rejection::Frame.to_string().contains("not a frame of the robot model"));
+    assert_eq!(r2.reference.position, r.reference.position);
+}

@@ -54,7 +54,10 @@ impl Field {
 /// Why a sample was not taken as the target. `Copy`: the 1 kHz path never allocates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Rejection {
-    /// `header.frame_id` is not the base frame (the shell names the frame it got).
+    /// `header.frame_id` is not the base frame (the node's core expresses samples given in
+    /// other frames of the robot model in the base frame before this stage: what reaches
+    /// it in another frame is not a frame of the model; the shell names it and the frames
+    /// that exist).
     Frame,
     /// NaN or ±Inf in `field[index]`.
     NonFinite { field: Field, index: usize },
@@ -72,7 +75,7 @@ impl std::fmt::Display for Rejection {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         const AXES: [&str; 3] = ["x", "y", "z"];
         match *self {
-            Rejection::Frame => write!(f, "header.frame_id is not the base frame: publish the target in the base frame"),
+            Rejection::Frame => write!(f, "header.frame_id is not a frame of the robot model: use the base frame ('' or its name) or a link or joint of the URDF"),
             Rejection::NonFinite { field, index } => write!(f, "{}[{index}] is not finite (NaN or Inf)", field.as_str()),
             Rejection::NotUnitQuaternion { norm } => {
                 write!(f, "pose.orientation has norm {norm:.4}, not 1: send a unit quaternion (x, y, z, w); identity is (0, 0, 0, 1)")

@@ -209,7 +209,7 @@ fn desired_wrench_sets_the_force_along_the_axis_rate_limited_and_held_when_stale
     let bad = [
         (push(2.0, 150.0), "outside"),
         (push(2.0, -3.0), "outside"),
-        (DesiredWrench { frame_id: "tool0", ..push(2.0, 5.0) }, "base frame"),
+        (DesiredWrench { frame_id: "tool0", ..push(2.0, 5.0) }, "not a frame of the robot model"),
         (DesiredWrench { torque: [0.0, f64::NAN, 0.0], ..push(2.0, 5.0) }, "wrench.torque[1]"),
     ];
     for (w, msg) in bad {
