@@ -36,6 +36,9 @@ enum Command {
     Sim(cmd::sim::SimArgs),
     /// Explain measured data: where the nominal model is wrong, which extension fixes it, and by how much.
     Explain(cmd::explain::ExplainArgs),
+    /// DDS Security: create an SROS2-layout keystore (`naic security init KEYSTORE`).
+    #[command(subcommand)]
+    Security(cmd::security::SecurityCmd),
     /// Start the three ROS 2 nodes (driver, controller, friction compensation) as processes.
     Launch(cmd::launch::LaunchArgs),
 }
@@ -54,6 +57,7 @@ fn main() {
         Command::Replay(a) => cmd::record::replay(a),
         Command::Plot(a) => cmd::plot::run(a),
         Command::Launch(a) => cmd::launch::run(a),
+        Command::Security(c) => cmd::security::run(c),
     };
     if let Err(e) = result {
         eprintln!("naic: error: {e}");

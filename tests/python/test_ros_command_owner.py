@@ -7,9 +7,9 @@ surface, a foreign rclpy node (not friction_compensation) publishes the issue's 
 
 * With the driver's default `command_source` (friction_compensation) no joint moves: the
   largest |q̇| of every joint over the attack stays at its at-rest level (the second before
-  it); every foreign command that reached the driver is counted (`foreign_commands` of its
-  report) and the foreign node is logged once, by name, on /rosout; the measured force keeps
-  tracking the desired force.
+  it); every foreign command is counted (`foreign_commands` of its report) and the foreign
+  node is logged once, by name, on /rosout; the force sensor keeps reading what it read in
+  steady contact before the attack (the chain keeps tracking force).
 * The control (`command_source:=*`, every writer accepted, as before issue 41): the same
   attack moves joint 1, so the first test's assertion is one the attack can fail.
 """
@@ -32,7 +32,6 @@ from std_msgs.msg import Float64MultiArray  # noqa: E402
 FOREIGN = "naic_foreign_commander"
 ATTACK = [30.0, 0.0, 0.0, 0.0, 0.0, 0.0]
 N_ATTACK = 1000  # 1 s at 1 kHz
-DESIRED_FORCE = 10.0  # params/naic_controller.yaml
 # "At rest": over the attack each joint's largest |q̇| stays within this of its largest
 # |q̇| in the second before [rad/s]. The issue measured 0.16 rad/s on joint 1 with the
 # attack applied (and <= 0.007 at rest); the control below shows the same.
@@ -61,11 +60,15 @@ def _attack(bins, tmp_path, driver_source=None):
     r.node.create_subscription(Log, "/rosout", lambda m: logs.append((m.name, m.msg)), 100)
     pub = r.node.create_publisher(Float64MultiArray, "/joint_effort_cmd", 10)
     try:
-        # Steady contact: |f_z| within 2 N of f_d for 2 s.
+        # Steady contact: the sensor's f_z (raw, sensor frame: not f_d itself) above 2 N and
+        # within 1 N of its mean for 2 s.
         def steady():
             t = time.time()
-            last = [abs(f) for s, f in fz if s >= t - 2.0]
-            return len(last) > 1000 and all(abs(f - DESIRED_FORCE) < 2.0 for f in last)
+            last = [f for s, f in fz if s >= t - 2.0]
+            if len(last) < 1000:
+                return False
+            m = sum(last) / len(last)
+            return abs(m) > 2.0 and all(abs(f - m) < 1.0 for f in last)
         assert r.spin_until(steady, 90), (f"no steady contact; last f_z {[round(f, 2) for _, f in fz[-5:]]}\n"
                                           f"{launch.output()[-3000:]}")
         # The driver must have matched this writer, or the attack would be lost in
@@ -97,7 +100,7 @@ def _attack(bins, tmp_path, driver_source=None):
     peak = lambda vs: [max(abs(v[j]) for v in vs) for j in range(6)]  # noqa: E731
     mean = lambda xs: sum(xs) / len(xs)  # noqa: E731
     return dict(report=rep, qd_before=peak(before), qd_during=peak(during), f_before=mean(f_before),
-                f_during=mean(f_during), f_during_worst=max(abs(f - DESIRED_FORCE) for f in f_during),
+                f_during=mean(f_during), f_during_worst=max(abs(f - mean(f_before)) for f in f_during),
                 attack_s=t1 - t0, logs=logs, output=launch.output())
 
 
@@ -105,7 +108,7 @@ def test_ros_a_foreign_commander_moves_no_joint_and_is_counted_and_named(bins, t
     a = _attack(bins, tmp_path)
     print(f"attack {a['attack_s']:.2f} s; |qdot| peak before {[round(x, 4) for x in a['qd_before']]}, "
           f"during {[round(x, 4) for x in a['qd_during']]}; f_z mean before {a['f_before']:.2f} N, during "
-          f"{a['f_during']:.2f} N (worst |f_z - f_d| {a['f_during_worst']:.2f} N); "
+          f"{a['f_during']:.2f} N (worst deviation from before {a['f_during_worst']:.2f} N); "
           f"foreign_commands {a['report'].get('foreign_commands')}")
     for j in range(6):
         assert a["qd_during"][j] <= a["qd_before"][j] + REST_MARGIN, (
@@ -119,9 +122,11 @@ def test_ros_a_foreign_commander_moves_no_joint_and_is_counted_and_named(bins, t
     assert n == N_ATTACK, f"{n} of {N_ATTACK} foreign commands counted"
     named = [m for node, m in a["logs"] if node == "jk5_sim_driver" and FOREIGN in m and "ignoring" in m]
     assert len(named) == 1, f"expected one /rosout line naming {FOREIGN}, got {named}"
-    # The chain kept tracking the force (steady contact before: within 2 N).
-    assert abs(a["f_during"] - DESIRED_FORCE) < 1.0 and a["f_during_worst"] < 3.0, (
-        f"force tracking lost: mean {a['f_during']:.2f} N, worst |f_z - f_d| {a['f_during_worst']:.2f} N")
+    # The chain kept tracking the force: the sensor reads what it read in steady contact
+    # before (within 1 N of that mean at every sample, the band the contact was steady in).
+    assert a["f_during_worst"] < 1.0 and abs(a["f_during"] - a["f_before"]) < 0.3, (
+        f"force tracking lost: f_z mean {a['f_during']:.2f} N during, {a['f_before']:.2f} N before; "
+        f"worst deviation {a['f_during_worst']:.2f} N")
 
 
 def test_ros_the_same_attack_moves_the_arm_when_every_writer_is_accepted(bins, tmp_path):

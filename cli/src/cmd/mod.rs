@@ -9,6 +9,7 @@ pub mod friction;
 pub mod launch;
 pub mod plot;
 pub mod record;
+pub mod security;
 pub mod sim;
 pub mod sim_table;
 

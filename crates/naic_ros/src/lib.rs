@@ -31,6 +31,7 @@ pub mod params;
 pub mod joints;
 pub mod params_file;
 pub mod replay;
+pub mod security;
 pub mod service;
 pub mod source;
 mod reply;
