@@ -235,7 +235,7 @@ pub fn init(a: &InitArgs) -> CliResult {
         mkdir(&dir)?;
         let (key, cert, csr) = (dir.join("key.pem"), dir.join("cert.pem"), dir.join("req.csr"));
         openssl(&["genpkey", "-algorithm", "EC", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-out", s(&key)], &format!("create the key of {e}"))?;
-        openssl(&["req", "-new", "-sha256", "-key", s(&key), "-out", s(&csr), "-subj", &format!("/CN={e}")], &format!("request the certificate of {e}"))?;
+        openssl(&["req", "-new", "-sha256", "-key", s(&key), "-out", s(&csr), "-subj", &format!("/CN={}", e.replace('/', "\\/"))], &format!("request the certificate of {e}"))?;
         openssl(
             &["x509", "-req", "-sha256", "-in", s(&csr), "-CA", s(&ca_cert), "-CAkey", s(&ca_key), "-CAcreateserial", "-out", s(&cert), "-days", &days],
             &format!("issue the certificate of {e}"),
