@@ -656,6 +656,17 @@ mod tests {
     }
 
     #[test]
+    fn an_enclave_directory_names_its_keystore_and_enclave() {
+        let (ks, name) = split_enclave_dir(Path::new("/srv/ks/enclaves/naic/chain")).unwrap();
+        assert_eq!((ks, name.as_str()), (PathBuf::from("/srv/ks"), "/naic/chain"));
+        let (ks, name) = split_enclave_dir(Path::new("enclaves/a")).unwrap();
+        assert_eq!((ks, name.as_str()), (PathBuf::from("."), "/a"));
+        let e = split_enclave_dir(Path::new("/srv/ks/naic/chain")).unwrap_err().message;
+        assert!(e.contains("KEYSTORE/enclaves/NAME"), "{e}");
+        assert!(split_enclave_dir(Path::new("/srv/ks/enclaves")).is_err());
+    }
+
+    #[test]
     fn supervision_rule() {
         // The driver's death always ends the launch.
         for code in [None, Some(0), Some(1), Some(2)] {

@@ -182,6 +182,54 @@ mod tests {
         assert!(e.contains("absolute name"), "{e}");
     }
 
+    /// A self-signed certificate valid from `from_days` to `to_days` days from now (PEM).
+    #[cfg(feature = "security")]
+    fn certificate(from_days: i64, to_days: i64) -> Vec<u8> {
+        use openssl::{asn1::Asn1Time, ec, hash::MessageDigest, nid::Nid, pkey::PKey, x509};
+        let key = PKey::from_ec_key(ec::EcKey::generate(&ec::EcGroup::from_curve_name(Nid::X9_62_PRIME256V1).unwrap()).unwrap()).unwrap();
+        let mut name = x509::X509NameBuilder::new().unwrap();
+        name.append_entry_by_text("CN", "/naic/chain").unwrap();
+        let name = name.build();
+        let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().as_secs() as i64;
+        let mut b = x509::X509Builder::new().unwrap();
+        b.set_subject_name(&name).unwrap();
+        b.set_issuer_name(&name).unwrap();
+        b.set_pubkey(&key).unwrap();
+        b.set_not_before(&Asn1Time::from_unix(now + from_days * 86_400).unwrap()).unwrap();
+        b.set_not_after(&Asn1Time::from_unix(now + to_days * 86_400).unwrap()).unwrap();
+        b.sign(&key, MessageDigest::sha256()).unwrap();
+        b.build().to_pem().unwrap()
+    }
+
+    #[cfg(feature = "security")]
+    #[test]
+    fn an_expired_or_future_certificate_is_named() {
+        let dir = std::env::temp_dir().join(format!("naic-cert-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("cert.pem");
+        std::fs::write(&p, certificate(-10, 10)).unwrap();
+        assert!(check_certificate("/naic/chain", &p).is_ok());
+        std::fs::write(&p, certificate(-10, -1)).unwrap();
+        let e = check_certificate("/naic/chain", &p).unwrap_err().to_string();
+        assert!(e.contains("cert.pem expired on") && e.contains("naic security init"), "{e}");
+        std::fs::write(&p, certificate(2, 10)).unwrap();
+        let e = check_certificate("/naic/chain", &p).unwrap_err().to_string();
+        assert!(e.contains("is not valid before"), "{e}");
+        std::fs::write(&p, "-----BEGIN CERTIFICATE-----\nAAAA\n-----END CERTIFICATE-----\n").unwrap();
+        let e = check_certificate("/naic/chain", &p).unwrap_err().to_string();
+        assert!(e.contains("is not a PEM certificate"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[cfg(not(feature = "security"))]
+    #[test]
+    fn a_build_without_security_refuses_every_enclave() {
+        let e = Enclave { name: "/naic/chain".into(), dir: "/nonexistent".into() };
+        let b = ros2_client::dds::rustdds::DomainParticipantBuilder::new(0);
+        let msg = secure(b, &e).err().unwrap().to_string();
+        assert!(msg.contains("no DDS Security") && msg.contains("naic_ros/security"), "{msg}");
+    }
+
     #[test]
     fn a_missing_or_wrong_file_is_named() {
         let dir = std::env::temp_dir().join(format!("naic-enclave-{}", std::process::id()));
