@@ -129,5 +129,24 @@ def test_ros_security_only_a_participant_with_a_certificate_reads_the_chain(sec_
     n_obs, info_obs = _count(sec_bins, tmp_path / "observer.mcap")
     n_plain, info_plain = _count(sec_bins, tmp_path / "plain.mcap")
     print(f"/joint_states recorded: observer enclave {n_obs}, no certificate {n_plain}")
+    assert "DDS Security on: enclave /naic/chain" in drv.output(), drv.output()[-2000:]
+    assert "DDS Security on: enclave /naic/observer" in with_cert.stdout + with_cert.stderr
     assert n_obs and n_obs > 1000, f"the observer enclave recorded {n_obs}:\n{with_cert.stderr[-2000:]}\n{info_obs[-1000:]}"
     assert not n_plain, f"a participant without a certificate recorded {n_plain}:\n{without.stderr[-2000:]}"
+
+
+def test_ros_security_the_chain_runs_in_its_enclave(sec_bins, keystore, tmp_path):
+    """`naic launch --enclave`: the three nodes authenticate each other and the driver gets
+    the chain's commands (its latency report counts matched commands), none refused."""
+    domain = ru.fresh_domain(5)
+    report = tmp_path / "driver.json"
+    out = subprocess.run([str(sec_bins / "naic"), "launch", "--enclave", str(keystore / "enclaves/naic/chain"),
+                          "--duration", "12", "-p", f"jk5_sim_driver:latency_report:={report}",
+                          "-p", "jk5_sim_driver:latency_warmup:=2.0"],
+                         cwd=ru.ROOT, env=ru.ros_env(domain), capture_output=True, text=True, timeout=120)
+    text = out.stdout + out.stderr
+    assert out.returncode == 0, text[-3000:]
+    assert text.count("DDS Security on: enclave /naic/chain") == 3, text[-3000:]
+    r = json.loads(report.read_text())
+    print(f"secured chain: {r['samples']} commands matched, median {r['median_us']} us, missed {r['missed_cycles']}")
+    assert r["samples"] > 5000 and r["foreign_commands"] == 0 and r["rejected_commands"] == 0, r

@@ -30,7 +30,10 @@
 //! This is a guard against mistakes and against writers that keep to the ROS graph's
 //! conventions; a participant can announce any node name it likes. Against a participant
 //! that lies, DDS Security (SROS2 permissions: only the chain's enclave may publish the
-//! command topics) is the answer: docs/deploy.md, "Who may move the arm".
+//! command topics) is the answer: docs/deploy.md, "Who may move the arm". Under DDS
+//! Security RustDDS 0.15.1 delivers no `ros_discovery_info`, so no writer can be named and
+//! a named source refuses everything: `naic launch --enclave` sets `command_source` to `*`
+//! on the driver and friction_compensation, and the permissions decide.
 
 use std::{
     collections::HashMap,
@@ -306,8 +309,13 @@ impl SourceGate {
                     None if !w.logged_unnamed && now_ns - w.first_ns >= UNNAMED_AFTER_NS => {
                         w.logged_unnamed = true;
                         log::warn!(
-                            "{topic}: ignoring the samples of writer GID {gid:?}: no ROS node claims it (its participant publishes no ros_discovery_info), and only '{source}' may publish here ({param}); {} ignored so far from it",
-                            w.ignored
+                            "{topic}: ignoring the samples of writer GID {gid:?}: no ROS node claims it (its participant publishes no ros_discovery_info), and only '{source}' may publish here ({param}); {} ignored so far from it.{}",
+                            w.ignored,
+                            if crate::security::AVAILABLE {
+                                " Under DDS Security RustDDS 0.15.1 delivers no ros_discovery_info: set command_source:=* and let the enclave permissions decide who may publish (naic launch --enclave does)"
+                            } else {
+                                ""
+                            }
                         );
                     }
                     _ => {}
