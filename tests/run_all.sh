@@ -58,6 +58,21 @@ cargo build --release --workspace --all-targets --features "$features"
 stage "Rust tests"
 cargo test --release --workspace --features "$features"
 
+# DDS Security (naic_ros/security, docs/deploy.md "Who may move the arm") links the system
+# OpenSSL: libssl-dev and pkg-config. Built into its own target directory, so the binaries
+# above stay as they are; tests/python/test_ros_security.py uses these.
+if ! pkg-config --exists openssl 2>/dev/null; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        apt-get update -q && apt-get install -y -q libssl-dev pkg-config
+    else
+        echo "run_all.sh: DDS Security needs libssl-dev and pkg-config (apt-get install -y libssl-dev pkg-config)" >&2
+        exit 1
+    fi
+fi
+stage "building with DDS Security (target/security)"
+CARGO_TARGET_DIR="$root/target/security" cargo build --release --workspace --bins --features naic_ros/security
+CARGO_TARGET_DIR="$root/target/security" cargo test --release -p naic_ros --features security security
+
 stage "Python cross-checks"
 # A test that hangs fails after its timeout (pytest-timeout, SIGALRM: the run goes on
 # with the next test) instead of holding the whole run; the slowest tests are listed.

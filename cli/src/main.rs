@@ -39,6 +39,9 @@ enum Command {
     Sim(cmd::sim::SimArgs),
     /// Explain measured data: where the nominal model is wrong, which extension fixes it, and by how much.
     Explain(cmd::explain::ExplainArgs),
+    /// DDS Security: create an SROS2-layout keystore (`naic security init KEYSTORE`).
+    #[command(subcommand)]
+    Security(cmd::security::SecurityCmd),
     /// Start the three ROS 2 nodes (driver, controller, friction compensation) as processes.
     Launch(cmd::launch::LaunchArgs),
     /// Every ROS parameter of the three nodes, as they declare it (`--markdown`: docs/parameters.md).
@@ -61,6 +64,7 @@ fn main() {
         Command::Plot(a) => cmd::plot::run(a),
         Command::Launch(a) => cmd::launch::run(a),
         Command::Params(a) => cmd::params::run(a),
+        Command::Security(c) => cmd::security::run(c),
     };
     if let Err(e) = result {
         eprintln!("naic: error: {e}");

@@ -214,8 +214,10 @@ def test_ros_naic_params_received_by_rclpy_with_built_naic_msgs(suite):
 def lone_driver(bins):
     """The driver alone (no controller): rclpy is the only commander."""
     domain = ru.fresh_domain(40)
-    p = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file", "params/jk5_sim_driver.yaml"],
-                ru.ros_env(domain))
+    # The commander is this rclpy node: the driver accepts /joint_effort_cmd only from its
+    # command_source (naic_ros::source).
+    p = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file", "params/jk5_sim_driver.yaml",
+                 "-p", "command_source:=naic_commander_test"], ru.ros_env(domain))
     r = ru.RclpyDomain(domain, "naic_commander_test")
     assert r.spin_until(lambda: "jk5_sim_driver" in r.node.get_node_names(), 20), p.output()
     yield r, p
@@ -570,7 +572,8 @@ def test_ros_friction_compensation_reads_joint_states_by_name(bins):
     (without the feedforward): a CI run's median for joint6 was 9.65 in one order, 9.89 in the other."""
     domain = ru.fresh_domain(70)
     p = ru.Proc([str(bins / "friction_compensation"), "--ros-args", "--params-file", "params/friction_compensation.yaml",
-                 "-p", "torque_rate_limit:=1000.0", "-p", "takeover_blend:=0.0"], ru.ros_env(domain))
+                 "-p", "torque_rate_limit:=1000.0", "-p", "takeover_blend:=0.0",
+                 "-p", "command_source:=naic_joint_order_test"], ru.ros_env(domain))
     r = ru.RclpyDomain(domain, "naic_joint_order_test")
     try:
         assert r.spin_until(lambda: "friction_compensation" in r.node.get_node_names(), 20), p.output()

@@ -43,7 +43,7 @@ def run():
     bins = ru.build_nodes()
     domain = ru.fresh_domain(70)
     drv = ru.Proc([str(bins / "jk5_sim_driver"), "--ros-args", "--params-file", "params/jk5_sim_driver.yaml",
-                   "-p", f"rate:={RATE}"], ru.ros_env(domain))
+                   "-p", f"rate:={RATE}", "-p", "command_source:=safety_driver_test"], ru.ros_env(domain))
     r = ru.RclpyDomain(domain, "safety_driver_test")
     # (driver stamp: its wall clock when it published, position, velocity, effort). Judged
     # by stamp, not by when this reader got the message: a reader slowed by a busy machine

@@ -62,6 +62,28 @@ pub struct ChainArgs {
     /// the one after).
     #[arg(long, default_value_t = 211)]
     pub domain: u16,
+    /// DDS Security's cost: also run the Rust chain (and the composed run, with --composed)
+    /// with every node in this SROS2 enclave (KEYSTORE/enclaves/NAME, e.g. from `naic security
+    /// init`), right after the same chain without security; reports both and their median
+    /// ratio. Needs a build with --features naic_ros/security.
+    #[arg(long)]
+    pub enclave: Option<PathBuf>,
+}
+
+/// The security variables of `--enclave DIR` for the nodes (after checking its files).
+fn enclave_env(dir: &Path) -> Result<Vec<(String, String)>, CliError> {
+    let (keystore, name) = launch::split_enclave_dir(dir)?;
+    let keystore = std::fs::canonicalize(&keystore).map_err(|e| CliError::usage(format!("--enclave {}: keystore {}: {e}", dir.display(), keystore.display())))?;
+    let enclave = naic_ros::security::Enclave { name: name.clone(), dir: keystore.join("enclaves").join(name.trim_start_matches('/')) };
+    enclave.check().map_err(|e| CliError::usage(format!("--enclave {}: {e}", dir.display())))?;
+    if !naic_ros::security::AVAILABLE {
+        return Err(CliError::usage("--enclave: this naic was built without DDS Security; rebuild with `cargo build --release --workspace --features naic_ros/security`"));
+    }
+    Ok(vec![
+        ("ROS_SECURITY_ENABLE".into(), "true".into()),
+        ("ROS_SECURITY_KEYSTORE".into(), keystore.display().to_string()),
+        ("ROS_SECURITY_ENCLAVE_OVERRIDE".into(), name),
+    ])
 }
 
 const WARMUP: f64 = 2.0;
@@ -79,7 +101,7 @@ fn read_report(path: &Path) -> Result<serde_json::Value, CliError> {
     serde_json::from_str(&text).map_err(|e| CliError::failure(format!("bad latency report {}: {e}", path.display())))
 }
 
-fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> {
+fn rust_chain(a: &ChainArgs, dir: &Path, security: &[(String, String)]) -> Result<serde_json::Value, CliError> {
     let report = dir.join("rust_chain.json");
     let _ = std::fs::remove_file(&report);
     let mut procs = vec![];
@@ -90,6 +112,10 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
         if let Some(cpu) = a.cpu {
             args.extend(["-p".into(), format!("cpu_affinity:={cpu}")]);
         }
+        if !security.is_empty() && launch::SECURED_GATES.contains(&node) {
+            // As `naic launch --enclave` (launch::SECURED_GATES says why).
+            args.extend(["-p".into(), "command_source:=*".into()]);
+        }
         if node == "jk5_sim_driver" {
             args.extend([
                 "-p".into(),
@@ -99,7 +125,8 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
             ]);
         }
         let bin = node_binary(node)?;
-        match spawn_node(node, &bin, &args, &env(a.domain)) {
+        let envs: Vec<(String, String)> = env(a.domain).into_iter().chain(security.iter().cloned()).collect();
+        match spawn_node(node, &bin, &args, &envs) {
             Ok(p) => procs.push(p),
             Err(e) => {
                 stop_all(&mut procs, Duration::from_secs(3));
@@ -119,7 +146,7 @@ fn rust_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> 
 
 /// The three nodes in one process: `naic launch --composed` with the driver's latency
 /// report, as [`rust_chain`] runs them.
-fn composed_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliError> {
+fn composed_chain(a: &ChainArgs, dir: &Path, security: &[(String, String)]) -> Result<serde_json::Value, CliError> {
     let report = dir.join("composed_chain.json");
     let _ = std::fs::remove_file(&report);
     let exe = std::env::current_exe().map_err(|e| CliError::failure(format!("cannot locate naic itself: {e}")))?;
@@ -132,7 +159,8 @@ fn composed_chain(a: &ChainArgs, dir: &Path) -> Result<serde_json::Value, CliErr
     }
     set(format!("latency_report:={}", report.display()));
     set(format!("latency_warmup:={WARMUP}"));
-    let mut p = vec![spawn_node("composed", &exe, &args, &env(a.domain + 2))?];
+    let envs: Vec<(String, String)> = env(a.domain + 2).into_iter().chain(security.iter().cloned()).collect();
+    let mut p = vec![spawn_node("composed", &exe, &args, &envs)?];
     let t0 = Instant::now();
     let status = loop {
         if let Ok(Some(st)) = p[0].child.try_wait() {
@@ -412,7 +440,15 @@ pub fn run(a: ChainArgs) -> CliResult {
     let dir = std::env::temp_dir().join(format!("naic-bench-chain-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| CliError::failure(format!("{}: {e}", dir.display())))?;
     eprintln!("naic bench chain: Rust chain, {} s (+{WARMUP} s warm-up)", a.duration);
-    let rust = rust_chain(&a, &dir)?;
+    let security = a.enclave.as_deref().map(enclave_env).transpose()?;
+    let rust = rust_chain(&a, &dir, &[])?;
+    let rust_secure = match &security {
+        Some(sec) => {
+            eprintln!("naic bench chain: Rust chain with DDS Security, {} s (+{WARMUP} s warm-up)", a.duration);
+            rust_chain(&a, &dir, sec)?
+        }
+        None => serde_json::Value::Null,
+    };
     let rclpy = if a.skip_rclpy {
         serde_json::Value::Null
     } else {
@@ -421,9 +457,16 @@ pub fn run(a: ChainArgs) -> CliResult {
     };
     let composed = if a.composed {
         eprintln!("naic bench chain: composed (one process), {} s (+{WARMUP} s warm-up)", a.duration);
-        composed_chain(&a, &dir)?
+        composed_chain(&a, &dir, &[])?
     } else {
         serde_json::Value::Null
+    };
+    let composed_secure = match (&security, a.composed) {
+        (Some(sec), true) => {
+            eprintln!("naic bench chain: composed with DDS Security, {} s (+{WARMUP} s warm-up)", a.duration);
+            composed_chain(&a, &dir, sec)?
+        }
+        _ => serde_json::Value::Null,
     };
     let floor = if a.floor {
         eprintln!("naic bench chain: floor (cyclictest), {} s", a.duration.ceil());
@@ -450,6 +493,9 @@ pub fn run(a: ChainArgs) -> CliResult {
         "rust_data_qos": a.qos,
         "rust_cpu_affinity": a.cpu.map_or("params/".to_string(), |c| c.to_string()),
         "median_ratio_rust_over_rclpy": ratio(&rust, &rclpy),
+        "rust_secure": rust_secure,
+        "median_ratio_secure_over_plain": ratio(&rust_secure, &rust),
+        "composed_secure": composed_secure,
         "composed": composed,
         "median_ratio_composed_over_rust": ratio(&composed, &rust),
         "rclpy": rclpy,

@@ -79,6 +79,63 @@ pub struct LaunchArgs {
     /// reliable, or sensor_data (ROS's sensor-data profile, best effort).
     #[arg(long, value_parser = ["reliable", "sensor_data"])]
     pub qos: Option<String>,
+    /// DDS Security: run every node in this SROS2 enclave, a directory
+    /// KEYSTORE/enclaves/NAME (e.g. from `naic security init KEYSTORE`:
+    /// KEYSTORE/enclaves/naic/chain). Sets ROS_SECURITY_ENABLE=true, ROS_SECURITY_KEYSTORE
+    /// and ROS_SECURITY_ENCLAVE_OVERRIDE for the nodes; a node that cannot load it exits
+    /// (never runs unsecured).
+    #[arg(long)]
+    pub enclave: Option<PathBuf>,
+}
+
+/// The nodes whose `command_source` is `*` under `--enclave`: with DDS Security RustDDS
+/// 0.15.1 delivers no `ros_discovery_info` (measured: the driver and friction_compensation
+/// named no writer and refused every command, the chain never ran), so the writer of a
+/// command cannot be named. Who may publish the commands is then the enclave permissions'
+/// rule (only the chain's enclave: docs/deploy.md). A `-p NODE:command_source:=...` still
+/// wins (it comes later on the command line).
+pub const SECURED_GATES: [&str; 2] = [DRIVER, "friction_compensation"];
+
+/// `--enclave DIR` → (keystore, enclave name): DIR is KEYSTORE/enclaves/NAME.
+pub fn split_enclave_dir(dir: &Path) -> Result<(PathBuf, String), CliError> {
+    let comps: Vec<_> = dir.components().collect();
+    let at = comps.iter().rposition(|c| c.as_os_str() == "enclaves").ok_or_else(|| {
+        CliError::usage(format!(
+            "--enclave {}: expected an enclave directory KEYSTORE/enclaves/NAME (e.g. keystore/enclaves/naic/chain from `naic security init keystore`)",
+            dir.display()
+        ))
+    })?;
+    let keystore: PathBuf = comps[..at].iter().collect();
+    let name: Vec<String> = comps[at + 1..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
+    if name.is_empty() {
+        return Err(CliError::usage(format!("--enclave {}: name the enclave below enclaves/, e.g. {}/naic/chain", dir.display(), dir.display())));
+    }
+    Ok((if keystore.as_os_str().is_empty() { PathBuf::from(".") } else { keystore }, format!("/{}", name.join("/"))))
+}
+
+/// `--enclave`: the ROS security variables for every node (and the composed process), after
+/// checking the enclave's files, so a bad keystore stops the launch before any node starts.
+fn apply_enclave(a: &LaunchArgs) -> CliResult {
+    let Some(dir) = &a.enclave else { return Ok(()) };
+    let (keystore, name) = split_enclave_dir(dir)?;
+    let keystore = std::fs::canonicalize(&keystore).map_err(|e| CliError::usage(format!("--enclave {}: keystore {}: {e}", dir.display(), keystore.display())))?;
+    let enclave = naic_ros::security::Enclave { name: name.clone(), dir: keystore.join("enclaves").join(name.trim_start_matches('/')) };
+    enclave.check().map_err(|e| CliError::usage(format!("--enclave {}: {e}", dir.display())))?;
+    if !naic_ros::security::AVAILABLE {
+        return Err(CliError::usage(format!(
+            "--enclave {}: this naic was built without DDS Security; rebuild with `cargo build --release --features naic_ros/security` (needs libssl-dev and pkg-config)",
+            dir.display()
+        )));
+    }
+    std::env::set_var("ROS_SECURITY_ENABLE", "true");
+    std::env::set_var("ROS_SECURITY_KEYSTORE", &keystore);
+    std::env::set_var("ROS_SECURITY_ENCLAVE_OVERRIDE", &name);
+    eprintln!(
+        "naic launch: DDS Security on, enclave {name} of keystore {}; command_source:=* on {} (the enclave permissions decide who may publish the commands)",
+        keystore.display(),
+        SECURED_GATES.join(", ")
+    );
+    Ok(())
 }
 
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -338,6 +395,9 @@ pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliEr
     if let Some(q) = &a.qos {
         args.extend(["-p".into(), format!("data_qos:={q}")]);
     }
+    if a.enclave.is_some() && SECURED_GATES.contains(&node) {
+        args.extend(["-p".into(), "command_source:=*".into()]);
+    }
     for p in &a.params {
         let Some((n, rest)) = p.split_once(':') else {
             return Err(CliError::usage(format!("--param '{p}': expected NODE:NAME:=VALUE")));
@@ -506,6 +566,7 @@ pub fn run(a: LaunchArgs) -> CliResult {
     }
     // Check everything before starting anything.
     let launch = launch_params(&a)?;
+    apply_enclave(&a)?;
     if a.composed {
         return super::composed::run(&a);
     }
@@ -607,6 +668,17 @@ mod tests {
         let killed = stop_all(std::slice::from_mut(&mut p), Duration::from_secs(10));
         assert!(killed.is_empty(), "the script should exit on SIGINT");
         assert!(p.copying.is_empty(), "stop_all returned while {} copying threads were still running", p.copying.len());
+    }
+
+    #[test]
+    fn an_enclave_directory_names_its_keystore_and_enclave() {
+        let (ks, name) = split_enclave_dir(Path::new("/srv/ks/enclaves/naic/chain")).unwrap();
+        assert_eq!((ks, name.as_str()), (PathBuf::from("/srv/ks"), "/naic/chain"));
+        let (ks, name) = split_enclave_dir(Path::new("enclaves/a")).unwrap();
+        assert_eq!((ks, name.as_str()), (PathBuf::from("."), "/a"));
+        let e = split_enclave_dir(Path::new("/srv/ks/naic/chain")).unwrap_err().message;
+        assert!(e.contains("KEYSTORE/enclaves/NAME"), "{e}");
+        assert!(split_enclave_dir(Path::new("/srv/ks/enclaves")).is_err());
     }
 
     #[test]

@@ -10,6 +10,7 @@ pub mod launch;
 pub mod params;
 pub mod plot;
 pub mod record;
+pub mod security;
 pub mod sim;
 pub mod sim_table;
 pub mod tool;

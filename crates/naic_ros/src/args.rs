@@ -27,10 +27,12 @@ pub struct RosArgs {
     pub remaps: Vec<(String, String)>,
     /// `--log-level LEVEL`
     pub log_level: Option<String>,
+    /// `-e NAME` / `--enclave NAME`: the SROS2 enclave (DDS Security, [`crate::security`]).
+    pub enclave: Option<String>,
 }
 
 const USAGE: &str = "usage: <node> [--ros-args [-p name:=value]... [--params-file FILE]... \
-[-r __node:=NAME] [-r __ns:=/NAMESPACE] [-r from:=to]... [--log-level LEVEL] [--]]";
+[-r __node:=NAME] [-r __ns:=/NAMESPACE] [-r from:=to]... [--log-level LEVEL] [--enclave /NAME] [--]]";
 
 impl RosArgs {
     /// The arguments `--ros-args -p a₁ -p a₂ …` for the assignments `name:=value` (tests and
@@ -86,6 +88,11 @@ impl RosArgs {
                 "-p" | "--param" => {
                     let v = take_value(i, "name:=value")?;
                     out.params.push(parse_param_assignment(v)?);
+                    i += 1;
+                }
+                "-e" | "--enclave" => {
+                    let v = take_value(i, "an enclave name, e.g. /naic/chain")?;
+                    out.enclave = Some(v.to_string());
                     i += 1;
                 }
                 "--params-file" => {

@@ -57,16 +57,34 @@ impl DdsSettings {
     }
 }
 
-/// Create this process's DDS participant (one per node process).
+/// Create this process's DDS participant (one per node process), in the SROS2 enclave the
+/// environment names, if any ([`crate::security`]).
 pub fn create_context(s: &DdsSettings) -> Result<Context, RosError> {
+    create_context_in(s, crate::security::Enclave::from_env(None)?.as_ref())
+}
+
+/// [`create_context`] in `enclave` (DDS Security), or without security when `None`. An
+/// enclave that cannot be loaded is an error: never an unsecured participant instead.
+pub fn create_context_in(s: &DdsSettings, enclave: Option<&crate::security::Enclave>) -> Result<Context, RosError> {
     crate::msgs::register_type_hashes();
     let mut b = DomainParticipantBuilder::new(s.domain_id);
     if s.localhost_only {
         b = b.with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)]);
     }
-    let dp = b
-        .build()
-        .map_err(|e| RosError::Dds(format!("cannot create DDS participant on domain {}: {e:?}", s.domain_id)))?;
+    if let Some(e) = enclave {
+        b = crate::security::secure(b, e)?;
+    }
+    let dp = b.build().map_err(|e| match enclave {
+        Some(enc) => RosError::Node(format!(
+            "enclave {}: DDS Security refused the files in {} ({e:?}); refusing to start without it: check that cert.pem was issued by identity_ca.cert.pem and that governance.p7s and permissions.p7s are signed by permissions_ca.cert.pem (naic security init KEYSTORE writes a consistent set)",
+            enc.name,
+            enc.dir.display()
+        )),
+        None => RosError::Dds(format!("cannot create DDS participant on domain {}: {e:?}", s.domain_id)),
+    })?;
+    if let Some(e) = enclave {
+        log::info!("DDS Security on: enclave {} ({})", e.name, e.dir.display());
+    }
     Context::from_domain_participant(dp)
         .map_err(|e| RosError::Dds(format!("cannot create ROS context: {e:?}")))
 }

@@ -14,7 +14,8 @@
 //! - pieces every node core shares, one implementation each: [`replay`] (a repeated
 //!   stamp gets the same answer), [`timebase`] (wall or simulated time), [`joints`]
 //!   (`/joint_states` by joint name), [`throttle`] (rate-limited reports) and
-//!   [`alloc_check`] (no heap allocation in the 1 kHz step).
+//!   [`alloc_check`] (no heap allocation in the 1 kHz step);
+//! - [`source`]: who may publish on a node's input topics (one owner of the command).
 //!
 //! Nodes are thin shells: they copy messages into preallocated step-function inputs,
 //! call the core/simulator step functions and publish the outputs.
@@ -31,7 +32,9 @@ pub mod joints;
 pub mod params_file;
 pub mod replay;
 pub mod robot;
+pub mod security;
 pub mod service;
+pub mod source;
 mod reply;
 pub mod threads;
 pub mod throttle;

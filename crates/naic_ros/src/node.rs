@@ -32,7 +32,7 @@ use serde::{de::DeserializeOwned, Serialize};
 
 use crate::{
     args::RosArgs,
-    context::{create_context, DdsSettings},
+    context::{create_context_in, DdsSettings},
     params::{Changes, ParamSpec, ParamTable, SetCheck},
     reply::{self, Verdict},
     RosError,
@@ -127,7 +127,8 @@ impl RosNode {
         let params = ParamTable::new(specs, check, &args.overrides(default_name)?).map_err(RosError::Param)?;
         // Real-time scheduling before any thread exists, so the DDS threads inherit it.
         params.with(apply_scheduling);
-        let context = create_context(&DdsSettings::from_env()?)?;
+        let enclave = crate::security::Enclave::from_env(args.enclave.as_deref())?;
+        let context = create_context_in(&DdsSettings::from_env()?, enclave.as_ref())?;
         Self::build(args, default_name, params, context)
     }
 

@@ -70,13 +70,30 @@ pub fn take_newest<M: serde::de::DeserializeOwned + 'static>(sub: &ros2_client::
     newest
 }
 
-/// Start a thread named `name` that wakes on each sample of `sub` and hands it to `on`,
-/// until shutdown is requested (a driver's receive thread: it stamps each command's
-/// arrival as it comes, whatever the main loop is doing).
+/// The newest sample waiting on `sub` whose writer `admit` takes (see
+/// [`crate::source::SourceGate`]; older ones and refused ones are taken and dropped), or
+/// `None`.
+pub fn take_newest_admitted<M: serde::de::DeserializeOwned + 'static>(
+    sub: &ros2_client::Subscription<M>,
+    mut admit: impl FnMut(&ros2_client::MessageInfo) -> bool,
+) -> Option<M> {
+    let mut newest = None;
+    while let Ok(Some((m, info))) = sub.take() {
+        if admit(&info) {
+            newest = Some(m);
+        }
+    }
+    newest
+}
+
+/// Start a thread named `name` that wakes on each sample of `sub` and hands it with its
+/// sample information (the writer: [`crate::source`]) to `on`, until shutdown is requested
+/// (a driver's receive thread: it stamps each command's arrival as it comes, whatever the
+/// main loop is doing).
 pub fn spawn_receiver<M: serde::de::DeserializeOwned + 'static>(
     name: &str,
     mut sub: ros2_client::Subscription<M>,
-    mut on: impl FnMut(M) + Send + 'static,
+    mut on: impl FnMut(M, ros2_client::MessageInfo) + Send + 'static,
 ) -> std::io::Result<()>
 where
     ros2_client::Subscription<M>: Send,
@@ -86,8 +103,8 @@ where
     std::thread::Builder::new().name(name.into()).spawn(move || {
         while !crate::shutdown_requested() {
             waiter.wait(Some(Duration::from_millis(50)));
-            while let Ok(Some((m, _))) = sub.take() {
-                on(m);
+            while let Ok(Some((m, info))) = sub.take() {
+                on(m, info);
             }
         }
     })?;

@@ -48,6 +48,7 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
         ParamSpec::double("joint_state_timeout", 0.02, 0.001, 1.0, "Joint velocity older than this [s] is not used: no feedforward"),
         ParamSpec::int("median_window", 5, 1, 9, "Median filter window of the joint velocity (the controller's sense stage, same filter)"),
         ParamSpec::double("takeover_gap", 0.02, 0.001, 1.0, "After a gap in /naic/effort longer than this [s] (the driver's command_timeout: it holds the arm itself by then), the rate limit restarts from the measured joint torque"),
+        naic_ros::source::spec("command_source", "naic_controller", "/naic/effort"),
         ParamSpec::double("takeover_blend", 0.0, 0.0, 1.0, "At a take-over (start, or after a takeover_gap) the command moves from the measured joint torque to the controller's over this time [s] (smoothstep), then the rate limit applies; 0 (default): the rate limit alone. Off by default: CPU stalls of 5-30 ms make take-overs, and blends after them spun the wrist (docs/nodes.md)"),
     ]
 }

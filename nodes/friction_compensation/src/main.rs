@@ -13,7 +13,8 @@ use friction_compensation::{runner::Runner, setup::{Setup, NODE}};
 use naic_ros::{
     msgs::{self, Float64MultiArray, JointState},
     node::{data_qos, QOS_SUB},
-    wait::{take_newest, take_until, Waiter},
+    source::SourceGate,
+    wait::{take_newest_admitted, take_until, Waiter},
     RosArgs, RosError, RosNode,
 };
 
@@ -34,6 +35,11 @@ fn run() -> Result<(), RosError> {
     let mut cmd_sub = node.subscription::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;
     let js_sub = node.subscription::<JointState>("joint_states", msgs::JOINT_STATE, QOS_SUB)?;
     let cmd_pub = node.publisher::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, node.params.with(data_qos).0)?;
+    // One owner of /naic/effort (`command_source`); a restarted owner takes over after
+    // takeover_gap, when the rate limit restarts from the measured torque anyway.
+    let source = node.params.with(|p| p.str("command_source").to_string());
+    let mut gate = SourceGate::in_context(&node.context, "/naic/effort", "command_source", &source, r.p.takeover_gap_ns)?;
+    let foreign = gate.ignored();
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut cmd_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 
@@ -45,7 +51,7 @@ fn run() -> Result<(), RosError> {
         while let Ok(Some((js, _))) = js_sub.take() {
             r.joint_states(&js);
         }
-        let Some(m) = take_newest(&cmd_sub) else { continue };
+        let Some(m) = take_newest_admitted(&cmd_sub, |i| gate.admit(i.publisher_gid(), naic_ros::time::wall_ns())) else { continue };
         let out = r.command(&m, |until| {
             let mut js = None; // lockstep: the joint state of the command's stamp is on its way
             take_until(&js_sub, until, |m| js.replace(m).is_none());
@@ -56,6 +62,11 @@ fn run() -> Result<(), RosError> {
             let _ = cmd_pub.publish(m.clone());
         }
     }
-    log::info!("stopped after {} commands and {} take-overs", r.s.published, r.s.takeovers);
+    log::info!(
+        "stopped after {} commands and {} take-overs; {} samples of other writers than command_source ignored",
+        r.s.published,
+        r.s.takeovers,
+        foreign.load(std::sync::atomic::Ordering::Relaxed)
+    );
     Ok(())
 }

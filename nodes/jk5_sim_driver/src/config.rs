@@ -65,6 +65,7 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
         ParamSpec::string("plant", PLANT_NAME, "Simulator behind the driver: naic_sim (naic's own plant) or mujoco (MuJoCo on mjcf; a build with --features mujoco)").read_only(),
         ParamSpec::string("mjcf", naic_sim::plants::DEFAULT_MJCF, "MuJoCo model for plant:=mujoco (default: the paper authors' JK5)").read_only(),
         ParamSpec::double("latency_warmup", 2.0, 0.0, 3600.0, "Chain-latency statistics ignore the first seconds after start").read_only(),
+        naic_ros::source::spec("command_source", "friction_compensation", "/joint_effort_cmd"),
         ParamSpec::string("latency_report", "", "If set, write chain-latency statistics (JSON) to this file at exit").read_only(),
     ]
 }

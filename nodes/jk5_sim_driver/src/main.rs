@@ -16,6 +16,7 @@ use jk5_sim_driver::{
 use naic_ros::{
     msgs::{self, Clock, Float64MultiArray, JointState, WrenchStamped},
     node::{data_qos, pub_qos, Pub, QOS_SUB},
+    source::SourceGate,
     wait::spawn_receiver,
     RosArgs, RosError, RosNode,
 };
@@ -65,9 +66,20 @@ fn run() -> Result<(), RosError> {
     let cmd_qos = if d.p.lockstep { data_sub } else { QOS_SUB };
     let cmd_sub = node.subscription::<Float64MultiArray>("joint_effort_cmd", msgs::FLOAT64_MULTI_ARRAY, cmd_qos)?;
     let shared = Arc::new(SharedCommands::new(d.commands(&node.params)));
-    // Receive thread: wakes on each command, checks it, stamps its arrival.
+    // One owner of the command (`command_source`): other writers' commands are ignored,
+    // counted and logged; a restarted owner takes over after command_timeout.
+    let source = node.params.with(|p| p.str("command_source").to_string());
+    let mut gate = SourceGate::in_context(&node.context, "/joint_effort_cmd", "command_source", &source, d.p.command_timeout_ns)?;
+    let foreign = gate.ignored();
+    // Receive thread: wakes on each command, checks its writer and the command, stamps its
+    // arrival.
     let rx = Arc::clone(&shared);
-    spawn_receiver("cmd-rx", cmd_sub, move |m| rx.receive(&m)).map_err(|e| RosError::Node(format!("cannot start the receive thread: {e}")))?;
+    spawn_receiver("cmd-rx", cmd_sub, move |m, info| {
+        if gate.admit(info.publisher_gid(), naic_ros::time::wall_ns()) {
+            rx.receive(&m)
+        }
+    })
+    .map_err(|e| RosError::Node(format!("cannot start the receive thread: {e}")))?;
 
     let mut wake = WakeStats::default();
     let record_after_ns = shared.lock().record_after_ns;
@@ -109,7 +121,8 @@ fn run() -> Result<(), RosError> {
         }
         out.announce(&mut d, &shared);
     }
-    let extra = if d.p.lockstep { serde_json::json!({}) } else { wake.report() };
+    let mut extra = if d.p.lockstep { serde_json::json!({}) } else { wake.report() };
+    extra["foreign_commands"] = foreign.load(std::sync::atomic::Ordering::Relaxed).into();
     d.finish(&shared.lock(), &node.params, extra);
     Ok(())
 }

@@ -68,6 +68,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::double("max_accel", rd.linear.max_accel, 1.0e-3, 20.0, "With scenario 'none': acceleration limit of the position reference [m/s^2]"),
         ParamSpec::double("max_angular_speed", rd.angular.max_speed, 1.0e-3, 6.0, "With scenario 'none': angular speed limit of the orientation reference [rad/s]"),
         ParamSpec::double("max_angular_accel", rd.angular.max_accel, 1.0e-3, 60.0, "With scenario 'none': angular acceleration limit of the orientation reference [rad/s^2]"),
+        naic_ros::source::spec("reference_source", naic_ros::source::ANY, "/naic/target_pose and /naic/desired_wrench (scenario 'none')"),
         ParamSpec::double("max_force_rate", rd.max_force_rate, 0.1, 1.0e4, "With scenario 'none': fastest change of the force reference from /naic/desired_wrench [N/s]"),
         ParamSpec::double("reference_timeout", rd.timeout, 0.001, 60.0, "With scenario 'none': a reference topic silent this long [s] is stale; its last target is held"),
         ParamSpec::double("actuation_timeout", 0.1, 0.001, 10.0, "When the newest /joint_effort_cmd answers a joint state older than this [s] (friction_compensation down: the driver holds the arm), the force law is reset as by a safe hold (contact re-detected when commands reach the arm again), and /naic/params reports it (wall clock only). Above the driver's command_timeout (0.02 s): a loaded machine delays the chain by 20-30 ms now and then, and that should not restart force control"),

@@ -16,7 +16,8 @@ use naic_ros::{
     msgs::{self, Float64MultiArray, JointState, NaicParams, PoseStamped, WrenchStamped},
     node::QOS_SUB,
     time::{time_from_ns, wall_ns},
-    wait::take_newest,
+    source::SourceGate,
+    wait::take_newest_admitted,
     ParamTable, RosError, RosNode,
 };
 
@@ -143,6 +144,9 @@ impl Runner {
 pub struct ReferenceSubs {
     target_pose: ros2_client::Subscription<PoseStamped>,
     desired_wrench: ros2_client::Subscription<WrenchStamped>,
+    /// `reference_source`: who may publish each (default: any writer, warned about when two
+    /// write).
+    gates: std::cell::RefCell<(SourceGate, SourceGate)>,
 }
 
 impl ReferenceSubs {
@@ -153,16 +157,25 @@ impl ReferenceSubs {
             log::info!("following the scenario's reference: /naic/target_pose and /naic/desired_wrench are not subscribed (scenario:=none follows them)");
             return Ok(None);
         }
+        let source = node.params.with(|p| p.str("reference_source").to_string());
+        // A new writer of the source node is taken at once (gap 0): a reference is kept
+        // until the next one, so there is no stream to interleave with.
+        let gate = |topic| SourceGate::in_context(&node.context, topic, "reference_source", &source, 0);
+        let gates = std::cell::RefCell::new((gate("/naic/target_pose")?, gate("/naic/desired_wrench")?));
         Ok(Some(ReferenceSubs {
             target_pose: node.subscription::<PoseStamped>("naic/target_pose", msgs::POSE_STAMPED, QOS_SUB)?,
             desired_wrench: node.subscription::<WrenchStamped>("naic/desired_wrench", msgs::WRENCH_STAMPED, QOS_SUB)?,
+            gates,
         }))
     }
 
     /// The newest sample of each topic into [`Runner::reference`] (the stage keeps only the
     /// last target).
     pub fn feed(&self, r: &mut Runner) {
-        let (tp, dw) = (take_newest(&self.target_pose), take_newest(&self.desired_wrench));
+        let mut g = self.gates.borrow_mut();
+        let now = naic_ros::time::wall_ns();
+        let tp = take_newest_admitted(&self.target_pose, |i| g.0.admit(i.publisher_gid(), now));
+        let dw = take_newest_admitted(&self.desired_wrench, |i| g.1.admit(i.publisher_gid(), now));
         r.reference(tp.as_ref(), dw.as_ref());
     }
 }

@@ -1866,6 +1866,16 @@ impl Discovery {
   // them takes them as an unchanged update. Built-in endpoints are skipped by
   // the `sedp_publish_single_user_*` functions, as on creation.
   fn sedp_republish_local_user_endpoints(&self) {
+    // naic patch (PATCHED.md, "The re-announcement and DDS Security"): not with a
+    // security configuration. A secure remote registers an endpoint's crypto handles
+    // again for each re-announced sample, and RustDDS 0.15.1's crypto plugin then
+    // refuses the pair ("The CryptoHandle .. was already associated with
+    // receiver-specific encode key materials"): no data flowed between three secured
+    // participants. The Fast DDS loss it works around needs an unsecured Fast DDS peer.
+    #[cfg(feature = "security")]
+    if self.security_opt.is_some() {
+      return;
+    }
     let db = discovery_db_read(&self.discovery_db);
     for reader_data in db.get_all_local_topic_readers() {
       self.sedp_publish_single_user_reader(reader_data);
