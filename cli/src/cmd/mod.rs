@@ -10,6 +10,7 @@ pub mod launch;
 pub mod plot;
 pub mod record;
 pub mod sim;
+pub mod sim_heldout;
 pub mod sim_table;
 
 /// A command failure: a message for the user and the exit code.

@@ -25,8 +25,9 @@
 //! stiffness and the force axis has no force target; once contact is
 //! detected the contact stiffness applies, `k_d = 0` on the force axis, and
 //! the force axis follows the selected force law instead of the line above:
-//! `V_n = ẍ_d,n − ë` with `ë` from [`force_law::step`], mapped to the base
-//! frame by the axis sign.
+//! `n · V = n · ẍ_d − ë` with `ë` from the law ([`law::step`], the one dispatch point), the
+//! component of `V` along the force axis `n` (any unit vector, [`ForceAxis`]) replaced, and
+//! the tangential impedance acting on the tangential errors.
 //!
 //! Contact detection is a parameter ([`ContactDetect`]): enter contact when
 //! `f_ext` exceeds `enter_n` (the paper's laws) or `scheduled_enter_n` (the scheduled
