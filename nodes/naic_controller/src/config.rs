@@ -96,7 +96,7 @@ pub fn force_axis(s: &str) -> Result<ForceAxis, naic_core::pipeline::ConfigError
     if let Some(i) = FORCE_AXES.iter().position(|a| *a == t) {
         return Ok(ForceAxis::base(i % 3, if i < 3 { 1.0 } else { -1.0 }));
     }
-    let bad = || naic_core::pipeline::ConfigError::invalid("force_axis", format!("'{s}'"), "must be x, y, z, -x, -y, -z or a vector '[x, y, z]' in the base frame");
+    let bad = || naic_core::pipeline::ConfigError::invalid("force_axis", format!("'{s}'"), "is not one of x, y, z, -x, -y, -z, nor a vector '[x, y, z]' (base frame)");
     let inner = t.strip_prefix('[').and_then(|r| r.strip_suffix(']')).ok_or_else(bad)?;
     let v: Vec<f64> = inner.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
     if v.len() != 3 {
