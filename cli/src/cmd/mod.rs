@@ -12,6 +12,7 @@ pub mod plot;
 pub mod record;
 pub mod security;
 pub mod sim;
+pub mod sim_heldout;
 pub mod sim_table;
 pub mod tool;
 

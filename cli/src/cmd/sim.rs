@@ -121,6 +121,12 @@ pub struct SimArgs {
     /// the goals of issue 12 and the plots; medians of --seeds seeds [default: 5].
     #[arg(long)]
     pub table: bool,
+    /// Run the held-out protocol of issue 42 into --out: `scheduled` and `oracle` on cases
+    /// outside the tuned table (seeds 6–10, stiffness 300–200 000 N/m, delay 0 and 3, model
+    /// mass error 0.7 / 1.4, 60 s runs, a surface receding at 5–20 mm/s), scored with the
+    /// honest metrics (docs/controller.md); on --plant.
+    #[arg(long)]
+    pub held_out: bool,
     /// The plant: own (naic's simulator) or mujoco (MuJoCo on --mjcf; needs a build with
     /// `--features mujoco`, docs/simulation.md) [default: own].
     #[arg(long)]
@@ -395,6 +401,27 @@ pub fn run_scenario<const N: usize>(
     Ok(runs)
 }
 
+/// The honest metrics of a scenario's runs (markdown; naic_sim::metrics::Honest).
+pub fn honest_table<const N: usize>(runs: &[RunResult<N>]) -> String {
+    let mut t = String::from("| controller | phase | band [N] | settle in band [s] | impact [N] | impact bound [N] | overshoot after impact [%] |\n|---|---|---|---|---|---|---|\n");
+    for r in runs {
+        for (k, h) in r.metrics.honest.iter().enumerate() {
+            let o = |v: Option<f64>, d: usize| v.map_or_else(|| "–".to_string(), |x| format!("{x:.d$}"));
+            t.push_str(&format!(
+                "| {} | {} | {:.3} | {} | {} | {} | {:.1} |\n",
+                r.controller,
+                k + 1,
+                h.band_n,
+                h.settling_band_s.map_or_else(|| "never".to_string(), |x| format!("{x:.3}")),
+                o(h.impact_n, 2),
+                o(h.impact_bound_n, 2),
+                h.overshoot_after_impact_pct
+            ));
+        }
+    }
+    t
+}
+
 /// The summary table (markdown) of a scenario's runs.
 pub fn summary_table<const N: usize>(s: &Scenario<N>, runs: &[RunResult<N>]) -> String {
     let mut t = String::new();
@@ -456,7 +483,8 @@ pub fn run(a: SimArgs) -> CliResult {
     if a.replay.is_some() {
         return replay(&a);
     }
-    if a.table {
+    if a.table || a.held_out {
+        let what = if a.table { "--table" } else { "--held-out" };
         let given = [
             ("--scenario", a.scenario.is_some()),
             ("--controller", a.controller.is_some()),
@@ -476,7 +504,18 @@ pub fn run(a: SimArgs) -> CliResult {
             ("--tool-file", a.tool_file.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
-            return Err(CliError::usage(format!("--table runs every scenario, controller and delay with the default settings: drop {flag}")));
+            return Err(CliError::usage(format!("{what} runs its own scenarios, controllers and delays with the default settings: drop {flag}")));
+        }
+        if a.table && a.held_out {
+            return Err(CliError::usage("--table and --held-out are two protocols: give one"));
+        }
+        if a.held_out {
+            if a.seeds.is_some() {
+                return Err(CliError::usage("--held-out runs its own seeds (6–10): drop --seeds"));
+            }
+            let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-held-out", utc_stamp())));
+            let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
+            return super::sim_heldout::run(&out, a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice);
         }
         let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-table", utc_stamp())));
         let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
@@ -676,7 +715,11 @@ fn run_seeds<const N: usize>(
             plant.h() * 1e3,
             dir.display()
         );
-        let runs = run_scenario(&s, build, &plant, model, friction.as_ref(), tool, modes, settings, show)?;
+        let mut runs = run_scenario(&s, build, &plant, model, friction.as_ref(), tool, modes, settings, show)?;
+        // The honest metrics (naic_sim::metrics::Honest; docs/controller.md) into metrics.json.
+        for r in &mut runs {
+            r.metrics.honest = runner::honest_of(&s, &r.records, &r.metrics, settings.delay_cycles, runner::force_noise_sigma());
+        }
         write_outputs(&dir, &s, &runs, &robot.joints)?;
         for r in &runs {
             if r.limit_violation {
@@ -686,6 +729,7 @@ fn run_seeds<const N: usize>(
         }
         if a.seeds.is_none() {
             println!("{}", summary_table(&s, &runs));
+            println!("{}", honest_table(&runs));
         }
         let mut controllers = BTreeMap::new();
         for r in &runs {

@@ -163,7 +163,7 @@ fn row(label: &str, d: &str, controller: &str, cell: &Cell) -> String {
 }
 
 /// `f` over every job on all cores; results in job order.
-fn par_map<T: Send>(jobs: &[Job], f: impl Fn(&Job) -> Result<T, CliError> + Sync, progress: bool) -> Result<Vec<T>, CliError> {
+pub(super) fn par_map<J: Sync, T: Send>(jobs: &[J], f: impl Fn(&J) -> Result<T, CliError> + Sync, progress: bool) -> Result<Vec<T>, CliError> {
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
     let out: Vec<Mutex<Option<Result<T, CliError>>>> = (0..jobs.len()).map(|_| Mutex::new(None)).collect();
@@ -179,7 +179,7 @@ fn par_map<T: Send>(jobs: &[Job], f: impl Fn(&Job) -> Result<T, CliError> + Sync
                 }
                 let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                 if progress && (k % 10 == 0 || k == jobs.len()) {
-                    eprint!("\rnaic sim --table: {k}/{} runs", jobs.len());
+                    eprint!("\rnaic sim: {k}/{} runs", jobs.len());
                 }
             });
         }

@@ -81,7 +81,7 @@ fn reference_step_does_not_allocate() {
     use naic_core::pipeline::control::ForceAxis;
     use naic_core::pipeline::reference::{self, DesiredWrench, Inbox, ReferenceParams, ReferenceState, TargetPose};
     use nalgebra::{UnitQuaternion, Vector3};
-    let p = ReferenceParams::new("base_link", ForceAxis { axis: 2, sign: -1.0 }, 10.0);
+    let p = ReferenceParams::new("base_link", ForceAxis::base(2, -1.0), 10.0);
     let start = Vector3::new(0.4, 0.0, 0.3);
     let mut s = ReferenceState::new(start, UnitQuaternion::identity(), (start, UnitQuaternion::identity()));
     let frames = ["base_link", "world"];

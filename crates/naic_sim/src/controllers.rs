@@ -101,11 +101,7 @@ impl<const N: usize> PipelineController<N> {
             return Err(ConfigError::invalid("model mass error", f, "must be a positive factor (1 = exact model)"));
         }
         let model = &if f == 1.0 { model.clone() } else { model.with_scaled_inertias(f) };
-        let n = scenario.task.force_axis;
-        let axis = (0..3).max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs())).unwrap_or(2);
-        if (n.norm() - 1.0).abs() > 1e-9 || (n[axis].abs() - 1.0).abs() > 1e-9 {
-            return Err(ConfigError::invalid("the force axis", format!("{n:?}"), "must be ±x, ±y or ±z of the base frame"));
-        }
+        let force_axis = ForceAxis::new(scenario.task.force_axis)?;
         // The paper's settings on this model, then what the scenario and the loop settings change.
         let gamma = if mode == Mode::Naic { settings.gamma } else { 0.0 };
         let mut params = ControllerParams::paper_defaults(model, mode, gamma);
@@ -115,7 +111,7 @@ impl<const N: usize> PipelineController<N> {
         let imp = &scenario.task.impedance;
         let c = &mut params.control;
         c.impedance = imp.params;
-        c.force_axis = ForceAxis { axis, sign: n[axis].signum() };
+        c.force_axis = force_axis;
         c.force_law.sigma = imp.sigma;
         c.force_law.lambda = scenario.task.dt;
         c.force_law.sigma_margin = settings.sigma_margin;

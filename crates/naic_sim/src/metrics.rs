@@ -17,6 +17,20 @@
 //! * `steady_state_error_n`: mean of `f − f_d` over the last 0.2 s of the
 //!   phase (or its last half if shorter than 0.4 s).
 //! * `rms_error_n`: RMS of `f − f_d` over the phase; `max_force_n`: peak `f`.
+//!
+//! The honest metrics ([`Honest`], issue 42 item 8; `honest` in `metrics.json`), per phase:
+//!
+//! * the band is `max(2 % |f_d|, 3 σ)` with `σ` the F/T noise along n ([`band_n`]): a band
+//!   narrower than the sensor's noise scores the noise, not the controller;
+//! * `settling_band_s`: the time from the phase start after which the force stays inside
+//!   that band until the phase ends (`None`: outside at the end);
+//! * at first contact, the impact is scored apart: the peak force over the first `d + 1`
+//!   control periods after contact (`d` the loop delay), before the loop can answer at
+//!   all, against the bound `k_e v₀ (d + 1) T + b_e v₀` (`v₀` the tip's speed along n at
+//!   contact, `k_e`, `b_e` the true stiffness and damping; item 5's `k_e v₀ (d + ½) T` is the
+//!   spring's mean over where in a period contact happens, `d + 1` its worst case, and a
+//!   damped surface answers `b_e v₀` at once); the overshoot is then taken after
+//!   those periods (`overshoot_after_impact_pct`).
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -54,6 +68,72 @@ pub struct PhaseMetrics {
 pub struct ControllerMetrics {
     pub contact_time_s: Option<f64>,
     pub phases: Vec<PhaseMetrics>,
+    /// The honest metrics of each phase ([`Honest`]; empty where not computed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub honest: Vec<Honest>,
+}
+
+/// The honest metrics of one phase (module docs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Honest {
+    /// `max(2 % |f_d|, 3 σ)` [N].
+    pub band_n: f64,
+    /// Settling into `band_n` until the phase ends [s] (`None`: never).
+    pub settling_band_s: Option<f64>,
+    /// First contact only: the peak force over the first `d + 1` periods [N] ...
+    pub impact_n: Option<f64>,
+    /// ... and its bound `k_e v₀ (d + 1) T + b_e v₀` [N].
+    pub impact_bound_n: Option<f64>,
+    /// The overshoot (as `overshoot_pct`) after the impact's periods [%].
+    pub overshoot_after_impact_pct: f64,
+}
+
+/// The settling band `max(2 % |f_d|, 3 σ)` [N] for F/T noise `sigma_n` along n.
+pub fn band_n(f_d: f64, sigma_n: f64) -> f64 {
+    (0.02 * f_d.abs()).max(3.0 * sigma_n)
+}
+
+/// What the honest metrics need besides the force: the loop delay `d` [periods], the period
+/// `T` [s], the F/T noise σ along n [N], and at first contact the tip's speed along n `v₀`
+/// [m/s], the true stiffness `k_e` [N/m] and damping `b_e` [N·s/m].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HonestInputs {
+    pub delay_cycles: usize,
+    pub period: f64,
+    pub noise_sigma_n: f64,
+    pub v0: f64,
+    pub k_e: f64,
+    pub b_e: f64,
+}
+
+/// The honest metrics of every phase of `m` (computed by [`controller_metrics`] on `t`, `f`).
+pub fn honest(t: &[f64], f: &[f64], m: &ControllerMetrics, h: &HonestInputs) -> Vec<Honest> {
+    let index_of = |ts: f64| t.iter().position(|&ti| ti >= ts - 1e-9).unwrap_or(t.len());
+    let mut out = Vec::with_capacity(m.phases.len());
+    for (k, ph) in m.phases.iter().enumerate() {
+        let i0 = index_of(ph.t_start_s);
+        let i1 = m.phases.get(k + 1).map_or(t.len(), |p| index_of(p.t_start_s)).max(i0 + 1);
+        let f_d = ph.desired_force_n;
+        let band = band_n(f_d, h.noise_sigma_n);
+        let tol = if f_d != 0.0 { band / f_d.abs() } else { f64::INFINITY };
+        let settling_band_s = settling_time(t, f, f_d, tol, i0, i1);
+        let (impact_n, impact_bound_n, overshoot_after_impact_pct) = if k == 0 {
+            let w = (i0 + h.delay_cycles + 1).min(i1);
+            let peak = f[i0..w].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let bound = h.k_e * h.v0.abs() * (h.delay_cycles as f64 + 1.0) * h.period + h.b_e * h.v0.abs();
+            let after = if w + 1 < i1 {
+                let spec = PhaseSpec { t_start: t[w], desired_force: f_d, start: PhaseStart::ForceStep { from: 0.0 } };
+                phase_metrics(t, f, &spec, w, i1).overshoot_pct
+            } else {
+                0.0
+            };
+            (Some(peak), Some(bound), after)
+        } else {
+            (None, None, ph.overshoot_pct)
+        };
+        out.push(Honest { band_n: band, settling_band_s, impact_n, impact_bound_n, overshoot_after_impact_pct });
+    }
+    out
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -131,7 +211,7 @@ pub fn controller_metrics(
     events: &[PhaseSpec],
 ) -> ControllerMetrics {
     let Some(ic) = in_contact.iter().position(|c| *c) else {
-        return ControllerMetrics { contact_time_s: None, phases: vec![] };
+        return ControllerMetrics { contact_time_s: None, phases: vec![], honest: vec![] };
     };
     let t_c = t[ic];
     let mut specs = vec![PhaseSpec {
@@ -149,7 +229,7 @@ pub fn controller_metrics(
             phases.push(phase_metrics(t, f, spec, i0, i1));
         }
     }
-    ControllerMetrics { contact_time_s: Some(t_c), phases }
+    ControllerMetrics { contact_time_s: Some(t_c), phases, honest: vec![] }
 }
 
 #[cfg(test)]
@@ -205,6 +285,41 @@ mod tests {
         let i = (s2 / dt).round() as usize;
         assert!(f[i..].iter().all(|v| (v - 20.0).abs() <= 0.4));
         assert!((f[i - 1] - 20.0).abs() > 0.4);
+    }
+
+    /// The band is the sensor's 3 σ where 2 % of f_d is below it; settling is the last exit
+    /// from it (not the first entry); the impact is the first d + 1 periods, scored apart.
+    #[test]
+    fn honest_metrics_use_the_noise_band_and_score_the_impact_apart() {
+        assert_eq!(band_n(10.0, 1.0 / 16.0), 0.2);
+        assert_eq!(band_n(3.0, 1.0 / 16.0), 0.1875);
+        let dt = 1e-3;
+        let t = time(1000, dt);
+        // Contact at 0.1 s; a ramp of 4 N/period for 3 periods (the impact), then 10 N with
+        // an excursion to 10.15 N at 0.5 s (inside the 0.2 N band) and one to 10.3 N at
+        // 0.6 s (outside): settling = 0.601 − 0.1 s.
+        let f: Vec<f64> = t
+            .iter()
+            .enumerate()
+            .map(|(i, _)| match i {
+                0..=99 => 0.0,
+                100..=102 => 4.0 * (i - 99) as f64,
+                500 => 10.15,
+                600 => 10.3,
+                _ => 10.0,
+            })
+            .collect();
+        let c: Vec<bool> = (0..t.len()).map(|i| i >= 100).collect();
+        let m = controller_metrics(&t, &f, &c, |_| 10.0, &[]);
+        let h = honest(&t, &f, &m, &HonestInputs { delay_cycles: 2, period: dt, noise_sigma_n: 1.0 / 16.0, v0: 0.04, k_e: 50_000.0, b_e: 0.0 });
+        assert_eq!(h.len(), 1);
+        assert!((h[0].settling_band_s.unwrap() - 0.501).abs() < 1e-9, "{:?}", h[0]);
+        assert_eq!(h[0].impact_n, Some(12.0));
+        assert!((h[0].impact_bound_n.unwrap() - 6.0).abs() < 1e-12);
+        // After the impact's three periods the largest excursion is 10.3 N: 3 %.
+        assert!((h[0].overshoot_after_impact_pct - 3.0).abs() < 1e-9, "{}", h[0].overshoot_after_impact_pct);
+        // The classic overshoot includes the impact: 20 %.
+        assert!((m.phases[0].overshoot_pct - 20.0).abs() < 1e-9);
     }
 
     #[test]

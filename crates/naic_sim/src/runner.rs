@@ -196,6 +196,36 @@ pub fn metrics_of<const N: usize>(s: &Scenario<N>, records: &[Record<N>]) -> Con
     controller_metrics(&t, &f, &c, |t| s.f_d(t), &events)
 }
 
+/// The honest metrics of a recorded run ([`crate::metrics::honest`]) for a loop delay of
+/// `delay_cycles` periods and F/T noise `noise_sigma_n` [N] along n: `v₀` is the tip's
+/// speed along n over the period before the first contact, `k_e`, `b_e` the true stiffness and
+/// damping there.
+pub fn honest_of<const N: usize>(s: &Scenario<N>, records: &[Record<N>], m: &ControllerMetrics, delay_cycles: usize, noise_sigma_n: f64) -> Vec<crate::metrics::Honest> {
+    let Some(ic) = records.iter().position(|r| r.in_contact) else {
+        return vec![];
+    };
+    let n = s.task.force_axis;
+    let v0 = if ic > 0 {
+        let (a, b) = (&records[ic - 1], &records[ic]);
+        (0..3).map(|i| n[i] * (b.tip[i] - a.tip[i])).sum::<f64>() / s.task.dt
+    } else {
+        0.0
+    };
+    let t: Vec<f64> = records.iter().map(|r| r.t).collect();
+    let f: Vec<f64> = records.iter().map(|r| r.f_ext).collect();
+    let tip = nalgebra::Vector3::from(records[ic].tip);
+    let b_e = s.env.material.at(records[ic].t, &tip).b_e;
+    let h = crate::metrics::HonestInputs { delay_cycles, period: s.task.dt, noise_sigma_n, v0, k_e: records[ic].k_e, b_e };
+    crate::metrics::honest(&t, &f, m, &h)
+}
+
+/// The F/T noise σ along a force axis of the simulated mini45 [N] (one resolution step,
+/// [`crate::sensor`]).
+pub fn force_noise_sigma() -> f64 {
+    let r = crate::sensor::MINI45_SI_145_5_RESOLUTION;
+    r[0].max(r[1]).max(r[2])
+}
+
 /// The records as CSV (one row per control period).
 pub fn to_csv<const N: usize>(records: &[Record<N>]) -> String {
     use std::fmt::Write;

@@ -87,7 +87,7 @@ fn desired_force_mode_and_impedance_changed_mid_run_follow_the_node_policy() {
     let plant = scenario::plant_for(&s, model.clone(), Some(friction.clone()), tool).map_err(|e| e.to_string()).unwrap();
     let inner = PipelineController::new(Mode::Naic, &s, &model, Some(friction), tool.0, tool.1, &LoopSettings::default()).unwrap();
     let p0 = *inner.params();
-    let axis = p0.control.force_axis.axis;
+    let axis = p0.control.force_axis.aligned().expect("the scenario pushes along a base axis");
     let b_d_new = 1.5 * p0.control.impedance.b_d[axis];
     let mut c = Scheduled {
         inner,

@@ -29,7 +29,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
     let c = &base.control;
     let imp = &c.impedance;
     let fl = &c.force_law;
-    let axis = FORCE_AXES[c.force_axis.axis + if c.force_axis.sign < 0.0 { 3 } else { 0 }];
+    let axis = force_axis_name(&c.force_axis);
     // The reference stage's defaults (naic_core), so the numbers live in one place.
     let rd = ReferenceParams::new("base_link", c.force_axis, 10.0);
     let ap = &fl.scheduled.approach;
@@ -45,7 +45,7 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::doubles("k_d_contact", &imp.k_contact, 0.0, 1.0e5, "K_d per axis in contact; the force-axis entry is always 0 (force tracking)"),
         ParamSpec::double("sigma", fl.sigma, 0.0, 1.0, "Update rate sigma of eq 9 (NAIC weight w3, initial value)"),
         ParamSpec::double("sigma_margin", fl.sigma_margin, 0.01, 1.0e9, "NAIC keeps sigma <= sigma_margin * lambda * b_d / m_d (fraction of the force-loop stability limit)"),
-        ParamSpec::choice("force_axis", axis, &FORCE_AXES, "Direction n in the base frame along which the tool pushes ('-z': down onto a table)"),
+        ParamSpec::string("force_axis", &axis, "Direction n in the base frame along which the tool pushes: x, y, z, -x, -y, -z ('-z': down onto a table) or a vector '[x, y, z]' (normalised; not zero)"),
         ParamSpec::double("contact_threshold", c.contact.enter_n, 0.01, 100.0, "Enter contact when the measured force along n exceeds this [N]"),
         ParamSpec::double("scheduled_contact_threshold", c.contact.scheduled_enter_n, 0.01, 100.0, "Mode 'scheduled': enter contact when the measured force along n exceeds this [N] (8 sigma of the F/T noise, where its stiffness estimator starts; contact_threshold is for the paper's laws)"),
         ParamSpec::double("contact_exit_force", c.contact.exit_n, 0.0, 100.0, "Leave contact below this force [N] (after contact_exit_cycles)"),
@@ -83,18 +83,28 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
     ]
 }
 
-/// `"-z"` → axis 2, sign −1.
-pub fn force_axis(s: &str) -> ForceAxis {
-    let (sign, name) = match s.strip_prefix('-') {
-        Some(n) => (-1.0, n),
-        None => (1.0, s),
-    };
-    let axis = match name {
-        "x" => 0,
-        "y" => 1,
-        _ => 2,
-    };
-    ForceAxis { axis, sign }
+/// The parameter's text for `n`: one of [`FORCE_AXES`] for an axis-aligned `n`, else `[x, y, z]`.
+pub fn force_axis_name(n: &ForceAxis) -> String {
+    match n.aligned() {
+        Some(ax) => FORCE_AXES[ax + if n.n[ax] < 0.0 { 3 } else { 0 }].to_string(),
+        None => format!("[{}, {}, {}]", n.n.x, n.n.y, n.n.z),
+    }
+}
+
+/// `"-z"` → `n = (0, 0, −1)`; `"[x, y, z]"` → that vector normalised. Anything else, and a
+/// zero or non-finite vector, is refused with the accepted forms.
+pub fn force_axis(s: &str) -> Result<ForceAxis, naic_core::pipeline::ConfigError> {
+    let t = s.trim();
+    if let Some(i) = FORCE_AXES.iter().position(|a| *a == t) {
+        return Ok(ForceAxis::base(i % 3, if i < 3 { 1.0 } else { -1.0 }));
+    }
+    let bad = || naic_core::pipeline::ConfigError::invalid("force_axis", format!("'{s}'"), "is not one of x, y, z, -x, -y, -z, nor a vector '[x, y, z]' (base frame)");
+    let inner = t.strip_prefix('[').and_then(|r| r.strip_suffix(']')).ok_or_else(bad)?;
+    let v: Vec<f64> = inner.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
+    if v.len() != 3 {
+        return Err(bad());
+    }
+    ForceAxis::new(Vector3::new(v[0], v[1], v[2]))
 }
 
 fn arr6(v: &[f64]) -> [f64; 6] {
@@ -112,9 +122,12 @@ fn vec3(v: &[f64]) -> Vector3<f64> {
 /// `base` with the ROS parameters applied, validated by the core.
 pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<ControllerParams, naic_ros::params::ParamError> {
     let mut c = *base;
-    let axis = force_axis(p.str("force_axis"));
+    let axis = force_axis(p.str("force_axis"))?;
     let mut k_contact = arr6(p.f64s("k_d_contact"));
-    k_contact[axis.axis] = 0.0;
+    // k_d = 0 along n (the control stage applies k_d_contact to the tangential error only).
+    if let Some(ax) = axis.aligned() {
+        k_contact[ax] = 0.0;
+    }
     c.control.impedance =
         ImpedanceParams { m_d: arr6(p.f64s("m_d")), b_d: arr6(p.f64s("b_d")), k_free: arr6(p.f64s("k_d")), k_contact };
     c.control.force_axis = axis;
@@ -170,9 +183,11 @@ pub fn settings(p: &ParamView) -> Settings {
 
 /// The reference stage's settings (scenario 'none'): limits and timeout from the
 /// parameters, the force default from `desired_force`, accepted forces up to `force_limit`,
-/// the force axis the controller's.
+/// the force axis the controller's (a `force_axis` it refuses is refused by
+/// [`controller_params`], which every accepted set passes; here it falls back to `-z`).
 pub fn reference_params(p: &ParamView) -> ReferenceParams {
-    let mut r = ReferenceParams::new(p.str("base_frame"), force_axis(p.str("force_axis")), p.f64("desired_force"));
+    let n = force_axis(p.str("force_axis")).unwrap_or(ForceAxis::base(2, -1.0));
+    let mut r = ReferenceParams::new(p.str("base_frame"), n, p.f64("desired_force"));
     r.linear.max_speed = p.f64("max_speed");
     r.linear.max_accel = p.f64("max_accel");
     r.angular.max_speed = p.f64("max_angular_speed");
@@ -249,9 +264,19 @@ mod tests {
         set("force_axis", V::String("x".into())).unwrap();
         set("mode", V::String("aic".into())).unwrap();
         let cp = t.with(|p| controller_params(p, &b)).unwrap();
-        assert_eq!(cp.control.force_axis, ForceAxis { axis: 0, sign: 1.0 });
+        assert_eq!(cp.control.force_axis, ForceAxis::base(0, 1.0));
         assert_eq!(cp.control.force_law.mode, Mode::Aic);
         assert_eq!(cp.control.impedance.k_contact[0], 0.0);
+        // A vector: normalised; zero and malformed ones refused, naming the parameter.
+        set("force_axis", V::String("[0, 3, -4]".into())).unwrap();
+        let cp = t.with(|p| controller_params(p, &b)).unwrap();
+        assert!((cp.control.force_axis.n - Vector3::new(0.0, 0.6, -0.8)).norm() < 1e-15, "{:?}", cp.control.force_axis);
+        for bad in ["[0, 0, 0]", "[1, 2]", "down", "[a, 0, 1]"] {
+            let e = set("force_axis", V::String(bad.into())).unwrap_err().to_string();
+            assert!(e.contains("force_axis"), "{bad}: {e}");
+        }
+        assert_eq!(force_axis("-z").unwrap(), ForceAxis::base(2, -1.0));
+        assert_eq!(force_axis_name(&ForceAxis::base(1, -1.0)), "-y");
     }
 
     #[test]

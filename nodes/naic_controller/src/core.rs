@@ -407,8 +407,7 @@ fn zero_wrench<const N: usize>(p: &Params<N>, s: &mut State<N>) -> TriggerAnswer
     }
     // Contact as the law detects it: its enter threshold (a drifted bias below it is what
     // zeroing is for).
-    let c = &cp.control.contact;
-    let threshold = if cp.control.force_law.mode == naic_core::pipeline::control::force_law::Mode::Scheduled { c.scheduled_enter_n } else { c.enter_n };
+    let threshold = naic_core::pipeline::control::law::contact_threshold(&cp.control);
     if ctl.control.phase == Phase::Contact || !(s.last_f_ext.abs() <= threshold) {
         return refuse(ZERO_REFUSED_CONTACT);
     }
@@ -445,9 +444,7 @@ fn cycle<const N: usize>(p: &Params<N>, s: &mut State<N>, j: &JointSample<N>, no
         out.events.start_tip = Some([pose.trans.x, pose.trans.y, pose.trans.z]);
     }
     let (p0, r0) = s.start.unwrap_or((Vector3::zeros(), UnitQuaternion::identity()));
-    let axis = p.controller.params().control.force_axis;
-    let mut n = Vector3::zeros();
-    n[axis.axis] = axis.sign;
+    let n = p.controller.params().control.force_axis.n;
     let f_d = p.settings.desired_force;
     let (reference, active) = match &p.reference {
         // The scenario's trajectory; the force set point is the parameter.

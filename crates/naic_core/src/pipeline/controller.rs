@@ -199,6 +199,8 @@ pub struct Reference {
 pub struct Status {
     pub mode: Mode,
     pub phase: Phase,
+    /// The base axis closest to the force axis n (0, 1, 2 = x, y, z; exactly n's axis for
+    /// an axis-aligned n).
     pub force_axis: usize,
     /// `f_d`, `f_ext` along the force axis, and `e_f = f_ext − f_d` [N].
     pub f_d: f64,
@@ -303,32 +305,27 @@ pub fn step<const N: usize>(
     let j = *dynamics::frame_jacobian(&c.model, &mut ws.data, &q, c.tip);
     let jdot_qdot = dynamics::frame_jdot_qdot(&c.model, &mut ws.data, &q, &dq, c.tip);
     let x_dot = j * dq;
-    // The scheduled law shapes the tangential reference's velocity in contact
-    // (scheduled::shape_reference); out of contact it passes unchanged.
+    // The force law's view of the reference (it may shape the tangential velocity in
+    // contact: control::law::shape) and, where it asks, the model's free fall along n.
     let mut shaped = *r;
-    let mut shaper = s.control.sched.shaper;
-    let fl = &p.control.force_law;
-    if fl.mode == Mode::Scheduled && fl.scheduled.reference_shaping > 0.0 {
-        let v_d: Vector3<f64> = r.v_d.fixed_rows::<3>(0).into();
-        let on = control::scheduled::Shaper::on(&v_d);
-        shaper = Some(if s.control.phase == Phase::Contact {
-            let (pd, vd, ad, sh) = control::scheduled::shape_reference(
-                fl.scheduled.reference_shaping,
-                fl.lambda,
-                p.control.force_axis.axis,
-                &s.control.sched.shaper.unwrap_or(on),
-                &r.p_d,
-                &v_d,
-                &r.a_d.fixed_rows::<3>(0).into(),
-            );
-            shaped.p_d = pd;
-            shaped.v_d.fixed_rows_mut::<3>(0).copy_from(&vd);
-            shaped.a_d.fixed_rows_mut::<3>(0).copy_from(&ad);
-            sh
-        } else {
-            on
-        });
-    }
+    let (pd, vd, ad, shaper) = control::law::shape(
+        &p.control,
+        &s.control.sched,
+        s.control.phase,
+        &r.p_d,
+        &r.v_d.fixed_rows::<3>(0).into(),
+        &r.a_d.fixed_rows::<3>(0).into(),
+    );
+    shaped.p_d = pd;
+    shaped.v_d.fixed_rows_mut::<3>(0).copy_from(&vd);
+    shaped.a_d.fixed_rows_mut::<3>(0).copy_from(&ad);
+    let a_free = if control::law::needs_free_fall(&p.control) {
+        let zero = SVector::<f64, N>::zeros();
+        let qdd_free = *dynamics::aba(&c.model, &mut ws.data, &q, &zero, &zero);
+        p.control.force_axis.dot6(&(j * qdd_free))
+    } else {
+        f64::NAN
+    };
     let r = &shaped;
     let e_p = r.p_d - tip.trans;
     let e_r = orientation_error(&r.r_d, &tip.rot);
@@ -340,10 +337,10 @@ pub fn step<const N: usize>(
         a_d: r.a_d,
         f_e,
         f_d: r.f_d,
+        pre: control::law::Prepared { shaper, a_free },
     };
     let (control_state, out) = control::step(&p.control, &s.control, &task);
     next.control = control_state;
-    next.control.sched.shaper = shaper;
 
     // Eq 6 → τ: J q̈* = V − J̇q̇, τ = RNEA(q, q̇, q̈*) + Jᵀ F_e.
     let posture = if N == 6 { None } else { Some(s.q_posture.or(p.nullspace.q).unwrap_or(sensed.q)) };
@@ -351,50 +348,27 @@ pub fn step<const N: usize>(
     let (qdd, damped) = solve_eq6(c, ws, &q, &dq, &j, &(out.v - jdot_qdot), posture.as_ref());
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
     let mut tau = tau_id + j.transpose() * f_e;
-    // The scheduled law's gravity correction by the learnt model gain (scheduled::gain::GravityCorrection).
-    let mut gravity_scale = 1.0;
-    if p.control.force_law.mode == Mode::Scheduled {
-        // Its static reading, once, in free space (GravityCorrection::heavy_threshold, light_static):
-        // the free fall's acceleration along n from the model at this pose.
-        let gp = &p.control.force_law.scheduled.model_gain;
-        if next.control.phase == Phase::Free && next.control.sched.gain.wants_heavy(gp, p.control.force_law.lambda) {
-            let zero = SVector::<f64, N>::zeros();
-            let qdd_free = *dynamics::aba(&c.model, &mut ws.data, &q, &zero, &zero);
-            let a_free = p.control.force_axis.sign * (j * qdd_free)[p.control.force_axis.axis];
-            next.control.sched.gain = next.control.sched.gain.with_heavy(next.control.sched.approach_integral, a_free);
-        }
-        let c_g = next.control.sched.gain.gravity_factor(gp, p.control.force_law.lambda);
-        if c_g != 0.0 {
-            tau += *dynamics::gravity_torques(&c.model, &mut ws.data, &q) * c_g;
-        }
-        gravity_scale += c_g;
+    // A factor on the model's gravity torque, where the law asks for one.
+    if out.gravity_factor != 0.0 {
+        tau += *dynamics::gravity_torques(&c.model, &mut ws.data, &q) * out.gravity_factor;
     }
-    // The friction feedforward's velocity: on the reference for the scheduled law
-    // (feedforward.rs), in contact on the unfiltered velocity in a joint's Stribeck drop
-    // (`friction_fast`), the measured one otherwise.
-    let dq_ff = match (p.control.force_law.mode, &p.control.force_law.scheduled.friction_reference) {
-        (Mode::Scheduled, Some(b)) => {
-            let (dq_ref, _) = solve_eq6(c, ws, &q, &dq, &j, &out.v_ref, None);
-            let dq_ref = dq_ref.into();
-            Some(match &p.control.force_law.scheduled.friction_fast {
-                Some(f) => {
-                    let in_contact = next.control.phase == Phase::Contact;
-                    let age = next.control.sched.contact_cycles as f64 * p.control.force_law.lambda;
-                    let gate = f.contact_gate(in_contact, age);
-                    let k_e = next.control.sched.k_known.unwrap_or(out.law.k_e_hat);
-                    feedforward::blend_fast(b, f, gate, k_e, &sensed.dq, &sensed.dq_raw, &sensed.dq_raw_prev, &dq_ref)
-                }
-                None => feedforward::blend(b, &sensed.dq, &dq_ref),
-            })
+    let gravity_scale = 1.0 + out.gravity_factor;
+    // The friction feedforward's velocity, where the law names one (control::law::FrictionVelocity):
+    // from the reference twist's joint velocity; the measured one otherwise.
+    let dq_ff = out.friction.map(|fr| {
+        let (dq_ref, _) = solve_eq6(c, ws, &q, &dq, &j, &out.v_ref, None);
+        let dq_ref = dq_ref.into();
+        match &fr.fast {
+            Some((f, gate, k_e)) => feedforward::blend_fast(&fr.blend, f, *gate, *k_e, &sensed.dq, &sensed.dq_raw, &sensed.dq_raw_prev, &dq_ref),
+            None => feedforward::blend(&fr.blend, &sensed.dq, &dq_ref),
         }
-        _ => None,
-    };
+    });
 
     let law = &next.control.law;
     let status = Status {
         mode: p.control.force_law.mode,
         phase: next.control.phase,
-        force_axis: p.control.force_axis.axis,
+        force_axis: p.control.force_axis.dominant(),
         f_d: r.f_d,
         f_ext: out.f_ext,
         e_f: out.law.e_f,
@@ -409,7 +383,7 @@ pub fn step<const N: usize>(
         weights_projected: out.law.weights_projected,
         k_e_hat: out.law.k_e_hat,
         k_e_confidence: out.law.k_e_confidence,
-        model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
+        model_gain: control::law::model_gain(&p.control, &next.control.sched),
         gravity_scale,
         fault: None,
         fault_count: next.fault_count,
@@ -548,7 +522,7 @@ fn status_without_force<const N: usize>(
     Status {
         mode: p.control.force_law.mode,
         phase,
-        force_axis: p.control.force_axis.axis,
+        force_axis: p.control.force_axis.dominant(),
         f_d: r.f_d,
         f_ext,
         e_f: f_ext - r.f_d,
@@ -563,7 +537,7 @@ fn status_without_force<const N: usize>(
         weights_projected: false,
         k_e_hat: 0.0,
         k_e_confidence: 0.0,
-        model_gain: next.control.sched.gain.used(&p.control.force_law.scheduled.model_gain),
+        model_gain: control::law::model_gain(&p.control, &next.control.sched),
         gravity_scale: 1.0,
         fault,
         fault_count: next.fault_count,
@@ -600,7 +574,7 @@ impl<const N: usize> ControllerParams<N> {
             tare_at_rest: false,
             control: ControlParams {
                 impedance: PAPER_IMPEDANCE.params,
-                force_axis: ForceAxis { axis: 2, sign: -1.0 },
+                force_axis: ForceAxis::base(2, -1.0),
                 force_law: ForceLawParams {
                     mode,
                     sigma: PAPER_IMPEDANCE.sigma,

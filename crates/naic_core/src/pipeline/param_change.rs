@@ -122,7 +122,7 @@ mod tests {
             let fresh = ControlState::new(&new.control);
             assert_eq!(s2.control, ControlState { retract_hold: s.control.retract_hold, ..fresh });
             assert!(s2.control.retracting());
-            assert_eq!(s2.control.law.m_d, new.control.impedance.m_d[new.control.force_axis.axis]);
+            assert_eq!(s2.control.law.m_d, new.control.force_axis.along(&new.control.impedance.m_d));
             assert_eq!((s2.fault_count, s2.sense, s2.tare), (s.fault_count, s.sense, s.tare), "the rest is kept");
         }
     }

@@ -243,7 +243,7 @@ fn the_parameter_change_policy_of_the_core_applies() {
     assert!(!o.restarted);
     assert_eq!(p.settings.desired_force, 15.0);
     assert!(s.ctl.control.retracting(), "a new set point must not end the retraction");
-    assert_eq!(s.ctl.control.law.m_d, 0.5 * cp.control.impedance.m_d[cp.control.force_axis.axis]);
+    assert_eq!(s.ctl.control.law.m_d, 0.5 * cp.control.force_axis.along(&cp.control.impedance.m_d));
     // Another mode: the weights restart from the parameters; the latch still stays.
     let mut aic = cp;
     aic.control.force_law.mode = Mode::Aic;
@@ -251,7 +251,7 @@ fn the_parameter_change_policy_of_the_core_applies() {
     assert!(o.restarted);
     assert!(s.ctl.control.retracting(), "a restart must not end the retraction");
     assert_eq!(p.controller.params().control.force_law.mode, Mode::Aic);
-    assert_eq!(s.ctl.control.law.m_d, cp.control.impedance.m_d[cp.control.force_axis.axis]);
+    assert_eq!(s.ctl.control.law.m_d, cp.control.force_axis.along(&cp.control.impedance.m_d));
     // The next cycle reports the new mode and set point, still force-limited.
     let (s, _) = run(&p, &s, Inbox { wrench: Some(&wrench(0, 1.0)), ..Default::default() }, 0);
     let (s, o) = run(&p, &s, Inbox { joint_states: Some(&js(0, ORDER)), ..Default::default() }, MS);

@@ -25,8 +25,9 @@
 //! stiffness and the force axis has no force target; once contact is
 //! detected the contact stiffness applies, `k_d = 0` on the force axis, and
 //! the force axis follows the selected force law instead of the line above:
-//! `V_n = ẍ_d,n − ë` with `ë` from [`force_law::step`], mapped to the base
-//! frame by the axis sign.
+//! `n · V = n · ẍ_d − ë` with `ë` from the law ([`law::step`], the one dispatch point), the
+//! component of `V` along the force axis `n` (any unit vector, [`ForceAxis`]) replaced, and
+//! the tangential impedance acting on the tangential errors.
 //!
 //! Contact detection is a parameter ([`ContactDetect`]): enter contact when
 //! `f_ext` exceeds `enter_n` (the paper's laws) or `scheduled_enter_n` (the scheduled
@@ -42,11 +43,12 @@
 //! calls [`ControlState::resume`] (the ROS node does on any parameter change).
 
 pub mod force_law;
+pub mod law;
 pub mod scheduled;
 
-use force_law::{ForceLawInputs, ForceLawOutputs, ForceLawParams, ForceLawState, Mode};
+use force_law::{ForceLawOutputs, ForceLawParams, ForceLawState};
 use nalgebra::{Vector3, Vector6};
-use scheduled::{ScheduledInputs, ScheduledState};
+use scheduled::ScheduledState;
 
 /// Diagonal impedance parameters, one entry per Cartesian axis (x, y, z, rx, ry, rz).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,13 +63,86 @@ pub struct ImpedanceParams {
     pub k_contact: [f64; 6],
 }
 
-/// The force axis: `n = sign · e_axis` in the base frame.
+/// The force axis: a unit vector `n` of the base frame, the direction in which the tool
+/// pushes (`−z` to push down onto a table). Every quantity along `n` is a dot product with
+/// it ([`ForceAxis::dot`]), and a command along `n` replaces the component of a vector along
+/// it ([`ForceAxis::with_along`]); for an axis-aligned `n` both are exact (the same numbers
+/// as indexing the axis and multiplying by its sign).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ForceAxis {
-    /// 0, 1, 2 for x, y, z.
-    pub axis: usize,
-    /// +1 or −1: the direction in which the tool pushes (−1 on z to push down).
-    pub sign: f64,
+    /// Unit vector, base frame.
+    pub n: Vector3<f64>,
+}
+
+impl ForceAxis {
+    /// `n = sign · e_axis` (axis 0, 1, 2 = x, y, z; sign ±1).
+    pub fn base(axis: usize, sign: f64) -> Self {
+        let mut n = Vector3::zeros();
+        n[axis.min(2)] = sign;
+        Self { n }
+    }
+
+    /// `v / |v|`; an error naming `force_axis` for a zero or non-finite vector.
+    pub fn new(v: Vector3<f64>) -> Result<Self, crate::pipeline::ConfigError> {
+        let norm = v.norm();
+        if !(norm.is_finite() && norm > 1e-9) {
+            return Err(crate::pipeline::ConfigError::invalid(
+                "force_axis",
+                format!("[{}, {}, {}]", v.x, v.y, v.z),
+                "must be a non-zero finite vector (the direction the tool pushes in, base frame, e.g. [0, 0, -1] or '-z')",
+            ));
+        }
+        // An axis-aligned input stays exactly ±1 on its axis.
+        Ok(Self { n: if norm == 1.0 { v } else { v / norm } })
+    }
+
+    /// The base axis with the largest |n_i| (x, y, z = 0, 1, 2; reported in `/naic/params`).
+    pub fn dominant(&self) -> usize {
+        (0..3).max_by(|&a, &b| self.n[a].abs().total_cmp(&self.n[b].abs()).then(b.cmp(&a))).unwrap_or(2)
+    }
+
+    /// The base axis `n` is (±) exactly, if it is one.
+    pub fn aligned(&self) -> Option<usize> {
+        let ax = self.dominant();
+        (self.n[ax].abs() == 1.0 && (0..3).all(|i| i == ax || self.n[i] == 0.0)).then_some(ax)
+    }
+
+    /// `n · v` (written out: for an axis-aligned `n` it is `±v_axis` exactly).
+    pub fn dot(&self, v: &Vector3<f64>) -> f64 {
+        self.n.x * v.x + self.n.y * v.y + self.n.z * v.z
+    }
+
+    /// `n ·` the translational part of a twist or wrench.
+    pub fn dot6(&self, v: &Vector6<f64>) -> f64 {
+        self.n.x * v[0] + self.n.y * v[1] + self.n.z * v[2]
+    }
+
+    /// `v` with its component along `n` replaced by `a`: `v − n (n·v) + n a`.
+    pub fn with_along(&self, v: &Vector3<f64>, a: f64) -> Vector3<f64> {
+        let d = self.dot(v);
+        Vector3::from_fn(|i, _| v[i] - self.n[i] * d + self.n[i] * a)
+    }
+
+    /// [`Self::with_along`] on the translational rows of a 6-vector.
+    pub fn set6(&self, v: &mut Vector6<f64>, a: f64) {
+        let d = self.dot6(v);
+        for i in 0..3 {
+            v[i] = v[i] - self.n[i] * d + self.n[i] * a;
+        }
+    }
+
+    /// The translational rows of `v` without their component along `n`.
+    pub fn tangential6(&self, v: &Vector6<f64>) -> Vector6<f64> {
+        let mut t = *v;
+        self.set6(&mut t, 0.0);
+        t
+    }
+
+    /// A diagonal translational parameter along `n`: `Σ n_i² p_i` (exactly `p_axis` for an
+    /// axis-aligned `n`).
+    pub fn along(&self, p: &[f64; 6]) -> f64 {
+        self.n.x * self.n.x * p[0] + self.n.y * self.n.y * p[1] + self.n.z * self.n.z * p[2]
+    }
 }
 
 /// The scheduled law's contact threshold [N] ([`ContactDetect::scheduled_enter_n`]): 8 σ of
@@ -132,11 +207,9 @@ impl ControlParams {
                 }
             }
         }
-        if self.force_axis.axis > 2 {
-            return Err(crate::pipeline::ConfigError::invalid("force_axis", self.force_axis.axis, "must be 0, 1 or 2 (x, y, z)"));
-        }
-        if self.force_axis.sign != 1.0 && self.force_axis.sign != -1.0 {
-            return Err(crate::pipeline::ConfigError::invalid("force axis sign", self.force_axis.sign, "must be +1 or -1"));
+        let n = self.force_axis.n;
+        if !(n.iter().all(|x| x.is_finite()) && (n.norm() - 1.0).abs() < 1e-9) {
+            return Err(crate::pipeline::ConfigError::invalid("force_axis", format!("[{}, {}, {}]", n.x, n.y, n.z), "must be a unit vector of the base frame (ForceAxis::new normalises one)"));
         }
         let fl = &self.force_law;
         if !(fl.gamma >= 0.0 && fl.gamma.is_finite()) {
@@ -155,19 +228,17 @@ impl ControlParams {
             return Err(crate::pipeline::ConfigError::invalid("sigma", fl.sigma, "must be a finite value >= 0"));
         }
         let b = &fl.bounds;
-        let n = self.force_axis.axis;
-        if !(b.m_d.0 > 0.0 && b.m_d.0 <= imp.m_d[n] && imp.m_d[n] <= b.m_d.1) {
-            return Err(crate::pipeline::ConfigError::invalid("m_d on the force axis", imp.m_d[n], format!("must lie in the NAIC weight bounds {:?}, lower bound > 0", b.m_d)));
+        let (m_n, b_n) = (self.force_axis.along(&imp.m_d), self.force_axis.along(&imp.b_d));
+        if !(b.m_d.0 > 0.0 && b.m_d.0 <= m_n && m_n <= b.m_d.1) {
+            return Err(crate::pipeline::ConfigError::invalid("m_d on the force axis", m_n, format!("must lie in the NAIC weight bounds {:?}, lower bound > 0", b.m_d)));
         }
-        if !(b.b_d.0 > 0.0 && b.b_d.0 <= imp.b_d[n] && imp.b_d[n] <= b.b_d.1) {
-            return Err(crate::pipeline::ConfigError::invalid("b_d on the force axis", imp.b_d[n], format!("must lie in the NAIC weight bounds {:?}, lower bound > 0", b.b_d)));
+        if !(b.b_d.0 > 0.0 && b.b_d.0 <= b_n && b_n <= b.b_d.1) {
+            return Err(crate::pipeline::ConfigError::invalid("b_d on the force axis", b_n, format!("must lie in the NAIC weight bounds {:?}, lower bound > 0", b.b_d)));
         }
         if !(b.sigma.0 <= fl.sigma && fl.sigma <= b.sigma.1) {
             return Err(crate::pipeline::ConfigError::invalid("sigma", fl.sigma, format!("must lie in the NAIC weight bounds {:?}", b.sigma)));
         }
-        if fl.mode == Mode::Scheduled {
-            fl.scheduled.validate()?;
-        }
+        law::validate(self)?;
         let fl = &self.force_limit;
         if !(fl.limit_n > self.contact.enter_n) {
             return Err(crate::pipeline::ConfigError::invalid("force_limit", fl.limit_n, format!("N must be above the contact threshold {} N", self.contact.enter_n)));
@@ -212,8 +283,8 @@ pub struct ControlState {
     pub law: ForceLawState,
     /// Cycles of retraction left after the force limit was exceeded (0: not retracting).
     pub retract_left: u32,
-    /// Latched after a retraction ([`ForceLimit::latch`]): the error `e` along the force
-    /// axis (base frame) to keep, i.e. the tool stays at `X_d − e_hold` on that axis.
+    /// Latched after a retraction ([`ForceLimit::latch`]): the error `n · e` along the force
+    /// axis to keep, i.e. the tool stays at `X_d − n e_hold`.
     pub retract_hold: Option<f64>,
     /// The scheduled law's memory (estimator, gains, integral); idle for the paper laws.
     pub sched: ScheduledState,
@@ -221,14 +292,14 @@ pub struct ControlState {
 
 impl ControlState {
     pub fn new(p: &ControlParams) -> Self {
-        let n = p.force_axis.axis;
+        let n = &p.force_axis;
         Self {
             phase: Phase::Free,
             below_exit: 0,
-            law: ForceLawState::new(&p.force_law, p.impedance.m_d[n], p.impedance.b_d[n]),
+            law: ForceLawState::new(&p.force_law, n.along(&p.impedance.m_d), n.along(&p.impedance.b_d)),
             retract_left: 0,
             retract_hold: None,
-            sched: ScheduledState::new(&p.force_law.scheduled, p.force_law.lambda),
+            sched: law::new_sched(p),
         }
     }
 
@@ -251,8 +322,7 @@ impl ControlState {
     /// spins joint 4 past its 6.28 rad/s limit (`nodes/naic_controller/tests/faults_in_process.rs`).
     pub fn hold(&self, p: &ControlParams) -> Self {
         let fresh = Self::new(p);
-        let sched = ScheduledState { k_known: self.sched.k_known, shaper: self.sched.shaper, ..fresh.sched };
-        Self { phase: Phase::Hold, below_exit: 0, law: fresh.law, sched, ..*self }
+        Self { phase: Phase::Hold, below_exit: 0, law: fresh.law, sched: law::after_hold(p, &self.sched), ..*self }
     }
 
     /// A force-limit retraction is in progress or latched.
@@ -279,6 +349,9 @@ pub struct TaskInputs {
     pub f_e: Vector6<f64>,
     /// `f_d` along the force axis [N].
     pub f_d: f64,
+    /// What the controller computed for the force law before this stage ([`law::shape`],
+    /// [`law::needs_free_fall`]); the default for a law that asks for nothing.
+    pub pre: law::Prepared,
 }
 
 /// Task-space outputs of one cycle.
@@ -295,24 +368,16 @@ pub struct TaskOutputs {
     /// The force limit was exceeded: the tool is retracting, or latched off the surface.
     pub retracting: bool,
     /// The twist the controller means the tip to move at (base frame): the reference's
-    /// `Ẋ_d = Ė + Ẋ`, along the force axis the retraction speed while retracting and, in
-    /// scheduled mode, out of contact the approach servo's target speed
-    /// ([`scheduled::approach_target`]), in contact the law's velocity observer `v̄` (the
-    /// commanded accelerations integrated, corrected slowly by the measurement:
-    /// [`scheduled::predictor::Observer`]) where the observer runs, and the reference's
-    /// velocity where it is off (soft surfaces: there `v̄` is the raw encoder velocity,
-    /// [`scheduled::ScheduledOutputs::v_bar`]). The scheduled law's friction feedforward is
-    /// evaluated at its joint velocity ([`crate::pipeline::feedforward::blend`]).
+    /// `Ẋ_d = Ė + Ẋ`, along the force axis the retraction speed while retracting and the
+    /// law's [`law::AxisOutputs::v_ref`] where it names one. The friction feedforward is
+    /// evaluated at its joint velocity where the law asks for it ([`Self::friction`]).
     pub v_ref: Vector6<f64>,
-}
-
-/// `(k̂_e, confidence)` of the scheduled law's estimator (the oracle's known k_e if set).
-fn estimator_report(p: &scheduled::ScheduledParams, s: &ScheduledState) -> (f64, f64) {
-    if let Some(k) = s.k_known {
-        return (k, 1.0);
-    }
-    let e = scheduled::estimator::estimate(&p.estimator, &s.est);
-    (e.k_e, e.confidence)
+    /// Factor on the model's gravity torque the law adds ([`law::AxisOutputs::gravity_factor`]).
+    pub gravity_factor: f64,
+    /// The model's gain along `n` the law divides its commands by.
+    pub model_gain: f64,
+    /// How the friction feedforward's velocity is formed (`None`: the measured one).
+    pub friction: Option<law::FrictionVelocity>,
 }
 
 /// Eq 6 per axis with stiffness `k` and no force target:
@@ -321,34 +386,48 @@ fn eq6(imp: &ImpedanceParams, k: &[f64; 6], u: &TaskInputs) -> Vector6<f64> {
     Vector6::from_fn(|i, _| u.a_d[i] + (imp.b_d[i] * u.e_dot[i] + k[i] * u.e[i] - u.f_e[i]) / imp.m_d[i])
 }
 
-/// One cycle of the control stage (contact detection + eq 6/8 per axis).
+/// One cycle of the control stage (contact detection, eq 6/8 on every axis, the force law
+/// along `n` through [`law::step`], the one dispatch point).
 /// Pure: `(params, state, inputs) -> (state, outputs)`.
 pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
-    let (mut next, out) = step_phases(p, s, u);
-    if p.force_law.mode != Mode::Scheduled {
-        return (next, out);
-    }
-    let (ax, sign) = (p.force_axis.axis, p.force_axis.sign);
-    let sp = &p.force_law.scheduled;
-    // The ĝ this cycle's commands were made with (in realised units for the predictor).
-    let g = s.sched.gain.used(&sp.model_gain);
-    if next.phase != Phase::Contact || out.retracting {
-        // The scheduled law's predictor remembers every command along n; in contact the
-        // law pushes its own (without the feedforward correction).
-        next.sched = next.sched.commanded(g * sign * out.v[ax]);
-    }
-    // The model's gain along n: learnt in free space only (no contact force).
-    let learn = s.phase == Phase::Free && next.phase == Phase::Free && !out.retracting && out.f_ext < p.contact.scheduled_enter_n;
-    next.sched.gain = next.sched.gain.cycle(&sp.model_gain, p.force_law.lambda, sign * u.x_dot[ax], learn, sign * out.v[ax]);
-    (next, out)
-}
-
-fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
-    let ax = p.force_axis.axis;
-    let sign = p.force_axis.sign;
-    let f_ext = sign * u.f_e[ax];
+    let n = &p.force_axis;
+    let f_ext = n.dot6(&u.f_e);
     let mut next = *s;
     let mut v_ref = u.e_dot + u.x_dot;
+    let imp = &law::impedance(p);
+    let along = |u: &TaskInputs, regime: law::Regime, entered: bool, v_n: f64| law::AxisInputs {
+        regime,
+        prev_phase: s.phase,
+        entered,
+        x: n.dot(&u.p),
+        x_dot: n.dot6(&u.x_dot),
+        e: n.dot6(&u.e),
+        e_dot: n.dot6(&u.e_dot),
+        v_d: n.dot6(&(u.e_dot + u.x_dot)),
+        a_d: n.dot6(&u.a_d),
+        f_ext,
+        f_d: u.f_d,
+        v_n,
+        free_m: n.along(&imp.m_d),
+        free_b: n.along(&imp.b_d),
+        free_k: n.along(&imp.k_free),
+        surface_n: law::surface_along(p),
+        pre: u.pre,
+    };
+    let finish = |next: &mut ControlState, out: &mut TaskOutputs, a: &law::AxisInputs| {
+        let (l, sched, r) = law::step(p, &s.law, &s.sched, a);
+        (next.law, next.sched) = (l, sched);
+        if let Some(x) = r.xdd {
+            n.set6(&mut out.v, x);
+        }
+        if let Some(v) = r.v_ref {
+            n.set6(&mut out.v_ref, v);
+        }
+        out.law = r.report;
+        out.gravity_factor = r.gravity_factor;
+        out.model_gain = r.model_gain;
+        out.friction = r.friction;
+    };
 
     // Force limit: stop pushing, leave contact, back off along −n for a while.
     if f_ext > p.force_limit.limit_n {
@@ -356,49 +435,54 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
         next.retract_hold = None;
         next.phase = Phase::Free;
     }
-    let bounded;
-    let imp = if p.force_law.mode == Mode::Scheduled {
-        // The scheduled law bounds every axis' damping-to-mass ratio by the loop delay.
-        let sp = &p.force_law.scheduled.schedule;
-        bounded = ImpedanceParams { m_d: scheduled::schedule::axis_masses(sp, &p.impedance.m_d, &p.impedance.b_d, p.force_law.lambda), ..p.impedance };
-        &bounded
-    } else {
-        &p.impedance
-    };
-    if next.retract_left > 0 {
-        next.retract_left -= 1;
+    let retracting = next.retract_left > 0 || next.retract_hold.is_some();
+    if retracting {
         next.phase = Phase::Free;
-        let mut v = eq6(imp, &imp.k_free, u);
-        // Velocity servo along n to −retract_speed, with the free-space damping.
-        let xdot_n = sign * u.x_dot[ax];
-        v[ax] = sign * imp.b_d[ax] * (-p.force_limit.retract_speed - xdot_n) / imp.m_d[ax];
-        if next.retract_left == 0 && p.force_limit.latch {
-            next.retract_hold = Some(u.e[ax]);
+        let mut v;
+        if next.retract_left > 0 {
+            next.retract_left -= 1;
+            v = eq6(imp, &imp.k_free, u);
+            // Velocity servo along n to −retract_speed, with the free-space damping.
+            let (m_n, b_n) = (n.along(&imp.m_d), n.along(&imp.b_d));
+            n.set6(&mut v, b_n * (-p.force_limit.retract_speed - n.dot6(&u.x_dot)) / m_n);
+            if next.retract_left == 0 && p.force_limit.latch {
+                next.retract_hold = Some(n.dot6(&u.e));
+            }
+            n.set6(&mut v_ref, -p.force_limit.retract_speed);
+        } else {
+            // Latched: free-space impedance on every axis, the force axis about the held offset.
+            let mut held = *u;
+            let e_hold = next.retract_hold.unwrap_or(0.0);
+            for i in 0..3 {
+                held.e[i] -= n.n[i] * e_hold;
+            }
+            v = eq6(imp, &imp.k_free, &held);
         }
-        let law = ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() };
-        v_ref[ax] = -sign * p.force_limit.retract_speed;
-        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true, v_ref });
-    }
-    if let Some(e_hold) = next.retract_hold {
-        // Latched: free-space impedance on every axis, the force axis about the held offset.
-        next.phase = Phase::Free;
-        let mut held = *u;
-        held.e[ax] -= e_hold;
-        let v = eq6(imp, &imp.k_free, &held);
-        let law = ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() };
-        return (next, TaskOutputs { v, f_ext, k_d: imp.k_free[ax], law, retracting: true, v_ref });
+        let a = along(u, law::Regime::Retracting, false, n.dot6(&v));
+        let mut out = TaskOutputs {
+            v,
+            f_ext,
+            k_d: n.along(&imp.k_free),
+            law: Default::default(),
+            retracting: true,
+            v_ref,
+            gravity_factor: 0.0,
+            model_gain: 1.0,
+            friction: None,
+        };
+        finish(&mut next, &mut out, &a);
+        return (next, out);
     }
 
     // Phase transitions (a hold ends in free space: contact is re-detected).
-    let enter_n = if p.force_law.mode == Mode::Scheduled { p.contact.scheduled_enter_n } else { p.contact.enter_n };
+    let mut entered = false;
     match s.phase {
         Phase::Free | Phase::Hold => {
             next.phase = Phase::Free;
-            if f_ext > enter_n {
+            if f_ext > law::contact_threshold(p) {
                 next.phase = Phase::Contact;
                 next.below_exit = 0;
-                next.law = s.law.rearm(f_ext - u.f_d);
-                next.sched = s.sched.rearm(&p.force_law.scheduled, sign * u.p[ax], f_ext);
+                entered = true;
             }
         }
         Phase::Contact => {
@@ -410,83 +494,28 @@ fn step_phases(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlS
     }
 
     let contact = next.phase == Phase::Contact;
-    let k = if contact { &imp.k_contact } else { &imp.k_free };
-    let v = eq6(imp, k, u);
+    let v = if contact {
+        // k_d = 0 along n (§3.1): the tangential impedance acts on the tangential errors;
+        // the component along n is the law's.
+        let t = TaskInputs { e: n.tangential6(&u.e), e_dot: n.tangential6(&u.e_dot), f_e: n.tangential6(&u.f_e), ..*u };
+        eq6(imp, &imp.k_contact, &t)
+    } else {
+        eq6(imp, &imp.k_free, u)
+    };
+    let regime = if contact { law::Regime::Contact } else { law::Regime::Free };
+    let a = along(u, regime, entered, n.dot6(&v));
     let mut out = TaskOutputs {
         v,
         f_ext,
-        k_d: k[ax],
-        law: ForceLawOutputs { e_f: f_ext - u.f_d, ..Default::default() },
+        k_d: if contact { 0.0 } else { n.along(&imp.k_free) },
+        law: Default::default(),
         retracting: false,
         v_ref,
+        gravity_factor: 0.0,
+        model_gain: 1.0,
+        friction: None,
     };
-    let scheduled = p.force_law.mode == Mode::Scheduled;
-    if contact && scheduled {
-        let fl = &p.force_law;
-        let inputs =
-            ScheduledInputs { x: sign * u.p[ax], x_dot: sign * u.x_dot[ax], e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d, xdd_d: sign * u.a_d[ax] };
-        let (sched, r) = scheduled::step(&fl.scheduled, fl.lambda, fl.integral_limit_n, &next.sched, &inputs);
-        next.sched = sched;
-        let g = &sched.gains;
-        // The shared law state reports the scheduled weights (Status, /naic/params).
-        next.law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: sched.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
-        // Divided by the model's gain along n: the arm realises what the law asks.
-        out.v[ax] = (u.a_d[ax] - sign * r.e_ddot) / s.sched.gain.used(&fl.scheduled.model_gain);
-        // The friction feedforward's velocity along n: the observer's v̄ where it runs, the
-        // reference's where v̄ would be the raw encoder velocity (ScheduledOutputs::v_bar).
-        if let Some(v) = r.v_bar {
-            out.v_ref[ax] = sign * v;
-        }
-        out.k_d = 0.0;
-        out.law = ForceLawOutputs {
-            e_ddot: r.e_ddot,
-            e_f: r.e_f,
-            gamma: r.gamma,
-            gamma_bound: r.gamma_bound,
-            gamma_clipped: r.gamma_clipped,
-            weights_projected: r.weights_projected,
-            k_e_hat: r.estimate.k_e,
-            k_e_confidence: r.estimate.confidence,
-        };
-    } else if contact {
-        let inputs = ForceLawInputs { e_dot: sign * u.e_dot[ax], f_ext, f_d: u.f_d };
-        let (law, report) = force_law::step(&p.force_law, &next.law, &inputs);
-        next.law = law;
-        out.v[ax] = u.a_d[ax] - sign * report.e_ddot;
-        out.k_d = 0.0;
-        out.law = report;
-    } else if scheduled {
-        // Free space: a PI velocity servo along n toward the reference (robust to a model
-        // error), slower near an expected surface (`scheduled::approach_accel`).
-        let a = &p.force_law.scheduled.approach;
-        let free = scheduled::ApproachAxis {
-            m: imp.m_d[ax],
-            b: imp.b_d[ax],
-            k: imp.k_free[ax],
-            e: sign * u.e[ax],
-            v_d: sign * (u.e_dot[ax] + u.x_dot[ax]),
-            a_d: sign * u.a_d[ax],
-        };
-        let surface_n = a.expected_surface.map_or(f64::NAN, |z| sign * z);
-        let (a_n, e) = scheduled::approach_accel(
-            a,
-            surface_n,
-            sign * u.p[ax],
-            sign * u.x_dot[ax],
-            free,
-            sign * out.v[ax],
-            next.sched.approach_integral,
-            p.force_law.lambda,
-        );
-        next.sched.approach_integral = e;
-        out.v[ax] = sign * a_n;
-        out.v_ref[ax] = sign * scheduled::approach_target(a, surface_n, sign * u.p[ax], &free);
-    }
-    if scheduled {
-        let e = estimator_report(&p.force_law.scheduled, &next.sched);
-        out.law.k_e_hat = e.0;
-        out.law.k_e_confidence = e.1;
-    }
+    finish(&mut next, &mut out, &a);
     (next, out)
 }
 
@@ -503,7 +532,7 @@ mod tests {
                 k_free: [500.0, 500.0, 50.0, 1000.0, 1000.0, 1000.0],
                 k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
             },
-            force_axis: ForceAxis { axis: 2, sign: -1.0 },
+            force_axis: ForceAxis::base(2, -1.0),
             force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY, scheduled: Default::default() },
             contact: ContactDetect { enter_n: 1.0, scheduled_enter_n: SCHEDULED_CONTACT_ENTER_N, exit_n: 0.2, exit_cycles: 0 },
             force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
@@ -527,7 +556,7 @@ mod tests {
             let pen = (-x[2]).max(0.0);
             let mut f_e = Vector6::zeros();
             f_e[2] = -k_e * pen; // the robot pushes down: F_e,z < 0, f_ext = −F_e,z > 0
-            let u = TaskInputs { p: x.fixed_rows::<3>(0).into(), e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d: 10.0 };
+            let u = TaskInputs { p: x.fixed_rows::<3>(0).into(), e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d: 10.0, pre: Default::default() };
             let (n, o) = step(&p, &s, &u);
             s = n;
             v += o.v * dt;
@@ -547,6 +576,67 @@ mod tests {
         }
     }
 
+    /// The force axis as any unit vector: a point mass pushing on a spring surface whose
+    /// normal is a tilted `n`; every law brings the force along n to f_d and the tangential
+    /// position to the reference (k_d acts on the tangential error only).
+    #[test]
+    fn every_law_tracks_the_force_along_a_tilted_axis() {
+        for mode in Mode::ALL {
+            let mut p = params(mode);
+            // An isotropic translational impedance, so that the tangential axes are alike.
+            p.impedance.m_d[..3].copy_from_slice(&[1.0; 3]);
+            p.impedance.b_d[..3].copy_from_slice(&[40.0; 3]);
+            p.impedance.k_free[..3].copy_from_slice(&[50.0; 3]);
+            p.impedance.k_contact[..3].copy_from_slice(&[100.0; 3]);
+            p.force_axis = ForceAxis::new(Vector3::new(0.6, 0.0, -0.8)).unwrap();
+            p.validate().unwrap();
+            let n = p.force_axis.n;
+            let (k_e, dt) = (2000.0, 1e-3);
+            let mut s = ControlState::new(&p);
+            let t = Vector3::new(0.8, 0.0, 0.6); // tangential, ⟂ n
+            let mut x = -0.02 * n + 0.01 * t;
+            let mut v = Vector3::zeros();
+            let x_d = 0.03 * n; // below the surface n·x = 0, tangential offset 0
+            let mut f = 0.0;
+            for _ in 0..4000 {
+                let pen = n.dot(&x).max(0.0);
+                let mut f_e = Vector6::zeros();
+                f_e.fixed_rows_mut::<3>(0).copy_from(&(k_e * pen * n));
+                let mut e = Vector6::zeros();
+                e.fixed_rows_mut::<3>(0).copy_from(&(x_d - x));
+                let mut xd = Vector6::zeros();
+                xd.fixed_rows_mut::<3>(0).copy_from(&v);
+                let u = TaskInputs { p: x, e, e_dot: -xd, x_dot: xd, a_d: Vector6::zeros(), f_e, f_d: 10.0, pre: Default::default() };
+                let (next, o) = step(&p, &s, &u);
+                s = next;
+                v += o.v.fixed_rows::<3>(0).into_owned() * dt;
+                x += v * dt;
+                f = o.f_ext;
+            }
+            assert_eq!(s.phase, Phase::Contact, "{mode:?}");
+            assert!((f - 10.0).abs() < 0.05, "{mode:?}: force along n {f}");
+            assert!(t.dot(&x).abs() < 1e-3, "{mode:?}: tangential offset {} m", t.dot(&x));
+        }
+    }
+
+    /// Along an axis-aligned n the projections are the axis' entries exactly.
+    #[test]
+    fn an_axis_aligned_force_axis_projects_exactly() {
+        let n = ForceAxis::base(2, -1.0);
+        assert_eq!(n.aligned(), Some(2));
+        assert_eq!(n.dominant(), 2);
+        let v = Vector6::new(0.3, -1.7, 2.9, 4.0, 5.0, 6.0);
+        assert_eq!(n.dot6(&v), -2.9);
+        let mut w = v;
+        n.set6(&mut w, 1.25);
+        assert_eq!(w, Vector6::new(0.3, -1.7, -1.25, 4.0, 5.0, 6.0));
+        assert_eq!(n.along(&[1.0, 2.0, 3.5, 4.0, 5.0, 6.0]), 3.5);
+        assert_eq!(ForceAxis::new(Vector3::new(0.0, 0.0, -1.0)).unwrap(), n);
+        let tilted = ForceAxis::new(Vector3::new(3.0, 0.0, -4.0)).unwrap();
+        assert_eq!(tilted.aligned(), None);
+        assert!((tilted.n.norm() - 1.0).abs() < 1e-15);
+    }
+
     #[test]
     fn free_space_axes_follow_the_target_impedance_relation() {
         // No contact, no force: m ë + b ė + k e = 0 on every axis (eq 7 with F_e = 0).
@@ -560,6 +650,7 @@ mod tests {
             a_d: Vector6::zeros(),
             f_e: Vector6::zeros(),
             f_d: 10.0,
+            pre: Default::default(),
         };
         let (_, o) = step(&p, &s, &u);
         let imp = &p.impedance;
@@ -583,6 +674,7 @@ mod tests {
             a_d: Vector6::zeros(),
             f_e: Vector6::new(0.0, 0.0, -5.0, 0.0, 0.0, 0.0),
             f_d: 10.0,
+            pre: Default::default(),
         };
         s = step(&p, &s, &u).0;
         assert_eq!(s.phase, Phase::Contact);
@@ -606,6 +698,7 @@ mod tests {
             a_d: Vector6::zeros(),
             f_e: Vector6::new(0.0, 0.0, -20.0, 0.0, 0.0, 0.0),
             f_d: 10.0,
+            pre: Default::default(),
         };
         s = step(&p, &s, &u).0;
         assert_eq!(s.phase, Phase::Contact);
@@ -644,7 +737,7 @@ mod tests {
         let mut step_rig = |s: &ControlState, f_d: f64| {
             let mut f_e = Vector6::zeros();
             f_e[2] = -k_e * (-x[2]).max(0.0);
-            let u = TaskInputs { p: x.fixed_rows::<3>(0).into(), e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d };
+            let u = TaskInputs { p: x.fixed_rows::<3>(0).into(), e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d, pre: Default::default() };
             let (n, o) = step(&p, s, &u);
             v += o.v * dt;
             x += v * dt;
@@ -703,6 +796,7 @@ mod tests {
             a_d: Vector6::zeros(),
             f_e: Vector6::new(0.0, 0.0, -f, 0.0, 0.0, 0.0),
             f_d: 10.0,
+            pre: Default::default(),
         };
         for mode in Mode::ALL {
             let p = params(mode);
@@ -731,6 +825,7 @@ mod tests {
             a_d: Vector6::zeros(),
             f_e: Vector6::new(0.0, 0.0, -2.0, 0.0, 0.0, 0.0),
             f_d: 2.0,
+            pre: Default::default(),
         };
         for (k, observed) in [(1000.0, false), (50_000.0, true)] {
             let mut s = ControlState::new(&p);
@@ -762,8 +857,12 @@ mod tests {
         p.impedance.m_d[3] = 0.0;
         assert!(p.validate().unwrap_err().to_string().contains("m_d[3]"));
         let mut p = params(Mode::Naic);
-        p.force_axis.axis = 4;
+        p.force_axis.n = Vector3::new(0.0, 0.0, -2.0);
         assert!(p.validate().unwrap_err().to_string().contains("force_axis"));
+        for bad in [Vector3::zeros(), Vector3::new(f64::NAN, 0.0, 1.0), Vector3::new(f64::INFINITY, 0.0, 0.0)] {
+            let e = ForceAxis::new(bad).unwrap_err().to_string();
+            assert!(e.contains("force_axis") && e.contains("non-zero"), "{bad:?}: {e}");
+        }
         for bad in [0.0, -1.0, 0.1, f64::NAN, f64::INFINITY, 60.0] {
             let mut p = params(Mode::Scheduled);
             p.contact.scheduled_enter_n = bad;

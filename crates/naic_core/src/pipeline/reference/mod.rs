@@ -115,9 +115,7 @@ impl ReferenceParams {
     }
 
     fn n(&self) -> Vector3<f64> {
-        let mut n = Vector3::zeros();
-        n[self.force_axis.axis.min(2)] = self.force_axis.sign;
-        n
+        self.force_axis.n
     }
 }
 

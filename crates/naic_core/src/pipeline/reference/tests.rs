@@ -5,7 +5,7 @@ const DT: f64 = 1e-3;
 const ID: [f64; 4] = [0.0, 0.0, 0.0, 1.0];
 
 fn params() -> ReferenceParams {
-    ReferenceParams::new("base_link", ForceAxis { axis: 2, sign: -1.0 }, 10.0)
+    ReferenceParams::new("base_link", ForceAxis::base(2, -1.0), 10.0)
 }
 
 fn start() -> ReferenceState {

@@ -14,7 +14,7 @@
 //!               ─▶ output ë − (f̂ − f_ext)/D (the contact feedforward of eq 6 corrected to f̂)
 //! ```
 //!
-//! Outside this file, in scheduled mode the control stage also bounds every other axis'
+//! Outside this file, through `super::law` (the one dispatch point), the control stage also bounds every other axis
 //! `b/m` by the loop delay ([`schedule::axis_masses`]) and, out of contact, runs the force
 //! axis as a PI velocity servo toward the reference, slower near an expected surface
 //! ([`approach_accel`]); its integral primes the observer's `w̄`, which is fed forward in

@@ -1,0 +1,324 @@
+//! One interface for the force laws along the force axis `n`, one dispatch point.
+//!
+//! A force law is its parameters ([`super::force_law::ForceLawParams`], with the scheduled
+//! law's [`ScheduledParams`] inside), its state (the fields `law` and `sched` of
+//! [`super::ControlState`], written only by [`step`], [`rearm`](step) at a new contact and
+//! the constructors [`new_sched`] / [`after_hold`]) and one pure step on scalars along `n`
+//! ([`step`]). What the generic stages need from a law is an output of that step, not a
+//! branch on the mode in `controller.rs` or `super`:
+//!
+//! - the commanded acceleration along `n` ([`AxisOutputs::xdd`]; `None`: the generic
+//!   stage's own, eq 6 in free space or the retraction),
+//! - the reference velocity along `n` the friction feedforward is to be evaluated at, and
+//!   how ([`AxisOutputs::v_ref`], [`AxisOutputs::friction`]),
+//! - a factor on the model's gravity torque ([`AxisOutputs::gravity_factor`]),
+//! - the gain the law divides its commands by ([`AxisOutputs::model_gain`]).
+//!
+//! Before the step, a law may shape the reference ([`shape`], pure: it returns the shaped
+//! reference and the shaper state, which [`step`] stores) and bound the impedance of every
+//! axis ([`impedance`], a function of the parameters); it names its contact threshold
+//! ([`contact_threshold`]) and whether it needs the model's free fall along `n`
+//! ([`needs_free_fall`]). Every `match` on [`Mode`] of the control stage is in this file.
+
+use nalgebra::Vector3;
+
+use super::force_law::{self, ForceLawInputs, ForceLawOutputs, ForceLawState, Mode};
+use super::scheduled::{self, ScheduledInputs, ScheduledParams, ScheduledState, Shaper};
+use super::{ControlParams, ForceAxis, ImpedanceParams, Phase};
+use crate::pipeline::feedforward::{FastVelocity, ReferenceBlend};
+
+/// What the generic stage does along `n` this cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Regime {
+    /// Free space (no force target).
+    #[default]
+    Free,
+    /// In contact: the law commands the acceleration along `n`.
+    Contact,
+    /// A force-limit retraction, in progress or latched: the generic stage commands `n`.
+    Retracting,
+}
+
+/// What the controller computes for the law before the control stage (see [`shape`],
+/// [`needs_free_fall`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prepared {
+    /// The shaper state [`shape`] returned (`None`: the law shapes nothing).
+    pub shaper: Option<Shaper>,
+    /// The model's free-fall acceleration along `n` at this pose [m/s²] (NaN: not computed).
+    pub a_free: f64,
+}
+
+impl Default for Prepared {
+    fn default() -> Self {
+        Self { shaper: None, a_free: f64::NAN }
+    }
+}
+
+/// The inputs of one cycle along `n` (into the surface positive).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisInputs {
+    pub regime: Regime,
+    /// The phase of the previous cycle.
+    pub prev_phase: Phase,
+    /// Contact started this cycle.
+    pub entered: bool,
+    /// Tip position `x` [m], `ẋ` [m/s], error `e = x_d − x` [m], `ė` [m/s], reference
+    /// velocity `ẋ_d` [m/s] and acceleration `ẍ_d` [m/s²], all along `n`.
+    pub x: f64,
+    pub x_dot: f64,
+    pub e: f64,
+    pub e_dot: f64,
+    pub v_d: f64,
+    pub a_d: f64,
+    /// Measured force along `n` [N] (pushing positive) and its target.
+    pub f_ext: f64,
+    pub f_d: f64,
+    /// The generic stage's commanded acceleration along `n` this cycle [m/s²] (eq 6, or the
+    /// retraction's).
+    pub v_n: f64,
+    /// The free-space impedance along `n` (`m`, `b`, `k`) after [`impedance`].
+    pub free_m: f64,
+    pub free_b: f64,
+    pub free_k: f64,
+    /// The expected surface along `n` [m] (NaN: none).
+    pub surface_n: f64,
+    pub pre: Prepared,
+}
+
+/// How the friction feedforward's joint velocity is formed from the reference twist
+/// ([`crate::pipeline::feedforward::blend`], [`crate::pipeline::feedforward::blend_fast`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrictionVelocity {
+    pub blend: ReferenceBlend,
+    /// The unfiltered velocity in a joint's Stribeck drop: the parameters, the contact gate
+    /// and the stiffness it uses.
+    pub fast: Option<(FastVelocity, f64, f64)>,
+}
+
+/// The outputs of one cycle along `n`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisOutputs {
+    /// The acceleration to command along `n` [m/s²]; `None`: the generic stage's.
+    pub xdd: Option<f64>,
+    /// The velocity along `n` the friction feedforward is evaluated at [m/s]; `None`: the
+    /// reference's.
+    pub v_ref: Option<f64>,
+    pub report: ForceLawOutputs,
+    /// Factor `c` on the model's gravity torque added to τ (`τ += c G(q)`; 0: none).
+    pub gravity_factor: f64,
+    /// The model's gain along `n` the law's commands are divided by (1: none).
+    pub model_gain: f64,
+    /// The friction feedforward's velocity; `None`: the measured one.
+    pub friction: Option<FrictionVelocity>,
+}
+
+/// Checks the law's own parameters (the paper laws' are checked by the control stage).
+pub fn validate(p: &ControlParams) -> Result<(), crate::pipeline::ConfigError> {
+    match p.force_law.mode {
+        Mode::Scheduled => p.force_law.scheduled.validate(),
+        Mode::Naic | Mode::Aic | Mode::Fixed => Ok(()),
+    }
+}
+
+/// The law's contact threshold [N].
+pub fn contact_threshold(p: &ControlParams) -> f64 {
+    match p.force_law.mode {
+        Mode::Scheduled => p.contact.scheduled_enter_n,
+        Mode::Naic | Mode::Aic | Mode::Fixed => p.contact.enter_n,
+    }
+}
+
+/// The impedance every axis runs with (a law may bound it; the paper laws use it as set).
+pub fn impedance(p: &ControlParams) -> ImpedanceParams {
+    match p.force_law.mode {
+        // The scheduled law bounds every axis' damping-to-mass ratio by the loop delay.
+        Mode::Scheduled => {
+            let sp = &p.force_law.scheduled.schedule;
+            ImpedanceParams { m_d: scheduled::schedule::axis_masses(sp, &p.impedance.m_d, &p.impedance.b_d, p.force_law.lambda), ..p.impedance }
+        }
+        Mode::Naic | Mode::Aic | Mode::Fixed => p.impedance,
+    }
+}
+
+/// Whether the law needs [`Prepared::a_free`] (a forward dynamics per cycle).
+pub fn needs_free_fall(p: &ControlParams) -> bool {
+    p.force_law.mode == Mode::Scheduled
+}
+
+/// The expected surface along `n` the law approaches (NaN: none).
+pub fn surface_along(p: &ControlParams) -> f64 {
+    match p.force_law.mode {
+        Mode::Scheduled => p.force_law.scheduled.approach.expected_surface.map_or(f64::NAN, |z| p.force_axis.surface(z)),
+        Mode::Naic | Mode::Aic | Mode::Fixed => f64::NAN,
+    }
+}
+
+/// The tangential reference `(p_d, v_d, a_d)` as the law wants it this cycle, and the shaper
+/// state for [`Prepared::shaper`]. Pure. The paper laws pass it unchanged.
+pub fn shape(
+    p: &ControlParams,
+    sched: &ScheduledState,
+    phase: Phase,
+    p_d: &Vector3<f64>,
+    v_d: &Vector3<f64>,
+    a_d: &Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>, Option<Shaper>) {
+    let fl = &p.force_law;
+    if fl.mode != Mode::Scheduled || fl.scheduled.reference_shaping <= 0.0 {
+        return (*p_d, *v_d, *a_d, sched.shaper);
+    }
+    let on = Shaper::on(v_d);
+    if phase != Phase::Contact {
+        return (*p_d, *v_d, *a_d, Some(on));
+    }
+    let prev = sched.shaper.unwrap_or(on);
+    let n = &p.force_axis;
+    match n.aligned() {
+        Some(ax) => {
+            let (ps, vs, as_, sh) = scheduled::shape_reference(fl.scheduled.reference_shaping, fl.lambda, ax, &prev, p_d, v_d, a_d);
+            (ps, vs, as_, Some(sh))
+        }
+        None => {
+            // Shape every base axis, then put back the reference's component along n.
+            let (ps, vs, as_, sh) = scheduled::shape_reference(fl.scheduled.reference_shaping, fl.lambda, usize::MAX, &prev, p_d, v_d, a_d);
+            (n.with_along(&ps, n.dot(p_d)), n.with_along(&vs, n.dot(v_d)), n.with_along(&as_, n.dot(a_d)), Some(sh))
+        }
+    }
+}
+
+/// The scheduled law's state at start.
+pub fn new_sched(p: &ControlParams) -> ScheduledState {
+    ScheduledState::new(&p.force_law.scheduled, p.force_law.lambda)
+}
+
+/// The scheduled law's state after a safe hold: fresh, but the oracle's known stiffness and
+/// the shaper are kept.
+pub fn after_hold(p: &ControlParams, s: &ScheduledState) -> ScheduledState {
+    ScheduledState { k_known: s.k_known, shaper: s.shaper, ..new_sched(p) }
+}
+
+/// The gain along `n` the law divides its commands by, in state `s` (the paper laws never
+/// learn it: its initial value, 1).
+pub fn model_gain(p: &ControlParams, s: &ScheduledState) -> f64 {
+    s.gain.used(&p.force_law.scheduled.model_gain)
+}
+
+/// `(k̂_e, confidence)` of the scheduled law's estimator (the oracle's known k_e if set).
+fn estimator_report(p: &ScheduledParams, s: &ScheduledState) -> (f64, f64) {
+    if let Some(k) = s.k_known {
+        return (k, 1.0);
+    }
+    let e = scheduled::estimator::estimate(&p.estimator, &s.est);
+    (e.k_e, e.confidence)
+}
+
+/// One cycle of the force law along `n`: the one dispatch point. Pure: the law's states
+/// `(law, sched)` in, the next ones and the outputs out.
+pub fn step(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, u: &AxisInputs) -> (ForceLawState, ScheduledState, AxisOutputs) {
+    let fl = &p.force_law;
+    let (mut next_law, mut next_sched) = (*law, *sched);
+    if u.entered {
+        next_law = law.rearm(u.f_ext - u.f_d);
+        next_sched = sched.rearm(&fl.scheduled, u.x, u.f_ext);
+    }
+    let mut out = AxisOutputs {
+        xdd: None,
+        v_ref: None,
+        report: ForceLawOutputs { e_f: u.f_ext - u.f_d, ..Default::default() },
+        gravity_factor: 0.0,
+        model_gain: 1.0,
+        friction: None,
+    };
+    if fl.mode != Mode::Scheduled {
+        if u.regime == Regime::Contact {
+            let (l, report) = force_law::step(fl, &next_law, &ForceLawInputs { e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d });
+            next_law = l;
+            out.xdd = Some(u.a_d - report.e_ddot);
+            out.report = report;
+        }
+        return (next_law, next_sched, out);
+    }
+
+    // The scheduled law.
+    let sp = &fl.scheduled;
+    // The ĝ this cycle's commands are made with (in realised units for the predictor).
+    let g_used = sched.gain.used(&sp.model_gain);
+    match u.regime {
+        Regime::Contact => {
+            let inputs = ScheduledInputs { x: u.x, x_dot: u.x_dot, e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, xdd_d: u.a_d };
+            let (s, r) = scheduled::step(sp, fl.lambda, fl.integral_limit_n, &next_sched, &inputs);
+            next_sched = s;
+            let g = &s.gains;
+            // The shared law state reports the scheduled weights (Status, /naic/params).
+            next_law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: s.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
+            // Divided by the model's gain along n: the arm realises what the law asks.
+            out.xdd = Some((u.a_d - r.e_ddot) / sched.gain.used(&sp.model_gain));
+            // The friction feedforward's velocity along n: the observer's v̄ where it runs,
+            // the reference's where v̄ would be the raw encoder velocity.
+            out.v_ref = r.v_bar;
+            out.report = ForceLawOutputs {
+                e_ddot: r.e_ddot,
+                e_f: r.e_f,
+                gamma: r.gamma,
+                gamma_bound: r.gamma_bound,
+                gamma_clipped: r.gamma_clipped,
+                weights_projected: r.weights_projected,
+                k_e_hat: r.estimate.k_e,
+                k_e_confidence: r.estimate.confidence,
+            };
+        }
+        Regime::Free => {
+            // A PI velocity servo along n toward the reference (robust to a model error),
+            // slower near an expected surface (`scheduled::approach_accel`).
+            let free = scheduled::ApproachAxis { m: u.free_m, b: u.free_b, k: u.free_k, e: u.e, v_d: u.v_d, a_d: u.a_d };
+            let (a_n, e) = scheduled::approach_accel(&sp.approach, u.surface_n, u.x, u.x_dot, free, u.v_n, next_sched.approach_integral, fl.lambda);
+            next_sched.approach_integral = e;
+            out.xdd = Some(a_n);
+            out.v_ref = Some(scheduled::approach_target(&sp.approach, u.surface_n, u.x, &free));
+        }
+        Regime::Retracting => {}
+    }
+    if u.regime != Regime::Retracting {
+        let e = estimator_report(sp, &next_sched);
+        out.report.k_e_hat = e.0;
+        out.report.k_e_confidence = e.1;
+    }
+    let v_n = out.xdd.unwrap_or(u.v_n);
+    if u.regime != Regime::Contact {
+        // The predictor remembers every command along n; in contact the law pushes its own.
+        next_sched = next_sched.commanded(g_used * v_n);
+    }
+    // The model's gain along n: learnt in free space only (no contact force).
+    let phase_free = u.regime == Regime::Free;
+    let learn = u.prev_phase == Phase::Free && phase_free && u.f_ext < p.contact.scheduled_enter_n;
+    next_sched.gain = next_sched.gain.cycle(&sp.model_gain, fl.lambda, u.x_dot, learn, v_n);
+    // The gravity correction by the learnt model gain (scheduled::gain::GravityCorrection),
+    // its static reading once, in free space, from the model's free fall along n.
+    if u.regime != Regime::Contact && next_sched.gain.wants_heavy(&sp.model_gain, fl.lambda) {
+        next_sched.gain = next_sched.gain.with_heavy(next_sched.approach_integral, u.pre.a_free);
+    }
+    out.gravity_factor = next_sched.gain.gravity_factor(&sp.model_gain, fl.lambda);
+    out.model_gain = next_sched.gain.used(&sp.model_gain);
+    if let Some(shaper) = u.pre.shaper {
+        next_sched.shaper = Some(shaper);
+    }
+    if let Some(b) = sp.friction_reference {
+        let fast = sp.friction_fast.map(|f| {
+            let age = next_sched.contact_cycles as f64 * fl.lambda;
+            let gate = f.contact_gate(u.regime == Regime::Contact, age);
+            (f, gate, next_sched.k_known.unwrap_or(out.report.k_e_hat))
+        });
+        out.friction = Some(FrictionVelocity { blend: b, fast });
+    }
+    (next_law, next_sched, out)
+}
+
+/// The expected surface's coordinate `z` on `n`'s dominant base axis, as a position along
+/// `n` (exact for an axis-aligned `n`: `sign · z`).
+impl ForceAxis {
+    pub fn surface(&self, z: f64) -> f64 {
+        let ax = self.dominant();
+        self.n[ax].signum() * z
+    }
+}
