@@ -79,6 +79,9 @@ pub struct ExplainArgs {
     /// Comma-separated effects to hide in --generate data (empty: noise only).
     #[arg(long, default_value = "")]
     hide: String,
+    /// Sample rate of --generate data [Hz] (100–2000 tested).
+    #[arg(long, default_value_t = 1000.0)]
+    rate: f64,
     /// --generate contact data (pressing into a surface, with wrench columns fx..mz) even
     /// when no contact effect is hidden.
     #[arg(long)]
@@ -313,7 +316,10 @@ fn run_generate(a: &ExplainArgs, out: &PathBuf) -> CliResult {
             model.nv()
         )));
     }
-    let g = generate(&model, &GenSpec { contact: a.contact, tip: a.tip.clone(), ..GenSpec::new(a.seed, &effects) });
+    if !(a.rate.is_finite() && (10.0..=100_000.0).contains(&a.rate)) {
+        return Err(CliError::usage(format!("--rate {}: give the sample rate in Hz, 10–100000 (e.g. --rate 1000)", a.rate)));
+    }
+    let g = generate(&model, &GenSpec { contact: a.contact, tip: a.tip.clone(), dt: 1.0 / a.rate, ..GenSpec::new(a.seed, &effects) });
     std::fs::write(out, input::write_timeseries_csv(&g.ts)).map_err(|e| CliError::failure(format!("{}: {e}", out.display())))?;
     println!("wrote {} ({} samples, torque noise σ = {:.3} N·m)", out.display(), g.ts.len(), g.noise_tau);
     for inj in &g.injected {

@@ -1,6 +1,7 @@
-//! How sure a finding is: a block bootstrap of its held-out gain over time blocks, at a level
-//! corrected for every candidate tried on every joint (Bonferroni). Reported beside the
-//! significance rule; it does not decide what is significant.
+//! The significance test of a candidate: a block bootstrap of its held-out gain over time
+//! blocks, at a level corrected for every candidate tried on every joint (Bonferroni). A
+//! candidate is significant only when this interval lies above zero (with the effect-size and
+//! parsimony gates of [`super::significance`]); the same interval is the one reported.
 //!
 //! For one finding on one joint the out-of-fold residuals of the model before and after the
 //! effect was added are summed per held-out time block (consecutive samples of one fold:
@@ -9,19 +10,51 @@
 //! the gain 1 − Σ SSR_after / Σ SSR_before over them; the interval is the replicates'
 //! α/2 and 1 − α/2 quantiles with α = 0.05 / m, m = the candidates tried × the joints.
 
-use crate::analysis::{residuals, Eval, JointSamples, NominalShape};
+use super::{residuals, Eval, JointSamples, NominalShape};
+use crate::catalogue::{Effect, ALL_EFFECTS};
 use naic_core::rng::Rng;
 
 /// Family-wise error rate the intervals are built for (over all candidates × joints).
 pub const FAMILY_ALPHA: f64 = 0.05;
 /// Bootstrap replicates per interval.
-pub const REPLICATES: usize = 4000;
+pub const REPLICATES: usize = 20_000;
+
+/// The family of the test: every candidate the catalogue could try on every target (joint or
+/// sensor axis). `inertial_parameters` counts on every time-series joint: the all-joint stage
+/// tries it there whether or not it then becomes a per-joint candidate.
+pub fn comparisons(joints: &[JointSamples]) -> usize {
+    joints
+        .iter()
+        .map(|js| {
+            ALL_EFFECTS
+                .iter()
+                .filter(|e| js.applicable(**e) || (**e == Effect::InertialParameters && js.time_series && !js.contact))
+                .count()
+        })
+        .sum::<usize>()
+        .max(1)
+}
+
+/// The per-test level α/m of a family of `m` comparisons.
+pub fn test_alpha(m: usize) -> f64 {
+    FAMILY_ALPHA / m.max(1) as f64
+}
+
+/// The seed of one joint's and one effect's bootstrap (the same for the test and the report).
+pub fn seed(joint: usize, e: Effect) -> u64 {
+    (joint as u64) << 8 | e as u64
+}
 
 /// Per held-out time block: (SSR before, SSR after) of the out-of-fold residuals (validation
 /// samples left out).
 pub fn block_ssr(js: &JointSamples, before: &Eval, after: &Eval, sh: &NominalShape) -> Vec<(f64, f64)> {
     let (rb, _) = residuals(js, before, sh);
     let (ra, _) = residuals(js, after, sh);
+    blocks_of(js, &rb, &ra)
+}
+
+/// [`block_ssr`] of two residual vectors already computed.
+pub fn blocks_of(js: &JointSamples, rb: &[f64], ra: &[f64]) -> Vec<(f64, f64)> {
     let mut out: Vec<(f64, f64)> = Vec::new();
     let mut last: Option<u8> = None;
     for i in 0..js.len() {
