@@ -14,7 +14,7 @@ fn better(js: &JointSamples, ra: &[f64], rb: &[f64], ssr_a: f64, ssr_b: f64, alp
         return false;
     }
     let blocks = bootstrap::blocks_of(js, rb, ra);
-    bootstrap::gain_interval(&blocks, alpha, bootstrap::REPLICATES, seed).0 > 0.0
+    bootstrap::gain_interval(&blocks, 2.0 * alpha, bootstrap::REPLICATES, seed).0 > 0.0
 }
 
 /// Which significant candidate to add (index into `cands`), and the ones confounded with it.

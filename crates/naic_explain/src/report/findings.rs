@@ -183,7 +183,7 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
         .map(|c| c.comparisons)
         .max()
         .unwrap_or_else(|| super::bootstrap::comparisons(&ex.joints));
-    let alpha = super::bootstrap::test_alpha(comparisons);
+    let level = super::bootstrap::interval_level(comparisons);
     for e in ALL_EFFECTS {
         let nj = (if e.is_contact() { n_axes } else { n_joints }).max(1) as f64;
         let mut f = Finding {
@@ -278,9 +278,9 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 .map(|&(j, (lo, hi))| format!("{} [{lo:+.4}, {hi:+.4}]", if crate::contact::is_axis(j) { jkey(j) } else { format!("J{j}") }))
                 .collect();
             f.evidence = format!(
-                "{}. Held-out gain interval at {:.4} % (the test: block bootstrap over time blocks, Bonferroni over {} candidates × targets, family-wise 5 %): {}",
+                "{}. Held-out gain interval at {:.4} % (the test, its low end above zero: block bootstrap over time blocks, one-sided, Bonferroni over {} candidates × targets, family-wise 5 %): {}",
                 f.evidence.trim_end_matches('.'),
-                100.0 * (1.0 - alpha),
+                100.0 * level,
                 comparisons,
                 cis.join(", ")
             );
