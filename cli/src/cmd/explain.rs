@@ -51,6 +51,11 @@ pub struct ExplainArgs {
     /// q̈ changes by ≤ 10 % RMS when made √2 longer; the report's method table gives the numbers].
     #[arg(long, value_name = "S")]
     window: Option<f64>,
+    /// Family-wise error rate of the significance test: the chance, on data where no candidate
+    /// helps, that any candidate on any joint is found (block bootstrap, Bonferroni over
+    /// candidates × joints).
+    #[arg(long, default_value_t = 0.05)]
+    alpha: f64,
     /// Write the URDF with the link inertials corrected by an `inertial_parameters` finding
     /// here (only when found and the corrected links are physically consistent; the report
     /// says why otherwise).
@@ -169,6 +174,10 @@ pub fn run(a: ExplainArgs) -> CliResult {
         Some(w) => opts.prepare.window_s = w,
         None => opts.auto_window = true,
     }
+    if !(a.alpha > 0.0 && a.alpha < 1.0) {
+        return Err(CliError::usage(format!("--alpha {}: give the family-wise error rate, between 0 and 1 (default 0.05)", a.alpha)));
+    }
+    opts.analysis.family_alpha = a.alpha;
     if let Some(e) = &a.effects {
         match e.trim().strip_prefix('+') {
             Some(extra) => {

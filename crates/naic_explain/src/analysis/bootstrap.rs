@@ -17,13 +17,18 @@ use super::{residuals, Eval, JointSamples, NominalShape};
 use crate::catalogue::{Effect, ALL_EFFECTS};
 use naic_core::rng::Rng;
 
-/// Family-wise error rate the intervals are built for (over all candidates × joints).
+/// Family-wise error rate the test is built for (over all candidates × joints), the default of
+/// `AnalysisOptions::family_alpha` (`naic explain --alpha`).
 pub const FAMILY_ALPHA: f64 = 0.05;
 /// Length of a bootstrap block in filter windows. The filtered torque noise is correlated over
 /// one filter window only (the smoother's kernel is one window long), so sums over blocks of
 /// four windows are nearly independent; the fold's 2 s time blocks (10 on 21 s of the Panda
 /// data) are too few for a percentile interval at a Bonferroni level of 1 − 0.05/84.
 pub const BLOCK_WINDOWS: f64 = 4.0;
+/// At most about this many blocks (longer blocks on long recordings: the cost of a replicate is
+/// one draw per block, and one hour of data at 4 windows per block gave thousands, which made
+/// the one-hour benchmark's catalogue stage ≈ 4× slower). Binds above ≈ 200 s at a 51 ms window.
+pub const MAX_BLOCKS: usize = 1000;
 /// Bootstrap replicates per interval.
 pub const REPLICATES: usize = 20_000;
 
@@ -44,14 +49,14 @@ pub fn comparisons(joints: &[JointSamples]) -> usize {
 }
 
 /// The per-test level α/m of a family of `m` comparisons (one-sided: the gain is > 0).
-pub fn test_alpha(m: usize) -> f64 {
-    FAMILY_ALPHA / m.max(1) as f64
+pub fn test_alpha(alpha: f64, m: usize) -> f64 {
+    alpha / m.max(1) as f64
 }
 
 /// The two-sided level of the interval whose low end is the one-sided bound of [`test_alpha`]:
 /// 1 − 2α/m.
-pub fn interval_level(m: usize) -> f64 {
-    1.0 - 2.0 * test_alpha(m)
+pub fn interval_level(alpha: f64, m: usize) -> f64 {
+    1.0 - 2.0 * test_alpha(alpha, m)
 }
 
 /// The seed of one joint's and one effect's bootstrap (the same for the test and the report).
@@ -70,8 +75,9 @@ pub fn block_ssr(js: &JointSamples, before: &Eval, after: &Eval, sh: &NominalSha
 /// [`block_ssr`] of two residual vectors already computed.
 pub fn blocks_of(js: &JointSamples, rb: &[f64], ra: &[f64]) -> Vec<(f64, f64)> {
     // a block never crosses a fold's time block and holds at most BLOCK_WINDOWS filter windows
-    // of consecutive analysis samples
-    let len = (BLOCK_WINDOWS * js.corr_len).ceil().max(1.0) as usize;
+    // of consecutive analysis samples (more on long recordings: MAX_BLOCKS)
+    let n_fit = (0..js.len()).filter(|&i| !js.is_validation(i)).count();
+    let len = ((BLOCK_WINDOWS * js.corr_len).ceil() as usize).max(n_fit.div_ceil(MAX_BLOCKS)).max(1);
     let mut out: Vec<(f64, f64)> = Vec::new();
     let mut last: Option<u8> = None;
     let mut count = 0usize;

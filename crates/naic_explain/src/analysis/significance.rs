@@ -22,11 +22,13 @@ pub struct AnalysisOptions {
     /// The family of the bootstrap test: candidates × targets ([`bootstrap::comparisons`]);
     /// 0 = the candidates applicable to the one joint scored.
     pub comparisons: usize,
+    /// The family-wise error rate α of the test (default [`bootstrap::FAMILY_ALPHA`]).
+    pub family_alpha: f64,
 }
 
 impl Default for AnalysisOptions {
     fn default() -> Self {
-        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: crate::catalogue::default_effects(), delay_fixed: None, comparisons: 0 }
+        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: crate::catalogue::default_effects(), delay_fixed: None, comparisons: 0, family_alpha: bootstrap::FAMILY_ALPHA }
     }
 }
 
@@ -54,6 +56,8 @@ pub struct Candidate {
     pub gain_interval: Option<(f64, f64)>,
     /// m of that level.
     pub comparisons: usize,
+    /// α of that level (family-wise).
+    pub family_alpha: f64,
     pub significant: bool,
     /// Other significant candidates the data cannot tell from this one when it was taken:
     /// neither is better than the other by the test ([`super::selection`]).
@@ -72,7 +76,7 @@ impl AnalysisOptions {
 
     /// The per-test level α/m for joint `js`.
     pub fn test_alpha(&self, js: &JointSamples) -> f64 {
-        bootstrap::test_alpha(self.family(js))
+        bootstrap::test_alpha(self.family_alpha, self.family(js))
     }
 }
 
@@ -135,6 +139,7 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
         pick_params: dp_pick,
         gain_interval,
         comparisons: o.family(js),
+        family_alpha: o.family_alpha,
         significant,
         confounded: Vec::new(),
     }

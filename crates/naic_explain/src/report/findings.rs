@@ -30,6 +30,8 @@ pub struct Finding {
     pub gain_ci: Vec<(usize, (f64, f64))>,
     /// Candidates × joints tried (the Bonferroni count of the intervals).
     pub comparisons: usize,
+    /// The family-wise error rate of the test.
+    pub family_alpha: f64,
     /// Per target: the other significant candidates the data could not tell from this one
     /// when it was taken (neither better than the other by the test).
     pub confounded: Vec<(usize, Vec<Effect>)>,
@@ -183,7 +185,14 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
         .map(|c| c.comparisons)
         .max()
         .unwrap_or_else(|| super::bootstrap::comparisons(&ex.joints));
-    let level = super::bootstrap::interval_level(comparisons);
+    let family_alpha = ex
+        .results
+        .iter()
+        .flat_map(|r| r.steps.iter().chain(&r.rejected))
+        .map(|c| c.family_alpha)
+        .next()
+        .unwrap_or(super::bootstrap::FAMILY_ALPHA);
+    let level = super::bootstrap::interval_level(family_alpha, comparisons);
     for e in ALL_EFFECTS {
         let nj = (if e.is_contact() { n_axes } else { n_joints }).max(1) as f64;
         let mut f = Finding {
@@ -199,6 +208,7 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             left: vec![],
             gain_ci: vec![],
             comparisons,
+            family_alpha,
             confounded: vec![],
             evidence: String::new(),
         };
@@ -278,10 +288,11 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 .map(|&(j, (lo, hi))| format!("{} [{lo:+.4}, {hi:+.4}]", if crate::contact::is_axis(j) { jkey(j) } else { format!("J{j}") }))
                 .collect();
             f.evidence = format!(
-                "{}. Held-out gain interval at {:.4} % (the test, its low end above zero: block bootstrap over time blocks, one-sided, Bonferroni over {} candidates × targets, family-wise 5 %): {}",
+                "{}. Held-out gain interval at {:.4} % (the test, its low end above zero: block bootstrap over time blocks, one-sided, Bonferroni over {} candidates × targets, family-wise {} %): {}",
                 f.evidence.trim_end_matches('.'),
                 100.0 * level,
                 comparisons,
+                100.0 * family_alpha,
                 cis.join(", ")
             );
         }

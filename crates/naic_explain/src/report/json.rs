@@ -43,9 +43,9 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
                 // the step's held-out gain per target, block-bootstrap interval at 1 − 2·0.05/comparisons:
                 // the significance test (significant when its low end, a one-sided bound, is above zero)
                 "gain_interval": f.gain_ci.iter().map(|&(j, (lo, hi))| (jkey(j), json!([lo, hi]))).collect::<Map<_, _>>(),
-                "interval_level": super::bootstrap::interval_level(f.comparisons),
+                "interval_level": super::bootstrap::interval_level(f.family_alpha, f.comparisons),
                 "comparisons": f.comparisons,
-                "family_wise_alpha": super::bootstrap::FAMILY_ALPHA,
+                "family_wise_alpha": f.family_alpha,
                 // per target: the significant candidates the data could not tell from this one
                 "confounded_with": f.confounded.iter().map(|(j, es)| (jkey(*j), json!(es.iter().map(|e| e.name()).collect::<Vec<_>>()))).collect::<Map<_, _>>(),
                 "evidence": f.evidence,
