@@ -137,6 +137,9 @@ def main(argv=None):
     p.add_argument("--jobs", type=int, default=2)
     p.add_argument("--log", default=None, help="append one JSON line per data set")
     a = p.parse_args(argv)
+    a.naic = str(pathlib.Path(a.naic).resolve())  # the runs start in the repository root
+    if not pathlib.Path(a.naic).is_file():
+        p.error(f"--naic {a.naic}: no such file; build it (cargo build --release -p naic) or give its path")
     effects = [None if e == "clean" else e for e in a.effects.split(",")]
     rates = [float(r) for r in a.rates.split(",")]
     seeds = _parse_seeds(a.seeds)
