@@ -7,6 +7,7 @@ import re
 import subprocess
 
 import numpy as np
+import pytest
 
 import panda_gaz2019 as P
 
@@ -47,7 +48,8 @@ def test_panda_default_window_is_chosen_from_the_data(naic_bin, root, shared, tm
     print("chosen", chosen, "extended", ext.round(3), "published", pub.round(3))
     beaten_fixed = set(np.flatnonzero(fixed <= pub_fixed))
     beaten = set(np.flatnonzero(ext <= pub))
-    assert len(beaten_fixed) >= 6 and beaten_fixed <= beaten, (ext, pub, fixed, pub_fixed)
+    # 5 of 7 since issue 38's bootstrap test (joints 1 and 6 keep the nominal; 6 with the fold rule)
+    assert len(beaten_fixed) >= 5 and beaten_fixed <= beaten, (ext, pub, fixed, pub_fixed)
 
 
 def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, root, shared, tmp_path):
@@ -74,12 +76,17 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
     sig = [f for f in rep["findings"] if f["significant"]]
     assert sig[0]["effect"] == "inertial_parameters" and "joint2" in sig[0]["targets"], [(f["effect"], f["targets"]) for f in sig]
     assert rep["inertial_parameters"]["significant"] and rep["inertial_parameters"]["folds_won"] == 10
-    assert np.all(ext < pub), (ext, pub)
+    # below the published model on joints 2-5 and 7; joints 1 and 6 are not (issue 38's
+    # bootstrap test at a family-wise 5 % does not pass the steps that got them there on 21 s of
+    # data: test_panda_extended_below_published_on_every_joint, a strict xfail)
+    keep = [1, 2, 3, 4, 6]
+    assert np.all(ext[keep] < pub[keep]), (ext, pub)
     # joint 2, the worst: close to the classical baseline (0.63 → 0.200 N·m, baseline 0.191:
     # 4.6 % above it; 5.3 % while inertial_parameters was fitted beside the first pass's rotor
     # inertias, 4.7 % before that). A regression guard, not the issue's goal (ext < pub above).
     assert ext[1] < 1.1 * base[1], (ext, base)
-    assert rep["explained"]["all_joints"] > 0.75
+    # 0.80 with the fold rule; 0.66 with the bootstrap test (joints 1 and 6 keep the nominal)
+    assert rep["explained"]["all_joints"] > 0.6
     # issue 38's wording: a finding below 5 % of every one of its joints' residual is "small",
     # with the share left; the others are not
     for f in sig:
@@ -89,14 +96,15 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
         assert f["small"] == small, (f["effect"], share, f["small"])
         assert ("(small:" in f["evidence"]) == small, f["evidence"]
     assert rep["verdict"] == "findings"
-    # issue 38's significance statement: every significant target has a block-bootstrap interval
-    # of its held-out gain at 1 − 0.05/comparisons; the rigid-body correction on joint 2 (the
-    # largest error) is far from zero at that level
+    # issue 38's significance test: every significant target has a block-bootstrap interval of
+    # its held-out gain at 1 − 2·0.05/comparisons whose low end (the one-sided 1 − 0.05/m
+    # bound) is above zero: that is what made it significant; the rigid-body correction on
+    # joint 2 (the largest error) is far from zero
     for f in sig:
         assert set(f["gain_interval"]) == set(f["targets"]), f
-        assert f["comparisons"] >= 7 * 11 and abs(f["interval_level"] - (1 - 0.05 / f["comparisons"])) < 1e-12
+        assert f["comparisons"] >= 7 * 11 and abs(f["interval_level"] - (1 - 2 * 0.05 / f["comparisons"])) < 1e-12
         for lo, hi in f["gain_interval"].values():
-            assert lo <= hi, f
+            assert 0 < lo <= hi, f
     lo2 = sig[0]["gain_interval"]["joint2"][0]
     assert lo2 > 0.5, sig[0]["gain_interval"]
 
@@ -121,3 +129,23 @@ def test_panda_identified_friction_within_the_published_curve_and_its_scatter(na
         assert np.all(rms_diff <= scatter), (name, rms_diff, scatter)
         assert np.any(max_diff > scatter), (name, max_diff, scatter)
 
+
+
+class GoalNotMet(AssertionError):
+    """A goal of the issue that the current method misses (numbers in the message)."""
+
+
+@pytest.mark.xfail(strict=True, raises=GoalNotMet, reason=(
+    "issue 38: with the block-bootstrap test at a family-wise 5 % (m = 84) the steps that took joints 1 and 6 "
+    "below the published model with the fold rule do not pass on 21 s of data: extended 0.281 / 0.111 N·m against "
+    "the published 0.272 / 0.091 (docs/explain.md, The significance test)"))
+def test_panda_extended_below_published_on_every_joint(naic_bin, root, shared, tmp_path):
+    """Issue 38's Panda goal: the extended model's held-out RMSE below the published model's on
+    every joint (and no joint worse than 0.182 / 0.200 / 0.183 / 0.159 / 0.062 / 0.032 / 0.032)."""
+    csv = tmp_path / "panda.csv"
+    P.write_csv(shared, csv)
+    ext = _extended(_explain(naic_bin, root, csv, tmp_path / "out", WINDOW))
+    pub = P.published_rmse(shared, root / "urdf/panda.urdf", WINDOW)[0]
+    before = np.array([0.182, 0.200, 0.183, 0.159, 0.062, 0.032, 0.032])
+    if not (np.all(ext < pub) and np.all(ext <= before + 0.0005)):
+        raise GoalNotMet(f"extended {ext.round(3)} vs published {pub.round(3)} and before {before}")

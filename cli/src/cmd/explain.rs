@@ -51,6 +51,11 @@ pub struct ExplainArgs {
     /// q̈ changes by ≤ 10 % RMS when made √2 longer; the report's method table gives the numbers].
     #[arg(long, value_name = "S")]
     window: Option<f64>,
+    /// Family-wise error rate of the significance test: the chance, on data where no candidate
+    /// helps, that any candidate on any joint is found (block bootstrap, Bonferroni over
+    /// candidates × joints).
+    #[arg(long, default_value_t = 0.05)]
+    alpha: f64,
     /// Write the URDF with the link inertials corrected by an `inertial_parameters` finding
     /// here (only when found and the corrected links are physically consistent; the report
     /// says why otherwise).
@@ -79,6 +84,9 @@ pub struct ExplainArgs {
     /// Comma-separated effects to hide in --generate data (empty: noise only).
     #[arg(long, default_value = "")]
     hide: String,
+    /// Sample rate of --generate data [Hz] (100–2000 tested).
+    #[arg(long, default_value_t = 1000.0)]
+    rate: f64,
     /// --generate contact data (pressing into a surface, with wrench columns fx..mz) even
     /// when no contact effect is hidden.
     #[arg(long)]
@@ -166,6 +174,10 @@ pub fn run(a: ExplainArgs) -> CliResult {
         Some(w) => opts.prepare.window_s = w,
         None => opts.auto_window = true,
     }
+    if !(a.alpha > 0.0 && a.alpha < 1.0) {
+        return Err(CliError::usage(format!("--alpha {}: give the family-wise error rate, between 0 and 1 (default 0.05)", a.alpha)));
+    }
+    opts.analysis.family_alpha = a.alpha;
     if let Some(e) = &a.effects {
         match e.trim().strip_prefix('+') {
             Some(extra) => {
@@ -313,7 +325,10 @@ fn run_generate(a: &ExplainArgs, out: &PathBuf) -> CliResult {
             model.nv()
         )));
     }
-    let g = generate(&model, &GenSpec { contact: a.contact, tip: a.tip.clone(), ..GenSpec::new(a.seed, &effects) });
+    if !(a.rate.is_finite() && (10.0..=100_000.0).contains(&a.rate)) {
+        return Err(CliError::usage(format!("--rate {}: give the sample rate in Hz, 10–100000 (e.g. --rate 1000)", a.rate)));
+    }
+    let g = generate(&model, &GenSpec { contact: a.contact, tip: a.tip.clone(), dt: 1.0 / a.rate, ..GenSpec::new(a.seed, &effects) });
     std::fs::write(out, input::write_timeseries_csv(&g.ts)).map_err(|e| CliError::failure(format!("{}: {e}", out.display())))?;
     println!("wrote {} ({} samples, torque noise σ = {:.3} N·m)", out.display(), g.ts.len(), g.noise_tau);
     for inj in &g.injected {

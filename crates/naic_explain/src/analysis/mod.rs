@@ -17,17 +17,21 @@
 //!
 //! # Significance rule (per joint)
 //! A candidate that adds Δp parameters to the current model is **significant** when all of:
-//! 1. held-out gain `g = 1 − SSR_ho(new)/SSR_ho(current) ≥ min_gain` (default 2 %);
-//! 2. it lowers the held-out SSR in at least `min_fold_wins` of the K folds (default 8 of 10);
-//! 3. BIC on the whole data improves: `n_eff·ln(SSR_new/SSR_cur) + Δp·ln(n_eff) < 0`, with
-//!    `n_eff` = samples / (filter window in analysis samples) for time series (filtered
-//!    samples are not independent), = points for friction points.
+//! 1. effect size: held-out gain `g = 1 − SSR_ho(new)/SSR_ho(current) ≥ min_gain` (default 2 %);
+//! 2. parsimony: BIC on the whole data improves: `n_eff·ln(SSR_new/SSR_cur) + Δp·ln(n_eff) < 0`,
+//!    with `n_eff` = samples / (filter window in analysis samples) for time series (filtered
+//!    samples are not independent), = points for friction points;
+//! 3. the test, which decides: the block-bootstrap interval of `g` over held-out time blocks
+//!    at two-sided level 1 − α/m lies above zero, α = 5 % family-wise, m = candidates ×
+//!    targets (Bonferroni; [`bootstrap`]).
 //!
 //! Forward selection: of the significant candidates the one with the lowest held-out BIC
 //! (n_eff·ln of the held-out SSR ratio + ln(n_eff) per parameter) is added to the joint's
 //! model (where two explain the same residual about equally, the one with fewer
 //! parameters; `inertial_parameters` counts its share of the base parameters the joints
-//! share there, see [`crate::inertial`]), the rest are re-scored against the extended
+//! share there, see [`crate::inertial`]) — unless a significant candidate with fewer
+//! parameters is not beaten by it in the test, which is then taken instead, and the ones the
+//! test cannot tell apart are named confounded — the rest are re-scored against the extended
 //! model, until none is significant.
 //!
 //! # Layout
@@ -38,6 +42,7 @@
 //! score), `eval.rs` (the fit's result and residuals), `coulomb.rs` (the nominal's Coulomb
 //! smoothing), `significance.rs` (the rule above), `selection.rs` (forward selection).
 
+pub mod bootstrap;
 mod coulomb;
 mod eval;
 mod evaluate;

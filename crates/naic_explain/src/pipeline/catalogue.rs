@@ -12,6 +12,14 @@ pub fn analyse_all(
     threads: usize,
     progress: &(dyn Fn(f64, &str) + Sync),
 ) -> Vec<JointResult> {
+    // the family of the significance test: every candidate on every target of this analysis
+    let with_family;
+    let o = if o.comparisons == 0 {
+        with_family = AnalysisOptions { comparisons: analysis::bootstrap::comparisons(joints), ..o.clone() };
+        &with_family
+    } else {
+        o
+    };
     let n = joints.len();
     let next = std::sync::atomic::AtomicUsize::new(0);
     let done = std::sync::atomic::AtomicUsize::new(0);

@@ -25,10 +25,16 @@ pub struct Finding {
     /// Per target: the share of that joint's nominal held-out mean square the final model leaves.
     pub left: Vec<(usize, f64)>,
     /// Per target: the block-bootstrap interval of the step's held-out gain at level
-    /// 1 − [`bootstrap::FAMILY_ALPHA`]/`comparisons` (significant findings; [`super::bootstrap`]).
+    /// 1 − [`super::bootstrap::FAMILY_ALPHA`]/`comparisons`: the significance test
+    /// (significant findings; [`super::bootstrap`]).
     pub gain_ci: Vec<(usize, (f64, f64))>,
     /// Candidates × joints tried (the Bonferroni count of the intervals).
     pub comparisons: usize,
+    /// The family-wise error rate of the test.
+    pub family_alpha: f64,
+    /// Per target: the other significant candidates the data could not tell from this one
+    /// when it was taken (neither better than the other by the test).
+    pub confounded: Vec<(usize, Vec<Effect>)>,
     pub evidence: String,
 }
 
@@ -172,9 +178,21 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
     let n_joints = ex.results.len() - n_axes;
     let mut out = Vec::new();
     // every candidate the catalogue could try on every target: the family of the intervals
-    let comparisons: usize =
-        ex.joints.iter().map(|js| ALL_EFFECTS.iter().filter(|e| js.applicable(**e)).count()).sum::<usize>().max(1);
-    let alpha = super::bootstrap::FAMILY_ALPHA / comparisons as f64;
+    let comparisons = ex
+        .results
+        .iter()
+        .flat_map(|r| r.steps.iter().chain(&r.rejected))
+        .map(|c| c.comparisons)
+        .max()
+        .unwrap_or_else(|| super::bootstrap::comparisons(&ex.joints));
+    let family_alpha = ex
+        .results
+        .iter()
+        .flat_map(|r| r.steps.iter().chain(&r.rejected))
+        .map(|c| c.family_alpha)
+        .next()
+        .unwrap_or(super::bootstrap::FAMILY_ALPHA);
+    let level = super::bootstrap::interval_level(family_alpha, comparisons);
     for e in ALL_EFFECTS {
         let nj = (if e.is_contact() { n_axes } else { n_joints }).max(1) as f64;
         let mut f = Finding {
@@ -190,6 +208,8 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             left: vec![],
             gain_ci: vec![],
             comparisons,
+            family_alpha,
+            confounded: vec![],
             evidence: String::new(),
         };
         let mut ev_lines = Vec::new();
@@ -205,12 +225,11 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 let nom = r.nominal.heldout_ssr.max(1e-300);
                 f.share.push((r.joint, ((c.before_ssr - c.eval.heldout_ssr) / nom).clamp(0.0, 1.0)));
                 f.left.push((r.joint, (r.final_eval.heldout_ssr / nom).clamp(0.0, 1.0)));
-                let k = r.steps.iter().position(|s| s.effect == e).unwrap_or(0);
-                let before = if k == 0 { &r.nominal } else { &r.steps[k - 1].eval };
-                let sh = ex.shapes.get(js.joint.saturating_sub(1)).copied().unwrap_or_default();
-                let blocks = super::bootstrap::block_ssr(js, before, &c.eval, &sh);
-                let seed = (r.joint as u64) << 8 | e as u64;
-                f.gain_ci.push((r.joint, super::bootstrap::gain_interval(&blocks, alpha, super::bootstrap::REPLICATES, seed)));
+                // the test's own interval (computed when the candidate was scored)
+                f.gain_ci.push((r.joint, c.gain_interval.unwrap_or((f64::NAN, f64::NAN))));
+                if !c.confounded.is_empty() {
+                    f.confounded.push((r.joint, c.confounded.clone()));
+                }
                 ev_lines.push(evidence_line(r.joint, c, r.n));
             }
         }
@@ -247,6 +266,21 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
         if f.is_small() {
             f.evidence = format!("{} ({})", f.evidence, f.small_note());
         }
+        if !f.confounded.is_empty() {
+            let cs: Vec<String> = f
+                .confounded
+                .iter()
+                .map(|(j, es)| {
+                    let names: Vec<&str> = es.iter().map(|e| e.name()).collect();
+                    format!("{} on {}", names.join(" or "), if crate::contact::is_axis(*j) { jkey(*j) } else { format!("joint {j}") })
+                })
+                .collect();
+            f.evidence = format!(
+                "{}. Confounded: the data cannot tell it from {} (neither is better than the other by the test; the one with fewer parameters is named)",
+                f.evidence.trim_end_matches('.'),
+                cs.join(", ")
+            );
+        }
         if !f.gain_ci.is_empty() {
             let cis: Vec<String> = f
                 .gain_ci
@@ -254,10 +288,11 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 .map(|&(j, (lo, hi))| format!("{} [{lo:+.4}, {hi:+.4}]", if crate::contact::is_axis(j) { jkey(j) } else { format!("J{j}") }))
                 .collect();
             f.evidence = format!(
-                "{}. Held-out gain interval at {:.4} % (block bootstrap over time blocks, Bonferroni over {} candidates × targets): {}",
+                "{}. Held-out gain interval at {:.4} % (the test, its low end above zero: block bootstrap over time blocks, one-sided, Bonferroni over {} candidates × targets, family-wise {} %): {}",
                 f.evidence.trim_end_matches('.'),
-                100.0 * (1.0 - alpha),
+                100.0 * level,
                 comparisons,
+                100.0 * family_alpha,
                 cis.join(", ")
             );
         }

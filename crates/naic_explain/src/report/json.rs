@@ -40,10 +40,14 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
                 "share_left": map_of(&f.left),
                 "small": f.is_small(),
                 "sub_sample_delay": super::findings::sub_sample_delay(f, ex).is_some(),
-                // the step's held-out gain per target, block-bootstrap interval at 1 − 0.05/comparisons
+                // the step's held-out gain per target, block-bootstrap interval at 1 − 2·0.05/comparisons:
+                // the significance test (significant when its low end, a one-sided bound, is above zero)
                 "gain_interval": f.gain_ci.iter().map(|&(j, (lo, hi))| (jkey(j), json!([lo, hi]))).collect::<Map<_, _>>(),
-                "interval_level": 1.0 - super::bootstrap::FAMILY_ALPHA / f.comparisons.max(1) as f64,
+                "interval_level": super::bootstrap::interval_level(f.family_alpha, f.comparisons),
                 "comparisons": f.comparisons,
+                "family_wise_alpha": f.family_alpha,
+                // per target: the significant candidates the data could not tell from this one
+                "confounded_with": f.confounded.iter().map(|(j, es)| (jkey(*j), json!(es.iter().map(|e| e.name()).collect::<Vec<_>>()))).collect::<Map<_, _>>(),
                 "evidence": f.evidence,
             })
         })

@@ -11,7 +11,8 @@
 //! Layout: `findings.rs` (the ranked findings), `json.rs` (the `report.json` model),
 //! `params.rs` (`extended_params.yaml`), `markdown.rs` (`report.md`), `plots.rs` (the SVG plots).
 
-pub mod bootstrap;
+/// The block bootstrap lives with the significance rule it decides ([`crate::analysis::bootstrap`]).
+pub use crate::analysis::bootstrap;
 mod findings;
 mod json;
 mod markdown;
