@@ -24,8 +24,13 @@ def test_sim_writes_metrics_csv_and_svg(naic_bin, root, tmp_path):
     assert m["scenario"] == "flat"
     assert set(m["controllers"]) == {"naic", "aic", "fixed", "scheduled"}
     for name, c in m["controllers"].items():
-        assert set(c) == {"contact_time_s", "phases"}
+        assert set(c) == {"contact_time_s", "phases", "honest"}
         assert 0.5 < c["contact_time_s"] < 3.0
+        # the honest metrics (docs/controller.md, "How runs are scored"), one entry per phase
+        assert len(c["honest"]) == 2
+        for h in c["honest"]:
+            assert set(h) == {"band_n", "settling_band_s", "impact_n", "impact_bound_n", "overshoot_after_impact_pct"}
+            assert h["band_n"] >= 0.02 * 10.0 - 1e-12
         # first contact and the 10 -> 20 N step at 3 s
         assert len(c["phases"]) == 2
         for ph in c["phases"]:

@@ -29,8 +29,6 @@
 use super::sim::{load_model, scenario_plant};
 use super::sim_table::par_map;
 use super::{CliError, CliResult};
-use naic_core::friction::FrictionModel;
-use naic_core::model::Model;
 use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::metrics::Honest;
 use naic_sim::plants::PlantChoice;
@@ -129,13 +127,7 @@ pub fn cases() -> Vec<Case> {
     v
 }
 
-struct Ctx {
-    plant: PlantChoice,
-    model: Model,
-    friction: Option<FrictionModel>,
-    tool: (f64, Vector3<f64>),
-    tool_inertia: nalgebra::Matrix3<f64>,
-}
+use super::sim_table::Ctx;
 
 /// The scenario of a case: the preset with the stiffness, duration and (slope) the tilt that
 /// makes the surface recede at `moving` under the tool sliding along the task's ramp.

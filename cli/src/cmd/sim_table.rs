@@ -65,12 +65,14 @@ struct Done {
     n: RunSummary,
 }
 
-struct Ctx {
-    plant: PlantChoice,
-    model: Model,
-    friction: Option<FrictionModel>,
-    tool: (f64, Vector3<f64>),
-    tool_inertia: nalgebra::Matrix3<f64>,
+/// What every run of a protocol shares (`--table` here, `--held-out` in sim_heldout): the
+/// plant, the model, the joint friction and the tool.
+pub(super) struct Ctx {
+    pub(super) plant: PlantChoice,
+    pub(super) model: Model,
+    pub(super) friction: Option<FrictionModel>,
+    pub(super) tool: (f64, Vector3<f64>),
+    pub(super) tool_inertia: nalgebra::Matrix3<f64>,
 }
 
 fn scenario_for(ctx: &Ctx, j: &Job) -> Result<Scenario, CliError> {

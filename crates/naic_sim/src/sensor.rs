@@ -388,13 +388,7 @@ pub enum ToolError {
 /// The tool's inertia about its centre of mass in the sensor frame [kg m²]: the
 /// `<inertial>` of link `ft_sensor` (its `rpy` applied).
 pub fn tool_inertia_from_urdf(path: &std::path::Path) -> Result<Matrix3<f64>, ToolError> {
-    let shown = || path.display().to_string();
-    let robot = urdf_rs::read_file(path).map_err(|e| ToolError::Urdf { path: shown(), problem: e.to_string() })?;
-    let l = robot
-        .links
-        .iter()
-        .find(|l| l.name == "ft_sensor")
-        .ok_or_else(|| ToolError::NoSensorLink { path: shown() })?;
+    let l = sensor_link(path)?;
     let i = &l.inertial.inertia;
     let m = Matrix3::new(i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz);
     let rpy = l.inertial.origin.rpy;
@@ -402,16 +396,17 @@ pub fn tool_inertia_from_urdf(path: &std::path::Path) -> Result<Matrix3<f64>, To
     Ok(r.matrix() * m * r.matrix().transpose())
 }
 
+/// The URDF's link `ft_sensor` (the tool below the sensor), or why there is none.
+fn sensor_link(path: &std::path::Path) -> Result<urdf_rs::Link, ToolError> {
+    let shown = || path.display().to_string();
+    let robot = urdf_rs::read_file(path).map_err(|e| ToolError::Urdf { path: shown(), problem: e.to_string() })?;
+    robot.links.into_iter().find(|l| l.name == "ft_sensor").ok_or_else(|| ToolError::NoSensorLink { path: shown() })
+}
+
 /// The tool of the `ft_sensor` link of a URDF: its mass [kg] and centre of
 /// mass in the sensor frame [m] (the `<inertial>` of link `ft_sensor`).
 pub fn tool_from_urdf(path: &std::path::Path) -> Result<(f64, Vector3<f64>), ToolError> {
-    let shown = || path.display().to_string();
-    let robot = urdf_rs::read_file(path).map_err(|e| ToolError::Urdf { path: shown(), problem: e.to_string() })?;
-    let l = robot
-        .links
-        .iter()
-        .find(|l| l.name == "ft_sensor")
-        .ok_or_else(|| ToolError::NoSensorLink { path: shown() })?;
+    let l = sensor_link(path)?;
     let o = l.inertial.origin.xyz;
     Ok((l.inertial.mass.value, Vector3::new(o[0], o[1], o[2])))
 }
