@@ -186,13 +186,18 @@ pub fn load_friction(path: Option<&Path>) -> Result<FrictionModel, CliError> {
 }
 
 fn parse_joints(s: &str, what: &str) -> Result<JointVec, CliError> {
+    parse_numbers::<N_JOINTS>(s, what, "rad")
+}
+
+/// `K` finite comma-separated numbers of flag `what` (their unit in `unit`, for the message).
+fn parse_numbers<const K: usize>(s: &str, what: &str, unit: &str) -> Result<[f64; K], CliError> {
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|e| CliError::usage(format!("{what} '{s}': {e}; give {N_JOINTS} comma-separated numbers (rad)")))?;
-    if v.len() != N_JOINTS || v.iter().any(|x| !x.is_finite()) {
-        return Err(CliError::usage(format!("{what} '{s}': give exactly {N_JOINTS} finite comma-separated numbers (rad)")));
+        .map_err(|e| CliError::usage(format!("{what} '{s}': {e}; give {K} comma-separated numbers ({unit})")))?;
+    if v.len() != K || v.iter().any(|x| !x.is_finite()) {
+        return Err(CliError::usage(format!("{what} '{s}': give exactly {K} finite comma-separated numbers ({unit})")));
     }
     Ok(std::array::from_fn(|i| v[i]))
 }
@@ -219,13 +224,7 @@ fn true_tool(urdf: (f64, Vector3<f64>), mass_error: Option<f64>, com_offset: Opt
     }
     let off = match com_offset {
         None => Vector3::zeros(),
-        Some(t) => {
-            let v: Result<Vec<f64>, _> = t.split(',').map(|x| x.trim().parse::<f64>()).collect();
-            match v {
-                Ok(v) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => Vector3::new(v[0], v[1], v[2]),
-                _ => return Err(CliError::usage(format!("--tool-com-offset '{t}': give 3 comma-separated numbers in m, sensor frame (e.g. 0.002,0,0.01)"))),
-            }
-        }
+        Some(t) => Vector3::from(parse_numbers::<3>(t, "--tool-com-offset", "m, sensor frame, e.g. 0.002,0,0.01")?),
     };
     Ok((urdf.0 * f, urdf.1 + off))
 }

@@ -26,8 +26,8 @@
 //! Writes `DIR/held_out.md` (per group the goals met, and every run's numbers) and
 //! `DIR/held_out.json`.
 
-use super::sim::{load_model, scenario_plant};
-use super::sim_table::par_map;
+use super::sim::scenario_plant;
+use super::sim_table::{par_map, Ctx};
 use super::{CliError, CliResult};
 use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::metrics::Honest;
@@ -127,7 +127,6 @@ pub fn cases() -> Vec<Case> {
     v
 }
 
-use super::sim_table::Ctx;
 
 /// The scenario of a case: the preset with the stiffness, duration and (slope) the tilt that
 /// makes the surface recede at `moving` under the tool sliding along the task's ramp.
@@ -208,12 +207,7 @@ fn goals(r: &Scored, oracle: Option<&Scored>) -> Vec<(&'static str, bool, String
 /// Runs the protocol into `out` (module docs).
 pub fn run(out: &Path, urdf: Option<&Path>, friction_file: Option<&Path>, no_friction: bool, plant: &PlantChoice) -> CliResult {
     let t0 = std::time::Instant::now();
-    let model = load_model(urdf)?;
-    let friction = super::sim::friction_for(plant, friction_file, no_friction)?;
-    let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| super::sim::default_path("urdf/jk5.urdf"));
-    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
-    let tool_inertia = super::sim::tool_inertia(&urdf_path)?;
-    let ctx = Ctx { plant: plant.clone(), model, friction, tool, tool_inertia };
+    let ctx = Ctx::load(urdf, friction_file, no_friction, plant)?;
     let jobs = cases();
     std::fs::create_dir_all(out).map_err(|e| CliError::failure(format!("--out {}: {e}", out.display())))?;
     eprintln!("naic sim --held-out: {} runs on the {} plant -> {}", jobs.len(), plant.name(), out.display());
@@ -263,6 +257,7 @@ pub fn run(out: &Path, urdf: Option<&Path>, friction_file: Option<&Path>, no_fri
 
 #[cfg(test)]
 mod tests {
+    use super::super::sim::load_model;
     use super::*;
 
     /// The tilt makes the surface recede under the sliding tool at the asked speed: the

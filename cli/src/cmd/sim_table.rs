@@ -75,6 +75,19 @@ pub(super) struct Ctx {
     pub(super) tool_inertia: nalgebra::Matrix3<f64>,
 }
 
+impl Ctx {
+    /// The model of `--urdf` (default the JK5's), its friction as `--friction` /
+    /// `--no-friction` give it for `plant`, and the tool of its `ft_sensor` link.
+    pub(super) fn load(urdf: Option<&Path>, friction_file: Option<&Path>, no_friction: bool, plant: &PlantChoice) -> Result<Ctx, CliError> {
+        let model = load_model(urdf)?;
+        let friction = super::sim::friction_for(plant, friction_file, no_friction)?;
+        let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| super::sim::default_path("urdf/jk5.urdf"));
+        let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+        let tool_inertia = super::sim::tool_inertia(&urdf_path)?;
+        Ok(Ctx { plant: plant.clone(), model, friction, tool, tool_inertia })
+    }
+}
+
 fn scenario_for(ctx: &Ctx, j: &Job) -> Result<Scenario, CliError> {
     let mut s = scenario::preset(j.scenario, &ctx.model).map_err(CliError::usage)?;
     if let Some(k) = j.stiffness {
@@ -330,12 +343,7 @@ pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&P
         return Err(CliError::usage("--seeds 0: give at least 1"));
     }
     let t0 = std::time::Instant::now();
-    let model = load_model(urdf)?;
-    let friction = super::sim::friction_for(plant, friction_file, no_friction)?;
-    let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| super::sim::default_path("urdf/jk5.urdf"));
-    let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
-    let tool_inertia = super::sim::tool_inertia(&urdf_path)?;
-    let ctx = Ctx { plant: plant.clone(), model, friction, tool, tool_inertia };
+    let ctx = Ctx::load(urdf, friction_file, no_friction, plant)?;
     let mut jobs = Vec::new();
     for seed in 1..=u64::from(seeds) {
         for sc in TABLE_SCENARIOS {
