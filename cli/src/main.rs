@@ -46,6 +46,9 @@ enum Command {
     Launch(cmd::launch::LaunchArgs),
     /// Every ROS parameter of the three nodes, as they declare it (`--markdown`: docs/parameters.md).
     Params(cmd::params::ParamsArgs),
+    /// Get or set one parameter of a running node over DDS (`ros2 param get|set`; honours the ROS security variables).
+    #[command(subcommand)]
+    Param(cmd::param::ParamCmd),
 }
 
 fn main() {
@@ -64,6 +67,7 @@ fn main() {
         Command::Plot(a) => cmd::plot::run(a),
         Command::Launch(a) => cmd::launch::run(a),
         Command::Params(a) => cmd::params::run(a),
+        Command::Param(c) => cmd::param::run(c),
         Command::Security(c) => cmd::security::run(c),
     };
     if let Err(e) = result {

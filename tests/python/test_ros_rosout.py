@@ -58,6 +58,7 @@ def test_ros_topic_info_shows_valid_type_hashes_equal_to_rclpys():
     (`typehash=RIHS01_…;`). Every naic topic of a running chain must show a valid hash, and
     for the standard types the one rclpy's own endpoints of that type announce (rosidl's)."""
     from geometry_msgs.msg import WrenchStamped
+    from rcl_interfaces.msg import Log, ParameterEvent
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
@@ -70,7 +71,8 @@ def test_ros_topic_info_shows_valid_type_hashes_equal_to_rclpys():
                       "-p", "jk5_sim_driver:cpu_affinity:=-1"], env)
     r = ru.RclpyDomain(domain, "type_hash_probe")
     topics = {"/joint_states": JointState, "/wrench": WrenchStamped, "/naic/effort": Float64MultiArray,
-              "/joint_effort_cmd": Float64MultiArray, "/naic/params": None, "/clock": None}
+              "/joint_effort_cmd": Float64MultiArray, "/naic/params": None, "/clock": None,
+              "/rosout": Log, "/parameter_events": ParameterEvent}
     try:
         # rclpy's own endpoints of the standard types: the reference hashes (rosidl's).
         for t, ty in topics.items():
@@ -86,12 +88,31 @@ def test_ros_topic_info_shows_valid_type_hashes_equal_to_rclpys():
             return got
         assert r.spin_until(lambda: len(naic_pubs()) == len(topics), 60), (naic_pubs(), launch.output()[-2000:])
         got = naic_pubs()
+        # Every endpoint of every naic node on every topic the graph lists (/tf, /rosout,
+        # /parameter_events, the reference topics, ...), publishers and subscriptions.
+        naic_nodes = {"jk5_sim_driver", "naic_controller", "friction_compensation"}
+        required = {"/tf", "/tf_static", "/robot_description", "/rosout", "/parameter_events"}
+
+        def every_endpoint():
+            every = {}
+            for t, _ in r.node.get_topic_names_and_types():
+                for i in r.node.get_publishers_info_by_topic(t) + r.node.get_subscriptions_info_by_topic(t):
+                    if i.node_name in naic_nodes:
+                        every.setdefault(t, set()).add(str(i.topic_type_hash))
+            return every
+        # rclpy names an endpoint's node once that participant's ros_discovery_info is in.
+        r.spin_until(lambda: required <= set(every_endpoint()), 30)
+        every = every_endpoint()
         ours = {t: str(i.topic_type_hash) for t in topics for i in r.node.get_subscriptions_info_by_topic(t)
                 if i.node_name == "type_hash_probe"}
     finally:
         r.close()
         assert launch.stop(timeout=15) == 0, launch.output()[-3000:]
     print(got)
+    print({t: sorted(h) for t, h in every.items()})
+    assert required <= set(every), sorted(every)
+    bad = {t: h for t, h in every.items() if not all(x.startswith("RIHS01_") and len(x) == 7 + 64 for x in h)}
+    assert not bad, bad
     for t, h in got.items():
         assert h.startswith("RIHS01_") and len(h) == 7 + 64, (t, h)
         if t in ours:
@@ -133,3 +154,53 @@ def test_ros_robot_description_reaches_a_late_joiner():
     assert got[0].data == (ru.ROOT / "urdf/jk5.urdf").read_text()
     assert len(got) == 1
     assert theirs and theirs == ours and theirs[0].startswith("RIHS01_"), (theirs, ours)
+
+
+def test_ros_parameter_events_are_volatile_as_rclcpp_offers_them():
+    """`/parameter_events` as rclcpp offers it (reliable, volatile): a subscriber that joins
+    after the node started and after a parameter was set receives none of those old events,
+    whether it asks for volatile (`ros2 topic echo` against a volatile publisher) or
+    transient local; the next set reaches the volatile one (the control: the subscriber
+    works). The node's writer that carries the events announces VOLATILE."""
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.parameter import Parameter
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    bins = ru.build_nodes()
+    domain = ru.fresh_domain(215)
+    ctl = ru.Proc([str(bins / "naic_controller"), "--ros-args", "--params-file", "params/naic_controller.yaml",
+                   "-p", "realtime_priority:=0", "-p", "cpu_affinity:=-1"], ru.ros_env(domain))
+    r = ru.RclpyDomain(domain, "late_events")
+    vol, tl = [], []
+    try:
+        client = ru.param_client(r.node, "naic_controller", 60.0)
+        # An old event: a set before the late subscribers exist (start-up events are older still).
+        res = r.wait(client.set_parameters([Parameter("learning_rate", value=0.02)]), 30.0)
+        assert res.results[0].successful, res
+        r.spin(1.0)
+        mk = lambda d: QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,  # noqa: E731
+                                  history=HistoryPolicy.KEEP_LAST, durability=d)
+        r.node.create_subscription(ParameterEvent, "/parameter_events",
+                                   lambda m: vol.append(m) if m.node == "/naic_controller" else None,
+                                   mk(DurabilityPolicy.VOLATILE))
+        r.node.create_subscription(ParameterEvent, "/parameter_events",
+                                   lambda m: tl.append(m) if m.node == "/naic_controller" else None,
+                                   mk(DurabilityPolicy.TRANSIENT_LOCAL))
+        r.spin(4.0)
+        old_vol, old_tl = list(vol), list(tl)
+        pubs = [i for i in r.node.get_publishers_info_by_topic("/parameter_events") if i.node_name == "naic_controller"]
+        # The control: a set now reaches the volatile subscriber (matched by then; set again
+        # until one arrives in case the match is late on a loaded machine).
+        for k in range(10):
+            res = r.wait(client.set_parameters([Parameter("learning_rate", value=0.03 + 0.001 * k)]), 30.0)
+            assert res.results[0].successful, res
+            if r.spin_until(lambda: len(vol) > len(old_vol), 2):
+                break
+    finally:
+        r.close()
+        assert ctl.stop() == 0, ctl.output()[-2000:]
+    print(f"late subscribers got {len(old_vol)} (volatile) and {len(old_tl)} (transient local) old events; "
+          f"publishers of naic_controller: {[(i.qos_profile.durability.name) for i in pubs]}")
+    assert not old_vol and not old_tl, ([m.changed_parameters for m in old_vol], [m.changed_parameters for m in old_tl])
+    assert vol[len(old_vol):] and vol[-1].changed_parameters[0].name == "learning_rate", vol
+    assert any(i.qos_profile.durability == DurabilityPolicy.VOLATILE for i in pubs), pubs

@@ -112,10 +112,6 @@ fn rust_chain(a: &ChainArgs, dir: &Path, security: &[(String, String)]) -> Resul
         if let Some(cpu) = a.cpu {
             args.extend(["-p".into(), format!("cpu_affinity:={cpu}")]);
         }
-        if !security.is_empty() && launch::SECURED_GATES.contains(&node) {
-            // As `naic launch --enclave` (launch::SECURED_GATES says why).
-            args.extend(["-p".into(), "command_source:=*".into()]);
-        }
         if node == "jk5_sim_driver" {
             args.extend([
                 "-p".into(),

@@ -88,14 +88,6 @@ pub struct LaunchArgs {
     pub enclave: Option<PathBuf>,
 }
 
-/// The nodes whose `command_source` is `*` under `--enclave`: with DDS Security RustDDS
-/// 0.15.1 delivers no `ros_discovery_info` (measured: the driver and friction_compensation
-/// named no writer and refused every command, the chain never ran), so the writer of a
-/// command cannot be named. Who may publish the commands is then the enclave permissions'
-/// rule (only the chain's enclave: docs/deploy.md). A `-p NODE:command_source:=...` still
-/// wins (it comes later on the command line).
-pub const SECURED_GATES: [&str; 2] = [DRIVER, "friction_compensation"];
-
 /// `--enclave DIR` → (keystore, enclave name): DIR is KEYSTORE/enclaves/NAME.
 pub fn split_enclave_dir(dir: &Path) -> Result<(PathBuf, String), CliError> {
     let comps: Vec<_> = dir.components().collect();
@@ -130,11 +122,7 @@ fn apply_enclave(a: &LaunchArgs) -> CliResult {
     std::env::set_var("ROS_SECURITY_ENABLE", "true");
     std::env::set_var("ROS_SECURITY_KEYSTORE", &keystore);
     std::env::set_var("ROS_SECURITY_ENCLAVE_OVERRIDE", &name);
-    eprintln!(
-        "naic launch: DDS Security on, enclave {name} of keystore {}; command_source:=* on {} (the enclave permissions decide who may publish the commands)",
-        keystore.display(),
-        SECURED_GATES.join(", ")
-    );
+    eprintln!("naic launch: DDS Security on, enclave {name} of keystore {}", keystore.display());
     Ok(())
 }
 
@@ -394,9 +382,6 @@ pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliEr
     }
     if let Some(q) = &a.qos {
         args.extend(["-p".into(), format!("data_qos:={q}")]);
-    }
-    if a.enclave.is_some() && SECURED_GATES.contains(&node) {
-        args.extend(["-p".into(), "command_source:=*".into()]);
     }
     for p in &a.params {
         let Some((n, rest)) = p.split_once(':') else {

@@ -7,6 +7,7 @@ pub mod bench_chain;
 pub mod composed;
 pub mod friction;
 pub mod launch;
+pub mod param;
 pub mod params;
 pub mod plot;
 pub mod record;

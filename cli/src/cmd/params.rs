@@ -107,7 +107,7 @@ fn markdown(out: &mut String, n: &NodeParams, params_dir: &std::path::Path) {
 }
 
 /// A value as it is written in a parameter file.
-fn show(v: &ParameterValue) -> String {
+pub(super) fn show(v: &ParameterValue) -> String {
     fn list<T: std::fmt::Debug>(v: &[T]) -> String {
         format!("[{}]", v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", "))
     }

@@ -1,6 +1,7 @@
 //! `naic tool identify`: the tool's mass and centre of mass and the F/T sensor's bias from
-//! static poses in a bag (`naic record`'s MCAP: `/joint_states` + `/wrench`), by linear
-//! least squares (`naic_ident::tool`), written as the tool section of a robot file.
+//! static poses in a bag (`naic record`'s MCAP: `/joint_states` + `/wrench`) or live over
+//! DDS from the running chain (no `--bag`: until `--poses` static poses were held), by
+//! linear least squares (`naic_ident::tool`), written as the tool section of a robot file.
 //!
 //! Static segments: maximal runs of joint states with every joint's speed at most
 //! `--velocity-bound` (default 0.01 rad/s: the tool's centripetal and Coriolis forces are
@@ -26,9 +27,17 @@ pub enum ToolCmd {
 #[derive(clap::Args)]
 pub struct IdentifyArgs {
     /// The MCAP bag (`naic record`): /joint_states and /wrench with the arm still in at least
-    /// 3 orientations (6 or more: a confident fit).
+    /// 3 orientations (6 or more: a confident fit). Without it: live, over DDS (--poses).
     #[arg(long)]
-    pub bag: PathBuf,
+    pub bag: Option<PathBuf>,
+    /// Live (no --bag): read /joint_states and /wrench from the running chain while the arm
+    /// is moved (by hand, your node, or examples/tool_poses.py) and fit once this many static
+    /// poses were held.
+    #[arg(long, default_value_t = 8)]
+    pub poses: usize,
+    /// Live: give up after this many seconds (wall clock) [s].
+    #[arg(long, default_value_t = 600.0)]
+    pub timeout: f64,
     /// Robot model (its 'ft_sensor' frame) [default: urdf/jk5.urdf].
     #[arg(long)]
     pub urdf: Option<PathBuf>,
@@ -66,7 +75,7 @@ fn identify(a: &IdentifyArgs) -> CliResult {
     Ok(())
 }
 
-/// The fit of a bag's static poses (module docs).
+/// The fit of a bag's static poses, or of the live chain's (module docs).
 pub fn identify_bag(a: &IdentifyArgs) -> Result<ToolFit, CliError> {
     if !(a.velocity_bound > 0.0 && a.min_static >= 0.0 && a.settle >= 0.0) {
         return Err(CliError::usage("--velocity-bound must be > 0, --min-static and --settle >= 0"));
@@ -76,20 +85,88 @@ pub fn identify_bag(a: &IdentifyArgs) -> Result<ToolFit, CliError> {
     let sensor = model
         .frame_id("ft_sensor")
         .ok_or_else(|| CliError::usage(format!("--urdf {}: no frame 'ft_sensor' (the F/T sensor link)", urdf.display())))?;
-    let bag = Bag::open(&a.bag).map_err(|e| CliError::usage(format!("--bag {}: {e}", a.bag.display())))?;
+    let Some(bag_path) = &a.bag else {
+        let (run, src) = live(&model, sensor, a)?;
+        let poses = static_poses(&model, sensor, &run, a, &src)?;
+        eprintln!("naic tool identify: {} static pose(s) {src}", poses.len());
+        return tool::fit(&poses, &model.gravity).map_err(|e| CliError::usage(format!("{src}: {e}")));
+    };
+    let src = format!("--bag {}", bag_path.display());
+    let bag = Bag::open(bag_path).map_err(|e| CliError::usage(format!("{src}: {e}")))?;
     let run = RunData::load(&bag, ..);
     for (topic, n) in [(topics::JOINT_STATES, run.joint_states.len()), (topics::WRENCH, run.wrench.len())] {
         if n == 0 {
             let have: Vec<String> = bag.topics().iter().map(|t| t.topic.clone()).collect();
             return Err(CliError::usage(format!(
-                "--bag {}: no {topic} messages (topics in the bag: {have:?}); record with `naic record` while the arm holds still in several orientations",
-                a.bag.display()
+                "{src}: no {topic} messages (topics in the bag: {have:?}); record with `naic record` while the arm holds still in several orientations"
             )));
         }
     }
-    let poses = static_poses(&model, sensor, &run, a)?;
-    eprintln!("naic tool identify: {} static pose(s) in {}", poses.len(), a.bag.display());
-    tool::fit(&poses, &model.gravity).map_err(|e| CliError::usage(format!("--bag {}: {e}", a.bag.display())))
+    let poses = static_poses(&model, sensor, &run, a, &src)?;
+    eprintln!("naic tool identify: {} static pose(s) in {}", poses.len(), bag_path.display());
+    tool::fit(&poses, &model.gravity).map_err(|e| CliError::usage(format!("{src}: {e}")))
+}
+
+/// Live: /joint_states and /wrench of the running chain until `--poses` static poses were
+/// held (each announced as it is), or `--timeout`. The data and a label for the messages.
+fn live(model: &Model, sensor: naic_core::model::FrameId, a: &IdentifyArgs) -> Result<(RunData, String), CliError> {
+    use naic_ros::{msgs as m, RosArgs, RosNode};
+    use ros2_client::qos::{History, Reliability, WhenFull};
+    use std::time::{Duration, Instant};
+    if a.poses < 3 || !(a.timeout > 0.0 && a.timeout.is_finite()) {
+        return Err(CliError::usage(format!("--poses must be at least 3 (6 or more: a confident fit), --timeout a positive number of seconds; got {} and {}", a.poses, a.timeout)));
+    }
+    let src = "live (/joint_states, /wrench over DDS)".to_string();
+    let ros = |e: naic_ros::RosError| CliError::failure(e.to_string());
+    let mut node = RosNode::new(RosArgs::parse(std::iter::empty::<String>()).map_err(ros)?, "naic_tool_identify", Vec::new(), None).map_err(ros)?;
+    let qos = ros2_client::QosProfile::subscription_default()
+        .reliability(Reliability::Reliable { when_full: WhenFull::Wait(Duration::from_millis(10)) })
+        .history(History::KeepLast { depth: naic_ros::node::SIM_TIME_HISTORY });
+    let js = node.subscription::<naic_msgs::JointState>("/joint_states", m::JOINT_STATE, qos.clone()).map_err(ros)?;
+    let ws = node.subscription::<naic_msgs::WrenchStamped>("/wrench", m::WRENCH_STAMPED, qos).map_err(ros)?;
+    let mut run = RunData::default();
+    let start = Instant::now();
+    let (mut last_check, mut held) = (Instant::now(), 0usize);
+    fn stamped<M>(msg: M) -> naic_bag::Stamped<M> {
+        naic_bag::Stamped { log_time: naic_ros::time::wall_ns().max(0) as u64, publish_time: 0, sequence: 0, msg }
+    }
+    eprintln!("naic tool identify: waiting for {} static poses on /joint_states and /wrench; move the arm and hold it still in each orientation", a.poses);
+    loop {
+        while let Ok(Some((msg, _))) = js.take() {
+            run.joint_states.push(stamped(msg));
+        }
+        while let Ok(Some((msg, _))) = ws.take() {
+            run.wrench.push(stamped(msg));
+        }
+        if last_check.elapsed() >= Duration::from_millis(500) && !run.joint_states.is_empty() && !run.wrench.is_empty() {
+            last_check = Instant::now();
+            // A pose counts once the arm has left it (the segment is complete) or the last
+            // one has lasted long enough; the fit uses all of them.
+            let n = static_poses(model, sensor, &run, a, &src).map_or(0, |p| p.len());
+            if n > held {
+                held = n;
+                eprintln!("naic tool identify: pose {held}/{} held", a.poses);
+            }
+            if held >= a.poses {
+                return Ok((run, src));
+            }
+        }
+        if start.elapsed().as_secs_f64() > a.timeout {
+            return Err(CliError::with_code(
+                3,
+                format!(
+                    "{src}: {held} of {} static poses after {} s ({} joint states, {} wrenches received): is the chain running on this ROS_DOMAIN_ID, and is the arm held still (every joint at most {} rad/s for {} s) in each orientation?",
+                    a.poses,
+                    a.timeout,
+                    run.joint_states.len(),
+                    run.wrench.len(),
+                    a.velocity_bound,
+                    a.min_static + a.settle
+                ),
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
 }
 
 fn stamp_s(t: &naic_msgs::Time) -> f64 {
@@ -97,7 +174,7 @@ fn stamp_s(t: &naic_msgs::Time) -> f64 {
 }
 
 /// One pose per static segment of the joint states (module docs).
-fn static_poses(model: &Model, sensor: naic_core::model::FrameId, run: &RunData, a: &IdentifyArgs) -> Result<Vec<StaticPose>, CliError> {
+fn static_poses(model: &Model, sensor: naic_core::model::FrameId, run: &RunData, a: &IdentifyArgs, src: &str) -> Result<Vec<StaticPose>, CliError> {
     let names: Vec<&str> = model.joint_names().collect();
     let n = names.len();
     // Joint positions and speeds in the model's order (a message without a joint is skipped).
@@ -116,13 +193,12 @@ fn static_poses(model: &Model, sensor: naic_core::model::FrameId, run: &RunData,
         still.push(v_ok);
     }
     if qs.is_empty() {
-        return Err(CliError::usage(format!("--bag {}: no /joint_states message names every joint of the model {names:?}", a.bag.display())));
+        return Err(CliError::usage(format!("{src}: no /joint_states message names every joint of the model {names:?}")));
     }
     let segments = tool::static_segments(&still, &t, a.min_static + a.settle);
     if segments.is_empty() {
         return Err(CliError::usage(format!(
-            "--bag {}: no static segment (every joint at most {} rad/s for at least {} s): hold the arm still in each orientation (or raise --velocity-bound, lower --min-static)",
-            a.bag.display(),
+            "{src}: no static segment (every joint at most {} rad/s for at least {} s): hold the arm still in each orientation (or raise --velocity-bound, lower --min-static)",
             a.velocity_bound,
             a.min_static + a.settle
         )));
@@ -158,7 +234,7 @@ fn static_poses(model: &Model, sensor: naic_core::model::FrameId, run: &RunData,
         poses.push(StaticPose { r_ws: r, force: f / w as f64, torque: tq / w as f64, samples: w });
     }
     if poses.is_empty() {
-        return Err(CliError::usage(format!("--bag {}: static segments found, but no /wrench message stamped inside any", a.bag.display())));
+        return Err(CliError::usage(format!("{src}: static segments found, but no /wrench message stamped inside any")));
     }
     Ok(poses)
 }
@@ -242,7 +318,7 @@ mod tests {
     }
 
     fn args(bag: &Path) -> IdentifyArgs {
-        IdentifyArgs { bag: bag.to_path_buf(), urdf: Some(format!("{ROOT}/urdf/jk5.urdf").into()), velocity_bound: 0.01, min_static: 0.5, settle: 0.1, out: None }
+        IdentifyArgs { bag: Some(bag.to_path_buf()), poses: 8, timeout: 600.0, urdf: Some(format!("{ROOT}/urdf/jk5.urdf").into()), velocity_bound: 0.01, min_static: 0.5, settle: 0.1, out: None }
     }
 
     /// 8 orientations of the tool from the flat start pose (joints 4-6 turned).

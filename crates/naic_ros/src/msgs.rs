@@ -30,6 +30,12 @@ pub fn register_type_hashes() {
     one::<NaicParams>();
     one::<StringMsg>();
     one::<TFMessage>();
+    // The types ros2-client publishes itself (/rosout, /parameter_events).
+    for info in [naic_msgs::rcl::log(), naic_msgs::rcl::parameter_event()] {
+        if let Some((pkg, ty)) = info.name.split_once("/msg/") {
+            ros2_client::dds::rustdds::register_type_hash(&format!("{pkg}::msg::dds_::{ty}_"), &naic_msgs::type_hash(info));
+        }
+    }
 }
 
 pub const JOINT_STATE: (&str, &str) = ("sensor_msgs", "JointState");

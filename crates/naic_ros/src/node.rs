@@ -56,6 +56,14 @@ pub const QOS_LATCHED: QosProfile = QosProfile::publisher_default()
     .durability(ros2_client::qos::Durability::TransientLocal)
     .history(History::KeepLast { depth: 1 });
 
+/// `/parameter_events`' QoS, as rclcpp offers it (`rmw_qos_profile_parameter_events`):
+/// reliable, volatile, keep last 1000. Volatile: a late subscriber gets no start-up events
+/// (the topic's built-in QoS in ros2-client is transient local).
+pub const QOS_PARAMETER_EVENTS: QosProfile = QosProfile::publisher_default()
+    .reliability(Reliability::Reliable { when_full: WhenFull::Fail })
+    .durability(ros2_client::qos::Durability::Volatile)
+    .history(History::KeepLast { depth: 1000 });
+
 /// ROS's sensor-data profile (`rmw_qos_profile_sensor_data`): best effort, keep last 5.
 pub const QOS_SENSOR_DATA: QosProfile =
     QosProfile::publisher_default().reliability(Reliability::BestEffort).history(History::KeepLast { depth: 5 });
@@ -161,7 +169,14 @@ impl RosNode {
         crate::log::attach_rosout(node.logging_handle());
         let params = Arc::new(params);
         let stop = Arc::new(AtomicBool::new(false));
-        let services = ParamServices::new(&mut node, &context, &fqn)?;
+        // Under DDS Security the participant keeps ros2-client's single ros_discovery_info
+        // writer: RustDDS's crypto plugin keys a matched remote endpoint by (local
+        // endpoint, remote participant), so a second writer of one topic in a participant
+        // collides with the first at every secured reader (its samples fail to decode, the
+        // reader's key material is confused; vendored rustdds PATCHED.md). The re-publication
+        // exists for unsecured Fast DDS peers, which cannot join a secured domain.
+        let secured = crate::security::Enclave::from_env(args.enclave.as_deref()).ok().flatten().is_some();
+        let services = ParamServices::new(&mut node, &context, &fqn, !secured)?;
         // Announce the declared parameters, as rclcpp does on declaration.
         services.publish_event(&fqn, params.all(), true);
         let service_thread = {
@@ -353,9 +368,9 @@ where
 }
 
 impl ParamServices {
-    fn new(node: &mut Node, context: &Context, fqn: &str) -> Result<Self, RosError> {
+    fn new(node: &mut Node, context: &Context, fqn: &str, rediscover: bool) -> Result<Self, RosError> {
         let events = node
-            .create_publisher(&context.get_parameter_events_topic(), None)
+            .create_publisher(&context.get_parameter_events_topic(), Some(QOS_PARAMETER_EVENTS))
             .map_err(|e| RosError::Dds(format!("cannot publish /parameter_events: {e:?}")))?;
         Ok(ParamServices {
             get: server(node, fqn, "get_parameters", "GetParameters")?,
@@ -367,7 +382,9 @@ impl ParamServices {
             context: context.clone(),
             sightings: reply::Sightings::default(),
             events,
-            rediscovery: {
+            rediscovery: if !rediscover {
+                None
+            } else {
                 let r = Rediscovery::new(context);
                 if r.is_none() {
                     log::warn!("cannot re-announce nodes on ros_discovery_info; late rclpy peers may not list this node");

@@ -31,9 +31,9 @@
 //! conventions; a participant can announce any node name it likes. Against a participant
 //! that lies, DDS Security (SROS2 permissions: only the chain's enclave may publish the
 //! command topics) is the answer: docs/deploy.md, "Who may move the arm". Under DDS
-//! Security RustDDS 0.15.1 delivers no `ros_discovery_info`, so no writer can be named and
-//! a named source refuses everything: `naic launch --enclave` sets `command_source` to `*`
-//! on the driver and friction_compensation, and the permissions decide.
+//! Security the gate works the same way: secured participants exchange `ros_discovery_info`
+//! like any topic (with the vendored rustdds's key exchange per endpoint pair, PATCHED.md),
+//! so a writer in the chain's own enclave under another node name is ignored too.
 
 use std::{
     collections::HashMap,
@@ -309,13 +309,8 @@ impl SourceGate {
                     None if !w.logged_unnamed && now_ns - w.first_ns >= UNNAMED_AFTER_NS => {
                         w.logged_unnamed = true;
                         log::warn!(
-                            "{topic}: ignoring the samples of writer GID {gid:?}: no ROS node claims it (its participant publishes no ros_discovery_info), and only '{source}' may publish here ({param}); {} ignored so far from it.{}",
-                            w.ignored,
-                            if crate::security::AVAILABLE {
-                                " Under DDS Security RustDDS 0.15.1 delivers no ros_discovery_info: set command_source:=* and let the enclave permissions decide who may publish (naic launch --enclave does)"
-                            } else {
-                                ""
-                            }
+                            "{topic}: ignoring the samples of writer GID {gid:?}: no ROS node claims it (its participant publishes no ros_discovery_info), and only '{source}' may publish here ({param}); {} ignored so far from it",
+                            w.ignored
                         );
                     }
                     _ => {}

@@ -7,6 +7,7 @@
 //! hash ([`type_hash`], `RIHS01_…`).
 
 pub mod cdr;
+pub mod rcl;
 mod copy;
 mod describe;
 mod types;

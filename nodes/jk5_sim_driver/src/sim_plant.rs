@@ -40,7 +40,15 @@ pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
     if friction.n_joints() != N_JOINTS {
         return Err(bad_friction(format!("friction_file '{friction_file}' has {} joints; the JK5 needs {N_JOINTS}", friction.n_joints())));
     }
-    let tool = tool_from_urdf(std::path::Path::new(urdf)).map_err(|e| bad_urdf(e.to_string()))?;
+    let (mass, com) = tool_from_urdf(std::path::Path::new(urdf)).map_err(|e| bad_urdf(e.to_string()))?;
+    // The true tool may differ from the URDF's (tool_mass_error, tool_com_offset).
+    let off = p.f64s("tool_com_offset");
+    let [ox, oy, oz] = off else {
+        return Err(ParamError::from(format!("tool_com_offset: give 3 numbers [x, y, z] in m (sensor frame), got {}", off.len())));
+    };
+    let mut com = com;
+    (com.x, com.y, com.z) = (com.x + ox, com.y + oy, com.z + oz);
+    let tool = (mass * p.f64("tool_mass_error"), com);
     // MuJoCo's joints have no friction (the MJCF has none).
     let friction = if choice == PlantChoice::Own { Some(friction) } else { None };
     let mut params = scenario::plant_for(&scen, model, friction, tool)
