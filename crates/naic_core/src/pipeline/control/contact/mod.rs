@@ -62,10 +62,14 @@
 //! regressor* `h_i* = (P h)_i / P_ii`: the part of the regressor the other uncertain states
 //! do not explain (after a long contact at rest it is `x` minus the mean `x` of the evidence;
 //! right after a jump it is the penetration `x − x_e`). The update of `k_e` is made only
-//! where `|h_k*| > z_x σ_x`, of `b_e` only where `|h_b*| > z_x σ_v` (`u` is the commanded
-//! push, exact: `μ` is always updated). An errors-in-variables update biases the estimate by
+//! where `|h_k*| > z_x σ_x`. An errors-in-variables update biases the estimate by
 //! `σ²/(h*²)` of its correction, so the gate bounds the bias by `1/z_x²` (1 % by default),
 //! where the old estimator kept updating at rest on encoder counts and drifted 25 % low.
+//! `u` is the commanded push, exact: `μ` is always updated; so is `b_e`, a nuisance the
+//! estimate does not report, whose velocity noise is in `R` (`|h_b*| > z_x σ_v` is reported
+//! in [`ContactState::excited`]). The velocity regressor is the central difference of the
+//! positions around the force's time where the delay leaves one after it (`d ≥ 1`), else
+//! the input `ẋ`.
 //! Unexcited parameters are *considered*, not updated (Schmidt): their gain is zero, their
 //! covariance and correlations are carried exactly (Joseph's form), so `c` and `ẋ_e` keep
 //! following the surface.
@@ -73,13 +77,15 @@
 //! # Jumps
 //!
 //! A sample whose normalised innovation `|ν|/√S` exceeds `z_jump` is held back. After
-//! `jump_cycles` such samples in a row the contact has changed: the material (the covariance
-//! reopened along `[1, x̂_e − x₀, 0, 0, 0] σ_k0` — the stiffness changes, the surface stays
-//! where it was — and `μ`, `b_e` back to their priors' variance) or the surface's speed
-//! (`ẋ_e`'s variance back to `v_e,max²`); both are reopened and the held samples applied,
-//! and the data that follow tell the two apart (a surface that moves on keeps the force
-//! where a softer one would not). A held sample followed by an ordinary one was an outlier
-//! and is dropped.
+//! `jump_cycles` such samples in a row the contact has changed, in one of two ways: the
+//! material (the covariance reopened along `[1, x̂_e − x₀, 0, 0, 0] σ_k0` — the stiffness
+//! changes, the surface stays where it was — and `μ`, `b_e` back to their priors' variance)
+//! or the surface's speed (`ẋ_e`'s variance back to `v_e,max²`). From the state before the
+//! first held sample, the held samples are filtered again with `k_e` reopened and with `ẋ_e`
+//! reopened (one degree of freedom each), and the one with the larger likelihood
+//! `Σ −½ (ν²/S + ln S)` is kept (a surface that starts to move is not a softer material); a
+//! new material gets `μ` and `b_e` reopened too. A held sample followed by an ordinary one was an outlier and is
+//! dropped.
 //!
 //! # Bounds
 //!
@@ -162,8 +168,12 @@ pub struct ContactState {
     hist: [[f64; 3]; MAX_DELAY + 1],
     head: usize,
     n_hist: usize,
-    /// Jumps detected since the contact started.
+    /// Jumps detected since the contact started, and whether the last one was taken for the
+    /// surface's speed (else the material).
     pub jumps: u32,
+    pub surface_moved: bool,
+    /// θ and P before the first held sample's update.
+    pre_hold: (Vec5, Mat5),
     /// Diagnostics of the last cycle: innovation [N], its σ [N], which parameters were
     /// excited (k_e, μ, b_e), whether the sample was used.
     pub nu: f64,
@@ -187,6 +197,8 @@ impl Default for ContactState {
             head: 0,
             n_hist: 0,
             jumps: 0,
+            surface_moved: false,
+            pre_hold: ([0.0; N], [[0.0; N]; N]),
             nu: 0.0,
             nu_sigma: 0.0,
             excited: [false; 3],
@@ -284,15 +296,7 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
     }
     n.t += i.dt;
     // prediction
-    let k_pos = n.theta[K].max(0.0);
-    let rho2 = p.drift * p.drift * i.dt;
-    let mut q = [0.0; N];
-    q[K] = k_pos * k_pos * rho2;
-    q[MU] = rho2;
-    q[B] = p.b_max * p.b_max * rho2;
-    if n.released {
-        q[W] = p.surface_accel * p.surface_accel * i.dt;
-    }
+    let q = process_noise(p, &n, i.dt);
     kalman::predict(&mut n.theta, &mut n.p, i.dt, &q);
     let xc = xa - n.x0;
     // release of the surface speed (module docs, "Start")
@@ -307,7 +311,6 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
     }
     // the contact is unilateral: (C1) holds only while it presses, and a force within
     // z σ_f of zero cannot be told from a contact that has opened: no evidence
-    let k = n.theta[K];
     if i.f < p.z * i.sigma_f {
         n.n_held = 0;
         return (n, estimate(p, &n, i.x));
@@ -320,25 +323,26 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
         n.nu = u.nu;
         n.nu_sigma = u.s.max(0.0).sqrt();
         if u.nu.abs() > p.z_jump * n.nu_sigma {
+            if n.n_held == 0 {
+                n.pre_hold = (n.theta, n.p);
+            }
             n.held[n.n_held] = sample;
             n.n_held += 1;
             if n.n_held >= p.jump_cycles as usize {
-                // a jump: the material (k_e, with μ and b_e, the surface where it was) or the
-                // surface's speed changed: their covariances reopen, the held samples apply
-                let held = n.held;
                 let m = n.n_held;
                 n.n_held = 0;
                 n.jumps += 1;
-                let mut stiff = n;
-                let [s_k0, s_mu0, s_b0] = prior_sigmas(p);
-                let xe_c = if k > 1e-9 { stiff.theta[C] / k } else { 0.0 };
-                kalman::reopen(&mut stiff.p, &[1.0, xe_c, 0.0, 0.0, 0.0], s_k0 * s_k0);
-                stiff.p[MU][MU] += s_mu0 * s_mu0;
-                stiff.p[B][B] += s_b0 * s_b0;
-                for smp in held.iter().take(m) {
-                    let _ = apply(p, &mut stiff, *smp, i.sigma_f, sigma_x, sigma_v);
-                }
-                n = stiff;
+                // one degree of freedom each: which changed, k_e or ẋ_e?
+                let (stiffer, l_k) = refilter(p, &n, m, Reopen::Stiffness, i, sigma_x, sigma_v);
+                let (moved, l_w) = refilter(p, &n, m, Reopen::SurfaceSpeed, i, sigma_x, sigma_v);
+                n = if l_w > l_k {
+                    moved
+                } else {
+                    // a new material: its feed-through and damping are new too
+                    let _ = stiffer;
+                    refilter(p, &n, m, Reopen::Material, i, sigma_x, sigma_v).0
+                };
+                n.surface_moved = l_w > l_k;
             }
             return (n, estimate(p, &n, i.x));
         }
@@ -346,6 +350,59 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
     }
     let _ = apply(p, &mut n, sample, i.sigma_f, sigma_x, sigma_v);
     (n, estimate(p, &n, i.x))
+}
+
+/// What a jump reopens (module docs, "Jumps").
+#[derive(Clone, Copy, PartialEq)]
+enum Reopen {
+    /// `k_e`, the surface where it was.
+    Stiffness,
+    /// `k_e` as above, and `μ`, `b_e`.
+    Material,
+    /// `ẋ_e`.
+    SurfaceSpeed,
+}
+
+/// The held samples filtered again from the state before the first of them, the
+/// covariance reopened for `what`; returns the state and the samples' log-likelihood.
+fn refilter(p: &ContactParams, n: &ContactState, m: usize, what: Reopen, i: &ContactInputs, sigma_x: f64, sigma_v: f64) -> (ContactState, f64) {
+    let [s_k0, s_mu0, s_b0] = prior_sigmas(p);
+    let mut h = *n;
+    (h.theta, h.p) = n.pre_hold;
+    if what == Reopen::SurfaceSpeed {
+        h.p[W][W] += p.surface_speed * p.surface_speed;
+    } else {
+        let k = h.theta[K];
+        let xe_c = if k > 1e-9 { h.theta[C] / k } else { 0.0 };
+        kalman::reopen(&mut h.p, &[1.0, xe_c, 0.0, 0.0, 0.0], s_k0 * s_k0);
+        if what == Reopen::Material {
+            h.p[MU][MU] += s_mu0 * s_mu0;
+            h.p[B][B] += s_b0 * s_b0;
+        }
+    }
+    let mut ll = 0.0;
+    for (j, smp) in n.held.iter().take(m).enumerate() {
+        if j > 0 {
+            let q = process_noise(p, &h, i.dt);
+            kalman::predict(&mut h.theta, &mut h.p, i.dt, &q);
+        }
+        ll += apply(p, &mut h, *smp, i.sigma_f, sigma_x, sigma_v);
+    }
+    (h, ll)
+}
+
+/// The random walks' variances over one period `dt` (module docs).
+fn process_noise(p: &ContactParams, n: &ContactState, dt: f64) -> Vec5 {
+    let k_pos = n.theta[K].max(0.0);
+    let rho2 = p.drift * p.drift * dt;
+    let mut q = [0.0; N];
+    q[K] = k_pos * k_pos * rho2;
+    q[MU] = rho2;
+    q[B] = p.b_max * p.b_max * rho2;
+    if n.released {
+        q[W] = p.surface_accel * p.surface_accel * dt;
+    }
+    q
 }
 
 /// A new contact: the prior (module docs, "Start") at the aligned sample `x`, `ẋ`, `u`, `f`.
@@ -394,7 +451,6 @@ fn apply(p: &ContactParams, n: &mut ContactState, smp: [f64; 4], sigma_f: f64, s
     let ex_mu = n.p[MU][MU] > 0.0 && eff(MU) > 0.0;
     let ex_b = eff(B) > p.z_x * sigma_v;
     let mask = [ex_k, true, n.released, ex_mu, true];
-    let _ = ex_b;
     kalman::update(&mut n.theta, &mut n.p, &ph, upd, &mask);
     if !n.theta.iter().all(|v| v.is_finite()) {
         // numerical failure: back to the prior at this sample (fails safe: k̄ = k_max)

@@ -477,6 +477,7 @@ fn params_from_env() -> ContactParams {
             "z_x" => p.z_x = v,
             "surface_speed" => p.surface_speed = v,
             "z_jump" => p.z_jump = v,
+            "jump_cycles" => p.jump_cycles = v as u32,
             _ => panic!("{k}"),
         }
     }
