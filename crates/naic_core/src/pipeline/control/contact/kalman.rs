@@ -82,30 +82,29 @@ pub fn update(theta: &mut Vec5, p: &mut Mat5, ph: &Vec5, u: Update, mask: &[bool
             out[i][j] += -g[i] * ph[j] - ph[i] * g[j] + u.s * g[i] * g[j];
         }
     }
-    for i in 0..N {
-        out[i][i] = out[i][i].max(0.0);
+    for (i, row) in out.iter_mut().enumerate() {
+        row[i] = row[i].max(0.0);
     }
     *p = symmetric(out);
 }
 
 /// `P ← P + σ² g gᵀ`: reopen the covariance along `g`.
 pub fn reopen(p: &mut Mat5, g: &Vec5, var: f64) {
-    for i in 0..N {
-        for j in 0..N {
-            p[i][j] += var * g[i] * g[j];
+    for (row, gi) in p.iter_mut().zip(g) {
+        for (pij, gj) in row.iter_mut().zip(g) {
+            *pij += var * gi * gj;
         }
     }
 }
 
-fn symmetric(mut p: Mat5) -> Mat5 {
-    for i in 0..N {
-        for j in (i + 1)..N {
-            let m = 0.5 * (p[i][j] + p[j][i]);
-            p[i][j] = m;
-            p[j][i] = m;
+fn symmetric(p: Mat5) -> Mat5 {
+    let mut out = p;
+    for (i, row) in out.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = 0.5 * (p[i][j] + p[j][i]);
         }
     }
-    p
+    out
 }
 
 #[cfg(test)]
