@@ -83,8 +83,10 @@
 //! or the surface's speed (`ẋ_e`'s variance back to `v_e,max²`). From the state before the
 //! first held sample, the held samples are filtered again with `k_e` reopened and with `ẋ_e`
 //! reopened (one degree of freedom each), and the one with the larger likelihood
-//! `Σ −½ (ν²/S + ln S)` is kept (a surface that starts to move is not a softer material); a
-//! new material gets `μ` and `b_e` reopened too. A held sample followed by an ordinary one was an outlier and is
+//! `Σ −½ (ν²/S + ln S)` is kept (a surface that starts to move is not a softer material). The
+//! other hypothesis runs on beside it until one is 100 times likelier or for 0.1 s, the
+//! likelier is kept at every sample, and the bounds cover both while both are open. Decided
+//! for a new material, `μ` and `b_e` get their priors' variance back too. A held sample followed by an ordinary one was an outlier and is
 //! dropped.
 //!
 //! # Bounds
@@ -174,6 +176,8 @@ pub struct ContactState {
     pub surface_moved: bool,
     /// θ and P before the first held sample's update.
     pre_hold: (Vec5, Mat5),
+    /// The other hypothesis of the last jump while it is still open (module docs, "Jumps").
+    pub alt: Option<Alt>,
     /// Diagnostics of the last cycle: innovation [N], its σ [N], which parameters were
     /// excited (k_e, μ, b_e), whether the sample was used.
     pub nu: f64,
@@ -199,6 +203,7 @@ impl Default for ContactState {
             jumps: 0,
             surface_moved: false,
             pre_hold: ([0.0; N], [[0.0; N]; N]),
+            alt: None,
             nu: 0.0,
             nu_sigma: 0.0,
             excited: [false; 3],
@@ -206,6 +211,22 @@ impl Default for ContactState {
         }
     }
 }
+
+/// The hypothesis of a jump not (yet) kept: its θ, P, its log-likelihood minus the kept one's
+/// since the jump, the time since the jump [s], and whether it is the surface's speed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Alt {
+    pub theta: Vec5,
+    pub p: Mat5,
+    pub ll: f64,
+    pub t: f64,
+    pub moved: bool,
+}
+
+/// A jump's two hypotheses run side by side until one is this much likelier (100 : 1) ...
+const DECIDE_LL: f64 = 4.605_170_185_988_091;
+/// ... or for at most this long [s] (the time issue 42 gives a jump's re-estimate).
+const DECIDE_S: f64 = 0.1;
 
 /// The prior's estimate (no contact yet), at tip position `x`.
 pub fn prior(p: &ContactParams, x: f64) -> ContactEstimate {
@@ -217,6 +238,23 @@ pub fn estimate(p: &ContactParams, s: &ContactState, x: f64) -> ContactEstimate 
     if !s.active {
         return prior(p, x);
     }
+    let e = estimate_one(p, s);
+    match s.alt {
+        // while a jump's hypotheses are both open, the bounds cover both
+        Some(a) => {
+            let o = estimate_one(p, &ContactState { theta: a.theta, p: a.p, alt: None, ..*s });
+            ContactEstimate {
+                k_upper: e.k_upper.max(o.k_upper),
+                k_lower: e.k_lower.min(o.k_lower),
+                mu_upper: e.mu_upper.max(o.mu_upper),
+                ..e
+            }
+        }
+        None => e,
+    }
+}
+
+fn estimate_one(p: &ContactParams, s: &ContactState) -> ContactEstimate {
     let k = s.theta[K];
     let sk = s.p[K][K].max(0.0).sqrt();
     let k_hat = k.max(0.0);
@@ -316,6 +354,34 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
         return (n, estimate(p, &n, i.x));
     }
     let sample = [xc, va, ua, i.f];
+    if let Some(mut a) = n.alt {
+        // both hypotheses of the last jump on this sample; the likelier is kept
+        let mut h = ContactState { theta: a.theta, p: a.p, alt: None, ..n };
+        let q = process_noise(p, &h, i.dt);
+        kalman::predict(&mut h.theta, &mut h.p, i.dt, &q);
+        let l_alt = apply(p, &mut h, sample, i.sigma_f, sigma_x, sigma_v);
+        let l_main = apply(p, &mut n, sample, i.sigma_f, sigma_x, sigma_v);
+        a.ll += l_alt - l_main;
+        a.t += i.dt;
+        a.theta = h.theta;
+        a.p = h.p;
+        if a.ll > 0.0 {
+            // swap: the other is now the likelier
+            let kept = Alt { theta: n.theta, p: n.p, ll: -a.ll, t: a.t, moved: n.surface_moved };
+            n.theta = a.theta;
+            n.p = a.p;
+            n.surface_moved = a.moved;
+            a = kept;
+        }
+        n.alt = if a.ll < -DECIDE_LL || a.t >= DECIDE_S { None } else { Some(a) };
+        if n.alt.is_none() && !n.surface_moved {
+            // decided for a new material: its feed-through and damping are new too
+            let [_, s_mu0, s_b0] = prior_sigmas(p);
+            n.p[MU][MU] += s_mu0 * s_mu0;
+            n.p[B][B] += s_b0 * s_b0;
+        }
+        return (n, estimate(p, &n, i.x));
+    }
     if n.released {
         let (h, f_hat) = measurement(&n.theta, xc, va, ua);
         let r = noise(&n, i.sigma_f, sigma_x, sigma_v);
@@ -335,14 +401,10 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
                 // one degree of freedom each: which changed, k_e or ẋ_e?
                 let (stiffer, l_k) = refilter(p, &n, m, Reopen::Stiffness, i, sigma_x, sigma_v);
                 let (moved, l_w) = refilter(p, &n, m, Reopen::SurfaceSpeed, i, sigma_x, sigma_v);
-                n = if l_w > l_k {
-                    moved
-                } else {
-                    // a new material: its feed-through and damping are new too
-                    let _ = stiffer;
-                    refilter(p, &n, m, Reopen::Material, i, sigma_x, sigma_v).0
-                };
+                let (keep, other) = if l_w > l_k { (moved, stiffer) } else { (stiffer, moved) };
+                n = keep;
                 n.surface_moved = l_w > l_k;
+                n.alt = Some(Alt { theta: other.theta, p: other.p, ll: -(l_w - l_k).abs(), t: 0.0, moved: l_w <= l_k });
             }
             return (n, estimate(p, &n, i.x));
         }
@@ -357,8 +419,6 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
 enum Reopen {
     /// `k_e`, the surface where it was.
     Stiffness,
-    /// `k_e` as above, and `μ`, `b_e`.
-    Material,
     /// `ẋ_e`.
     SurfaceSpeed,
 }
@@ -366,7 +426,7 @@ enum Reopen {
 /// The held samples filtered again from the state before the first of them, the
 /// covariance reopened for `what`; returns the state and the samples' log-likelihood.
 fn refilter(p: &ContactParams, n: &ContactState, m: usize, what: Reopen, i: &ContactInputs, sigma_x: f64, sigma_v: f64) -> (ContactState, f64) {
-    let [s_k0, s_mu0, s_b0] = prior_sigmas(p);
+    let [s_k0, _, _] = prior_sigmas(p);
     let mut h = *n;
     (h.theta, h.p) = n.pre_hold;
     if what == Reopen::SurfaceSpeed {
@@ -375,10 +435,6 @@ fn refilter(p: &ContactParams, n: &ContactState, m: usize, what: Reopen, i: &Con
         let k = h.theta[K];
         let xe_c = if k > 1e-9 { h.theta[C] / k } else { 0.0 };
         kalman::reopen(&mut h.p, &[1.0, xe_c, 0.0, 0.0, 0.0], s_k0 * s_k0);
-        if what == Reopen::Material {
-            h.p[MU][MU] += s_mu0 * s_mu0;
-            h.p[B][B] += s_b0 * s_b0;
-        }
     }
     let mut ll = 0.0;
     for (j, smp) in n.held.iter().take(m).enumerate() {
@@ -416,6 +472,7 @@ fn start(p: &ContactParams, n: &mut ContactState, x: f64, v: f64, u: f64, f: f64
     n.t = 0.0;
     n.n_held = 0;
     n.jumps = 0;
+    n.alt = None;
     // at x = x₀: f = −c + μ u + b ẋ
     n.theta = [0.5 * p.k_max, -(f - mu0 * u - b0 * v), 0.0, mu0, b0];
     let s_c0 = f.abs() + p.mu_max * u.abs() + p.b_max * v.abs() + p.z * sigma_f + 1e-3;

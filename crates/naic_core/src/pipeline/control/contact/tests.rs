@@ -106,6 +106,7 @@ fn run(case: &Case, seed: u64, p: &ContactParams) -> Run {
     let mut s = ContactState::default();
     let mut rows = Vec::new();
     let mut diag = Vec::new();
+    let mut jumps_seen = 0;
     let k_e_of = |s: &Surface| s.truth();
     let mut f_true = 0.0;
     let steps = (case.duration / T).round() as usize;
@@ -166,6 +167,10 @@ fn run(case: &Case, seed: u64, p: &ContactParams) -> Run {
                 *v = s.p[j][j].max(0.0).sqrt();
             }
             diag.push((s.theta, sd, s.excited, x - xe));
+            if std::env::var("CONTACT_JUMPS").is_ok() && (s.jumps != jumps_seen || s.alt.is_some()) {
+                jumps_seen = s.jumps;
+                println!("  t {:.3} jumps {} moved {} alt {:?}", t_now - t_contact, s.jumps, s.surface_moved, s.alt.map(|a| (a.ll, a.moved, a.theta[0])));
+            }
         }
         // the test's own force loop: approach at v₀, then an admittance whose gain is set
         // from the true stiffness (a signal generator, not a law under test)
