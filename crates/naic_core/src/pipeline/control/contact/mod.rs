@@ -9,7 +9,7 @@
 //! the contact (what the law commanded for the period that ends at the sample):
 //!
 //! ```text
-//! f = μ u + k_e (x − x_e) + b_e ẋ,        ẋ_e = d x_e / dt                       (C1)
+//! f = μ u + k_e (x − x_e) + b_e (ẋ − ẋ_e),        ẋ_e = d x_e / dt               (C1)
 //! ```
 //!
 //! A spring–damper surface under a massive arm is `μ ≈ 0` (naic's own plant). MuJoCo's
@@ -30,8 +30,9 @@
 //! (the damping acts on the speed relative to the surface) — linear in θ but for the
 //! product `b_e ẋ_e`, which the filter linearises about its estimate (the measurement's
 //! Jacobian `h = [x − x₀, −1, −b̂_e, u, ẋ − ẋ̂_e]`) — with `σ_x` the tip's position resolution
-//! along n as a standard deviation (`resolution/√12`), `σ_v = √2 σ_x / T` the differenced
-//! velocity's: the encoder's error in the regressors enters as force noise (errors in the
+//! along n as a standard deviation (`resolution/√12`), `σ_v` the velocity regressor's
+//! (`σ_x/(√2 T)` for the central difference below, `√2 σ_x / T` for a backward one): the
+//! encoder's error in the regressors enters as force noise (errors in the
 //! variables). The prediction moves the surface, `c ← c + T k_e ẋ_e`; `ẋ_e` is a random walk
 //! of intensity `a_e` ([`ContactParams::surface_accel`]), `k_e`, `μ`, `b_e` random walks of
 //! intensity `ρ` ([`ContactParams::drift`]).
@@ -72,22 +73,23 @@
 //! the input `ẋ`.
 //! Unexcited parameters are *considered*, not updated (Schmidt): their gain is zero, their
 //! covariance and correlations are carried exactly (Joseph's form), so `c` and `ẋ_e` keep
-//! following the surface.
+//! following the surface. The contact is unilateral: (C1) holds only while it presses, and a
+//! measured force within `z σ_f` of zero is no evidence (the contact may have opened).
 //!
 //! # Jumps
 //!
 //! A sample whose normalised innovation `|ν|/√S` exceeds `z_jump` is held back. After
 //! `jump_cycles` such samples in a row the contact has changed, in one of two ways: the
-//! material (the covariance reopened along `[1, x̂_e − x₀, 0, 0, 0] σ_k0` — the stiffness
-//! changes, the surface stays where it was — and `μ`, `b_e` back to their priors' variance)
-//! or the surface's speed (`ẋ_e`'s variance back to `v_e,max²`). From the state before the
+//! material (the covariance reopened along `[1, x̂_e − x₀, 0, 0, 0] σ_k0`: the stiffness
+//! changes, the surface stays where it was) or the surface's speed (`ẋ_e`'s variance back to
+//! `v_e,max²`). From the state before the
 //! first held sample, the held samples are filtered again with `k_e` reopened and with `ẋ_e`
 //! reopened (one degree of freedom each), and the one with the larger likelihood
 //! `Σ −½ (ν²/S + ln S)` is kept (a surface that starts to move is not a softer material). The
 //! other hypothesis runs on beside it until one is 100 times likelier or for 0.1 s, the
 //! likelier is kept at every sample, and the bounds cover both while both are open. Decided
-//! for a new material, `μ` and `b_e` get their priors' variance back too. A held sample followed by an ordinary one was an outlier and is
-//! dropped.
+//! for a new material, `μ` and `b_e` get their priors' variance back too. A held sample
+//! followed by an ordinary one was an outlier and is dropped.
 //!
 //! # Bounds
 //!
