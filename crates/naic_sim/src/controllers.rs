@@ -123,6 +123,8 @@ impl<const N: usize> PipelineController<N> {
         if mode == Mode::Scheduled {
             // The task's expected surface (acrylic, two-material): the approach slows down near it.
             c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
+            // The derived law's gains are designed for the loop's delay.
+            c.force_law.scheduled.derived.delay_cycles = settings.delay_cycles as f64;
             // The friction feedforward on the unfiltered velocity in contact where a joint's
             // law falls with speed, led by 2 periods on stiff surfaces
             // (naic_core::pipeline::feedforward::FastVelocity; rounds 10 and 11 of issue 12,

@@ -281,12 +281,14 @@ fn the_gain_rule_meets_its_margins_on_every_physical_contact() {
                 if (k_bar / mass).sqrt() * (d as f64 + 0.5) * 1e-3 > STIFF_DELAY_BOUND {
                     continue;
                 }
-                let g = gains(&RuleInputs { k_upper: k_bar, k_lower: 100.0, mass, delay: d as f64, period: 1e-3 });
                 for (class, c) in physical_contacts(k_bar, mass) {
+                  // The feed-through bound the law is given: the contact's own, and the largest.
+                  for mu_upper in [c.feedthrough, 0.95] {
+                    let g = gains(&RuleInputs { k_upper: k_bar, k_lower: 100.0, mu_upper, b_e_max: 50.0, mass, delay: d as f64, period: 1e-3 });
                     for f in [0.7, 1.0, 1.4] {
                         let m = LoopModel { model_mass: mass, ..model(d, f) };
                         let r = margins(&m, &c, &g).unwrap();
-                        let case = format!("{class} k_e {:.0} b_e {:.0} μ {} | k̄ {k_bar} D̂ {mass} d {d} F {f} | {g:?}", c.k_e, c.b_e, c.feedthrough);
+                        let case = format!("{class} k_e {:.0} b_e {:.0} μ {} μ̄ {mu_upper} | k̄ {k_bar} D̂ {mass} d {d} F {f} | {g:?}", c.k_e, c.b_e, c.feedthrough);
                         assert!(r.spectral_radius < 1.0, "unstable: {case}: radius {}", r.spectral_radius);
                         if f == 1.0 {
                             assert!(r.phase_margin_deg >= 45.0, "phase margin {:.1}°: {case}", r.phase_margin_deg);
@@ -295,6 +297,7 @@ fn the_gain_rule_meets_its_margins_on_every_physical_contact() {
                         }
                         checked += 1;
                     }
+                  }
                 }
             }
         }
@@ -303,22 +306,22 @@ fn the_gain_rule_meets_its_margins_on_every_physical_contact() {
     eprintln!("{checked} cases; worst phase margin {:.1}°, worst dominant ζ {:.3}", worst.0, worst.1);
 }
 
-/// The rule by hand: below the velocity-loop bound `m_d = D̂`; above it `m_d` grows with
+/// The rule by hand: below the velocity-loop bound `m_d = 2 μ_eff D̂` (`2 D̂` at `μ̄ = 1`); above it `m_d` grows with
 /// `k̄ τ_v²`; `b_d = 2 ζ_b √(k̄ m_d)`; `k_i = k_low/(4 ζ_i² b_d)`; bad inputs land on the
 /// safe side (no integral, finite gains).
 #[test]
 fn the_gain_rule_by_hand() {
     use crate::force_design::rule::{ALPHA_V, ZETA_B, ZETA_I};
-    let g = gains(&RuleInputs { k_upper: 2000.0, k_lower: 1000.0, mass: D_JK5, delay: 1.0, period: 1e-3 });
-    assert_eq!(g.m_d, D_JK5);
-    assert!((g.b_d - 2.0 * ZETA_B * (2000.0 * D_JK5).sqrt()).abs() < 1e-9);
+    let g = gains(&RuleInputs { k_upper: 2000.0, k_lower: 1000.0, mu_upper: 1.0, b_e_max: 50.0, mass: D_JK5, delay: 1.0, period: 1e-3 });
+    assert_eq!(g.m_d, 2.0 * D_JK5);
+    assert!((g.b_d - 2.0 * ZETA_B * (2000.0 * g.m_d).sqrt()).abs() < 1e-9);
     assert!((g.k_i - 1000.0 / (4.0 * ZETA_I * ZETA_I * g.b_d)).abs() < 1e-12);
-    let g = gains(&RuleInputs { k_upper: 500_000.0, k_lower: 1000.0, mass: D_JK5, delay: 3.0, period: 1e-3 });
+    let g = gains(&RuleInputs { k_upper: 500_000.0, k_lower: 1000.0, mu_upper: 0.0, b_e_max: 50.0, mass: D_JK5, delay: 3.0, period: 1e-3 });
     let tv = 5.5e-3;
     assert!((g.m_d - (2.0 * ZETA_B * tv / ALPHA_V).powi(2) * 500_000.0).abs() < 1e-6, "{g:?}");
     assert!((g.b_d / g.m_d * tv - ALPHA_V).abs() < 1e-9, "{g:?}");
     for bad in [f64::NAN, -1.0, 0.0, f64::INFINITY] {
-        let g = gains(&RuleInputs { k_upper: bad, k_lower: bad, mass: bad, delay: 1.0, period: 1e-3 });
+        let g = gains(&RuleInputs { k_upper: bad, k_lower: bad, mu_upper: bad, b_e_max: bad, mass: bad, delay: 1.0, period: 1e-3 });
         assert!(g.m_d.is_finite() && g.m_d > 0.0 && g.b_d.is_finite() && g.b_d > 0.0, "{bad}: {g:?}");
         assert_eq!(g.k_i, 0.0, "{bad}: {g:?}");
     }
@@ -337,7 +340,7 @@ const STIFF_DELAY_BOUND: f64 = 1.5;
 fn past_the_stiffness_delay_bound_the_loop_is_unstable_for_any_impedance() {
     let (mass, k_e, d) = (1.0f64, 500_000.0f64, 3u32);
     assert!((k_e / mass).sqrt() * (d as f64 + 0.5) * 1e-3 > 2.3);
-    let g = gains(&RuleInputs { k_upper: k_e, k_lower: 100.0, mass, delay: d as f64, period: 1e-3 });
+    let g = gains(&RuleInputs { k_upper: k_e, k_lower: 100.0, mu_upper: 0.0, b_e_max: 50.0, mass, delay: d as f64, period: 1e-3 });
     for scale in [1.0, 10.0] {
         let g = Gains { m_d: g.m_d * scale, b_d: g.b_d * scale, k_i: g.k_i };
         let m = LoopModel { model_mass: mass, ..model(d, 1.0) };

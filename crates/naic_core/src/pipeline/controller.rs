@@ -319,12 +319,19 @@ pub fn step<const N: usize>(
     shaped.p_d = pd;
     shaped.v_d.fixed_rows_mut::<3>(0).copy_from(&vd);
     shaped.a_d.fixed_rows_mut::<3>(0).copy_from(&ad);
-    let a_free = if control::law::needs_free_fall(&p.control) {
+    // The model's free fall along n and its apparent mass along n, D̂ = 1/(nᵀ J M⁻¹ Jᵀ n)
+    // (M⁻¹ Jᵀ n as the forward dynamics' response to the torque Jᵀ n at rest).
+    let (a_free, mass_n) = if control::law::needs_free_fall(&p.control) {
         let zero = SVector::<f64, N>::zeros();
         let qdd_free = *dynamics::aba(&c.model, &mut ws.data, &q, &zero, &zero);
-        p.control.force_axis.dot6(&(j * qdd_free))
+        let mut n6 = Vector6::zeros();
+        p.control.force_axis.set6(&mut n6, 1.0);
+        let tau_n = j.transpose() * n6;
+        let qdd_n = *dynamics::aba(&c.model, &mut ws.data, &q, &zero, &tau_n);
+        let inv = p.control.force_axis.dot6(&(j * (qdd_n - qdd_free)));
+        (p.control.force_axis.dot6(&(j * qdd_free)), if inv > 0.0 { 1.0 / inv } else { f64::NAN })
     } else {
-        f64::NAN
+        (f64::NAN, f64::NAN)
     };
     let r = &shaped;
     let e_p = r.p_d - tip.trans;
@@ -337,7 +344,7 @@ pub fn step<const N: usize>(
         a_d: r.a_d,
         f_e,
         f_d: r.f_d,
-        pre: control::law::Prepared { shaper, a_free },
+        pre: control::law::Prepared { shaper, a_free, mass_n },
     };
     let (control_state, out) = control::step(&p.control, &s.control, &task);
     next.control = control_state;

@@ -1,7 +1,7 @@
 //! One interface for the force laws along the force axis `n`, one dispatch point.
 //!
 //! A force law is its parameters ([`super::force_law::ForceLawParams`], with the scheduled
-//! law's [`ScheduledParams`] inside), its state (the fields `law` and `sched` of
+//! law's [`scheduled::ScheduledParams`] inside), its state (the fields `law` and `sched` of
 //! [`super::ControlState`], written only by [`step`], [`rearm`](step) at a new contact and
 //! the constructors [`new_sched`] / [`after_hold`]) and one pure step on scalars along `n`
 //! ([`step`]). What the generic stages need from a law is an output of that step, not a
@@ -23,7 +23,7 @@
 use nalgebra::Vector3;
 
 use super::force_law::{self, ForceLawInputs, ForceLawOutputs, ForceLawState, Mode};
-use super::scheduled::{self, ScheduledInputs, ScheduledParams, ScheduledState, Shaper};
+use super::scheduled::{self, ScheduledState, Shaper};
 use super::{ControlParams, ForceAxis, ImpedanceParams, Phase};
 use crate::pipeline::feedforward::{FastVelocity, ReferenceBlend};
 
@@ -47,11 +47,14 @@ pub struct Prepared {
     pub shaper: Option<Shaper>,
     /// The model's free-fall acceleration along `n` at this pose [m/s²] (NaN: not computed).
     pub a_free: f64,
+    /// The model's apparent mass along `n` at this pose, `D̂ = 1 / (nᵀ J M⁻¹ Jᵀ n)` [kg]
+    /// (NaN: not computed).
+    pub mass_n: f64,
 }
 
 impl Default for Prepared {
     fn default() -> Self {
-        Self { shaper: None, a_free: f64::NAN }
+        Self { shaper: None, a_free: f64::NAN, mass_n: f64::NAN }
     }
 }
 
@@ -116,7 +119,7 @@ pub struct AxisOutputs {
 /// Checks the law's own parameters (the paper laws' are checked by the control stage).
 pub fn validate(p: &ControlParams) -> Result<(), crate::pipeline::ConfigError> {
     match p.force_law.mode {
-        Mode::Scheduled => p.force_law.scheduled.validate(),
+        Mode::Scheduled => p.force_law.scheduled.validate().and_then(|_| p.force_law.scheduled.derived.validate()),
         Mode::Naic | Mode::Aic | Mode::Fixed => Ok(()),
     }
 }
@@ -198,19 +201,9 @@ pub fn after_hold(p: &ControlParams, s: &ScheduledState) -> ScheduledState {
     ScheduledState { k_known: s.k_known, shaper: s.shaper, ..new_sched(p) }
 }
 
-/// The gain along `n` the law divides its commands by, in state `s` (the paper laws never
-/// learn it: its initial value, 1).
-pub fn model_gain(p: &ControlParams, s: &ScheduledState) -> f64 {
-    s.gain.used(&p.force_law.scheduled.model_gain)
-}
-
-/// `(k̂_e, confidence)` of the scheduled law's estimator (the oracle's known k_e if set).
-fn estimator_report(p: &ScheduledParams, s: &ScheduledState) -> (f64, f64) {
-    if let Some(k) = s.k_known {
-        return (k, 1.0);
-    }
-    let e = scheduled::estimator::estimate(&p.estimator, &s.est);
-    (e.k_e, e.confidence)
+/// The gain along `n` the law divides its commands by, in state `s`: 1 (no law learns it).
+pub fn model_gain(_p: &ControlParams, _s: &ScheduledState) -> f64 {
+    1.0
 }
 
 /// One cycle of the force law along `n`: the one dispatch point. Pure: the law's states
@@ -240,37 +233,25 @@ pub fn step(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, u: &
         return (next_law, next_sched, out);
     }
 
-    // The scheduled law.
+    // The scheduled law: the derived law in contact (scheduled::derived), the approach
+    // servo out of contact; no gravity factor, model gain or friction velocity of its own.
     let sp = &fl.scheduled;
-    // The ĝ this cycle's commands are made with (in realised units for the predictor).
-    let g_used = sched.gain.used(&sp.model_gain);
+    if u.entered {
+        next_sched.derived = next_sched.derived.rearm(&sp.derived, u.x, u.f_ext);
+    }
     match u.regime {
         Regime::Contact => {
-            let inputs = ScheduledInputs { x: u.x, x_dot: u.x_dot, e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, xdd_d: u.a_d };
-            let (s, r) = scheduled::step(sp, fl.lambda, fl.integral_limit_n, &next_sched, &inputs);
-            next_sched = s;
-            let g = &s.gains;
-            // The shared law state reports the scheduled weights (Status, /naic/params).
-            next_law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: s.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
-            // Divided by the model's gain along n: the arm realises what the law asks.
-            out.xdd = Some((u.a_d - r.e_ddot) / sched.gain.used(&sp.model_gain));
-            // The friction feedforward's velocity along n: the observer's v̄ where it runs,
-            // the reference's where v̄ would be the raw encoder velocity.
-            out.v_ref = r.v_bar;
-            out.report = ForceLawOutputs {
-                e_ddot: r.e_ddot,
-                e_f: r.e_f,
-                gamma: r.gamma,
-                gamma_bound: r.gamma_bound,
-                gamma_clipped: r.gamma_clipped,
-                weights_projected: r.weights_projected,
-                k_e_hat: r.estimate.k_e,
-                k_e_confidence: r.estimate.confidence,
-            };
+            let inputs = scheduled::derived::DerivedInputs { x: u.x, e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, mass: u.pre.mass_n, k_known: sched.k_known };
+            let (s, r) = scheduled::derived::step(&sp.derived, fl.lambda, fl.integral_limit_n, &next_sched.derived, &inputs);
+            next_sched.derived = s;
+            // The shared law state reports the gains (Status, /naic/params).
+            next_law = ForceLawState { m_d: s.m_d, b_d: s.b_d, sigma: s.k_i * fl.lambda, phi: s.integral / s.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
+            out.xdd = Some(u.a_d - r.e_ddot);
+            out.report = ForceLawOutputs { e_ddot: r.e_ddot, e_f: r.e_f, k_e_hat: r.estimate.k_hat, k_e_confidence: if sched.k_known.is_some() { 1.0 } else { 0.0 }, ..Default::default() };
         }
         Regime::Free => {
-            // A PI velocity servo along n toward the reference (robust to a model error),
-            // slower near an expected surface (`scheduled::approach_accel`).
+            // A PI velocity servo along n toward the reference, slower near an expected
+            // surface (`scheduled::approach_accel`).
             let free = scheduled::ApproachAxis { m: u.free_m, b: u.free_b, k: u.free_k, e: u.e, v_d: u.v_d, a_d: u.a_d };
             let (a_n, e) = scheduled::approach_accel(&sp.approach, u.surface_n, u.x, u.x_dot, free, u.v_n, next_sched.approach_integral, fl.lambda);
             next_sched.approach_integral = e;
@@ -279,37 +260,8 @@ pub fn step(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, u: &
         }
         Regime::Retracting => {}
     }
-    if u.regime != Regime::Retracting {
-        let e = estimator_report(sp, &next_sched);
-        out.report.k_e_hat = e.0;
-        out.report.k_e_confidence = e.1;
-    }
-    let v_n = out.xdd.unwrap_or(u.v_n);
-    if u.regime != Regime::Contact {
-        // The predictor remembers every command along n; in contact the law pushes its own.
-        next_sched = next_sched.commanded(g_used * v_n);
-    }
-    // The model's gain along n: learnt in free space only (no contact force).
-    let phase_free = u.regime == Regime::Free;
-    let learn = u.prev_phase == Phase::Free && phase_free && u.f_ext < p.contact.scheduled_enter_n;
-    next_sched.gain = next_sched.gain.cycle(&sp.model_gain, fl.lambda, u.x_dot, learn, v_n);
-    // The gravity correction by the learnt model gain (scheduled::gain::GravityCorrection),
-    // its static reading once, in free space, from the model's free fall along n.
-    if u.regime != Regime::Contact && next_sched.gain.wants_heavy(&sp.model_gain, fl.lambda) {
-        next_sched.gain = next_sched.gain.with_heavy(next_sched.approach_integral, u.pre.a_free);
-    }
-    out.gravity_factor = next_sched.gain.gravity_factor(&sp.model_gain, fl.lambda);
-    out.model_gain = next_sched.gain.used(&sp.model_gain);
     if let Some(shaper) = u.pre.shaper {
         next_sched.shaper = Some(shaper);
-    }
-    if let Some(b) = sp.friction_reference {
-        let fast = sp.friction_fast.map(|f| {
-            let age = next_sched.contact_cycles as f64 * fl.lambda;
-            let gate = f.contact_gate(u.regime == Regime::Contact, age);
-            (f, gate, next_sched.k_known.unwrap_or(out.report.k_e_hat))
-        });
-        out.friction = Some(FrictionVelocity { blend: b, fast });
     }
     (next_law, next_sched, out)
 }

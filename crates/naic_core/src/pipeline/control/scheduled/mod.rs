@@ -51,6 +51,7 @@
 //! base frame) to `approach.speed` within `approach.band` of it. On acrylic at 5 mm/s
 //! the impact is 50 000 · 0.005 · 2.5e-3 = 0.6 N at d = 2.
 
+pub mod derived;
 pub mod estimator;
 pub mod gain;
 pub mod learning;
@@ -196,6 +197,8 @@ pub struct ScheduledParams {
     /// the free-space approach; with `scale_commands` the contact command along n is divided
     /// by `ĝ` and the observers integrate `ĝ a`. `window = 0`: off (`ĝ = 1`, as before round 13).
     pub model_gain: GainParams,
+    /// The law derived from the loop model ([`derived`]): the one `scheduled` runs in contact.
+    pub derived: derived::DerivedParams,
 }
 
 
@@ -223,6 +226,7 @@ impl Default for ScheduledParams {
             friction_fast: None,
             reference_shaping: REFERENCE_SHAPING_DEFAULT,
             model_gain: GainParams::default(),
+            derived: derived::DerivedParams::default(),
         }
     }
 }
@@ -334,6 +338,8 @@ pub struct ScheduledState {
     /// The disturbance estimate `w̄` held for where the velocity observer is off
     /// ([`ScheduledParams::disturbance_hold`]) [m/s²].
     pub held_disturbance: f64,
+    /// The derived law's state ([`derived`]).
+    pub derived: derived::DerivedState,
 }
 
 impl ScheduledState {
@@ -355,6 +361,7 @@ impl ScheduledState {
             shaper: None,
             gain: GainEstimator::new(&p.model_gain),
             held_disturbance: 0.0,
+            derived: derived::DerivedState::new(&p.derived),
         }
     }
 
