@@ -42,6 +42,7 @@
 //! fixed offset from the reference and with no force target, until the owner
 //! calls [`ControlState::resume`] (the ROS node does on any parameter change).
 
+pub mod contact;
 pub mod force_law;
 pub mod law;
 pub mod scheduled;
