@@ -62,12 +62,14 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::double("approach_band", ap.band, 0.0, 0.5, "Mode 'scheduled', with use_expected_surface: distance before the expected surface where the approach slows [m]"),
         ParamSpec::double("approach_band_speed", ap.speed, 1.0e-4, 0.5, "Mode 'scheduled', with use_expected_surface: approach speed along n inside approach_band [m/s]"),
         ParamSpec::double("force_observer", fl.scheduled.force_observer, 0.0, 2000.0, "Mode 'scheduled': bandwidth of the disturbance observer that reads the force on stiff surfaces [rad/s] (0: off, the velocity observer alone)"),
-        ParamSpec::double("loop_delay_cycles", fl.scheduled.derived.delay_cycles, 0.0, 50.0, "Mode 'scheduled': the loop delay d its gains are designed for [control periods] (sensor sample to torque; measure it on the chain)"),
-        ParamSpec::double("stiffness_max", fl.scheduled.derived.k_max, 1.0, 1.0e7, "Mode 'scheduled': the stiffest surface expected [N/m]: the stiffness bound k_bar before any evidence (the gains are stable for every surface up to k_bar)"),
+        ParamSpec::double("loop_delay_cycles", fl.scheduled.derived.delay_cycles, 0.0, 8.0, "Mode 'scheduled': the loop delay d its gains are designed for [control periods] (sensor sample to torque; measure it on the chain)"),
+        ParamSpec::double("stiffness_max", fl.scheduled.derived.contact.k_max, 1.0, 1.0e8, "Mode 'scheduled': the stiffest surface expected [N/m]: the stiffness bound k_bar before any evidence (the gains are stable for every surface up to k_bar)"),
         ParamSpec::double("stiffness_min", fl.scheduled.derived.k_min, 1.0, 1.0e7, "Mode 'scheduled': the softest surface expected [N/m]: the integral is set for it until the estimate's lower bound is higher"),
-        ParamSpec::double("feedthrough_max", fl.scheduled.derived.mu_max, 0.0, 1.0, "Mode 'scheduled': bound on the contact's feed-through mu (the fraction of a push that reaches the force at once: 0 a spring, about 0.9 MuJoCo's soft contact, 1 rigid); 1 is safe on any contact"),
-        ParamSpec::double("surface_damping_max", fl.scheduled.derived.b_e_max, 0.0, 1.0e5, "Mode 'scheduled': the surface damping the gains are designed for [N s/m]"),
-        ParamSpec::double("position_resolution", fl.scheduled.derived.x_resolution, 1.0e-9, 1.0e-2, "Mode 'scheduled': the tip's position resolution along n [m] (encoder count through the Jacobian); the stiffness estimate takes a penetration above 10 of them as evidence"),
+        ParamSpec::double("feedthrough_max", fl.scheduled.derived.contact.mu_max, 1.0e-3, 1.0, "Mode 'scheduled': bound on the contact's feed-through mu (the fraction of a push that reaches the force at once: 0 a spring, about 0.9 MuJoCo's soft contact, 1 rigid); 1 is safe on any contact"),
+        ParamSpec::double("surface_damping_max", fl.scheduled.derived.contact.b_max, 0.0, 1.0e6, "Mode 'scheduled': the largest surface damping expected [N s/m]"),
+        ParamSpec::double("position_resolution", fl.scheduled.derived.x_resolution, 1.0e-9, 1.0e-2, "Mode 'scheduled': the tip's position resolution along n [m] (one encoder count through the Jacobian)"),
+        ParamSpec::double("force_noise", fl.scheduled.derived.force_noise, 1.0e-4, 10.0, "Mode 'scheduled': the F/T sensor's noise along n, 1 sigma [N]"),
+        ParamSpec::double("surface_speed", fl.scheduled.derived.contact.surface_speed, 0.0, 1.0, "Mode 'scheduled': 1 sigma of the surface's speed along n the estimator allows [m/s]"),
         ParamSpec::string("base_frame", "base_link", "The URDF's root link: the frame of /naic/params and of the reference; with scenario 'none', /naic/target_pose and /naic/desired_wrench in any frame of the model (or '' for this one) are expressed in it"),
         ParamSpec::double("tf_rate", crate::tf::DEFAULT_TF_RATE, 0.0, 1000.0, "Rate of /tf [Hz]: the moving joints' transforms from the measured joint states, stamped with them (0: none; the fixed joints go to /tf_static once)"),
         ParamSpec::double("max_speed", rd.linear.max_speed, 1.0e-4, 2.0, "With scenario 'none': speed limit of the position reference [m/s]"),
@@ -152,11 +154,13 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
     sch.approach.speed = p.f64("approach_band_speed");
     sch.force_observer = p.f64("force_observer");
     sch.derived.delay_cycles = p.f64("loop_delay_cycles");
-    sch.derived.k_max = p.f64("stiffness_max");
+    sch.derived.contact.k_max = p.f64("stiffness_max");
     sch.derived.k_min = p.f64("stiffness_min");
-    sch.derived.mu_max = p.f64("feedthrough_max");
-    sch.derived.b_e_max = p.f64("surface_damping_max");
+    sch.derived.contact.mu_max = p.f64("feedthrough_max");
+    sch.derived.contact.b_max = p.f64("surface_damping_max");
     sch.derived.x_resolution = p.f64("position_resolution");
+    sch.derived.force_noise = p.f64("force_noise");
+    sch.derived.contact.surface_speed = p.f64("surface_speed");
     c.control.contact = ContactDetect {
         enter_n: p.f64("contact_threshold"),
         scheduled_enter_n: p.f64("scheduled_contact_threshold"),

@@ -236,18 +236,22 @@ pub fn step(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, u: &
     // The scheduled law: the derived law in contact (scheduled::derived), the approach
     // servo out of contact; no gravity factor, model gain or friction velocity of its own.
     let sp = &fl.scheduled;
-    if u.entered {
-        next_sched.derived = next_sched.derived.rearm(&sp.derived, u.x, u.f_ext);
-    }
+    let dp = &sp.derived;
+    // The contact estimator, every cycle (its history pairs the delayed force).
+    let (d, est) = scheduled::derived::estimate(dp, &next_sched.derived, u.x, u.x_dot, u.f_ext, u.entered, u.regime == Regime::Contact, fl.lambda);
+    next_sched.derived = if u.entered { d.rearm(u.f_ext) } else { d };
     match u.regime {
         Regime::Contact => {
-            let inputs = scheduled::derived::DerivedInputs { x: u.x, e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, mass: u.pre.mass_n, k_known: sched.k_known };
-            let (s, r) = scheduled::derived::step(&sp.derived, fl.lambda, fl.integral_limit_n, &next_sched.derived, &inputs);
+            let inputs = scheduled::derived::DerivedInputs { e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, mass: u.pre.mass_n, estimate: est, k_known: sched.k_known };
+            let (s, r) = scheduled::derived::step(dp, fl.lambda, fl.integral_limit_n, &next_sched.derived, &inputs);
             next_sched.derived = s;
             // The shared law state reports the gains (Status, /naic/params).
             next_law = ForceLawState { m_d: s.m_d, b_d: s.b_d, sigma: s.k_i * fl.lambda, phi: s.integral / s.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
             out.xdd = Some(u.a_d - r.e_ddot);
-            out.report = ForceLawOutputs { e_ddot: r.e_ddot, e_f: r.e_f, k_e_hat: r.estimate.k_hat, k_e_confidence: if sched.k_known.is_some() { 1.0 } else { 0.0 }, ..Default::default() };
+            // k_e_confidence: 1 − (k̄ − k_low)/(k̄ + k_low), 1 when the bounds meet.
+            let (ku, kl) = (r.estimate.k_upper, r.estimate.k_lower.max(0.0));
+            let conf = if ku > 0.0 { 1.0 - (ku - kl) / (ku + kl) } else { 0.0 };
+            out.report = ForceLawOutputs { e_ddot: r.e_ddot, e_f: r.e_f, k_e_hat: r.estimate.k_hat, k_e_confidence: conf, ..Default::default() };
         }
         Regime::Free => {
             // A PI velocity servo along n toward the reference, slower near an expected
@@ -260,6 +264,7 @@ pub fn step(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, u: &
         }
         Regime::Retracting => {}
     }
+    next_sched.derived = scheduled::derived::commanded(&next_sched.derived, u.pre.mass_n, out.xdd.unwrap_or(u.v_n), u.f_ext);
     if let Some(shaper) = u.pre.shaper {
         next_sched.shaper = Some(shaper);
     }
