@@ -570,7 +570,9 @@ mod tests {
     #[test]
     fn two_phase_controller_tracks_the_desired_force_with_every_law() {
         for mode in Mode::ALL {
-            let (f, s) = run(mode, 4000);
+            // The scheduled law's integral follows the estimator's lower bound, which this
+            // point mass (it realises V whatever the force) keeps loose: a longer run.
+            let (f, s) = run(mode, if mode == Mode::Scheduled { 20_000 } else { 4000 });
             assert_eq!(s.phase, Phase::Contact, "{mode:?}");
             let last = *f.last().unwrap();
             assert!((last - 10.0).abs() < 0.05, "{mode:?}: final force {last}");
@@ -599,7 +601,7 @@ mod tests {
             let mut v = Vector3::zeros();
             let x_d = 0.03 * n; // below the surface n·x = 0, tangential offset 0
             let mut f = 0.0;
-            for _ in 0..4000 {
+            for _ in 0..(if mode == Mode::Scheduled { 20_000 } else { 4000 }) {
                 let pen = n.dot(&x).max(0.0);
                 let mut f_e = Vector6::zeros();
                 f_e.fixed_rows_mut::<3>(0).copy_from(&(k_e * pen * n));
@@ -812,13 +814,12 @@ mod tests {
         }
     }
 
-    /// In contact the friction feedforward's velocity along n is the observer's v̄ where the
-    /// observer runs (a stiff schedule) and the reference's where it is off (soft surfaces,
-    /// where v̄ would be the raw encoder velocity).
+    /// The scheduled law names no friction velocity of its own in contact: the feedforward
+    /// runs on the measured velocity (`v_ref` along n is the reference's, `dq_ff` is none).
     #[test]
-    fn the_feedforward_velocity_along_n_is_the_reference_where_the_observer_is_off() {
+    fn the_scheduled_law_leaves_the_friction_velocity_to_the_measurement() {
         let p = params(Mode::Scheduled);
-        let mut u = TaskInputs {
+        let u = TaskInputs {
             p: Vector3::new(0.0, 0.0, -1e-3),
             e: Vector6::zeros(),
             e_dot: Vector6::new(0.0, 0.0, 0.003, 0.0, 0.0, 0.0),
@@ -828,25 +829,17 @@ mod tests {
             f_d: 2.0,
             pre: Default::default(),
         };
-        for (k, observed) in [(1000.0, false), (50_000.0, true)] {
-            let mut s = ControlState::new(&p);
-            s.sched.k_known = Some(k);
-            let mut o = None;
-            for _ in 0..5 {
-                let (n, out) = step(&p, &s, &u);
-                s = n;
-                o = Some(out);
-                u.x_dot[2] = -0.003; // the tool moves down at 3 mm/s; the reference stands
-            }
-            let o = o.unwrap();
-            assert_eq!(s.phase, Phase::Contact);
-            if observed {
-                assert_eq!(o.v_ref[2], -s.sched.observer.v, "k = {k}");
-                assert!(o.v_ref[2] != 0.0);
-            } else {
-                assert_eq!(o.v_ref[2], 0.0, "k = {k}: the reference's velocity along n");
-            }
+        let mut s = ControlState::new(&p);
+        let mut o = None;
+        for _ in 0..5 {
+            let (n, out) = step(&p, &s, &u);
+            s = n;
+            o = Some(out);
         }
+        let o = o.unwrap();
+        assert_eq!(s.phase, Phase::Contact);
+        assert_eq!(o.v_ref[2], 0.0, "the reference's velocity along n");
+        assert!(o.friction.is_none());
     }
 
     #[test]
