@@ -30,17 +30,15 @@ fn plant_and_controller_steps_do_not_allocate() {
     let p = PlantParams::new(m.clone(), Some(f.clone()), Integrator::ImplicitFriction, 1e-3, 2, s.env.clone(), ft, Encoders::default()).unwrap();
     // every law; the scheduled one with the DDS-chain delay and a model mass error of 1.25
     // (the oracle is the scheduled law with the true stiffness): its approach servo reaches
-    // the surface with the model 25 % heavy, so the contact path is covered; and with the
-    // model 20 % light, where the gravity correction by the learnt gain is on
-    // (scheduled::gain::GravityCorrection).
+    // the surface with the model 25 % heavy, so the contact path (the contact estimator and
+    // the gain rule) is covered; and with the model 20 % light.
     let delayed = LoopSettings { delay_cycles: 2, model_mass_error: 1.25, ..LoopSettings::default() };
     let light = LoopSettings { delay_cycles: 1, model_mass_error: 0.8, ..LoopSettings::default() };
     for (name, settings) in [("naic", LoopSettings::default()), ("aic", LoopSettings::default()), ("fixed", LoopSettings::default()), ("scheduled", delayed), ("oracle", delayed), ("scheduled", light)] {
         let c = PipelineController::by_name(name, &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &settings).unwrap();
         count_in_contact(name, c, &s, &p);
     }
-    // The heavy side's static reading (a forward dynamics, once in the approach, round 17):
-    // the approach counted from the start, with the reading taken in it.
+    // The approach counted from the start (the contact estimator runs in free space too).
     let heavy = LoopSettings { delay_cycles: 1, model_mass_error: 1.25, ..LoopSettings::default() };
     let mut c = PipelineController::by_name("scheduled", &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &heavy).unwrap();
     let mut ws = PlantWorkspace::new(&p);
@@ -52,8 +50,6 @@ fn plant_and_controller_steps_do_not_allocate() {
             (st, obs) = plant::step(&p, &st, &tau, &mut ws);
         }
     });
-    let g = c.state().controller.control.sched.gain.heavy;
-    assert!(g.is_some_and(|f| f > 1.1), "the heavy reading must be covered: {g:?}");
     assert_eq!(n, 0, "scheduled F = 1.25: {n} heap allocations in the approach");
 }
 
