@@ -5,9 +5,11 @@
 
 pub mod analysis;
 pub mod model;
+pub mod rule;
 
 pub use analysis::{margins, zeta_of, Margins};
 pub use model::{Contact, DesignError, Feedforward, Gains, LoopModel};
+pub use rule::{gains, RuleInputs};
 
 #[cfg(test)]
 mod tests;

@@ -1,0 +1,220 @@
+//! A force law along the force axis `n` derived from the loop model
+//! (docs/notes/2026-12-06-issue42-derived-law.md). Not dispatched yet: `scheduled` runs the
+//! law of issue 12, which still meets more goals on naic's own plant. Eq 6 with `k_d = 0` on `n` and the measured
+//! force fed forward, `ë = (e_f − b_d ė − I) / m_d`, whose gains `m_d`, `b_d`, `k_i` are the
+//! rule of [`crate::force_design::rule`] evaluated every cycle from the contact estimator's
+//! bounds (`k̄`, `k_low`, `μ̄`, [`crate::pipeline::control::contact`]), the model's apparent
+//! mass `D̂` along `n` at this pose, the loop delay `d` and the period `T`.
+//!
+//! The integral removes what the model does not explain, not the transient: it integrates
+//! the force's distance from the reference response `f_r` the loop would give with the
+//! softest stiffness, `ḟ_r = (k_low / b_d) (f_d − f_r)`, `I_{k+1} = I_k + k_i T (f_r − f_m)`.
+//! A step of `f_d` then winds up no integral (the step response is the poles', no overshoot
+//! from the integral's zero); a model error or a friction force does. `f_r` starts at the force
+//! measured at contact.
+//!
+//! Pure: `(params, state, inputs) → (state, outputs)`, no allocation.
+
+use crate::force_design::rule::{self, RuleInputs};
+use crate::pipeline::control::contact::{self, ContactEstimate, ContactInputs, ContactParams, ContactState};
+
+/// The law's parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DerivedParams {
+    /// `d` [periods]: the loop delay the gains are designed for (measure it on the chain).
+    pub delay_cycles: f64,
+    /// `k_min` [N/m]: the softest surface expected; the integral is set for it until the
+    /// estimate's lower bound is higher.
+    pub k_min: f64,
+    /// The tip's position resolution along n [m] (one encoder count through the Jacobian).
+    pub x_resolution: f64,
+    /// The force sensor's noise along n, 1 σ [N].
+    pub force_noise: f64,
+    /// The contact estimator's settings (`k_max`, `μ_max`, `b_max`, …).
+    pub contact: ContactParams,
+}
+
+impl Default for DerivedParams {
+    fn default() -> Self {
+        // 1.5 µm: the JK5's 20-bit encoders at its ~0.5 m reach; 1/16 N: the mini45's count.
+        Self { delay_cycles: 1.0, k_min: 100.0, x_resolution: 1.5e-6, force_noise: 0.0625, contact: ContactParams::default() }
+    }
+}
+
+impl DerivedParams {
+    pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
+        use crate::pipeline::ConfigError;
+        if !(self.delay_cycles.is_finite() && (0.0..=contact::MAX_DELAY as f64).contains(&self.delay_cycles)) {
+            return Err(ConfigError::invalid("scheduled.delay_cycles", self.delay_cycles, format!("must be in [0, {}] periods (the measured loop delay)", contact::MAX_DELAY)));
+        }
+        let pos = |name: &str, v: f64, what: &str| {
+            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(ConfigError::invalid(name, v, what)) }
+        };
+        pos("scheduled.k_min", self.k_min, "must be > 0 N/m (the softest surface expected, e.g. 100)")?;
+        if self.k_min > self.contact.k_max {
+            return Err(ConfigError::invalid("scheduled.k_min", self.k_min, format!("must be at most contact.k_max = {}", self.contact.k_max)));
+        }
+        pos("scheduled.x_resolution", self.x_resolution, "must be > 0 m (the encoders' resolution at the tip, e.g. 1.5e-6)")?;
+        pos("scheduled.force_noise", self.force_noise, "must be > 0 N (the F/T sensor's noise, 1 sigma, e.g. 0.0625)")?;
+        self.contact.validate()
+    }
+}
+
+/// What the law remembers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DerivedState {
+    /// `I` [N].
+    pub integral: f64,
+    /// The reference response `f_r` [N].
+    pub f_ref: f64,
+    /// The contact estimator's state.
+    pub contact: ContactState,
+    /// The push along n commanded last cycle, `D̂ V + f_m` [N] (the estimator's `u`).
+    pub u_prev: f64,
+    /// The gains of the last cycle.
+    pub m_d: f64,
+    pub b_d: f64,
+    pub k_i: f64,
+}
+
+impl DerivedState {
+    pub fn new(_p: &DerivedParams) -> Self {
+        Self { integral: 0.0, f_ref: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0 }
+    }
+
+    /// A new contact with force `f`: `I = 0`, `f_r = f` (the estimator restarts in [`estimate`]).
+    pub fn rearm(&self, f: f64) -> Self {
+        Self { integral: 0.0, f_ref: f, ..*self }
+    }
+}
+
+/// The estimator's cycle (every cycle, in free space too: it keeps the history it pairs
+/// the delayed force with). `x`, `ẋ` along n now, `f` the measured force, `entered` a new
+/// contact, `in_contact` the law's phase, `period` `T`.
+pub fn estimate(p: &DerivedParams, s: &DerivedState, x: f64, x_dot: f64, f: f64, entered: bool, in_contact: bool, period: f64) -> (DerivedState, ContactEstimate) {
+    let i = ContactInputs {
+        x,
+        x_dot,
+        f,
+        u: s.u_prev,
+        contact_start: entered,
+        in_contact,
+        dt: period,
+        delay_cycles: p.delay_cycles.round() as u32,
+        x_resolution: p.x_resolution,
+        sigma_f: p.force_noise,
+    };
+    let (c, e) = contact::step(&p.contact, &s.contact, &i);
+    (DerivedState { contact: c, ..*s }, e)
+}
+
+/// One contact cycle's inputs along n.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DerivedInputs {
+    /// `ė = ẋ_d − ẋ` [m/s].
+    pub e_dot: f64,
+    pub f_ext: f64,
+    pub f_d: f64,
+    /// `D̂` [kg] (not finite: the rule's safe side, [`rule::gains`]).
+    pub mass: f64,
+    /// The contact estimate of this cycle ([`estimate`]).
+    pub estimate: ContactEstimate,
+    /// A stiffness known to the owner (the simulator's `oracle`): `k̂ = k̄ = k_low` = it.
+    pub k_known: Option<f64>,
+}
+
+/// The outputs: `ë` along n [m/s²] and the estimate used.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DerivedOutputs {
+    pub e_ddot: f64,
+    pub e_f: f64,
+    pub estimate: ContactEstimate,
+}
+
+/// One contact cycle. `period` is `T` [s], `integral_limit` bounds `|I|` [N].
+pub fn step(p: &DerivedParams, period: f64, integral_limit: f64, s: &DerivedState, u: &DerivedInputs) -> (DerivedState, DerivedOutputs) {
+    let mut next = *s;
+    let est = match u.k_known {
+        Some(k) => ContactEstimate { k_hat: k, k_upper: k, k_lower: k, ..u.estimate },
+        None => u.estimate,
+    };
+    let k_lower = est.k_lower.max(p.k_min).min(est.k_upper.max(p.k_min));
+    let g = rule::gains(&RuleInputs {
+        k_upper: est.k_upper.max(p.k_min),
+        k_lower,
+        mu_upper: est.mu_upper,
+        b_e_max: p.contact.b_max,
+        mass: u.mass,
+        delay: p.delay_cycles,
+        period,
+    });
+    let e_f = u.f_ext - u.f_d;
+    let e_ddot = (e_f - g.b_d * u.e_dot - s.integral) / g.m_d;
+    let lim = if integral_limit.is_finite() && integral_limit > 0.0 { integral_limit } else { f64::INFINITY };
+    next.integral = (s.integral + g.k_i * period * (s.f_ref - u.f_ext)).clamp(-lim, lim);
+    next.f_ref = s.f_ref + (period * k_lower / g.b_d).min(1.0) * (u.f_d - s.f_ref);
+    next.m_d = g.m_d;
+    next.b_d = g.b_d;
+    next.k_i = g.k_i;
+    (next, DerivedOutputs { e_ddot, e_f, estimate: est })
+}
+
+/// Remember the push along n commanded this cycle, `D̂ ẍ_n + f_m` (the estimator's `u` next
+/// cycle).
+pub fn commanded(s: &DerivedState, mass: f64, xdd_n: f64, f_ext: f64) -> DerivedState {
+    let u = if mass.is_finite() { mass * xdd_n + f_ext } else { f_ext };
+    DerivedState { u_prev: if u.is_finite() { u } else { 0.0 }, ..*s }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// On a mass–spring with the measured force fed forward (the arm realises `ẍ = V`),
+    /// the law with the contact estimator settles on the target force with no steady error
+    /// against a 0.5 N bias of the push, on a soft and a stiff surface; the estimate's `k̄`
+    /// ends within a factor 2 of the truth and above it.
+    #[test]
+    fn the_law_settles_on_a_spring_with_the_estimator() {
+        for k_e in [300.0, 2000.0, 50_000.0] {
+            let p = DerivedParams { delay_cycles: 0.0, ..Default::default() };
+            let mut s = DerivedState::new(&p);
+            let (mut x, mut v) = (-0.002f64, 0.01f64);
+            let t = 1e-3;
+            let f_d = 10.0;
+            let mut f = 0.0;
+            let mut k_up = 0.0;
+            let mut contact = false;
+            for _ in 0..10_000 {
+                f = k_e * x.max(0.0);
+                let entered = !contact && f > 0.5;
+                contact |= entered;
+                let (s1, e) = estimate(&p, &s, x, v, f, entered, contact, t);
+                s = if entered { s1.rearm(f) } else { s1 };
+                let xdd = if contact {
+                    let (n, o) = step(&p, t, 100.0, &s, &DerivedInputs { e_dot: -v, f_ext: f, f_d, mass: 3.19, estimate: e, k_known: None });
+                    s = n;
+                    k_up = o.estimate.k_upper;
+                    -o.e_ddot
+                } else {
+                    0.0
+                };
+                s = commanded(&s, 3.19, xdd, f);
+                // The arm: D ẍ = D V + f_m − f + 0.5 N (a model error).
+                v += (xdd + 0.5 / 3.19) * t;
+                x += v * t;
+            }
+            assert!((f - f_d).abs() < 0.05, "k_e {k_e}: f {f}");
+            assert!(k_up >= k_e && k_up < 2.0 * k_e, "k_e {k_e}: k̄ {k_up}");
+        }
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let p = DerivedParams { k_min: 1e7, ..Default::default() };
+        assert!(p.validate().unwrap_err().to_string().contains("scheduled.k_min"));
+        let p = DerivedParams { delay_cycles: 20.0, ..Default::default() };
+        assert!(p.validate().unwrap_err().to_string().contains("scheduled.delay_cycles"));
+        assert!(DerivedParams::default().validate().is_ok());
+    }
+}
