@@ -86,6 +86,17 @@ pub struct LaunchArgs {
     /// (never runs unsecured).
     #[arg(long)]
     pub enclave: Option<PathBuf>,
+    /// The arm: a robot file (docs/robots.md), given to every node as `-p robot:=FILE`
+    /// (URDF, joint names, frames, friction, start joints); default: the JK5. The simulated
+    /// driver steps this arm in the scenario placed relative to its `start_q`.
+    #[arg(long)]
+    pub robot: Option<PathBuf>,
+    /// A real arm: its ros2_control driver is the robot side, so no jk5_sim_driver is
+    /// started, and the controller runs `scenario:=none` (it holds its start pose and follows
+    /// /naic/target_pose and /naic/desired_wrench; never a simulated table's trajectory).
+    /// Remap the topics onto the arm's controllers with -p (docs/deploy.md).
+    #[arg(long, requires = "robot", conflicts_with_all = ["lockstep", "composed"])]
+    pub real_arm: bool,
 }
 
 /// The nodes whose `command_source` is `*` under `--enclave`: with DDS Security RustDDS
@@ -383,6 +394,12 @@ pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliEr
         )));
     }
     let mut args = vec!["--ros-args".to_string(), "--params-file".to_string(), file.display().to_string()];
+    if let Some(r) = &a.robot {
+        args.extend(["-p".into(), format!("robot:={}", r.display())]);
+    }
+    if a.real_arm && node == "naic_controller" {
+        args.extend(["-p".into(), "scenario:=none".into()]);
+    }
     if a.lockstep && node == DRIVER {
         args.extend(["-p".into(), "lockstep:=true".into()]);
         if let Some(f) = a.real_time_factor {
@@ -566,12 +583,17 @@ pub fn run(a: LaunchArgs) -> CliResult {
     }
     // Check everything before starting anything.
     let launch = launch_params(&a)?;
+    if let Some(r) = &a.robot {
+        // The nodes check it again; a bad file stops the launch here, named, before any starts.
+        naic_core::robot_file::Robot::load(r).map_err(|e| CliError::usage(format!("--robot: {e}")))?;
+    }
     apply_enclave(&a)?;
     if a.composed {
         return super::composed::run(&a);
     }
     let mut slots = vec![];
-    for node in NODES {
+    // A real arm: its own driver is the robot side (it holds the arm when commands stop).
+    for node in NODES.into_iter().filter(|n| !(a.real_arm && *n == DRIVER)) {
         slots.push(Slot {
             name: node,
             bin: node_binary(node)?,
