@@ -71,6 +71,10 @@ pub struct LaunchArgs {
     /// naic_controller:desired_force:=15.0
     #[arg(long = "param", short = 'p')]
     pub params: Vec<String>,
+    /// Topic remap for one node: NODE:FROM:=TO (repeatable), e.g.
+    /// friction_compensation:/joint_effort_cmd:=/effort_controller/commands
+    #[arg(long = "remap", short = 'r')]
+    pub remaps: Vec<String>,
     /// The three nodes in one process (one thread runs the control path, no DDS on it;
     /// every topic still on DDS): see docs/nodes.md, "One process or three".
     #[arg(long)]
@@ -94,7 +98,7 @@ pub struct LaunchArgs {
     /// A real arm: its ros2_control driver is the robot side, so no jk5_sim_driver is
     /// started, and the controller runs `scenario:=none` (it holds its start pose and follows
     /// /naic/target_pose and /naic/desired_wrench; never a simulated table's trajectory).
-    /// Remap the topics onto the arm's controllers with -p (docs/deploy.md).
+    /// Remap the topics onto the arm's controllers with -r (docs/deploy.md).
     #[arg(long, requires = "robot", conflicts_with_all = ["lockstep", "composed"])]
     pub real_arm: bool,
 }
@@ -414,6 +418,19 @@ pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliEr
     }
     if a.enclave.is_some() && SECURED_GATES.contains(&node) {
         args.extend(["-p".into(), "command_source:=*".into()]);
+    }
+    for r in &a.remaps {
+        let bad = || CliError::usage(format!("--remap '{r}': expected NODE:FROM:=TO, e.g. friction_compensation:/joint_effort_cmd:=/effort_controller/commands"));
+        let (n, rest) = r.split_once(':').ok_or_else(bad)?;
+        if !NODES.contains(&n) {
+            return Err(CliError::usage(format!("--remap '{r}': unknown node '{n}' (nodes: {})", NODES.join(", "))));
+        }
+        if !rest.split_once(":=").is_some_and(|(f, t)| !f.is_empty() && !t.is_empty()) {
+            return Err(bad());
+        }
+        if n == node {
+            args.extend(["-r".into(), rest.to_string()]);
+        }
     }
     for p in &a.params {
         let Some((n, rest)) = p.split_once(':') else {
@@ -767,6 +784,30 @@ mod tests {
         let e = parse_real_time_factor("-3").unwrap_err();
         assert_eq!(e, RealTimeFactorError { given: "-3".into() });
         assert!(e.to_string().contains("'-3'") && e.to_string().contains("e.g. 1.0 for real time"), "{e}");
+    }
+
+    #[test]
+    fn robot_real_arm_and_remaps_reach_their_nodes() {
+        let params = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../params"));
+        let a = LaunchArgs {
+            params_dir: params.clone(),
+            robot: Some(PathBuf::from("params/robots/panda.yaml")),
+            real_arm: true,
+            remaps: vec!["friction_compensation:/joint_effort_cmd:=/effort_controller/commands".into()],
+            ..Default::default()
+        };
+        for n in NODES {
+            let args = node_args(n, &a).unwrap();
+            assert!(args.windows(2).any(|w| w == ["-p", "robot:=params/robots/panda.yaml"]), "{n}: {args:?}");
+            assert_eq!(args.windows(2).any(|w| w == ["-p", "scenario:=none"]), n == "naic_controller", "{n}: {args:?}");
+            let remapped = args.windows(2).any(|w| w == ["-r", "/joint_effort_cmd:=/effort_controller/commands"]);
+            assert_eq!(remapped, n == "friction_compensation", "{n}: {args:?}");
+        }
+        for bad in ["friction_compensation:/a", "nobody:/a:=/b", "friction_compensation::=/b"] {
+            let a = LaunchArgs { params_dir: params.clone(), remaps: vec![bad.into()], ..Default::default() };
+            let e = node_args("friction_compensation", &a).unwrap_err().message;
+            assert!(e.contains("--remap") && e.contains(bad), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -79,6 +79,7 @@ pub fn specs<const N: usize>(base: &ControllerParams<N>) -> Vec<ParamSpec> {
         ParamSpec::boolean("tare_at_rest", true, "The start-up tare takes only consecutive samples at rest (every joint <= 0.02 rad/s, <= 0.1 rad/s^2 over the window) and holds the arm at its start position meanwhile; false: the first tare_samples cycles, controlled as usual (what naic sim does)"),
         ParamSpec::int("median_window", base.sense.median_window as i64, 1, 9, "Median filter window of the joint velocity"),
         ParamSpec::double("hold_damping", base.hold_damping[0], 0.0, 200.0, "Joint damping of the safe hold [N m s/rad]"),
+        ParamSpec::boolean("robot_compensates_gravity", false, "The arm's torque interface adds its own gravity compensation (a Franka arm under franka_ros2 / libfranka): /naic/effort leaves the model's G(q) out (false: the whole torque, gravity included, as a ros2_control effort interface takes it)").read_only(),
         ParamSpec::double("nullspace_stiffness", base.nullspace.stiffness, 0.0, 1000.0, "Arms of more than 6 joints: stiffness of the posture task in the Jacobian's null space, towards nullspace_q [N m/rad] (docs/controller.md; no effect on 6 joints)"),
         ParamSpec::double("nullspace_damping", base.nullspace.damping, 0.0, 200.0, "Arms of more than 6 joints: joint damping of the null-space posture task [N m s/rad], capped per joint for stability at the control period"),
         ParamSpec::new("nullspace_q", naic_ros::ParameterValue::DoubleArray(vec![]), "Arms of more than 6 joints: the posture q_n of the null-space task [rad], one per joint in the arm's joint order ([]: the first measured joint position, the start pose)").read_only(),
@@ -192,6 +193,7 @@ pub fn settings(p: &ParamView) -> Settings {
         approach_depth: p.f64("approach_depth"),
         time: TimeBase::from_use_sim_time(p.bool("use_sim_time")),
         actuation_timeout_ns: (p.f64("actuation_timeout") * 1e9).round() as i64,
+        robot_compensates_gravity: p.bool("robot_compensates_gravity"),
     }
 }
 
