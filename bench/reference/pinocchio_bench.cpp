@@ -15,7 +15,9 @@
 // Prints ONE JSON line on stdout; a checksum of all results goes to stderr so no
 // call can be optimised away.
 //
-// Usage: pinocchio_bench URDF [--batches B] [--states S] [--seed N]
+// Usage: pinocchio_bench URDF [--batches B] [--states S] [--seed N] [--tip PARENT X Y Z]
+//   --tip: a URDF without a 'tip' frame (a stock arm; a robot file's tip_frame given as
+//   {parent: PARENT, xyz: [X, Y, Z]}): add frame 'tip' on PARENT's frame at (X, Y, Z) m.
 #include <pinocchio/algorithm/aba.hpp>
 #include <pinocchio/algorithm/crba.hpp>
 #include <pinocchio/algorithm/frames.hpp>
@@ -81,10 +83,20 @@ int main(int argc, char** argv) {
   std::string urdf = argv[1];
   int batches = 200, states = 1000;
   unsigned long seed = 20260522;
+  std::string tip_parent;
+  double tip_xyz[3] = {0.0, 0.0, 0.0};
   for (int i = 2; i < argc; ++i) {
     std::string flag = argv[i];
     if (i + 1 >= argc) usage(flag + " needs a value");
-    if (flag == "--batches")
+    if (flag == "--tip") {
+      if (i + 4 >= argc) usage("--tip needs PARENT X Y Z (the robot file's tip_frame)");
+      tip_parent = argv[++i];
+      for (int k = 0; k < 3; ++k) {
+        char* end = nullptr;
+        tip_xyz[k] = std::strtod(argv[++i], &end);
+        if (end == argv[i] || *end != '\0') usage(std::string("--tip: '") + argv[i] + "' is not a number (m)");
+      }
+    } else if (flag == "--batches")
       batches = static_cast<int>(parse_positive("--batches", argv[++i]));
     else if (flag == "--states")
       states = static_cast<int>(parse_positive("--states", argv[++i]));
@@ -102,8 +114,22 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "pinocchio_bench: cannot load URDF '%s': %s\n", urdf.c_str(), e.what());
     return 1;
   }
+  if (!tip_parent.empty()) {
+    if (model.existFrame("tip")) {
+      std::fprintf(stderr, "pinocchio_bench: URDF '%s' has a frame 'tip' already; drop --tip\n", urdf.c_str());
+      return 1;
+    }
+    if (!model.existFrame(tip_parent)) {
+      std::fprintf(stderr, "pinocchio_bench: --tip: URDF '%s' has no frame '%s'\n", urdf.c_str(), tip_parent.c_str());
+      return 1;
+    }
+    const pinocchio::FrameIndex p = model.getFrameId(tip_parent);
+    const pinocchio::Frame& pf = model.frames[p];
+    pinocchio::SE3 offset(Eigen::Matrix3d::Identity(), Eigen::Vector3d(tip_xyz[0], tip_xyz[1], tip_xyz[2]));
+    model.addFrame(pinocchio::Frame("tip", pf.parentJoint, p, pf.placement * offset, pinocchio::OP_FRAME));
+  }
   if (!model.existFrame("tip")) {
-    std::fprintf(stderr, "pinocchio_bench: URDF '%s' has no frame 'tip'\n", urdf.c_str());
+    std::fprintf(stderr, "pinocchio_bench: URDF '%s' has no frame 'tip' (add one with --tip PARENT X Y Z)\n", urdf.c_str());
     return 1;
   }
   const pinocchio::FrameIndex tip = model.getFrameId("tip");

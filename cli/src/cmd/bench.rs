@@ -51,8 +51,13 @@ pub struct DynamicsArgs {
     #[arg(long)]
     pub json: bool,
     /// Robot description to benchmark.
-    #[arg(long, default_value = "urdf/jk5.urdf")]
+    #[arg(long, default_value = "urdf/jk5.urdf", conflicts_with = "robot")]
     pub urdf: PathBuf,
+    /// A robot file (docs/robots.md) instead of --urdf: its model (the chain to its tip frame,
+    /// the tool's mass) on the compiled path of its joint count, and the controller cycle at its
+    /// start_q with its tool.
+    #[arg(long)]
+    pub robot: Option<PathBuf>,
     /// Frame whose Jacobian is timed.
     #[arg(long, default_value = "tip")]
     pub frame: String,
@@ -149,26 +154,42 @@ where
 /// pre-generated measurements (q within ±0.2 rad of (0, −30°, 120°, 0, −90°, 0),
 /// q̇ within ±0.3 rad/s, the tool weight plus a 10 N push at the tip in the
 /// F/T reading), after the F/T tare; the state carries over between calls.
-fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
+/// With a robot file (`robot`): any joint count, near its `start_q`, with its tool.
+fn controller_step<const N: usize>(model: &Model, batches: usize, robot: Option<&naic_core::robot_file::Robot>) -> Result<f64, CliError> {
     use naic_core::pipeline::control::force_law::Mode;
     use naic_core::pipeline::controller::{self, Controller, ControllerParams, Reference};
     use naic_core::pipeline::estimate;
     use naic_core::pipeline::sense::RawMeasurements;
-    use naic_core::{JointVec, N_JOINTS};
-    use nalgebra::{Rotation3, UnitQuaternion, Vector3, Vector6};
-    let params = ControllerParams::paper_defaults(model, Mode::Naic, 1e-6);
+    use naic_core::JointVec;
+    use nalgebra::{Rotation3, SVector, UnitQuaternion, Vector3, Vector6};
+    let mut params = ControllerParams::<N>::paper_defaults(model, Mode::Naic, 1e-6);
+    if let Some(r) = robot.filter(|r| !r.is_paper_jk5()) {
+        (params.tool.mass, params.tool.com) = (r.tool.mass, r.tool.com);
+        if let Some(tip) = r.tip_in_sensor() {
+            params.tool.tip = tip;
+        }
+    }
     let ctl = Controller::new(model.clone(), params)
         .map_err(|e| CliError::usage(format!("--urdf: the controller cannot run on this model: {e}")))?;
     let (tip, sensor) = match (model.frame_id("tip"), model.frame_id("ft_sensor")) {
         (Some(t), Some(s)) => (t, s),
         _ => return Err(CliError::usage("--urdf: the controller needs frames 'tip' and 'ft_sensor'")),
     };
-    let mut data = Data::<U6>::try_new(model).map_err(|e| CliError::failure(e.to_string()))?;
+    let mut data = naic_core::model::DataN::<N>::try_new(model).map_err(|e| CliError::failure(e.to_string()))?;
     let d = std::f64::consts::PI / 180.0;
-    let q0 = [0.0, -30.0 * d, 120.0 * d, 0.0, -90.0 * d, 0.0];
+    let jk5 = [0.0, -30.0 * d, 120.0 * d, 0.0, -90.0 * d, 0.0];
+    let q0: JointVec<N> = match robot.filter(|r| !r.is_paper_jk5()) {
+        Some(r) => {
+            let q = r.start_q.as_ref().filter(|q| q.len() == N).ok_or_else(|| {
+                CliError::usage(format!("--robot {}: the controller cycle is timed near start_q, and it has none: add start_q", r.file.display()))
+            })?;
+            std::array::from_fn(|i| q[i])
+        }
+        None => std::array::from_fn(|i| jk5.get(i).copied().unwrap_or(0.0)),
+    };
     let tool = ctl.params().tool;
-    let reading = |data: &mut Data<U6>, q: &JointVec, push: f64| -> [f64; 6] {
-        dynamics::forward_kinematics(model, data, &Vector6::from(*q));
+    let reading = |data: &mut naic_core::model::DataN<N>, q: &JointVec<N>, push: f64| -> [f64; 6] {
+        dynamics::forward_kinematics(model, data, &SVector::<f64, N>::from(*q));
         let r = data.frame_se3(sensor).rot;
         let weight = estimate::tool_weight_wrench(&tool, &r);
         let f = r.transpose() * Vector3::new(0.0, 0.0, push);
@@ -176,14 +197,14 @@ fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
         (weight + Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)).into()
     };
     let mut rng = Rng::seed(0xD1B5_4A32_D192_ED03);
-    let inputs: Vec<(JointVec, JointVec, [f64; 6])> = (0..STATES)
+    let inputs: Vec<(JointVec<N>, JointVec<N>, [f64; 6])> = (0..STATES)
         .map(|_| {
-            let q: JointVec = std::array::from_fn(|i| q0[i] + rng.range(-0.2, 0.2));
-            let dq: JointVec = std::array::from_fn(|_| rng.range(-0.3, 0.3));
+            let q: JointVec<N> = std::array::from_fn(|i| q0[i] + rng.range(-0.2, 0.2));
+            let dq: JointVec<N> = std::array::from_fn(|_| rng.range(-0.3, 0.3));
             (q, dq, reading(&mut data, &q, 10.0))
         })
         .collect();
-    dynamics::forward_kinematics(model, &mut data, &Vector6::from(q0));
+    dynamics::forward_kinematics(model, &mut data, &SVector::<f64, N>::from(q0));
     let start = *data.frame_se3(tip);
     let reference = Reference {
         p_d: start.trans - Vector3::new(0.0, 0.0, 0.01),
@@ -198,7 +219,7 @@ fn controller_step(model: &Model, batches: usize) -> Result<f64, CliError> {
     let free = reading(&mut data, &q0, 0.0);
     for _ in 0..=ctl.params().tare_samples {
         t += 1e-3;
-        let m = RawMeasurements { t, q: q0, dq: [0.0; N_JOINTS], joints_stamp: t, wrench: free, wrench_stamp: t };
+        let m = RawMeasurements { t, q: q0, dq: [0.0; N], joints_stamp: t, wrench: free, wrench_stamp: t };
         s = controller::step(&ctl, &s, &m, &reference, &mut ws).0;
     }
     let mut faults = 0usize;
@@ -224,24 +245,40 @@ fn run_dynamics(a: DynamicsArgs) -> CliResult {
     if a.batches < 50 {
         return Err(CliError::usage(format!("--batches {} is too few; use at least 50", a.batches)));
     }
-    let model = Model::from_urdf_file(&a.urdf).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
+    let robot = match &a.robot {
+        Some(f) => Some(naic_core::robot_file::Robot::load(f).map_err(|e| CliError::usage(format!("--robot: {e}")))?),
+        None => None,
+    };
+    let model = match &robot {
+        Some(r) => r.model.clone(),
+        None => Model::from_urdf_file(&a.urdf).map_err(|e| CliError::usage(format!("--urdf: {e}")))?,
+    };
+    let source = robot.as_ref().map_or_else(|| a.urdf.display().to_string(), |r| r.file.display().to_string());
     let frame = model.frame_id(&a.frame).ok_or_else(|| {
         let names: Vec<&str> = model.frames().iter().map(|f| f.name.as_str()).collect();
         CliError::usage(format!(
             "--frame: no frame '{}' in {}; frames are: {}",
             a.frame,
-            a.urdf.display(),
+            source,
             names.join(", ")
         ))
     })?;
-    let (t, path) = if model.nv() == 6 {
+    let (t, path, controller_step_ns) = if let Some(r) = &robot {
+        // A robot file: the compiled path of its joint count (the one the nodes run), and
+        // the controller cycle on it.
+        naic_core::with_joints!(model.nv(), N => {
+            let data = naic_core::model::DataN::<N>::try_new(&model).map_err(|e| CliError::failure(e.to_string()))?;
+            let t = bench(&model, data, frame, a.batches, nalgebra::Const::<N>);
+            (t, "static", Some(controller_step::<N>(&model, a.batches, Some(r))?))
+        })
+        .map_err(|e| CliError::usage(format!("--robot: {e}")))?
+    } else if model.nv() == 6 {
         let data = Data::<U6>::try_new(&model).map_err(|e| CliError::failure(e.to_string()))?;
-        (bench(&model, data, frame, a.batches, nalgebra::Const::<6>), "static6")
+        // One NAIC cycle of the lead's pure controller step (6-joint models only).
+        (bench(&model, data, frame, a.batches, nalgebra::Const::<6>), "static6", Some(controller_step::<6>(&model, a.batches, None)?))
     } else {
-        (bench(&model, Data::new(&model), frame, a.batches, Dyn(model.nv())), "dynamic")
+        (bench(&model, Data::new(&model), frame, a.batches, Dyn(model.nv())), "dynamic", None)
     };
-    // One NAIC cycle of the lead's pure controller step (6-joint models only).
-    let controller_step_ns = if model.nv() == 6 { Some(controller_step(&model, a.batches)?) } else { None };
     if a.json {
         let line = serde_json::json!({
             "rnea_ns": t.rnea,
@@ -250,20 +287,21 @@ fn run_dynamics(a: DynamicsArgs) -> CliResult {
             "frame_jacobian_ns": t.jac,
             "controller_step_ns": controller_step_ns,
             "nv": model.nv(),
+            "model": source,
             "path": path,
             "batches": a.batches,
             "calls_per_batch": STATES,
         });
         println!("{line}");
     } else {
-        println!("naic bench dynamics: {} ({} joints, {path} path), median ns/call over {} batches of {STATES}", a.urdf.display(), model.nv(), a.batches);
+        println!("naic bench dynamics: {source} ({} joints, {path} path), median ns/call over {} batches of {STATES}", model.nv(), a.batches);
         println!("  rnea            {:8.1}", t.rnea);
         println!("  crba            {:8.1}", t.crba);
         println!("  aba             {:8.1}", t.aba);
         println!("  frame_jacobian  {:8.1}  ({})", t.jac, a.frame);
         match controller_step_ns {
             Some(ns) => println!("  controller_step {ns:8.1}  (one NAIC cycle, naic_core::pipeline::controller::step)"),
-            None => println!("  controller_step      n/a  (needs a 6-joint model)"),
+            None => println!("  controller_step      n/a  (a 6-joint URDF or a robot file)"),
         }
     }
     Ok(())

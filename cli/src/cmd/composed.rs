@@ -111,10 +111,26 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     let (dname, cname, fname) = (drv_setup::NODE, ctl_setup::NODE, fc_setup::NODE);
     let parse = |node: &str| -> Result<RosArgs, CliError> { RosArgs::parse(node_args(node, a)?).map_err(node_err(node)) };
     let (d_args, c_args, f_args) = (parse(dname)?, parse(cname)?, parse(fname)?);
+    // The arms of the three nodes (`-p robot:=FILE`; naic launch --robot gives each the same)
+    // pick the compiled shell: one joint count for the chain.
+    let (d_robot, n) = drv_setup::arm(&d_args).map_err(node_err(dname))?;
+    let (c_robot, nc) = ctl_setup::arm(&c_args).map_err(node_err(cname))?;
+    let (f_robot, nf) = fc_setup::arm(&f_args).map_err(node_err(fname))?;
+    if nc != n || nf != n {
+        return Err(CliError::usage(format!("{dname} runs {n} joints, {cname} {nc} and {fname} {nf}: give the three nodes the same robot (naic launch --robot FILE)")));
+    }
+    naic_core::with_joints!(n, N => run_arm::<N>(a, started, (d_args, d_robot), (c_args, c_robot), (f_args, f_robot)))
+        .map_err(|e| CliError::usage(e.to_string()))?
+}
+
+type Arm = (RosArgs, Option<naic_core::robot_file::Robot>);
+
+fn run_arm<const N: usize>(a: &LaunchArgs, started: Instant, (d_args, d_robot): Arm, (c_args, c_robot): Arm, (f_args, f_robot): Arm) -> CliResult {
+    let (dname, cname, fname) = (drv_setup::NODE, ctl_setup::NODE, fc_setup::NODE);
     // Every file and start-up value checked before any DDS participant exists.
-    let d = drv_setup::Setup::from_args(&d_args).map_err(node_err(dname))?;
-    let c = ctl_setup::Setup::from_args(&c_args).map_err(node_err(cname))?;
-    let f = fc_setup::Setup::from_args(&f_args).map_err(node_err(fname))?;
+    let d = drv_setup::Setup::<N>::for_arm(&d_args, d_robot).map_err(node_err(dname))?;
+    let c = ctl_setup::Setup::<N>::for_arm(&c_args, c_robot).map_err(node_err(cname))?;
+    let f = fc_setup::Setup::<N>::for_arm(&f_args, f_robot).map_err(node_err(fname))?;
     naic_ros::log::init("naic_composed", d_args.log_level.as_deref());
     // The loop thread's scheduling is the driver's (`realtime_priority`, `cpu_affinity`).
     // It is set on this thread only, after the DDS threads and the publisher thread exist:
@@ -141,7 +157,7 @@ pub fn run(a: &LaunchArgs) -> CliResult {
     eprintln!("naic launch: composed {dname}, {fname}, {cname} in one process (pid {})", std::process::id());
 
     // The three nodes' loop bodies.
-    let mut dr = drv::Runner::new(d.plant, &dn.params);
+    let mut dr = drv::Runner::new(d.plant, &dn.params, &d.joints);
     // Everything observers see goes out from a publisher thread (publish order: wrench,
     // joint states, clock, effort, report, command, as the node processes publish them).
     let mut seen = Observed { js: dr.msgs.js.clone(), ..Default::default() };

@@ -71,6 +71,10 @@ pub struct LaunchArgs {
     /// naic_controller:desired_force:=15.0
     #[arg(long = "param", short = 'p')]
     pub params: Vec<String>,
+    /// Topic remap for one node: NODE:FROM:=TO (repeatable), e.g.
+    /// friction_compensation:/joint_effort_cmd:=/effort_controller/commands
+    #[arg(long = "remap", short = 'r')]
+    pub remaps: Vec<String>,
     /// The three nodes in one process (one thread runs the control path, no DDS on it;
     /// every topic still on DDS): see docs/nodes.md, "One process or three".
     #[arg(long)]
@@ -86,6 +90,17 @@ pub struct LaunchArgs {
     /// (never runs unsecured).
     #[arg(long)]
     pub enclave: Option<PathBuf>,
+    /// The arm: a robot file (docs/robots.md), given to every node as `-p robot:=FILE`
+    /// (URDF, joint names, frames, friction, start joints); default: the JK5. The simulated
+    /// driver steps this arm in the scenario placed relative to its `start_q`.
+    #[arg(long)]
+    pub robot: Option<PathBuf>,
+    /// A real arm: its ros2_control driver is the robot side, so no jk5_sim_driver is
+    /// started, and the controller runs `scenario:=none` (it holds its start pose and follows
+    /// /naic/target_pose and /naic/desired_wrench; never a simulated table's trajectory).
+    /// Remap the topics onto the arm's controllers with -r (docs/deploy.md).
+    #[arg(long, requires = "robot", conflicts_with_all = ["lockstep", "composed"])]
+    pub real_arm: bool,
 }
 
 /// `--enclave DIR` → (keystore, enclave name): DIR is KEYSTORE/enclaves/NAME.
@@ -371,6 +386,12 @@ pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliEr
         )));
     }
     let mut args = vec!["--ros-args".to_string(), "--params-file".to_string(), file.display().to_string()];
+    if let Some(r) = &a.robot {
+        args.extend(["-p".into(), format!("robot:={}", r.display())]);
+    }
+    if a.real_arm && node == "naic_controller" {
+        args.extend(["-p".into(), "scenario:=none".into()]);
+    }
     if a.lockstep && node == DRIVER {
         args.extend(["-p".into(), "lockstep:=true".into()]);
         if let Some(f) = a.real_time_factor {
@@ -382,6 +403,19 @@ pub(super) fn node_args(node: &str, a: &LaunchArgs) -> Result<Vec<String>, CliEr
     }
     if let Some(q) = &a.qos {
         args.extend(["-p".into(), format!("data_qos:={q}")]);
+    }
+    for r in &a.remaps {
+        let bad = || CliError::usage(format!("--remap '{r}': expected NODE:FROM:=TO, e.g. friction_compensation:/joint_effort_cmd:=/effort_controller/commands"));
+        let (n, rest) = r.split_once(':').ok_or_else(bad)?;
+        if !NODES.contains(&n) {
+            return Err(CliError::usage(format!("--remap '{r}': unknown node '{n}' (nodes: {})", NODES.join(", "))));
+        }
+        if !rest.split_once(":=").is_some_and(|(f, t)| !f.is_empty() && !t.is_empty()) {
+            return Err(bad());
+        }
+        if n == node {
+            args.extend(["-r".into(), rest.to_string()]);
+        }
     }
     for p in &a.params {
         let Some((n, rest)) = p.split_once(':') else {
@@ -551,12 +585,17 @@ pub fn run(a: LaunchArgs) -> CliResult {
     }
     // Check everything before starting anything.
     let launch = launch_params(&a)?;
+    if let Some(r) = &a.robot {
+        // The nodes check it again; a bad file stops the launch here, named, before any starts.
+        naic_core::robot_file::Robot::load(r).map_err(|e| CliError::usage(format!("--robot: {e}")))?;
+    }
     apply_enclave(&a)?;
     if a.composed {
         return super::composed::run(&a);
     }
     let mut slots = vec![];
-    for node in NODES {
+    // A real arm: its own driver is the robot side (it holds the arm when commands stop).
+    for node in NODES.into_iter().filter(|n| !(a.real_arm && *n == DRIVER)) {
         slots.push(Slot {
             name: node,
             bin: node_binary(node)?,
@@ -730,6 +769,30 @@ mod tests {
         let e = parse_real_time_factor("-3").unwrap_err();
         assert_eq!(e, RealTimeFactorError { given: "-3".into() });
         assert!(e.to_string().contains("'-3'") && e.to_string().contains("e.g. 1.0 for real time"), "{e}");
+    }
+
+    #[test]
+    fn robot_real_arm_and_remaps_reach_their_nodes() {
+        let params = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../params"));
+        let a = LaunchArgs {
+            params_dir: params.clone(),
+            robot: Some(PathBuf::from("params/robots/panda.yaml")),
+            real_arm: true,
+            remaps: vec!["friction_compensation:/joint_effort_cmd:=/effort_controller/commands".into()],
+            ..Default::default()
+        };
+        for n in NODES {
+            let args = node_args(n, &a).unwrap();
+            assert!(args.windows(2).any(|w| w == ["-p", "robot:=params/robots/panda.yaml"]), "{n}: {args:?}");
+            assert_eq!(args.windows(2).any(|w| w == ["-p", "scenario:=none"]), n == "naic_controller", "{n}: {args:?}");
+            let remapped = args.windows(2).any(|w| w == ["-r", "/joint_effort_cmd:=/effort_controller/commands"]);
+            assert_eq!(remapped, n == "friction_compensation", "{n}: {args:?}");
+        }
+        for bad in ["friction_compensation:/a", "nobody:/a:=/b", "friction_compensation::=/b"] {
+            let a = LaunchArgs { params_dir: params.clone(), remaps: vec![bad.into()], ..Default::default() };
+            let e = node_args("friction_compensation", &a).unwrap_err().message;
+            assert!(e.contains("--remap") && e.contains(bad), "{bad}: {e}");
+        }
     }
 
     #[test]

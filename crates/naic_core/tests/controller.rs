@@ -168,3 +168,102 @@ fn controller_rejects_a_model_without_the_tool_frames() {
         other => panic!("{other:?}"),
     }
 }
+
+/// Issue 37 item 4: the null-space posture task exists for arms of more than six joints only.
+/// On the JK5 its settings (stiffness, damping, posture) change nothing, bit for bit: the
+/// 6-joint path is the square solve it always was.
+#[test]
+fn the_null_space_settings_leave_a_six_joint_arm_bit_identical() {
+    let model = model();
+    let a = Controller::new(model.clone(), params(Mode::Naic)).unwrap();
+    let mut pb = params(Mode::Naic);
+    pb.nullspace.stiffness = 300.0;
+    pb.nullspace.damping = 40.0;
+    pb.nullspace.q = Some(q0().map(|x| x + 0.3));
+    let b = Controller::new(model.clone(), pb).unwrap();
+    let (mut wa, mut wb) = (a.workspace(), b.workspace());
+    let (mut sa, mut sb) = (a.initial_state(), b.initial_state());
+    let mut data = Data6::try_new(&model).unwrap();
+    let tip = model.frame_id("tip").unwrap();
+    dynamics::forward_kinematics(&model, &mut data, &Vector6::from(q0()));
+    let start = *data.frame_se3(tip);
+    let r_d = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(start.rot));
+    let reference = Reference { p_d: start.trans + Vector3::new(0.01, 0.0, -0.02), r_d, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d: 10.0 };
+    let tool = a.params().tool;
+    let mut moved = 0.0_f64;
+    for k in 0..200 {
+        let t = k as f64 * 1e-3;
+        // A moving arm (after the tare), so the posture task's damping term would act too.
+        let q: JointVec = std::array::from_fn(|i| q0()[i] + if k > 20 { 0.01 * (t * (i + 1) as f64).sin() } else { 0.0 });
+        let dq: JointVec = std::array::from_fn(|i| if k > 20 { 0.01 * (i + 1) as f64 * (t * (i + 1) as f64).cos() } else { 0.0 });
+        let wrench = free_space_reading(&model, &mut data, &tool, &q);
+        let m = RawMeasurements { t, q, dq, joints_stamp: t, wrench, wrench_stamp: t };
+        let (na, oa) = controller::step(&a, &sa, &m, &reference, &mut wa);
+        let (nb, ob) = controller::step(&b, &sb, &m, &reference, &mut wb);
+        assert_eq!(oa.tau, ob.tau, "cycle {k}: the null-space settings changed a 6-joint torque");
+        assert_eq!(nb.q_posture, None, "no posture on six joints");
+        moved = moved.max(oa.tau.iter().map(|x| x.abs()).fold(0.0, f64::max));
+        (sa, sb) = (na, nb);
+    }
+    assert!(moved > 1.0, "the cycles produced no torque ({moved} N m): the comparison would be empty");
+}
+
+/// Issue 37 item 4 on the Panda (7 joints, params/robots/panda.yaml): the posture task's torque
+/// is in the dynamically consistent null space of the tip's Jacobian: it changes the joint
+/// acceleration (so the posture is held) but not the tip's, `J M⁻¹ Δτ = 0`.
+#[test]
+fn the_posture_torque_of_a_seven_joint_arm_moves_nothing_of_the_task() {
+    use naic_core::model::DataN;
+    use nalgebra::SVector;
+    let robot = naic_core::robot_file::Robot::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../params/robots/panda.yaml")).unwrap();
+    let model = robot.model.clone();
+    let q_start: [f64; 7] = std::array::from_fn(|i| robot.start_q.as_ref().unwrap()[i]);
+    let mut pa = ControllerParams::<7>::paper_defaults(&model, Mode::Naic, 0.0);
+    (pa.sense.median_window, pa.tare_samples) = (1, 10);
+    (pa.tool.mass, pa.tool.com) = (robot.tool.mass, robot.tool.com);
+    pa.tool.tip = robot.tip_in_sensor().unwrap();
+    pa.nullspace.stiffness = 0.0;
+    pa.nullspace.damping = 0.0;
+    let mut pb = pa;
+    pb.nullspace = controller::NullSpace { stiffness: 50.0, damping: 5.0, q: Some(q_start.map(|x| x + 0.2)) };
+    let (a, b) = (Controller::new(model.clone(), pa).unwrap(), Controller::new(model.clone(), pb).unwrap());
+    let (mut wa, mut wb) = (a.workspace(), b.workspace());
+    let mut data = DataN::<7>::try_new(&model).unwrap();
+    let (tip, sensor) = (model.frame_id("tip").unwrap(), model.frame_id("ft_sensor").unwrap());
+    let reading = |data: &mut DataN<7>, q: &[f64; 7]| -> [f64; 6] {
+        dynamics::forward_kinematics(&model, data, &SVector::<f64, 7>::from(*q));
+        estimate::tool_weight_wrench(&pa.tool, &data.frame_se3(sensor).rot).into()
+    };
+    dynamics::forward_kinematics(&model, &mut data, &SVector::<f64, 7>::from(q_start));
+    let start = *data.frame_se3(tip);
+    let r_d = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(start.rot));
+    let reference = Reference { p_d: start.trans + Vector3::new(0.0, 0.01, -0.01), r_d, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d: 10.0 };
+    let mut s = a.initial_state();
+    for k in 0..=10 {
+        let t = k as f64 * 1e-3;
+        let m = RawMeasurements { t, q: q_start, dq: [0.0; 7], joints_stamp: t, wrench: reading(&mut data, &q_start), wrench_stamp: t };
+        s = controller::step(&a, &s, &m, &reference, &mut wa).0;
+    }
+    assert!(s.tare.done(10), "tared");
+    // The posture the state keeps wins over nullspace_q (the first one taken is kept): start
+    // without one, so B takes its nullspace_q and A (stiffness 0) the measured q.
+    s.q_posture = None;
+    // One cycle from the same state and measurement, with and without the posture task.
+    let t = 0.011;
+    let q: [f64; 7] = std::array::from_fn(|i| q_start[i] + 0.01 * i as f64);
+    let dq: [f64; 7] = std::array::from_fn(|i| 0.05 - 0.02 * i as f64);
+    let m = RawMeasurements { t, q, dq, joints_stamp: t, wrench: reading(&mut data, &q), wrench_stamp: t };
+    let (_, oa) = controller::step(&a, &s, &m, &reference, &mut wa);
+    let (nb, ob) = controller::step(&b, &s, &m, &reference, &mut wb);
+    assert_eq!(nb.q_posture, pb.nullspace.q, "the posture in use is nullspace_q");
+    assert!(!oa.status.jacobian_damped, "a regular pose: the inverse is exact");
+    let dtau = SVector::<f64, 7>::from(ob.tau) - SVector::<f64, 7>::from(oa.tau);
+    let qv = SVector::<f64, 7>::from(q);
+    let minv_dtau = dynamics::crba(&model, &mut data, &qv).cholesky().unwrap().solve(&dtau);
+    let j = *dynamics::frame_jacobian(&model, &mut data, &qv, tip);
+    let task = j * minv_dtau;
+    eprintln!("posture torque {:.3} N m; its tip acceleration {:.3e} of the joint acceleration {:.3e}", dtau.norm(), task.norm(), minv_dtau.norm());
+    // Seen: 0.37 N m, a joint acceleration of 10 rad/s², 2e-12 of it at the tip.
+    assert!(dtau.norm() > 0.1 && minv_dtau.norm() > 1.0, "the posture task did nothing: {dtau}");
+    assert!(task.norm() < 1e-9 * minv_dtau.norm().max(1.0), "the posture torque moves the tip: J M⁻¹ Δτ = {task}");
+}

@@ -360,22 +360,31 @@ pub fn urdf_effort_limits(urdf: &str) -> Result<naic_core::JointVec, ParamError>
     const FIX: &str = "set -p urdf:=PATH";
     let model = naic_core::model::Model::from_urdf_file(urdf)
         .map_err(|e| ParamError::file("urdf", urdf, format!("cannot load the robot model '{urdf}': {e}"), FIX))?;
-    let l = model.effort_limits();
-    if l.len() != N_JOINTS {
-        return Err(ParamError::file("urdf", urdf, format!("robot model '{urdf}' has {} joints; the JK5 needs {N_JOINTS}", l.len()), FIX));
+    if model.nv() != N_JOINTS {
+        return Err(ParamError::file("urdf", urdf, format!("robot model '{urdf}' has {} joints; the JK5 needs {N_JOINTS}", model.nv()), FIX));
     }
-    if let Some(i) = (0..N_JOINTS).find(|&i| !(l[i].is_finite() && l[i] > 0.0)) {
-        let problem = format!("robot model '{urdf}': joint {} has effort limit {}", i + 1, l[i]);
-        return Err(ParamError::file("urdf", urdf, problem, "set <limit effort=\"...\"> > 0 in the URDF"));
+    model_effort_limits(&model, "urdf", urdf)
+}
+
+/// [`urdf_effort_limits`] of a loaded model of `N` joints (a robot file's, whose `limits`
+/// may replace the URDF's): `name`/`source` say where it came from in the error.
+pub fn model_effort_limits<const N: usize>(model: &naic_core::model::Model, name: &'static str, source: &str) -> Result<naic_core::JointVec<N>, ParamError> {
+    let l = model.effort_limits();
+    if l.len() != N {
+        return Err(ParamError::file(name, source, format!("robot model '{source}' has {} joints; expected {N}", l.len()), "give an arm of that many joints"));
+    }
+    if let Some(i) = (0..N).find(|&i| !(l[i].is_finite() && l[i] > 0.0)) {
+        let problem = format!("robot model '{source}': joint {} has effort limit {}", i + 1, l[i]);
+        return Err(ParamError::file(name, source, problem, "set <limit effort=\"...\"> > 0 in the URDF (or `limits: effort` in the robot file)"));
     }
     Ok(std::array::from_fn(|i| l[i].min(EFFORT_CAP)))
 }
 
 /// The nodes' per-joint `effort_limit` may tighten the URDF's `<limit effort>`, never
 /// loosen it: the message names the joint and both values.
-pub fn effort_limit_within(p: &ParamView, urdf_effort: &naic_core::JointVec) -> Result<(), ParamError> {
+pub fn effort_limit_within<const N: usize>(p: &ParamView, urdf_effort: &naic_core::JointVec<N>) -> Result<(), ParamError> {
     let e = p.f64s("effort_limit");
-    match (0..naic_core::N_JOINTS).find(|&i| e[i] > urdf_effort[i]) {
+    match (0..N).find(|&i| e[i] > urdf_effort[i]) {
         Some(i) => Err(ParamError::Rule(format!("effort_limit[{i}] = {} is above the URDF effort limit {} of joint{}", e[i], urdf_effort[i], i + 1))),
         None => Ok(()),
     }

@@ -15,15 +15,36 @@ pub fn from_args(args: &RosArgs, node: &str) -> Result<Option<Robot>, RosError> 
     Robot::load(&path).map(Some).map_err(|e| RosError::param(format!("{e} (-p robot:=FILE names a robot file, docs/robots.md)")))
 }
 
+/// The joint count a node's shell is compiled for (`naic_core::with_joints!`): the robot
+/// file's joints, else the JK5's six. A URDF of another joint count without a robot file
+/// is refused here, naming the fix (a robot file names its joints, frames and start).
+pub fn joint_count(args: &RosArgs, robot: Option<&Robot>, node: &str, default_urdf: &str) -> Result<usize, RosError> {
+    if let Some(r) = robot {
+        return Ok(r.joints.len());
+    }
+    let urdf = args.peek_string(node, "urdf", default_urdf)?;
+    // A URDF that does not load is the node's set-up's to report (it names the file).
+    let Ok(model) = naic_core::model::Model::from_urdf_file(&urdf) else { return Ok(naic_core::N_JOINTS) };
+    if model.nv() != naic_core::N_JOINTS {
+        return Err(RosError::param(format!(
+            "-p urdf:={urdf}: {} joints; without a robot file the {node} node runs the JK5's {} joints: give the arm as -p robot:=FILE (docs/robots.md: URDF, joints, frames, start_q)",
+            model.nv(),
+            naic_core::N_JOINTS
+        )));
+    }
+    Ok(naic_core::N_JOINTS)
+}
+
 /// The arm's joint names in command order: the robot file's, or the JK5's `joint1..joint6`.
-/// A robot file with another joint count than this node's shell runs is an error naming both.
+/// A robot file with another joint count than the shell was dispatched for
+/// ([`joint_count`]) is an error naming both.
 pub fn joint_names<const N: usize>(robot: Option<&Robot>, node: &str) -> Result<[String; N], RosError> {
     let Some(r) = robot else {
         return Ok(std::array::from_fn(|i| crate::msgs::JOINT_NAMES.get(i).map_or_else(|| format!("joint{}", i + 1), |s| s.to_string())));
     };
     if r.joints.len() != N {
         return Err(RosError::param(format!(
-            "robot file {}: {} joints ({}); the {node} node runs {N}-joint arms so far (`naic sim --robot` runs 3 to 7 in process)",
+            "robot file {}: {} joints ({}); this {node} shell was started for {N} joints",
             r.file.display(),
             r.joints.len(),
             r.joints.join(", ")

@@ -12,10 +12,10 @@ use crate::core::Params;
 /// The core's parameters from the ROS parameters; `sense` is the velocity filter for the
 /// robot model (its median window comes from the parameters). Fails when the friction
 /// file does not load.
-pub fn core_params(p: &ParamView, sense: &SenseParams, joints: &[String; N_JOINTS]) -> Result<Params, ParamError> {
+pub fn core_params<const N: usize>(p: &ParamView, sense: &SenseParams<N>, joints: &[String; N]) -> Result<Params<N>, ParamError> {
     let ns = |name: &str| (p.f64(name) * 1e9) as i64;
     Ok(Params {
-        friction: load_model(p)?,
+        friction: load_model::<N>(p)?,
         enabled: p.bool("enabled"),
         time: TimeBase::from_use_sim_time(p.bool("use_sim_time")),
         joint_state_timeout_ns: ns("joint_state_timeout"),
@@ -27,24 +27,26 @@ pub fn core_params(p: &ParamView, sense: &SenseParams, joints: &[String; N_JOINT
     })
 }
 
-/// Default `torque_rate_limit` per joint [N m per cycle] (as in params/friction_compensation.yaml).
-pub const DEFAULT_RATE_LIMIT: JointVec = [10.0; N_JOINTS];
+/// Default `torque_rate_limit` of every joint [N m per cycle] (as in params/friction_compensation.yaml).
+pub const DEFAULT_RATE: f64 = 10.0;
+/// [`DEFAULT_RATE`] on each of the JK5's joints.
+pub const DEFAULT_RATE_LIMIT: JointVec = [DEFAULT_RATE; N_JOINTS];
 
-/// The actuation guard's limits from the parameters (both are per joint, six values each;
+/// The actuation guard's limits from the parameters (both are per joint, N values each;
 /// the parameter table has checked the length, finiteness and ranges).
-pub fn actuate_params(p: &ParamView) -> actuate::ActuateParams {
-    let per_joint = |v: &[f64]| -> JointVec { std::array::from_fn(|i| v[i]) };
+pub fn actuate_params<const N: usize>(p: &ParamView) -> actuate::ActuateParams<N> {
+    let per_joint = |v: &[f64]| -> JointVec<N> { std::array::from_fn(|i| v[i]) };
     actuate::ActuateParams { effort_limit: per_joint(p.f64s("effort_limit")), max_delta: per_joint(p.f64s("torque_rate_limit")) }
 }
 
-pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
+pub fn specs<const N: usize>(urdf_effort: &JointVec<N>) -> Vec<ParamSpec> {
     vec![
         ParamSpec::doubles("effort_limit", urdf_effort, 0.0, EFFORT_CAP, "Per-joint torque saturation [N m], at most the URDF effort limit (default: the URDF's)"),
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model: effort limits of the actuation guard").read_only(),
         ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Friction model YAML (naic_core::friction format; Table 1 of the paper by default; '': no friction model, the command passes through the actuation guard; with -p robot:=FILE the robot file's, none by default)"),
         ParamSpec::boolean("enabled", true, "Add the friction feedforward (false: pass the controller torque through the actuation guard only)"),
         ParamSpec::double("smoothing_velocity", DEFAULT_V_S, 0.0, 1.0, "v_s [rad/s] of sgn(q̇) → tanh(q̇/v_s) near rest (0: the printed discontinuous law; the file's own value when it sets one)"),
-        ParamSpec::doubles("torque_rate_limit", &DEFAULT_RATE_LIMIT, 0.001, 1000.0, "Largest torque change per command, per joint joint1..joint6 [N m per cycle]; one number sets all six (1 N m on every joint destabilises the paper's impedance gains on the simulated JK5; 10 does not)").scalar_fills(),
+        ParamSpec::doubles("torque_rate_limit", &[DEFAULT_RATE; N], 0.001, 1000.0, "Largest torque change per command, per joint in the arm's joint order [N m per cycle]; one number sets every joint (1 N m on every joint destabilises the paper's impedance gains on the simulated JK5; 10 does not)").scalar_fills(),
         ParamSpec::double("joint_state_timeout", 0.02, 0.001, 1.0, "Joint velocity older than this [s] is not used: no feedforward"),
         ParamSpec::int("median_window", 5, 1, 9, "Median filter window of the joint velocity (the controller's sense stage, same filter)"),
         ParamSpec::double("takeover_gap", 0.02, 0.001, 1.0, "After a gap in /naic/effort longer than this [s] (the driver's command_timeout: it holds the arm itself by then), the rate limit restarts from the measured joint torque"),
@@ -54,7 +56,7 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
 }
 
 /// Load the friction model the parameters name (`friction_file: ''`: none).
-pub fn load_model(p: &ParamView) -> Result<Option<FrictionModel>, ParamError> {
+pub fn load_model<const N: usize>(p: &ParamView) -> Result<Option<FrictionModel>, ParamError> {
     let path = p.str("friction_file");
     if path.is_empty() {
         return Ok(None);
@@ -64,8 +66,8 @@ pub fn load_model(p: &ParamView) -> Result<Option<FrictionModel>, ParamError> {
     let model = FrictionParams::from_yaml_file(path)
         .and_then(|f| f.to_model())
         .map_err(|e| bad(format!("friction_file '{path}': {e}")))?;
-    if model.n_joints() != N_JOINTS {
-        return Err(bad(format!("friction_file '{path}' has {} joints; the JK5 needs {N_JOINTS}", model.n_joints())));
+    if model.n_joints() != N {
+        return Err(bad(format!("friction_file '{path}' has {} joints; the arm has {N}", model.n_joints())));
     }
     let v_s = p.f64("smoothing_velocity");
     match (model.smoothing(), v_s > 0.0) {
@@ -139,13 +141,18 @@ mod tests {
     }
 
     #[test]
-    fn the_params_file_sets_six_rate_limits_and_matches_the_defaults() {
+    fn the_params_file_sets_one_rate_limit_for_every_joint_of_any_arm() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/friction_compensation.yaml");
         let o = naic_ros::params_file::load_for_node(&path, "/friction_compensation").unwrap();
         let from_file = o.iter().rev().find(|(n, _)| n == "torque_rate_limit").map(|(_, v)| v.clone());
-        assert_eq!(from_file, Some(V::DoubleArray(DEFAULT_RATE_LIMIT.to_vec())), "params file and DEFAULT_RATE_LIMIT differ");
+        assert_eq!(from_file, Some(V::Double(DEFAULT_RATE)), "params file and DEFAULT_RATE differ");
         let t = ParamTable::new(specs(&URDF_EFFORT), None, &o).unwrap();
-        assert_eq!(t.with(actuate_params).max_delta, DEFAULT_RATE_LIMIT);
+        assert_eq!(t.with(actuate_params), actuate::ActuateParams { effort_limit: URDF_EFFORT, max_delta: DEFAULT_RATE_LIMIT });
+        // The same file on a 7-joint arm (the Panda): seven limits.
+        let t = ParamTable::new(specs(&[87.0; 7]), None, &o).unwrap();
+        assert_eq!(t.with(actuate_params::<7>).max_delta, [DEFAULT_RATE; 7]);
+        let e = ParamTable::new(specs(&[87.0; 7]), None, &[("torque_rate_limit".into(), V::DoubleArray(vec![1.0; 6]))]).err().unwrap().to_string();
+        assert!(e.contains("exactly 7 elements, got 6"), "{e}");
     }
 
     #[test]

@@ -29,7 +29,13 @@ fn main() {
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
     let args = RosArgs::parse(std::env::args().skip(1))?;
-    let setup = Setup::from_args(&args)?; // files first, before any DDS participant exists
+    // The arm's joint count picks the compiled shell (the one dispatch point).
+    let (robot, n) = friction_compensation::setup::arm(&args)?;
+    naic_core::with_joints!(n, N => run_arm::<N>(args, robot)).map_err(|e| RosError::param(e.to_string()))?
+}
+
+fn run_arm<const N: usize>(args: RosArgs, robot: Option<naic_core::robot_file::Robot>) -> Result<(), RosError> {
+    let setup = Setup::<N>::for_arm(&args, robot)?; // files first, before any DDS participant exists
     let mut node = RosNode::new(args, NODE, setup.specs(), Some(setup.check()))?;
     let mut r = Runner::new(&setup, &node.params)?;
     let mut cmd_sub = node.subscription::<Float64MultiArray>("naic/effort", msgs::FLOAT64_MULTI_ARRAY, QOS_SUB)?;

@@ -20,23 +20,23 @@ use crate::{
     setup::{Setup, NODE},
 };
 
-/// The node between two wake-ups.
-pub struct Runner {
-    pub p: core::Params,
-    pub s: core::State,
-    sense: SenseParams,
+/// The node between two wake-ups (an arm of `N` joints).
+pub struct Runner<const N: usize = { naic_core::N_JOINTS }> {
+    pub p: core::Params<N>,
+    pub s: core::State<N>,
+    sense: SenseParams<N>,
     /// The arm's joint names (the robot file's, or the JK5's).
-    joints: [String; naic_core::N_JOINTS],
+    joints: [String; N],
     /// Generation of the parameter table last applied.
     gen: u64,
     cmd: Float64MultiArray,
     warned: bool,
 }
 
-impl Runner {
+impl<const N: usize> Runner<N> {
     /// From the node's setup; `params` is the node's parameter table as it starts. `Err`:
     /// the friction file does not load (named).
-    pub fn new(setup: &Setup, params: &ParamTable) -> Result<Runner, naic_ros::params::ParamError> {
+    pub fn new(setup: &Setup<N>, params: &ParamTable) -> Result<Runner<N>, naic_ros::params::ParamError> {
         let sense = setup.sense.clone();
         let joints = setup.joints.clone();
         let p = params.with(|v| config::core_params(v, &sense, &joints))?;
@@ -54,7 +54,7 @@ impl Runner {
         }
     }
 
-    fn step(&mut self, inbox: core::Inbox, now_ns: i64) -> core::Outbox {
+    fn step(&mut self, inbox: core::Inbox, now_ns: i64) -> core::Outbox<N> {
         let (p, s) = (&self.p, &self.s);
         let (next, out) = alloc_check::check(NODE, &mut self.warned, || core::step(p, s, &inbox, now_ns));
         self.s = next;

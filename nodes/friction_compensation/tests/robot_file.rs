@@ -41,8 +41,37 @@ fn a_ur5_robot_file_reads_its_joint_names_and_applies_no_jk5_friction() {
 }
 
 #[test]
-fn a_seven_joint_robot_file_is_refused_naming_the_file_and_counts() {
+fn a_seven_joint_robot_file_reads_seven_names_and_commands_seven_torques_in_their_order() {
     let args = RosArgs::with_params([format!("robot:={}/params/robots/panda.yaml", root())]).unwrap();
-    let e = Setup::from_args(&args).err().expect("7 joints").to_string();
+    let (robot, n) = friction_compensation::setup::arm(&args).unwrap();
+    assert_eq!(n, 7);
+    let setup = Setup::<7>::for_arm(&args, robot.clone()).unwrap();
+    let names = ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6", "joint7"];
+    assert_eq!(setup.joints, names);
+    // The Panda URDF's effort limits (87 N m on joints 1-4, 12 N m on 5-7).
+    assert_eq!(setup.effort_limit, [87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0]);
+    let table = ParamTable::new(setup.specs(), Some(setup.check()), &args.overrides(NODE).unwrap()).unwrap();
+    let mut r = Runner::new(&setup, &table).unwrap();
+    // The broadcaster's order (shuffled, a gripper finger added): the command is in the robot
+    // file's order, each torque the one for its joint.
+    let order = [6, 2, 0, 5, 1, 3, 4];
+    let mut js = JointState {
+        header: Header { stamp: time_from_ns(1_000_000), frame_id: String::new() },
+        name: order.iter().map(|&i| names[i].to_string()).chain(["finger_joint1".to_string()]).collect(),
+        position: vec![0.0; 8],
+        velocity: vec![0.0; 8],
+        effort: order.iter().map(|&i| i as f64).chain([0.0]).collect(),
+    };
+    r.joint_states(&js);
+    let tau = [0.5, -0.5, 0.25, 0.0, 0.1, -0.1, 0.3];
+    let out = r.command(&effort_msg(&tau, Some(1_000_000)), |_| None).expect("a command");
+    // The take-over: the rate limit (10 N m) from the measured torque of each joint, by name.
+    assert_eq!(out.data, tau.to_vec());
+    // A command of six values for the seven-joint arm is refused (never a torque on the wrong joint).
+    js.header.stamp = time_from_ns(2_000_000);
+    r.joint_states(&js);
+    assert!(r.command(&effort_msg(&tau[..6], Some(2_000_000)), |_| None).is_none());
+    // A shell of another joint count refuses the file, naming it and both counts.
+    let e = Setup::<6>::for_arm(&args, robot).err().expect("7 joints in a 6-joint shell").to_string();
     assert!(e.contains("panda.yaml") && e.contains("7 joints") && e.contains("friction_compensation"), "{e}");
 }

@@ -1,16 +1,17 @@
 //! The driver's ROS parameters, the URDF checks made before the DDS participant exists,
 //! and the chain-latency report.
 
-use naic_core::{JointVec, N_JOINTS};
+use naic_core::JointVec;
 use naic_ros::{
-    msgs::JOINT_NAMES,
     params::{effort_limit_within, ParamError, SetCheck, EFFORT_CAP},
     ParamSpec, ParamView, ParameterValue,
 };
 
 use crate::{core, latency, runner::SensorFault, sim_plant::PLANT_NAME};
 
-pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
+/// The parameters of a driver of an arm with the joints `joints` (`/joint_states` names),
+/// whose URDF allows `urdf_effort`.
+pub fn specs<const N: usize>(urdf_effort: &JointVec<N>, joints: &[String; N]) -> Vec<ParamSpec> {
     vec![
         ParamSpec::doubles(
             "effort_limit",
@@ -21,7 +22,7 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
         ),
         ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz]; the simulator's control period is 1/rate").read_only(),
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model of the simulator").read_only(),
-        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Joint friction acting in the simulator (naic_core::friction YAML)").read_only(),
+        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Joint friction acting in the simulator (naic_core::friction YAML; with -p robot:=FILE the robot file's, '' for none)").read_only(),
         ParamSpec::double("friction_smoothing", naic_core::friction::DEFAULT_V_S, 1.0e-5, 1.0, "v_s [rad/s] of the simulator's tanh-smoothed friction").read_only(),
         ParamSpec::double("tool_mass_error", 1.0, 0.1, 10.0, "The simulated sensor's tool is this many times as heavy as the URDF's ft_sensor link says (as naic sim --tool-mass-error; to test naic tool identify)").read_only(),
         ParamSpec::doubles("tool_com_offset", &[0.0, 0.0, 0.0], -0.2, 0.2, "The simulated sensor's tool centre of mass is this far from the URDF's [m], sensor frame, 3 numbers (as naic sim --tool-com-offset)").read_only(),
@@ -57,7 +58,7 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
             "Paper scenario of naic_sim: environment and start pose",
         )
         .read_only(),
-        joint_order_spec(),
+        joint_order_spec(joints),
         ParamSpec::choice(
             "sensor_fault",
             "none",
@@ -73,33 +74,33 @@ pub fn specs(urdf_effort: &JointVec) -> Vec<ParamSpec> {
 }
 
 /// `joint_order`: the order of the joints in the published `/joint_states`, as
-/// ros2_control's `joint_state_broadcaster` may publish them (default: joint1..joint6).
-fn joint_order_spec() -> ParamSpec {
+/// ros2_control's `joint_state_broadcaster` may publish them (default: the arm's order).
+fn joint_order_spec<const N: usize>(joints: &[String; N]) -> ParamSpec {
     let mut s = ParamSpec::new(
         "joint_order",
-        ParameterValue::StringArray(JOINT_NAMES.iter().map(|n| n.to_string()).collect()),
-        "Order of the joints in the published /joint_states (each of joint1..joint6 once), e.g. to play a joint_state_broadcaster that does not follow the URDF; commands stay in joint1..joint6 order",
+        ParameterValue::StringArray(joints.to_vec()),
+        "Order of the joints in the published /joint_states (each of the arm's joints once; default: the arm's order, joint1..joint6 for the JK5), e.g. to play a joint_state_broadcaster that does not follow the URDF; commands stay in the arm's joint order",
     )
     .read_only();
-    s.len = Some(N_JOINTS);
+    s.len = Some(N);
     s
 }
 
 /// The published index → joint index map of `joint_order` (published slot `i` carries
-/// joint `order[i] + 1`), or why the names are not each of joint1..joint6 once.
-pub fn joint_order(p: &ParamView) -> Result<[usize; N_JOINTS], ParamError> {
+/// joint `order[i]` of `joints`), or why the names are not each of `joints` once.
+pub fn joint_order<const N: usize>(p: &ParamView, joints: &[String; N]) -> Result<[usize; N], ParamError> {
     let names = match p.get("joint_order") {
         Some(ParameterValue::StringArray(a)) => a.as_slice(),
         _ => &[],
     };
-    let mut order = [0; N_JOINTS];
-    for i in 0..N_JOINTS {
+    let mut order = [0; N];
+    for i in 0..N {
         let name = names.get(i).map_or("", String::as_str);
-        order[i] = JOINT_NAMES.iter().position(|j| *j == name).ok_or_else(|| {
-            ParamError::Rule(format!("joint_order[{i}] = '{name}' is not a joint of the JK5; name each of {} once", JOINT_NAMES.join(", ")))
+        order[i] = joints.iter().position(|j| *j == name).ok_or_else(|| {
+            ParamError::Rule(format!("joint_order[{i}] = '{name}' is not a joint of the arm; name each of {} once", joints.join(", ")))
         })?;
         if let Some(k) = order[..i].iter().position(|&o| o == order[i]) {
-            return Err(ParamError::Rule(format!("joint_order names '{name}' twice (elements {k} and {i}); name each of {} once", JOINT_NAMES.join(", "))));
+            return Err(ParamError::Rule(format!("joint_order names '{name}' twice (elements {k} and {i}); name each of {} once", joints.join(", "))));
         }
     }
     Ok(order)
@@ -107,15 +108,15 @@ pub fn joint_order(p: &ParamView) -> Result<[usize; N_JOINTS], ParamError> {
 
 /// Live `effort_limit` changes may tighten the URDF limits, never loosen them; the
 /// `joint_order` names each joint once.
-pub fn check(urdf_effort: JointVec) -> SetCheck {
+pub fn check<const N: usize>(urdf_effort: JointVec<N>, joints: [String; N]) -> SetCheck {
     Box::new(move |p: &ParamView| {
-        joint_order(p)?;
+        joint_order(p, &joints)?;
         effort_limit_within(p, &urdf_effort)
     })
 }
 
 /// The core's parameters from the ROS parameters.
-pub fn core_params(p: &ParamView) -> core::Params {
+pub fn core_params<const N: usize>(p: &ParamView) -> core::Params<N> {
     core::Params {
         lockstep: p.bool("lockstep"),
         rate: p.f64("rate"),

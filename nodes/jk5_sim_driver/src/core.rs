@@ -22,9 +22,9 @@ use naic_ros::{
 
 use crate::{latency::Histogram, plant::Plant};
 
-/// The driver's parameters as the core reads them.
+/// The driver's parameters as the core reads them (an arm of `N` joints).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Params {
+pub struct Params<const N: usize = N_JOINTS> {
     /// One step per command computed from the state just published.
     pub lockstep: bool,
     /// Simulation and publishing rate [Hz].
@@ -38,13 +38,13 @@ pub struct Params {
     /// Joint damping of the hold [N m s/rad].
     pub hold_damping: f64,
     /// Per-joint saturation of everything applied [N m].
-    pub effort_limit: JointVec,
+    pub effort_limit: JointVec<N>,
 }
 
 /// The newest command, written by the receive thread, read by the main loop.
 #[derive(Clone)]
-pub struct Commands {
-    pub tau: JointVec,
+pub struct Commands<const N: usize = N_JOINTS> {
+    pub tau: JointVec<N>,
     /// The newest command was valid (else: hold until a valid one arrives).
     pub valid: bool,
     /// Wall-clock arrival of the newest command [ns].
@@ -70,10 +70,10 @@ pub struct Commands {
     warn: Throttle,
 }
 
-impl Commands {
+impl<const N: usize> Commands<N> {
     pub fn new(record_after_ns: i64, sim_stamps: bool) -> Self {
         Commands {
-            tau: [0.0; N_JOINTS],
+            tau: [0.0; N],
             valid: false,
             arrival_ns: 0,
             seq: 0,
@@ -104,7 +104,7 @@ impl Commands {
     }
 
     /// What [`step`] needs of the newest command.
-    pub fn view(&self) -> Command {
+    pub fn view(&self) -> Command<N> {
         Command {
             tau: self.tau,
             valid: self.valid,
@@ -118,8 +118,8 @@ impl Commands {
 
 /// Take one `/joint_effort_cmd` at wall time `now_ns`. Returns the reason of a refusal
 /// when a report is due (one per second).
-pub fn receive(c: &mut Commands, m: &Float64MultiArray, now_ns: i64) -> Option<EffortError> {
-    let mut tau = [0.0; N_JOINTS];
+pub fn receive<const N: usize>(c: &mut Commands<N>, m: &Float64MultiArray, now_ns: i64) -> Option<EffortError> {
+    let mut tau = [0.0; N];
     match msgs::effort_values(m, &mut tau) {
         Ok(()) => {
             let src = msgs::effort_source_stamp(m);
@@ -154,8 +154,8 @@ pub fn receive(c: &mut Commands, m: &Float64MultiArray, now_ns: i64) -> Option<E
 
 /// The newest command as [`step`] sees it (a copy taken under the lock).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Command {
-    pub tau: JointVec,
+pub struct Command<const N: usize = N_JOINTS> {
+    pub tau: JointVec<N>,
     pub valid: bool,
     pub arrival_ns: i64,
     pub seq: u64,
@@ -189,27 +189,27 @@ pub enum Hold {
 }
 
 /// Things for the shell to log.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Events {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Events<const N: usize = N_JOINTS> {
     pub hold: Option<Hold>,
     /// Commands resumed: the hold is released.
     pub released: bool,
     /// The torque was saturated on these joints (one report per second).
-    pub saturated: Option<[bool; N_JOINTS]>,
+    pub saturated: Option<[bool; N]>,
 }
 
 /// What one step applied.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Outbox {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Outbox<const N: usize = N_JOINTS> {
     /// The torque applied to the plant [N m].
-    pub tau: JointVec,
-    pub events: Events,
+    pub tau: JointVec<N>,
+    pub events: Events<N>,
 }
 
 /// One simulator step at wall time `now_ns` with the newest command `c`.
-pub fn step<P: Plant>(p: &Params, s: &State, c: &Command, now_ns: i64, plant: &mut P) -> (State, Outbox) {
+pub fn step<const N: usize, P: Plant<N>>(p: &Params<N>, s: &State, c: &Command<N>, now_ns: i64, plant: &mut P) -> (State, Outbox<N>) {
     let mut s = *s;
-    let mut out = Outbox::default();
+    let mut out = Outbox { tau: [0.0; N], events: Events { hold: None, released: false, saturated: None } };
     // Lockstep: the shell's wait returned with the command for this state (unless a
     // refused one came after it: then hold).
     let fresh = c.valid && c.seq > 0 && (p.lockstep || now_ns - c.arrival_ns <= p.command_timeout_ns);

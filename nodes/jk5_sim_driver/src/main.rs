@@ -32,7 +32,7 @@ struct StatePub(Pub<WrenchStamped>, Pub<JointState>, Pub<Clock>);
 impl StatePub {
     /// The runner's state, announced to the command slot first (so its command is never
     /// early), then published; wrench first: the controller cycles on /joint_states.
-    fn announce(&self, d: &mut Runner<SimPlant>, shared: &SharedCommands) {
+    fn announce<const N: usize>(&self, d: &mut Runner<SimPlant<N>, N>, shared: &SharedCommands<N>) {
         d.announce(&mut shared.lock());
         let _ = self.0.publish(d.msgs.w.clone());
         let _ = self.1.publish(d.msgs.js.clone());
@@ -46,11 +46,17 @@ fn main() {
 
 fn run() -> Result<(), RosError> {
     naic_ros::install_signal_handlers();
-    let marker = MissMarker::from_env();
     let args = RosArgs::parse(std::env::args().skip(1))?;
-    let setup = Setup::from_args(&args)?; // files first, before any DDS participant exists
+    // The arm's joint count picks the compiled shell (the one dispatch point).
+    let (robot, n) = jk5_sim_driver::setup::arm(&args)?;
+    naic_core::with_joints!(n, N => run_arm::<N>(args, robot)).map_err(|e| RosError::param(e.to_string()))?
+}
+
+fn run_arm<const N: usize>(args: RosArgs, robot: Option<naic_core::robot_file::Robot>) -> Result<(), RosError> {
+    let marker = MissMarker::from_env();
+    let setup = Setup::<N>::for_arm(&args, robot)?; // files first, before any DDS participant exists
     let mut node = RosNode::new(args, NODE, setup.specs(), Some(setup.check()))?;
-    let mut d = Runner::new(setup.plant, &node.params);
+    let mut d = Runner::new(setup.plant, &node.params, &setup.joints);
     let (data_pub, data_sub) = node.params.with(data_qos);
     let out = StatePub(
         node.publisher("wrench", msgs::WRENCH_STAMPED, data_pub.clone())?,

@@ -64,26 +64,26 @@ impl SensorFault {
 }
 
 /// `/joint_states`, `/wrench` and `/clock`, preallocated and rewritten in place each cycle.
-pub struct StateMsgs {
+pub struct StateMsgs<const N: usize = N_JOINTS> {
     pub js: JointState,
     pub w: WrenchStamped,
     pub clock: Clock,
-    /// `js`'s slot `i` carries joint `order[i] + 1` ([`config::joint_order`]).
-    order: [usize; N_JOINTS],
+    /// `js`'s slot `i` carries joint `order[i]` of the arm ([`config::joint_order`]).
+    order: [usize; N],
 }
 
 impl Default for StateMsgs {
     fn default() -> Self {
-        StateMsgs::in_order([0, 1, 2, 3, 4, 5])
+        StateMsgs::in_order([0, 1, 2, 3, 4, 5], &msgs::JOINT_NAMES.map(String::from))
     }
 }
 
-impl StateMsgs {
-    /// The messages with the joints of `/joint_states` in `order` (slot `i`: joint
-    /// `order[i] + 1`).
-    pub fn in_order(order: [usize; N_JOINTS]) -> Self {
+impl<const N: usize> StateMsgs<N> {
+    /// The messages with the arm's joints `joints` in `/joint_states` in `order` (slot `i`:
+    /// joint `joints[order[i]]`).
+    pub fn in_order(order: [usize; N], joints: &[String; N]) -> Self {
         StateMsgs {
-            js: JointState { name: order.iter().map(|&j| msgs::JOINT_NAMES[j].to_string()).collect(), position: vec![0.0; N_JOINTS], velocity: vec![0.0; N_JOINTS], effort: vec![0.0; N_JOINTS], ..Default::default() },
+            js: JointState { name: order.iter().map(|&j| joints[j].clone()).collect(), position: vec![0.0; N], velocity: vec![0.0; N], effort: vec![0.0; N], ..Default::default() },
             w: WrenchStamped { header: Header { frame_id: "ft_sensor".into(), ..Default::default() }, ..Default::default() },
             clock: Clock::default(),
             order,
@@ -93,7 +93,7 @@ impl StateMsgs {
     /// The plant's state into the messages, as a sensor with `fault` would report it;
     /// returns the stamp used [ns] (simulated time if `sim_stamps`, else the wall clock).
     /// `/clock` is always simulated time.
-    pub fn fill(&mut self, plant: &impl Plant, sim_stamps: bool, fault: SensorFault) -> i64 {
+    pub fn fill(&mut self, plant: &impl Plant<N>, sim_stamps: bool, fault: SensorFault) -> i64 {
         let stamp_ns = if sim_stamps { sim_stamp_ns(plant) } else { wall_ns() };
         let (q, v, t) = plant.joints();
         self.js.header.stamp = time_from_ns(stamp_ns);
@@ -125,14 +125,14 @@ pub fn sim_stamps(p: &ParamView) -> bool {
 }
 
 /// The simulated-time stamp of the plant's current state [ns].
-pub fn sim_stamp_ns(plant: &impl Plant) -> i64 {
+pub fn sim_stamp_ns<const N: usize>(plant: &impl Plant<N>) -> i64 {
     (plant.time() * 1e9).round() as i64
 }
 
-/// The driver between two cycles.
-pub struct Runner<P: Plant> {
+/// The driver between two cycles (an arm of `N` joints).
+pub struct Runner<P: Plant<N>, const N: usize = N_JOINTS> {
     pub plant: P,
-    pub p: core::Params,
+    pub p: core::Params<N>,
     /// The `paused` parameter: simulated time stands still.
     pub paused: bool,
     /// Stamps are simulated time ([`sim_stamps`]).
@@ -141,7 +141,7 @@ pub struct Runner<P: Plant> {
     pub fault: SensorFault,
     pub s: core::State,
     /// The state messages, as of the last [`Runner::announce`].
-    pub msgs: StateMsgs,
+    pub msgs: StateMsgs<N>,
     /// Generation of the parameter table last applied.
     gen: u64,
     /// The current period's deadline [ns, CLOCK_MONOTONIC] (real time).
@@ -149,24 +149,25 @@ pub struct Runner<P: Plant> {
     warned: bool,
 }
 
-impl<P: Plant> Runner<P> {
-    /// `params` is the node's parameter table as it starts.
-    pub fn new(plant: P, params: &ParamTable) -> Runner<P> {
+impl<P: Plant<N>, const N: usize> Runner<P, N> {
+    /// `params` is the node's parameter table as it starts; `joints`: the arm's joint names
+    /// (the `/joint_states` names, in the plant's and the commands' order).
+    pub fn new(plant: P, params: &ParamTable, joints: &[String; N]) -> Runner<P, N> {
         let (p, paused, sim, fault) = params.with(read);
         // Checked when the table was built (config::check); read-only.
-        let order = params.with(config::joint_order).unwrap_or([0, 1, 2, 3, 4, 5]);
-        Runner { plant, p, paused, sim, fault, s: core::State::default(), msgs: StateMsgs::in_order(order), gen: params.generation(), next_ns: monotonic_ns(), warned: false }
+        let order = params.with(|v| config::joint_order(v, joints)).unwrap_or(std::array::from_fn(|i| i));
+        Runner { plant, p, paused, sim, fault, s: core::State::default(), msgs: StateMsgs::in_order(order, joints), gen: params.generation(), next_ns: monotonic_ns(), warned: false }
     }
 
     /// The command slot, latency statistics from the end of `latency_warmup` on.
-    pub fn commands(&self, params: &ParamTable) -> Commands {
+    pub fn commands(&self, params: &ParamTable) -> Commands<N> {
         Commands::new(wall_ns() + params.with(|v| (v.f64("latency_warmup") * 1e9) as i64), self.sim)
     }
 
     /// Take the node's parameters when a set was accepted since the last call (at the top
     /// of a cycle, and again just before the step, so a limit accepted while waiting
     /// applies to that step).
-    pub fn reload(&mut self, params: &ParamTable, cmds: &mut Commands) {
+    pub fn reload(&mut self, params: &ParamTable, cmds: &mut Commands<N>) {
         if params.generation() != self.gen {
             self.gen = params.generation();
             let fault;
@@ -181,14 +182,14 @@ impl<P: Plant> Runner<P> {
 
     /// Lockstep: the state to answer has not been announced yet (the first cycle, or just
     /// switched to lockstep).
-    pub fn needs_announce(&self, cmds: &Commands) -> bool {
+    pub fn needs_announce(&self, cmds: &Commands<N>) -> bool {
         self.s.last_published_stamp.is_none() || cmds.expect_stamp_ns != self.s.last_published_stamp
     }
 
     /// The plant's state into [`Runner::msgs`], announced to `cmds` (lockstep: only a
     /// command for it may advance the simulation) before the shell publishes it, so its
     /// command is never early. Returns the stamp [ns].
-    pub fn announce(&mut self, cmds: &mut Commands) -> i64 {
+    pub fn announce(&mut self, cmds: &mut Commands<N>) -> i64 {
         let stamp = self.msgs.fill(&self.plant, self.sim, self.fault);
         cmds.expect(self.p.lockstep.then(|| sim_stamp_ns(&self.plant)));
         self.s.last_published_stamp = Some(stamp);
@@ -196,7 +197,7 @@ impl<P: Plant> Runner<P> {
     }
 
     /// One simulator step with the newest command (or the hold), its events logged.
-    pub fn step(&mut self, cmd: &core::Command) {
+    pub fn step(&mut self, cmd: &core::Command<N>) {
         let (p, s, plant) = (&self.p, &self.s, &mut self.plant);
         let (n, o) = alloc_check::check(NODE, &mut self.warned, || core::step(p, s, cmd, wall_ns(), plant));
         self.s = n;
@@ -254,18 +255,18 @@ impl<P: Plant> Runner<P> {
 
     /// At exit: the latency report (JSON to `latency_report`, if set, with `extra`'s
     /// fields) and the last log line.
-    pub fn finish(&self, cmds: &Commands, params: &ParamTable, extra: serde_json::Value) {
+    pub fn finish(&self, cmds: &Commands<N>, params: &ParamTable, extra: serde_json::Value) {
         let path = params.with(|p| p.str("latency_report").to_string());
         write_report(cmds, &self.s, &path, extra);
     }
 }
 
-fn read(v: &ParamView) -> (core::Params, bool, bool, SensorFault) {
+fn read<const N: usize>(v: &ParamView) -> (core::Params<N>, bool, bool, SensorFault) {
     (config::core_params(v), v.bool("paused"), sim_stamps(v), SensorFault::from_param(v.str("sensor_fault")))
 }
 
 /// Take one `/joint_effort_cmd` (the core's [`core::receive`]), logging a refusal.
-pub fn receive(cmds: &mut Commands, m: &Float64MultiArray) {
+pub fn receive<const N: usize>(cmds: &mut Commands<N>, m: &Float64MultiArray) {
     if let Some(e) = core::receive(cmds, m, wall_ns()) {
         log::warn!("ignoring /joint_effort_cmd: {e} (rejected so far: {})", cmds.rejected);
     }
@@ -273,17 +274,17 @@ pub fn receive(cmds: &mut Commands, m: &Float64MultiArray) {
 
 /// The command slot shared between a receive thread and the main loop; a command wakes
 /// the lockstep wait.
-pub struct SharedCommands {
-    slot: Mutex<Commands>,
+pub struct SharedCommands<const N: usize = N_JOINTS> {
+    slot: Mutex<Commands<N>>,
     cv: Condvar,
 }
 
-impl SharedCommands {
-    pub fn new(c: Commands) -> SharedCommands {
+impl<const N: usize> SharedCommands<N> {
+    pub fn new(c: Commands<N>) -> SharedCommands<N> {
         SharedCommands { slot: Mutex::new(c), cv: Condvar::new() }
     }
 
-    pub fn lock(&self) -> MutexGuard<'_, Commands> {
+    pub fn lock(&self) -> MutexGuard<'_, Commands<N>> {
         self.slot.lock().unwrap_or_else(|p| p.into_inner())
     }
 
@@ -401,7 +402,7 @@ impl MissMarker {
 }
 
 /// Log what one step reports.
-pub fn log_events(o: &core::Outbox, p: &core::Params, s: &core::State) {
+pub fn log_events<const N: usize>(o: &core::Outbox<N>, p: &core::Params<N>, s: &core::State) {
     match o.events.hold {
         Some(Hold::Timeout) => log::warn!("no /joint_effort_cmd for {} ms: holding the arm", p.command_timeout_ns / 1_000_000),
         Some(Hold::Rejected) => log::warn!("last /joint_effort_cmd rejected: holding the arm"),
@@ -415,7 +416,7 @@ pub fn log_events(o: &core::Outbox, p: &core::Params, s: &core::State) {
 
 /// The latency report (JSON to `path`, if not empty, with `extra`'s fields) and the last
 /// log line.
-pub fn write_report(c: &Commands, s: &core::State, path: &str, extra: serde_json::Value) {
+pub fn write_report<const N: usize>(c: &Commands<N>, s: &core::State, path: &str, extra: serde_json::Value) {
     let recorded_ns = (wall_ns() - c.record_after_ns).max(0);
     if c.stale_dropped > 0 {
         log::info!("lockstep: {} commands computed from an earlier state were dropped", c.stale_dropped);
@@ -466,7 +467,7 @@ mod tests {
         let args = RosArgs::with_params(files.into_iter().chain(extra.iter().map(|e| e.to_string()))).unwrap();
         let setup = Setup::from_args(&args).unwrap();
         let table = ParamTable::new(setup.specs(), Some(setup.check()), &args.overrides(NODE).unwrap()).unwrap();
-        (Runner::new(setup.plant, &table), table)
+        (Runner::new(setup.plant, &table, &setup.joints), table)
     }
 
     #[test]

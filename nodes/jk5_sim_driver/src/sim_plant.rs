@@ -1,9 +1,14 @@
-//! The driver's simulator: `naic_sim`'s JK5 + ATI mini45 (`SimArm`) in a paper scenario.
+//! The driver's simulator: `naic_sim`'s arm + ATI mini45 (`SimArm`) in a scenario: the
+//! paper's JK5 in a paper scenario, or a robot file's arm in the scenario placed relative to
+//! its start joints (as `naic sim --robot` runs it).
+
+use std::any::Any;
 
 use naic_core::{
     friction::{FrictionParams, Smoothing},
-    model::{Data6, Model},
+    model::{DataN, Model},
     pipeline::hold,
+    robot_file::Robot,
     JointVec, N_JOINTS,
 };
 use naic_sim::{plants::PlantChoice, scenario, sensor::tool_from_urdf};
@@ -16,9 +21,71 @@ pub const PLANT_NAME: &str = "naic_sim";
 
 const FRICTION_FIX: &str = "set -p friction_file:=PATH, e.g. params/friction_jk5.yaml";
 
+/// The plant the parameters name, for an arm of `N` joints: the robot file's arm (`robot`,
+/// not the paper's JK5) in the scenario placed relative to its `start_q`, or else the
+/// JK5's plant ([`make_jk5_plant`], unchanged).
+pub fn make_plant<const N: usize>(p: &naic_ros::ParamView, robot: Option<&Robot>) -> Result<SimPlant<N>, ParamError> {
+    match robot.filter(|r| !r.is_paper_jk5()) {
+        Some(r) => make_robot_plant::<N>(p, r),
+        None => {
+            let six: Box<dyn Any> = Box::new(make_jk5_plant(p)?);
+            // The JK5's plant has six joints; the shell was dispatched on the same count.
+            six.downcast::<SimPlant<N>>().map(|b| *b).map_err(|_| {
+                ParamError::file("urdf", p.str("urdf"), format!("the JK5's plant has {N_JOINTS} joints, not {N}"), "give the arm as -p robot:=FILE")
+            })
+        }
+    }
+}
+
+/// A robot file's arm (any joint count): the scenario `scenario` placed relative to its
+/// `start_q` (`naic_sim::scenario::preset_relative`), its friction (`friction_file`, by
+/// default the robot file's; none: no joint friction), its tool (a point mass at the tool's
+/// centre of mass when the URDF has no `ft_sensor` link) and F/T sensor model, on the own
+/// plant (MuJoCo steps the JK5's MJCF only).
+fn make_robot_plant<const N: usize>(p: &naic_ros::ParamView, r: &Robot) -> Result<SimPlant<N>, ParamError> {
+    let (name, friction_file) = (p.str("scenario"), p.str("friction_file"));
+    let file = r.file.display().to_string();
+    let bad = |problem: String, fix: &'static str| ParamError::file("robot", &file, problem, fix);
+    let q = r.start_q.as_ref().filter(|q| q.len() == N).ok_or_else(|| {
+        bad("the simulated arm starts at the robot file's `start_q`, and it has none".into(), "add start_q (joints [rad], the tool pointing along a base axis) to the robot file")
+    })?;
+    let q0: JointVec<N> = std::array::from_fn(|i| q[i]);
+    let mut scen = scenario::preset_relative::<N>(name, &r.model, q0)
+        .map_err(|e| bad(format!("scenario '{name}': {e}"), "choose another -p scenario:=, or another start_q"))?;
+    scen.task.dt = 1.0 / p.f64("rate");
+    if p.str("plant") != "naic_sim" && p.str("plant") != "own" {
+        return Err(ParamError::file("plant", p.str("plant"), "MuJoCo steps the JK5's MJCF only", "drop -p plant:= for a robot file (naic's own plant runs any arm)"));
+    }
+    let friction = if friction_file.is_empty() {
+        None
+    } else {
+        let bad_friction = |problem: String| ParamError::file("friction_file", friction_file, problem, FRICTION_FIX);
+        let f = FrictionParams::from_yaml_file(friction_file)
+            .and_then(|f| f.to_model())
+            .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: p.f64("friction_smoothing") }))
+            .map_err(|e| bad_friction(format!("friction_file '{friction_file}': {e}")))?;
+        if f.n_joints() != N {
+            return Err(bad_friction(format!("friction_file '{friction_file}' has {} joints; the arm has {N}", f.n_joints())));
+        }
+        Some(f)
+    };
+    let mut params = scenario::plant_for(&scen, r.model.clone(), friction, r.tool_tuple())
+        .map_err(|e| bad(format!("scenario '{name}': {e}"), "check the robot file's frames and start_q"))?;
+    // The tool's inertia: the URDF's ft_sensor link's, or none (a point mass) for a new frame.
+    let inertia = match naic_sim::sensor::tool_inertia_from_urdf(&r.urdf) {
+        Err(naic_sim::sensor::ToolError::NoSensorLink { .. }) => nalgebra::Matrix3::zeros(),
+        i => i.map_err(|e| bad(e.to_string(), "check the URDF's ft_sensor link"))?,
+    };
+    params.ft = params.ft.with_tool_inertia(inertia);
+    scenario::apply_sensor_spec(&mut params, &r.sensor);
+    let data = DataN::<N>::try_new(&params.model).map_err(|e| bad(e.to_string(), "check the URDF"))?;
+    let arm = PlantChoice::Own.build_n::<N>(&params, &scen.task.q0, scen.seed).map_err(|e| bad(e.to_string(), "check the robot file"))?;
+    Ok(SimPlant { arm, model: params.model, data, dt: scen.task.dt })
+}
+
 /// The plant of scenario `scenario` (naic_sim presets) on `urdf`, with the friction of
 /// `friction_file` (tanh-smoothed with `v_s`) acting on the joints, at period `1/rate`.
-pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
+pub fn make_jk5_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
     let (urdf, name, friction_file) = (p.str("urdf"), p.str("scenario"), p.str("friction_file"));
     const URDF_FIX: &str = "set -p urdf:=PATH";
     let bad_urdf = |problem: String| ParamError::file("urdf", urdf, problem, URDF_FIX);
@@ -56,7 +123,7 @@ pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
     // The tool's inertial wrench on the sensor (issue 36 item 4), as `naic sim`.
     let inertia = naic_sim::sensor::tool_inertia_from_urdf(std::path::Path::new(urdf)).map_err(|e| bad_urdf(e.to_string()))?;
     params.ft = params.ft.with_tool_inertia(inertia);
-    let data = Data6::try_new(&params.model).map_err(|e| bad_urdf(format!("robot model '{urdf}': {e}")))?;
+    let data = DataN::<N_JOINTS>::try_new(&params.model).map_err(|e| bad_urdf(format!("robot model '{urdf}': {e}")))?;
     let dt = scen.task.dt;
     let arm = choice
         .build(&params, &scen.task.q0, scen.seed)
@@ -65,28 +132,28 @@ pub fn make_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
 }
 
 /// The simulated arm plus the workspace of the driver's hold.
-pub struct SimPlant {
+pub struct SimPlant<const N: usize = N_JOINTS> {
     /// The plant of the `plant` parameter (`naic_sim::plants`).
-    arm: Box<dyn naic_sim::plants::Plant + Send>,
+    arm: Box<dyn naic_sim::plants::Plant<N> + Send>,
     /// The URDF model the hold law uses.
     model: Model,
-    data: Data6,
+    data: DataN<N>,
     /// Control period [s] (1/rate): the hold's damping is capped for stability at it.
     dt: f64,
 }
 
-impl Plant for SimPlant {
-    fn step(&mut self, tau: &JointVec, _dt: f64) {
+impl<const N: usize> Plant<N> for SimPlant<N> {
+    fn step(&mut self, tau: &JointVec<N>, _dt: f64) {
         self.arm.step(tau)
     }
     /// The core's hold law (`naic_core::pipeline::hold`) at the measured joint state, as a
     /// real driver would compute it from its encoders.
-    fn hold_torque(&mut self, damping: f64) -> JointVec {
+    fn hold_torque(&mut self, damping: f64) -> JointVec<N> {
         let (q, dq, _) = self.joints();
-        hold::torque(&self.model, &mut self.data, &q, &dq, &[damping; N_JOINTS], self.dt)
+        hold::torque(&self.model, &mut self.data, &q, &dq, &[damping; N], self.dt)
     }
     /// Measured positions and velocities, and the applied torques.
-    fn joints(&self) -> (JointVec, JointVec, JointVec) {
+    fn joints(&self) -> (JointVec<N>, JointVec<N>, JointVec<N>) {
         let o = self.arm.observation();
         (o.meas.q, o.meas.dq, o.truth.tau_applied)
     }
@@ -110,6 +177,7 @@ mod tests {
 
     use super::*;
     use crate::setup::Setup;
+    use naic_core::model::Data6;
 
     /// The driver's plant on the repository's JK5 files (scenario `flat`, 1 kHz).
     fn plant() -> SimPlant {

@@ -11,7 +11,6 @@ use naic_core::{
         estimate::ToolParams,
         reference::ReferenceParams,
     },
-    N_JOINTS,
 };
 use nalgebra::Vector3;
 use naic_ros::{params::SetCheck, timebase::TimeBase, ParamSpec, ParamView};
@@ -25,7 +24,7 @@ pub const FRICTION_FILE: &str = "params/friction_jk5.yaml";
 
 /// The node's parameters; defaults come from `base` (the core's `paper_defaults` on the
 /// loaded model), so the numbers live in one place.
-pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
+pub fn specs<const N: usize>(base: &ControllerParams<N>) -> Vec<ParamSpec> {
     let c = &base.control;
     let imp = &c.impedance;
     let fl = &c.force_law;
@@ -80,6 +79,10 @@ pub fn specs(base: &ControllerParams) -> Vec<ParamSpec> {
         ParamSpec::boolean("tare_at_rest", true, "The start-up tare takes only consecutive samples at rest (every joint <= 0.02 rad/s, <= 0.1 rad/s^2 over the window) and holds the arm at its start position meanwhile; false: the first tare_samples cycles, controlled as usual (what naic sim does)"),
         ParamSpec::int("median_window", base.sense.median_window as i64, 1, 9, "Median filter window of the joint velocity"),
         ParamSpec::double("hold_damping", base.hold_damping[0], 0.0, 200.0, "Joint damping of the safe hold [N m s/rad]"),
+        ParamSpec::boolean("robot_compensates_gravity", false, "The arm's torque interface adds its own gravity compensation (a Franka arm under franka_ros2 / libfranka): /naic/effort leaves the model's G(q) out (false: the whole torque, gravity included, as a ros2_control effort interface takes it)").read_only(),
+        ParamSpec::double("nullspace_stiffness", base.nullspace.stiffness, 0.0, 1000.0, "Arms of more than 6 joints: stiffness of the posture task in the Jacobian's null space, towards nullspace_q [N m/rad] (docs/controller.md; no effect on 6 joints)"),
+        ParamSpec::double("nullspace_damping", base.nullspace.damping, 0.0, 200.0, "Arms of more than 6 joints: joint damping of the null-space posture task [N m s/rad], capped per joint for stability at the control period"),
+        ParamSpec::new("nullspace_q", naic_ros::ParameterValue::DoubleArray(vec![]), "Arms of more than 6 joints: the posture q_n of the null-space task [rad], one per joint in the arm's joint order ([]: the first measured joint position, the start pose)").read_only(),
     ]
 }
 
@@ -120,7 +123,7 @@ fn vec3(v: &[f64]) -> Vector3<f64> {
 }
 
 /// `base` with the ROS parameters applied, validated by the core.
-pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<ControllerParams, naic_ros::params::ParamError> {
+pub fn controller_params<const N: usize>(p: &ParamView, base: &ControllerParams<N>) -> Result<ControllerParams<N>, naic_ros::params::ParamError> {
     let mut c = *base;
     let axis = force_axis(p.str("force_axis"))?;
     let mut k_contact = arr6(p.f64s("k_d_contact"));
@@ -164,7 +167,19 @@ pub fn controller_params(p: &ParamView, base: &ControllerParams) -> Result<Contr
     c.tool = ToolParams { mass: p.f64("tool_mass"), com: vec3(p.f64s("tool_com")), tip: vec3(p.f64s("tool_tip")), ..base.tool };
     c.tare_samples = p.i64("tare_samples") as u32;
     c.tare_at_rest = p.bool("tare_at_rest");
-    c.hold_damping = [p.f64("hold_damping"); N_JOINTS];
+    c.hold_damping = [p.f64("hold_damping"); N];
+    c.nullspace.stiffness = p.f64("nullspace_stiffness");
+    c.nullspace.damping = p.f64("nullspace_damping");
+    c.nullspace.q = match p.f64s("nullspace_q") {
+        [] => None,
+        q if q.len() == N && q.iter().all(|x| x.is_finite()) => Some(std::array::from_fn(|i| q[i])),
+        q => {
+            return Err(naic_ros::params::ParamError::Rule(format!(
+                "nullspace_q has {} values {q:?}; give {N} finite joint positions [rad] in the arm's joint order, or [] for the start pose",
+                q.len()
+            )))
+        }
+    };
     c.control.validate()?;
     c.sense.validate()?;
     Ok(c)
@@ -178,6 +193,7 @@ pub fn settings(p: &ParamView) -> Settings {
         approach_depth: p.f64("approach_depth"),
         time: TimeBase::from_use_sim_time(p.bool("use_sim_time")),
         actuation_timeout_ns: (p.f64("actuation_timeout") * 1e9).round() as i64,
+        robot_compensates_gravity: p.bool("robot_compensates_gravity"),
     }
 }
 
@@ -200,7 +216,7 @@ pub fn reference_params(p: &ParamView) -> ReferenceParams {
 
 /// Whole-set check for the parameter services: the core's own validation plus the
 /// node's cross-parameter rules. Rejections carry the core's reason.
-pub fn check(base: ControllerParams) -> SetCheck {
+pub fn check<const N: usize>(base: ControllerParams<N>) -> SetCheck {
     Box::new(move |p: &ParamView| {
         controller_params(p, &base)?;
         let (ct, fl, fd) = (p.f64("contact_threshold"), p.f64("force_limit"), p.f64("desired_force"));

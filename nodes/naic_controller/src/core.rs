@@ -53,6 +53,9 @@ pub struct Settings {
     /// down and the driver holds the arm itself): the force law is in the state of a safe
     /// hold (`ControlState::hold`) until it does again.
     pub actuation_timeout_ns: i64,
+    /// The arm's torque interface adds its own gravity compensation (libfranka's, so
+    /// franka_ros2's effort interface): the published torque leaves the model's `G(q)` out.
+    pub robot_compensates_gravity: bool,
 }
 
 /// Everything the step reads and never changes (changed by [`set_params`] only).
@@ -528,8 +531,20 @@ fn cycle<const N: usize>(p: &Params<N>, s: &mut State<N>, j: &JointSample<N>, no
         }
     }
     s.prev_fault_count = st.fault_count;
+    // A torque interface that compensates gravity itself gets the torque without G(q) (the
+    // measured q of this cycle; the hold's own G(q) too: every published torque is the same
+    // law minus the robot's part).
+    let mut tau = o.tau;
+    if p.settings.robot_compensates_gravity {
+        if let Some(q) = finite(&j.q) {
+            let g = dynamics::gravity_torques(p.controller.model(), &mut ws.data, &nalgebra::SVector::<f64, N>::from(q));
+            for (t, gi) in tau.iter_mut().zip(g.iter()) {
+                *t -= gi;
+            }
+        }
+    }
     // Never publish a non-finite torque: skip the cycle (the driver holds after 20 ms).
-    let tau = finite(&o.tau);
+    let tau = finite(&tau);
     out.effort = tau.map(|t| (t, j.stamp_ns));
     out.friction_velocity = o.dq_ff.filter(|_| tau.is_some());
     out.events.non_finite_torque = tau.is_none();

@@ -26,12 +26,12 @@ use crate::{
     setup::{Setup, NODE},
 };
 
-/// The node between two wake-ups.
-pub struct Runner {
-    pub p: core::Params,
-    pub s: core::State,
-    ws: Workspace,
-    base: ControllerParams,
+/// The node between two wake-ups (an arm of `N` joints).
+pub struct Runner<const N: usize = { naic_core::N_JOINTS }> {
+    pub p: core::Params<N>,
+    pub s: core::State<N>,
+    ws: Workspace<N>,
+    base: ControllerParams<N>,
     /// Generation of the parameter table last applied.
     gen: u64,
     effort: Float64MultiArray,
@@ -45,9 +45,9 @@ pub struct Published<'a> {
     pub report: Option<&'a NaicParams>,
 }
 
-impl Runner {
+impl<const N: usize> Runner<N> {
     /// From the node's setup; `params` is the node's parameter table as it starts.
-    pub fn new(setup: Setup, params: &ParamTable) -> Runner {
+    pub fn new(setup: Setup<N>, params: &ParamTable) -> Runner<N> {
         let s = core::State::new(&setup.params);
         let ws = setup.params.controller.workspace();
         Runner {
@@ -80,7 +80,7 @@ impl Runner {
         }
     }
 
-    fn step(&mut self, inbox: core::Inbox, now_ns: i64) -> core::Outbox {
+    fn step(&mut self, inbox: core::Inbox, now_ns: i64) -> core::Outbox<N> {
         let (p, s, ws) = (&self.p, &self.s, &mut self.ws);
         let (next, out) = alloc_check::check(NODE, &mut self.warned, || core::step(p, s, &inbox, now_ns, ws));
         self.s = next;
@@ -152,7 +152,7 @@ pub struct ReferenceSubs {
 impl ReferenceSubs {
     /// Subscribe on `node` when `r` follows the reference topics (`scenario: none`);
     /// `None` (and a log line saying so) when it follows a scenario.
-    pub fn new(node: &mut RosNode, r: &Runner) -> Result<Option<ReferenceSubs>, RosError> {
+    pub fn new<const N: usize>(node: &mut RosNode, r: &Runner<N>) -> Result<Option<ReferenceSubs>, RosError> {
         if r.p.reference.is_some() {
             log::info!("following the scenario's reference: /naic/target_pose and /naic/desired_wrench are not subscribed (scenario:=none follows them)");
             return Ok(None);
@@ -171,7 +171,7 @@ impl ReferenceSubs {
 
     /// The newest sample of each topic into [`Runner::reference`] (the stage keeps only the
     /// last target).
-    pub fn feed(&self, r: &mut Runner) {
+    pub fn feed<const N: usize>(&self, r: &mut Runner<N>) {
         let mut g = self.gates.borrow_mut();
         let now = naic_ros::time::wall_ns();
         let tp = take_newest_admitted(&self.target_pose, |i| g.0.admit(i.publisher_gid(), now));
@@ -197,7 +197,7 @@ impl Services {
 
     /// Answer the waiting calls through the core ([`Runner::reset_force_limit`]) and send
     /// the answers their clients can receive.
-    pub fn serve(&mut self, r: &mut Runner, node: &RosNode) {
+    pub fn serve<const N: usize>(&mut self, r: &mut Runner<N>, node: &RosNode) {
         while let Some(id) = self.reset_force_limit.take() {
             let a = r.reset_force_limit();
             self.reset_force_limit.answer(id, a.success, a.message);

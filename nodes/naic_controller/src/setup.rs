@@ -13,23 +13,40 @@ use crate::{config, core, reference::ScenarioReference};
 
 pub const NODE: &str = "naic_controller";
 
-/// The node's core parameters and what its ROS parameters are declared from.
-pub struct Setup {
-    pub params: core::Params,
+/// The node's core parameters and what its ROS parameters are declared from, for an arm
+/// of `N` joints.
+pub struct Setup<const N: usize = { naic_core::N_JOINTS }> {
+    pub params: core::Params<N>,
     /// The core's paper settings on the loaded model: the parameters' defaults.
-    pub base: ControllerParams,
+    pub base: ControllerParams<N>,
     /// What the robot file changes in the parameters' defaults.
     pub defaults: naic_ros::robot::Defaults,
 }
 
+/// The arm of the node's arguments: the robot file (`-p robot:=FILE`, if given) and its
+/// joint count (the JK5's six without one; [`naic_ros::robot::joint_count`]). The shell
+/// runs [`Setup::for_arm`] with that count (`naic_core::with_joints!`).
+pub fn arm(args: &RosArgs) -> Result<(Option<naic_core::robot_file::Robot>, usize), RosError> {
+    let robot = naic_ros::robot::from_args(args, NODE)?;
+    let n = naic_ros::robot::joint_count(args, robot.as_ref(), NODE, "urdf/jk5.urdf")?;
+    Ok((robot, n))
+}
+
 impl Setup {
-    /// Read and check everything that reads a file or can reject the model: the start-up
-    /// parameters, the model (6 joints, 'tip' and 'ft_sensor' frames) and the scenario.
+    /// The JK5 (or the 6-joint arm of a robot file): [`Setup::for_arm`] with six joints.
     pub fn from_args(args: &RosArgs) -> Result<Setup, RosError> {
-        // A robot file (`-p robot:=FILE`, docs/robots.md) gives the URDF, the joint names, the
-        // friction file and the frames; without one, the JK5 as always.
-        let robot = naic_ros::robot::from_args(args, NODE)?;
-        let joints = naic_ros::robot::joint_names(robot.as_ref(), NODE)?;
+        let (robot, _) = arm(args)?;
+        Setup::for_arm(args, robot)
+    }
+}
+
+impl<const N: usize> Setup<N> {
+    /// Read and check everything that reads a file or can reject the model: the start-up
+    /// parameters, the model (N joints, 'tip' and 'ft_sensor' frames) and the scenario.
+    /// `robot`: the robot file ([`arm`]); a robot file gives the URDF, the joint names, the
+    /// friction file and the frames; without one, the JK5 as always.
+    pub fn for_arm(args: &RosArgs, robot: Option<naic_core::robot_file::Robot>) -> Result<Setup<N>, RosError> {
+        let joints = naic_ros::robot::joint_names::<N>(robot.as_ref(), NODE)?;
         let (urdf_default, friction_default) = match &robot {
             Some(r) => (r.urdf.display().to_string(), r.friction.as_ref().map(|f| f.0.display().to_string()).unwrap_or_default()),
             None => ("urdf/jk5.urdf".to_string(), config::FRICTION_FILE.to_string()),
@@ -42,7 +59,7 @@ impl Setup {
                 .map_err(|e| RosError::param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?,
         };
         // Defaults: the core's paper settings on this model (learning rate: not in the paper).
-        let mut base = ControllerParams::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
+        let mut base = ControllerParams::<N>::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
         // Another arm's tool (the JK5's is the paper defaults' already).
         if let Some(r) = robot.as_ref().filter(|r| !r.is_paper_jk5()) {
             base.tool.mass = r.tool.mass;
@@ -68,7 +85,7 @@ impl Setup {
         let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
         let scenario = table.with(|p| p.str("scenario").to_string());
         let reference = match &robot {
-            Some(r) if !r.is_paper_jk5() => ScenarioReference::for_robot(&scenario, r),
+            Some(r) if !r.is_paper_jk5() => ScenarioReference::for_robot::<N>(&scenario, r),
             _ => ScenarioReference::new(&scenario, &model),
         }
         .map_err(|e| RosError::param(format!("scenario '{scenario}': {e} (-p scenario:=none for a real arm)")))?;

@@ -31,10 +31,26 @@ fn a_ur5_robot_file_gives_its_joint_names_frames_and_a_scenario_placed_on_it() {
 }
 
 #[test]
-fn a_robot_file_the_shell_cannot_run_or_that_contradicts_urdf_is_refused_by_name() {
+fn a_seven_joint_robot_file_runs_the_seven_joint_shell() {
     let args = RosArgs::with_params([format!("robot:={}/params/robots/panda.yaml", root())]).unwrap();
-    let e = Setup::from_args(&args).err().expect("7 joints").to_string();
-    assert!(e.contains("panda.yaml") && e.contains("7 joints") && e.contains("6-joint"), "{e}");
+    let (robot, n) = naic_controller::setup::arm(&args).unwrap();
+    assert_eq!(n, 7);
+    let setup = Setup::<7>::for_arm(&args, robot.clone()).unwrap();
+    assert_eq!(setup.params.joints, ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6", "joint7"]);
+    // The flat scenario starts under the Panda's start tip (0.45, -0.225, 0.30).
+    let r = setup.params.reference.as_ref().expect("flat").at(0.0);
+    assert!((r.p_d - nalgebra::Vector3::new(0.45, -0.225, 0.30 - 0.197)).norm() < 1e-3, "{}", r.p_d);
+    // A shell of another joint count refuses it, naming the file and both counts.
+    let e = Setup::<6>::for_arm(&args, robot).err().expect("7 joints in a 6-joint shell").to_string();
+    assert!(e.contains("panda.yaml") && e.contains("7 joints") && e.contains("6 joints"), "{e}");
+    // A URDF of 7 joints without a robot file: refused, naming the fix.
+    let args = RosArgs::with_params([format!("urdf:={}/urdf/panda.urdf", root())]).unwrap();
+    let e = naic_controller::setup::arm(&args).err().expect("no robot file").to_string();
+    assert!(e.contains("7 joints") && e.contains("robot:=FILE"), "{e}");
+}
+
+#[test]
+fn a_robot_file_that_contradicts_urdf_is_refused_by_name() {
     let args = RosArgs::with_params([format!("robot:={}/params/robots/nothere.yaml", root())]).unwrap();
     let e = Setup::from_args(&args).err().expect("no file").to_string();
     assert!(e.contains("nothere.yaml") && e.contains("robot:=FILE"), "{e}");

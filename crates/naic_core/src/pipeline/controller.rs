@@ -421,13 +421,20 @@ fn taring<const N: usize>(
     let mut tare = tare;
     tare.q_hold = Some(q_hold);
     let qv = SVector::<f64, N>::from(*q);
-    let m_diag: JointVec<N> = {
-        let m = dynamics::crba(&c.model, &mut ws.data, &qv);
-        std::array::from_fn(|i| m[(i, i)])
-    };
-    let g = *dynamics::gravity_torques(&c.model, &mut ws.data, &qv);
     let w = TARE_HOLD_OMEGA;
-    let tau: JointVec<N> = std::array::from_fn(|i| g[i] + m_diag[i] * (w * w * (q_hold[i] - q[i]) - 2.0 * w * dq[i]));
+    let a = SVector::<f64, N>::from_fn(|i, _| w * w * (q_hold[i] - q[i]) - 2.0 * w * dq[i]);
+    let m = *dynamics::crba(&c.model, &mut ws.data, &qv);
+    let g = *dynamics::gravity_torques(&c.model, &mut ws.data, &qv);
+    // Six joints: per joint with the diagonal of M (the JK5's hold, unchanged). Any other
+    // count: with the whole M, `τ = G + M a`: a redundant arm's self-motion (the Panda's
+    // joints 1 and 3 turning against each other) has an inertia far below M_ii, and the
+    // diagonal law's damping made that mode unstable at 1 kHz (measured: 4.8 rad/s on joint
+    // 1 within 49 cycles of the Panda's start); the whole M makes every mode `ä = a`.
+    let tau: JointVec<N> = if N == 6 {
+        std::array::from_fn(|i| g[i] + m[(i, i)] * a[i])
+    } else {
+        (g + m * a).into()
+    };
     let next = ControllerState { tare, ..*next };
     let status = status_without_force(p, &next, r, next.control.phase, 0.0, None, tip, next.control.retracting());
     (next, ControlOutputs { tau, dq: *dq, dq_ff: None, status })

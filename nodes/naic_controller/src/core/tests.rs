@@ -29,7 +29,7 @@ fn base(model: &Model) -> ControllerParams {
 }
 
 fn settings(time: TimeBase) -> Settings {
-    Settings { desired_force: 10.0, force_limit: 50.0, approach_depth: 0.05, time, actuation_timeout_ns: 20 * 1_000_000 }
+    Settings { desired_force: 10.0, force_limit: 50.0, approach_depth: 0.05, time, actuation_timeout_ns: 20 * 1_000_000, robot_compensates_gravity: false }
 }
 
 fn params(time: TimeBase) -> Params {
@@ -728,4 +728,33 @@ fn reference_samples_in_other_frames_of_the_model_are_expressed_in_the_base_fram
     assert_eq!(ev.target_rejected, Some((Rejection::Frame, 1)));
     assert!(Rejection::Frame.to_string().contains("not a frame of the robot model"));
     assert_eq!(r2.reference.position, r.reference.position);
+}
+
+/// `robot_compensates_gravity` (a Franka arm): the published torque is the same cycle's
+/// minus the model's `G(q)` at the measured q, and nothing else of the cycle changes.
+#[test]
+fn a_robot_that_compensates_gravity_gets_the_torque_without_g() {
+    let p = params(TimeBase::Sim);
+    let mut pg = p.clone();
+    pg.settings.robot_compensates_gravity = true;
+    let (mut s, mut sg) = (State::new(&p), State::new(&pg));
+    for k in 1..=3 {
+        let stamp = k * MS;
+        let w = Inbox { wrench: Some(&wrench(stamp, 1.0)), ..Default::default() };
+        s = run(&p, &s, w, stamp).0;
+        sg = run(&pg, &sg, w, stamp).0;
+        let j = Inbox { joint_states: Some(&js(stamp, ORDER)), ..Default::default() };
+        let (n, o) = run(&p, &s, j, stamp);
+        let (ng, og) = run(&pg, &sg, j, stamp);
+        assert_eq!(n.ctl, ng.ctl, "the controller's state does not depend on it");
+        let (tau, tau_g) = (o.effort.unwrap().0, og.effort.unwrap().0);
+        let model = p.controller.model();
+        let mut data = naic_core::model::Data6::try_new(model).unwrap();
+        let g = naic_core::dynamics::gravity_torques(model, &mut data, &nalgebra::SVector::<f64, 6>::from(Q0));
+        for i in 0..6 {
+            assert!((tau[i] - g[i] - tau_g[i]).abs() < 1e-9, "joint {i}: {} - {} != {}", tau[i], g[i], tau_g[i]);
+        }
+        assert!(g.iter().any(|x| x.abs() > 1.0), "the JK5's gravity at Q0 is not small: {g:?}");
+        (s, sg) = (n, ng);
+    }
 }

@@ -27,35 +27,49 @@ pub fn root() -> PathBuf {
 
 /// A node's arguments as `naic launch --lockstep` gives them, files by absolute path.
 pub fn args(node: &str, extra: &[&str]) -> RosArgs {
+    args_for(node, None, extra)
+}
+
+/// [`args`] with a robot file (`naic launch --robot FILE --lockstep`; `None`: the JK5).
+pub fn args_for(node: &str, robot: Option<&str>, extra: &[&str]) -> RosArgs {
     let r = root();
     let mut a: Vec<String> = vec!["--ros-args".into(), "--params-file".into(), r.join(format!("params/{node}.yaml")).display().to_string()];
     let mut p = |s: String| a.extend(["-p".to_string(), s]);
     p("use_sim_time:=true".into());
-    p(format!("urdf:={}", r.join("urdf/jk5.urdf").display()));
+    match robot {
+        Some(f) => p(format!("robot:={}", r.join(f).display())),
+        None => {
+            p(format!("urdf:={}", r.join("urdf/jk5.urdf").display()));
+            p(format!("friction_file:={}", r.join("params/friction_jk5.yaml").display()));
+        }
+    }
     if node == drv_shell::NODE {
         p("lockstep:=true".into());
     }
-    p(format!("friction_file:={}", r.join("params/friction_jk5.yaml").display()));
     for e in extra {
         p(e.to_string());
     }
     RosArgs::parse(a).unwrap()
 }
 
-/// The three cores in lockstep, as `naic launch --composed --lockstep` runs them.
-pub struct Chain {
-    dp: drv::Params,
-    pub plant: jk5_sim_driver::sim_plant::SimPlant,
+/// The three cores in lockstep, as `naic launch --composed --lockstep` runs them (an arm
+/// of `N` joints).
+pub struct Chain<const N: usize = 6> {
+    dp: drv::Params<N>,
+    pub plant: jk5_sim_driver::sim_plant::SimPlant<N>,
     /// The failing sensor the driver plays (its `sensor_fault` parameter).
     pub fault: SensorFault,
-    cmds: Commands,
+    cmds: Commands<N>,
     ds: drv::State,
-    pub cp: ctl::Params,
-    pub cs: ctl::State,
-    ws: naic_core::pipeline::controller::Workspace,
-    fp: fc::Params,
-    fs: fc::State,
-    state: StateMsgs,
+    pub cp: ctl::Params<N>,
+    pub cs: ctl::State<N>,
+    ws: naic_core::pipeline::controller::Workspace<N>,
+    fp: fc::Params<N>,
+    fs: fc::State<N>,
+    /// The driver's `/joint_states` and `/wrench` (its joint order: `joint_order`).
+    pub state: StateMsgs<N>,
+    /// [`Chain::step_with`] has edited the names of `/joint_states` (they stay edited).
+    names_edited: bool,
     effort: Float64MultiArray,
     cmd: Float64MultiArray,
 }
@@ -64,14 +78,26 @@ impl Chain {
     /// The chain with extra controller parameters (`name:=value`; the scenario is `none`
     /// unless they set another).
     pub fn new(controller: &[&str]) -> Chain {
-        let da = args(drv_shell::NODE, &[]);
-        let d = drv_shell::Setup::from_args(&da).unwrap();
-        let dp = ParamTable::new(d.specs(), None, &da.overrides(drv_shell::NODE).unwrap()).unwrap().with(drv_config::core_params);
+        Chain::for_robot(None, controller, &[])
+    }
+}
+
+impl<const N: usize> Chain<N> {
+    /// The chain on the robot file `robot` (relative to the repository; `None`: the JK5)
+    /// with extra controller and driver parameters.
+    pub fn for_robot(robot: Option<&str>, controller: &[&str], driver: &[&str]) -> Chain<N> {
+        let load = |a: &RosArgs, node| robot.map(|_| naic_ros::robot::from_args(a, node).unwrap().unwrap());
+        let da = args_for(drv_shell::NODE, robot, driver);
+        let d = drv_shell::Setup::<N>::for_arm(&da, load(&da, drv_shell::NODE)).unwrap();
+        let dt = ParamTable::new(d.specs(), Some(d.check()), &da.overrides(drv_shell::NODE).unwrap()).unwrap();
+        let dp = dt.with(drv_config::core_params);
+        let order = dt.with(|v| drv_config::joint_order(v, &d.joints)).unwrap();
         let mut c_extra = vec!["scenario:=none"];
         c_extra.extend_from_slice(controller);
-        let c = ctl_shell::Setup::from_args(&args(ctl_shell::NODE, &c_extra)).unwrap();
-        let fa = args(fc_shell::NODE, &[]);
-        let f = fc_shell::Setup::from_args(&fa).unwrap();
+        let ca = args_for(ctl_shell::NODE, robot, &c_extra);
+        let c = ctl_shell::Setup::<N>::for_arm(&ca, load(&ca, ctl_shell::NODE)).unwrap();
+        let fa = args_for(fc_shell::NODE, robot, &[]);
+        let f = fc_shell::Setup::<N>::for_arm(&fa, load(&fa, fc_shell::NODE)).unwrap();
         let fp = ParamTable::new(f.specs(), None, &fa.overrides(fc_shell::NODE).unwrap())
             .unwrap()
             .with(|v| fc_config::core_params(v, &f.sense, &f.joints))
@@ -89,7 +115,8 @@ impl Chain {
             ws,
             fp,
             fs: fc::State::default(),
-            state: StateMsgs::default(),
+            state: StateMsgs::in_order(order, &d.joints),
+            names_edited: false,
             effort: Float64MultiArray::default(),
             cmd: Float64MultiArray::default(),
         }
@@ -107,11 +134,20 @@ impl Chain {
     /// One lockstep step: the reference samples (taken before the state, as the shell
     /// does), the state, controller, friction compensation, the plant. The report.
     pub fn step(&mut self, target: Option<&PoseStamped>, wrench: Option<&WrenchStamped>) -> Option<ctl::Report> {
+        self.step_with(target, wrench, |_| {})
+    }
+
+    /// [`Chain::step`] with `edit` applied to the `/joint_states` the two consumers read
+    /// (a joint renamed, say); the driver's own state is unchanged.
+    pub fn step_with(&mut self, target: Option<&PoseStamped>, wrench: Option<&WrenchStamped>, edit: impl FnOnce(&mut msgs::JointState)) -> Option<ctl::Report> {
         let stamp = self.state.fill(&self.plant, true, self.fault);
+        let names = self.state.js.name.len();
+        edit(&mut self.state.js);
+        self.names_edited |= self.state.js.name.len() != names || self.state.js.name.iter().zip(&self.cp.joints).any(|(a, b)| a != b);
         self.cmds.expect(Some(stamp));
         self.ds.last_published_stamp = Some(stamp);
         let (cp, ws) = (&self.cp, &mut self.ws);
-        let mut c_step = |s: &mut ctl::State, inbox: ctl::Inbox| {
+        let mut c_step = |s: &mut ctl::State<N>, inbox: ctl::Inbox| {
             let (next, out) = ctl::step(cp, s, &inbox, stamp, ws);
             *s = next;
             out
@@ -132,7 +168,7 @@ impl Chain {
         let report = out.report;
         if let Some((tau, src)) = out.effort {
             msgs::set_effort_msg(&mut self.effort, &tau, Some(src), out.friction_velocity.as_ref().map(|v| &v[..]));
-            let f = |s: &mut fc::State, inbox: fc::Inbox, now: i64| {
+            let f = |s: &mut fc::State<N>, inbox: fc::Inbox, now: i64| {
                 let (next, out) = fc::step(&self.fp, s, &inbox, now);
                 *s = next;
                 out
@@ -142,7 +178,7 @@ impl Chain {
             if let Some(until) = o.wait_until_ns {
                 // Only an unusable joint state leaves a command waiting for the state of its
                 // stamp: the shell steps again with an empty inbox when the wait is over.
-                assert_eq!(self.fault, SensorFault::NanJoint, "the joint state of the stamp is in");
+                assert!(self.fault == SensorFault::NanJoint || self.names_edited, "the joint state of the stamp is in");
                 o = f(&mut self.fs, fc::Inbox::default(), until);
             }
             if let Some((tau, src)) = o.command {
