@@ -51,16 +51,7 @@ pub struct PrepareOptions {
     /// below it and changes by more than [`KNEE_CHANGE_MAX`] of its value across the window is
     /// left out, because there the smoothed torque is not the law at the smoothed speed.
     pub v_knee: f64,
-    /// Compute the lattice of exact model shifts for `delay` ([`Prepared::rb_shift`]); without
-    /// it the delay's rigid-body shift is the Taylor expansion about t. The pipeline turns it off
-    /// for recordings of more than [`SHIFT_LATTICE_MAX_INSTANTS`] analysis instants.
-    pub shift_lattice: bool,
 }
-
-/// Recordings analysed at more analysis instants than this (≈ 10 min at 100 Hz) get no lattice
-/// of exact model shifts: 61 RNEAs per instant would dominate the analysis of an hour of data,
-/// and the values would take 61 × joints × 4 bytes per instant.
-pub const SHIFT_LATTICE_MAX_INSTANTS: f64 = 60_000.0;
 
 /// Largest relative change of the speed across the filter window for a sample that comes
 /// within `v_knee` of rest (see [`PrepareOptions::v_knee`]).
@@ -75,7 +66,7 @@ pub const CREEP: i8 = 2;
 
 impl Default for PrepareOptions {
     fn default() -> Self {
-        Self { window_s: 0.051, order: 5, rate_hz: 100.0, max_samples: 60_000, v_rest: 1e-3, v_still: 1e-4, v_knee: 5e-3, shift_lattice: true }
+        Self { window_s: 0.051, order: 5, rate_hz: 100.0, max_samples: 60_000, v_rest: 1e-3, v_still: 1e-4, v_knee: 5e-3 }
     }
 }
 
@@ -310,7 +301,7 @@ pub fn prepare(
     let lat = ((SHIFT_STEP_S.max(SHIFT_STEPS_PER_ANALYSIS_STEP * stride as f64 * dt) / dt).round() as usize).max(1);
     let shift_step = lat as f64 * dt;
     let range = crate::catalogue::delay_grid().iter().fold(0.0_f64, |a, d| a.max(d.abs()));
-    let shift_half = if opts.shift_lattice { (range / shift_step).ceil() as usize } else { 0 };
+    let shift_half = (range / shift_step).ceil() as usize;
     let ns = 2 * shift_half + 1;
     let mut p = Prepared {
         dt_raw: dt,
@@ -421,10 +412,8 @@ pub fn prepare(
         // the exact shifts: RNEA of the short fit re-centred k·Δ earlier (Taylor where that
         // window would leave the data)
         let base = p.rb_shift.len();
-        if shift_half > 0 {
-            p.rb_shift.resize(base + nj * ns, 0.0);
-        }
-        for kk in (0..ns).filter(|_| shift_half > 0) {
+        p.rb_shift.resize(base + nj * ns, 0.0);
+        for kk in 0..ns {
             let k = kk as isize - shift_half as isize;
             let c = i as isize - k * lat as isize;
             if c - (h as isize) < 0 || c + (h as isize) >= n as isize {

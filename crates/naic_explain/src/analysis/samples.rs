@@ -4,13 +4,6 @@
 use super::{Col, Dir, NominalShape, Structure};
 use crate::catalogue::Effect;
 
-/// A delay nearer than this many lattice steps to zero is the Taylor expansion about t alone
-/// ([`JointSamples::target`]): one step of the lattice exchanges the short fit's own rate for
-/// the long fit's, and on the independent generator's multi-sine (2¹⁹-count encoders) that
-/// difference alone was read as a significant −0.5 ms `delay` on one joint in 5 of 13 clean
-/// seeds (a sub-sample shift, which the data cannot tell from its sampling convention anyway).
-pub const LATTICE_MIN_STEPS: f64 = 2.0;
-
 /// The `fold` of a sample from a validation run (`--validate`): never trained on, scored
 /// with the model fitted on all the other samples ([`Eval::val_ssr`](super::Eval::val_ssr)).
 pub const VALIDATION_FOLD: u8 = u8::MAX;
@@ -83,8 +76,8 @@ pub struct JointSamples {
 impl JointSamples {
     /// The target of sample `i` under structure `st`: τ_measured − τ_rb(t − delay) (y itself
     /// without a delay). With the lattice of exact shifts, d = k·Δ + r (k the nearest lattice
-    /// point, |k| ≥ [`LATTICE_MIN_STEPS`]): τ_rb(t) − τ_rb(t − k·Δ) exactly, the remainder r to
-    /// second order; otherwise the Taylor expansion about t.
+    /// point): τ_rb(t) − τ_rb(t − k·Δ) exactly, the remainder r to second order; without it, the
+    /// Taylor expansion about t.
     #[inline]
     pub fn target(&self, st: &Structure, i: usize) -> f64 {
         let d = st.delay;
@@ -92,9 +85,8 @@ impl JointSamples {
             return self.y[i];
         }
         let ns = 2 * self.shift_half + 1;
-        let k = (d / self.shift_step).round();
-        if k.abs() >= LATTICE_MIN_STEPS && self.shift_half > 0 && self.rb_shift.len() == ns * self.y.len() {
-            let k = k.clamp(-(self.shift_half as f64), self.shift_half as f64);
+        if self.shift_half > 0 && self.rb_shift.len() == ns * self.y.len() {
+            let k = (d / self.shift_step).round().clamp(-(self.shift_half as f64), self.shift_half as f64);
             let r = d - k * self.shift_step;
             let exact = f64::from(self.rb_shift[i * ns + (k as isize + self.shift_half as isize) as usize]);
             return self.y[i] + exact + r * self.dtau_rb[i] - 0.5 * r * r * self.ddtau_rb[i];
