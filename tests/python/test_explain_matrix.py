@@ -18,10 +18,7 @@ SEEDS = matrix._parse_seeds(os.environ.get("NAIC_EXPLAIN_MATRIX_SEEDS", "6"))
 
 # Cells whose full 20-seed run (seeds 6–25) misses the goal: (generator, effect) -> the measured
 # numbers. Marked xfail(strict=True): an unexpected pass fails the run (remove the entry).
-KNOWN_FAILS = {
-    ("trapezoid", "delay"): "named first in 20 of 20 but 2.0-3.5 ms long: 6 of 20 within 10 % + 1 sample (docs/explain.md, "
-                            "Issue 38: the matrix)",
-}
+KNOWN_FAILS = {}
 
 CELLS = [(g, e, r) for g, e, r in matrix.cells(matrix.GENERATORS, [None, *matrix.EFFECTS], [1000.0, 100.0, 2000.0])]
 

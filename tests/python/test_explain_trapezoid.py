@@ -33,11 +33,7 @@ class GoalNotMet(AssertionError):
 
 # Effects that miss the goal on this generator: effect -> the measured numbers. Marked
 # xfail(strict=True, raises=GoalNotMet): an unexpected pass fails the run (remove the entry).
-KNOWN_FAILS = {
-    "delay": "named first in every seed, but the delay comes out 2.0-2.8 ms long (true 7.2 -> 9.1, 15.1 -> 17.9, "
-             "12.8 -> 15.5 ms; tolerance 10 % + 1 sample): tau_rb's rates, from a quintic over three filter windows, "
-             "smooth the trapezoid's acceleration steps more than the torque's filter does (docs/explain.md)",
-}
+KNOWN_FAILS = {}
 # (`torque_offset` was a miss over 20 seeds until issue 38's second session: every offset on
 # joint 2 was named `inertial_parameters`; now the simpler candidate is kept unless the richer beats
 # it by the test, and the pair is named confounded: seeds 0-5 and 6-25 all pass, docs/explain.md.)

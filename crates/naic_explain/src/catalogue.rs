@@ -16,7 +16,7 @@
 //! | `position_torque` | `sin(k' q)`, `cos(k' q)` (no `s`: the same torque in both directions — cogging, a gravity-model error) | amplitude, k' [rad⁻¹], phase |
 //! | `payload` | `[J_tip,linᵀ (p̈_tip − g)]_j` | mass [kg] at the `tip` frame |
 //! | `torque_offset` | `1` | offset [N·m] |
-//! | `delay` | none: the model is evaluated at the motion of t − d (τ_rb(t − d) ≈ τ_rb − d·τ̇_rb + d²/2·τ̈_rb, every other column at q̇(t − d), q(t − d), q̈(t − d)); d scanned on ±30 ms, then refined; found on one joint, it is fixed at the joints' median on all | delay [s] (torque lags motion when > 0) |
+//! | `delay` | none: the model is evaluated at the motion of t − d (scanned with τ_rb(t − d) ≈ τ_rb − d·τ̇_rb + d²/2·τ̈_rb; once found, re-estimated and fixed with τ_rb(t − d) exact on a 1 ms lattice, every other column at q̇(t − d), q(t − d), q̈(t − d)); d scanned on ±30 ms, then refined; found on one joint, it is fixed at the joints' median on all | delay [s] (torque lags motion when > 0) |
 //! | `drift` | `s·(t − t_mid)/T` | change of the Coulomb level over the session [N·m] |
 //! | `rotor_inertia` | `q̈_j` (engineer's check: unmodelled motor/gear inertia) | I_a [kg·m²] |
 //! | `viscous_nonlinearity` | `s·q̇²` (engineer's check: non-Newtonian lubricant) | f_v2 [N·m·s²/rad²] |

@@ -65,16 +65,34 @@ pub struct JointSamples {
     pub jerk: Vec<f64>,
     pub dtau_rb: Vec<f64>,
     pub ddtau_rb: Vec<f64>,
+    /// `delay` (time series): per sample, the exact shifts of the rigid-body model on the
+    /// lattice k·`shift_step`, k = −`shift_half` … `shift_half` (2·`shift_half` + 1 values per
+    /// sample; see [`crate::prepare::Prepared::rb_shift`]); empty: the Taylor expansion about t.
+    pub rb_shift: Vec<f32>,
+    pub shift_step: f64,
+    pub shift_half: usize,
 }
 
 impl JointSamples {
-    /// The target of sample `i` under structure `st`: τ_measured − τ_rb(t − delay), the
-    /// rigid-body torque of the delayed motion to second order (y itself without a delay).
+    /// The target of sample `i` under structure `st`: τ_measured − τ_rb(t − delay) (y itself
+    /// without a delay). A delay found by the scan and then fixed on every joint
+    /// (`delay_fixed`, [`crate::pipeline::analyse_all`]) uses the lattice of exact shifts:
+    /// d = k·Δ + r (k the nearest lattice point), τ_rb(t) − τ_rb(t − k·Δ) exactly, the remainder
+    /// r to second order. The scan that detects a delay uses the Taylor expansion about t: on
+    /// the independent generator's clean multi-sines the lattice's own steps (a different
+    /// encoder-noise realisation at each k) were read as significant sub-sample delays.
     #[inline]
     pub fn target(&self, st: &Structure, i: usize) -> f64 {
         let d = st.delay;
         if d == 0.0 {
             return self.y[i];
+        }
+        let ns = 2 * self.shift_half + 1;
+        if st.delay_fixed && self.shift_half > 0 && self.rb_shift.len() == ns * self.y.len() {
+            let k = (d / self.shift_step).round().clamp(-(self.shift_half as f64), self.shift_half as f64);
+            let r = d - k * self.shift_step;
+            let exact = f64::from(self.rb_shift[i * ns + (k as isize + self.shift_half as isize) as usize]);
+            return self.y[i] + exact + r * self.dtau_rb[i] - 0.5 * r * r * self.ddtau_rb[i];
         }
         self.y[i] + d * self.dtau_rb[i] - 0.5 * d * d * self.ddtau_rb[i]
     }
@@ -181,6 +199,13 @@ impl JointSamples {
         ] {
             a.extend_from_slice(b);
         }
+        if self.shift_step == o.shift_step && self.shift_half == o.shift_half {
+            self.rb_shift.extend_from_slice(&o.rb_shift);
+        } else {
+            // runs analysed with different lattices: the Taylor expansion about t for all
+            self.rb_shift.clear();
+            self.shift_half = 0;
+        }
         self.fold.extend_from_slice(&o.fold);
         self.sample_period = self.sample_period.max(o.sample_period);
     }
@@ -223,6 +248,14 @@ impl JointSamples {
             jerk: pick(&self.jerk),
             dtau_rb: pick(&self.dtau_rb),
             ddtau_rb: pick(&self.ddtau_rb),
+            rb_shift: if self.rb_shift.len() == self.len() * (2 * self.shift_half + 1) {
+                let ns = 2 * self.shift_half + 1;
+                self.rb_shift.chunks(ns).zip(keep).filter(|(_, k)| **k).flat_map(|(c, _)| c.iter().copied()).collect()
+            } else {
+                Vec::new()
+            },
+            shift_step: self.shift_step,
+            shift_half: self.shift_half,
         };
         if !self.time_series {
             out.assign_velocity_folds(folds);

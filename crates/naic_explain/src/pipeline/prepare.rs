@@ -49,6 +49,13 @@ pub(crate) fn prepare_runs<'r>(
     let mut sampling = Vec::new();
     let mut segments_all = Vec::new();
     let min_len = (4.0 * opts.prepare.window_s).max(0.5);
+    // the lattice of exact model shifts (`delay`) only on recordings of at most
+    // SHIFT_LATTICE_MAX_INSTANTS analysis instants in all (the same for every segment)
+    let instants: f64 = runs
+        .iter()
+        .map(|r| (r.ts.t.last().copied().unwrap_or(0.0) - r.ts.t.first().copied().unwrap_or(0.0)) * opts.prepare.rate_hz)
+        .sum();
+    let popts = prepare::PrepareOptions { shift_lattice: opts.prepare.shift_lattice && instants <= prepare::SHIFT_LATTICE_MAX_INSTANTS, ..opts.prepare.clone() };
     for (r, run) in runs.iter().enumerate() {
         if run.ts.nj() != model.nv() {
             return Err(ExplainError::input(format!(
@@ -65,7 +72,7 @@ pub(crate) fn prepare_runs<'r>(
         let ns = segs.len();
         for (k, seg) in segs.iter().enumerate() {
             let f0 = (r as f64 + k as f64 / ns as f64) / runs.len() as f64;
-            let p = prepare::prepare(seg, model, tip, &opts.prepare, &mut |f| {
+            let p = prepare::prepare(seg, model, tip, &popts, &mut |f| {
                 progress(f0 + f / (ns * runs.len()) as f64, "estimating velocity, acceleration, rigid-body torque")
             })
             .map_err(|e| ExplainError::input(format!("{}: {e}", run.name)))?;

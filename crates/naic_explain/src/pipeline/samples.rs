@@ -28,7 +28,12 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
                 joint: j + 1,
                 corr_len: corr,
                 sample_period: p.dt_raw,
-                time_series: true, coulomb_width: v_s, ..Default::default() };
+                time_series: true, coulomb_width: v_s,
+                shift_step: p.shift_step,
+                shift_half: p.shift_half,
+                ..Default::default() };
+            let ns = 2 * p.shift_half + 1;
+            let lattice = p.shift_half > 0 && p.rb_shift.len() == p.len() * p.nj() * ns;
             for i in 0..p.len() {
                 if !p.keep[i][j] {
                     continue;
@@ -48,6 +53,13 @@ pub fn joint_samples_from_series(p: &Prepared, block_s: f64, folds: usize) -> Ve
                 js.jerk.push(p.jerk[i][j]);
                 js.dtau_rb.push(p.dtau_rb[i][j]);
                 js.ddtau_rb.push(p.ddtau_rb[i][j]);
+                if lattice {
+                    let at = (i * p.nj() + j) * ns;
+                    js.rb_shift.extend_from_slice(&p.rb_shift[at..at + ns]);
+                }
+            }
+            if !lattice {
+                js.shift_half = 0;
             }
             js
         })
