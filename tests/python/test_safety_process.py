@@ -36,8 +36,10 @@ def _rate_limit():
     import yaml
     path = pathlib.Path(__file__).resolve().parents[2] / "params" / "friction_compensation.yaml"
     doc = yaml.safe_load(path.read_text())
-    lim = [float(x) for x in doc["friction_compensation"]["ros__parameters"]["torque_rate_limit"]]
-    assert len(lim) == 6, lim
+    v = doc["friction_compensation"]["ros__parameters"]["torque_rate_limit"]
+    # One number fills every joint; a list gives one per joint (the JK5's six here).
+    lim = [float(x) for x in v] if isinstance(v, list) else [float(v)] * 6
+    assert len(lim) == 6 and all(x > 0 for x in lim), lim
     return lim
 
 
