@@ -34,8 +34,7 @@ pub const DELAYS: [usize; 2] = [1, 2];
 pub const MASS_ERRORS: [f64; 2] = [0.8, 1.25];
 /// Small model mass errors, a check beside the issue's (same runs and goals as
 /// [`MASS_ERRORS`]): a real arm's model is off by a few percent, neither exact nor 20 %
-/// off. A change fitted to the exact model can lose here while the issue's goals hold
-/// (round 8 of issue 12, docs/controller.md).
+/// off. A change fitted to the exact model can lose here while the issue's goals hold.
 pub const SMALL_MASS_ERRORS: [f64; 2] = [0.95, 1.05];
 /// Every model mass error of the robustness table, in order.
 const ALL_MASS_ERRORS: [f64; 4] = [MASS_ERRORS[0], SMALL_MASS_ERRORS[0], SMALL_MASS_ERRORS[1], MASS_ERRORS[1]];
@@ -505,7 +504,7 @@ mod tests {
 
     /// Issue 12's goals as the issue defines them: medians of 5 seeds of `naic sim --table`,
     /// at d = 1 and 2 (42 goals), and the same goals under model mass error 0.8 / 1.25 and
-    /// over the stiffness sweep (74), with one parameter set; every one met since round 17
+    /// over the stiffness sweep (74), with one parameter set; every one met
     /// (docs/controller.md, "Goals of issue 12"). Beside the issue, at mass error 0.95 / 1.05,
     /// 25 of 26 are met (two-material's first contact at 0.95 misses, 10.6 %): asserted as
     /// achieved, so that a change cannot lose one silently. The whole table (840 runs, ≈ 20 s

@@ -1,4 +1,4 @@
-//! Trace of the scheduled law's first contact (round 8 of issue 12, docs/controller.md):
+//! Trace of the scheduled law's first contact (docs/controller.md):
 //! for each seed, the true force and the law's internal state every cycle from `PRE_S` (20 ms) before
 //! the first contact to `WINDOW` after it.
 //!
@@ -9,7 +9,7 @@
 //! when, the first phase's ±2 % settling); with `CSV_DIR` also writes
 //! `CSV_DIR/<scenario>-<controller>-d<D>-s<seed>.csv` (with the true joint velocities
 //! `dq1`…`dq6` [mrad/s] and joint 4's commanded torque). `STIFFNESS` [N/m] overrides the
-//! surface's k_e (0: the scenario's; round 10 traced the sweep on flat with it). `FRICTION`
+//! surface's k_e (0: the scenario's). `FRICTION`
 //! is the joint friction of the plant and of the feedforward alike: `table1` (default),
 //! `nodrop4` (joint 4 without its Stribeck drop, f_b = f_a in both directions), `nodrop`
 //! (every joint without it), `none` (no joint friction, no feedforward).

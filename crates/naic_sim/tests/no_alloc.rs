@@ -39,7 +39,7 @@ fn plant_and_controller_steps_do_not_allocate() {
         let c = PipelineController::by_name(name, &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &settings).unwrap();
         count_in_contact(name, c, &s, &p);
     }
-    // The heavy side's static reading (a forward dynamics, once in the approach, round 17):
+    // The heavy side's static reading (a forward dynamics, once in the approach):
     // the approach counted from the start, with the reading taken in it.
     let heavy = LoopSettings { delay_cycles: 1, model_mass_error: 1.25, ..LoopSettings::default() };
     let mut c = PipelineController::by_name("scheduled", &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &heavy).unwrap();

@@ -69,7 +69,7 @@ impl<const N: usize> Setup<N> {
             }
         }
         // Mode scheduled: the unfiltered velocity in contact in the friction model's Stribeck
-        // drops (round 10 of issue 12, docs/controller.md), as `naic sim` sets it.
+        // drops (docs/controller.md), as `naic sim` sets it.
         let friction_file = args.peek_string(NODE, "friction_file", &friction_default)?;
         if !friction_file.is_empty() {
             let model = FrictionParams::load_feedforward_model(&friction_file).map_err(|e| {

@@ -68,8 +68,8 @@ fn every_sensor_fault_holds_and_force_control_resumes_without_a_spin() {
             let dev = rec[1500..].iter().fold(0.0f64, |m, s| m.max((s.f - 10.0).abs()));
             eprintln!("{what}: held from cycle {first_hold}; resumed with max |q̇| {worst:.2} rad/s, last 0.5 s |f - 10 N| <= {dev:.2} N");
             assert!(rec[1000..].iter().all(|s| s.phase == Phase::Contact && !s.fault), "{what}: not back in steady contact");
-            // Measured: at most 0.76 N with the tare over the first 100 cycles; 1.33 N (round 1,
-            // NanJoint) since the tare waits for rest, which starts force control 0.2 s later
+            // Measured: at most 0.76 N with the tare over the first 100 cycles; 1.33 N
+            // (NanJoint) since the tare waits for rest, which starts force control 0.2 s later
             // on this plant: the NAIC transient after the eighth hold depends on that phase
             // (its 0.5 s windows after the resume: 1.21, 0.60, 1.33 N).
             assert!(dev < 1.5, "{what}: force not back at 10 N (measured: at most 1.33 N)");
