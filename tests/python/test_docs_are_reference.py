@@ -58,3 +58,30 @@ def test_reference_docs_carry_no_history(root):
     assert any(p.name == "README.md" for p in found) and any(p.parent.name == "docs" for p in found), found
     bad = [f"{p.relative_to(root)}:{n}: {what} ({tok!r})" for p in found for n, what, tok in findings(p.read_text())]
     assert not bad, "history in reference docs (move it to docs/notes/):\n" + "\n".join(bad)
+
+
+def doc_comment_lines(root):
+    """Rust doc comments (`///`, `//!`) of the project's own crates (issue 40: a docstring
+    says what and why; the history of a value goes to the notes). Vendored code is exempt."""
+    for top in ("crates", "nodes", "cli"):
+        for p in sorted((root / top).rglob("*.rs")):
+            if "vendor" in p.parts or "target" in p.parts:
+                continue
+            for n, line in enumerate(p.read_text().splitlines(), 1):
+                s = line.lstrip()
+                if s.startswith("///") or s.startswith("//!"):
+                    yield p, n, s
+
+
+def test_docstrings_carry_no_tuning_history(root):
+    kinds = ("a tuning round", "a numbered try", "a session")
+    seen = 0
+    bad = []
+    for p, n, s in doc_comment_lines(root):
+        seen += 1
+        for what in kinds:
+            m = HISTORY[what].search(s)
+            if m:
+                bad.append(f"{p.relative_to(root)}:{n}: {what} ({m.group(0)!r})")
+    assert seen > 1000, f"only {seen} doc-comment lines found: is the tree where the test looks?"
+    assert not bad, "tuning history in docstrings (move it to docs/notes/):\n" + "\n".join(bad)

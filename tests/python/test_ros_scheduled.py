@@ -131,7 +131,7 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
     # The scheduled damping is near critical for k_e = 2000 N/m and m_d = 0.1 kg
     # (2 sqrt(k m) = 28 N s/m; the delay floor at this stiffness is 2 N s/m).
     assert min(s[6] for s in late) > 20.0
-    # The model's gain along the force axis (scheduled::gain, issue 12 round 13): 1 until the
+    # The model's gain along the force axis (scheduled::gain): 1 until the
     # approach has taught it, then held over the contact. Measured in process on flat with the
     # exact model: 0.98 (the joints' friction reads as a little less gain); a value off 1 shows
     # that the field is carried and that the estimate ran in the node.
@@ -139,13 +139,13 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
     assert free and all(s[9] == 1.0 for s in free), free[:3]
     g = {s[9] for s in contact}
     assert len(g) == 1 and 0.9 <= min(g) < 1.0, sorted(g)[:5]
-    # The factor on the model's gravity (gravity_scale, rounds 15, 17 and 18): 1 until the
+    # The factor on the model's gravity (gravity_scale): 1 until the
     # static reading in the approach, then ramped to 1/g where the frozen gain is below the
-    # light side's 0.93 and the static reading F_s below 0.96 (round 18's gate), or to 1/F_s
+    # light side's 0.93 and the static reading F_s below 0.96 (the gate), or to 1/F_s
     # where F_s is above the heavy side's 1.1; held in contact. The exact model reads F_s
     # 0.984-0.985 in process, so its factor is 1 whatever the gain reads: over this chain the
-    # gain reads 0.91 (0.9125 in round 17, when the gain alone gated the light side and the
-    # exact model's gravity was over-compensated by 9.6 %, factor 1.096; docs/controller.md).
+    # gain reads 0.91 (with the gain alone gating the light side the exact model's gravity
+    # would be over-compensated by 9.6 %, factor 1.096).
     scale = [s[10] for s in sched]
     g_c = min(g)
     expect = 1.0
@@ -202,7 +202,7 @@ def test_ros_scheduled_tracks_flat_in_real_time(bins):
     assert abs(stats["k_median"] - K_E_FLAT) < 0.05 * K_E_FLAT, stats
     # The model gain and the gravity factor in contact: held, and the factor 1 for the exact
     # model (its static reading is above the light side's gate 0.96 and below the heavy side's
-    # 1.1, round 18; as in lockstep).
+    # 1.1; as in lockstep).
     g = {s[6] for s in contact}
     scale = {s[7] for s in contact}
     print("model_gain / gravity_scale in real time:", sorted(g), sorted(scale))

@@ -1,4 +1,4 @@
-//! Round 16 of issue 12 (docs/controller.md): two-material's phase on the foam, per seed —
+//! Two-material's phase on the foam, per seed —
 //! the ±2 % settling after the switch, the first entry into ±2 %, the force's spread once
 //! recovered (slide and rest), and the samples outside ±2 % after +0.3 s.
 //!

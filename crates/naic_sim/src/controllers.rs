@@ -125,8 +125,7 @@ impl<const N: usize> PipelineController<N> {
             c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
             // The friction feedforward on the unfiltered velocity in contact where a joint's
             // law falls with speed, led by 2 periods on stiff surfaces
-            // (naic_core::pipeline::feedforward::FastVelocity; rounds 10 and 11 of issue 12,
-            // docs/controller.md): the drops are the feedforward model's.
+            // (naic_core::pipeline::feedforward::FastVelocity): the drops are the feedforward model's.
             c.force_law.scheduled.friction_fast = friction.as_ref().map(FastVelocity::for_model);
         }
         let mut effort = [0.0; N];

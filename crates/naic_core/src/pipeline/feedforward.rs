@@ -14,7 +14,7 @@
 //! the simulator) is twice `v_s` = 1 mrad/s, so at rest the law still applies nearly
 //! `±f_b` at random on every joint (joint 1: ±12 N·m of command SD). Widening `v_s` to the
 //! noise loses the compensation of the joints that creep at a few mrad/s while the tool
-//! slides (docs/controller.md, round 4). The standard remedy is to evaluate the friction
+//! slides. The standard remedy is to evaluate the friction
 //! law at the *reference* velocity, which carries no noise: [`blend`] gives the velocity
 //! the law is evaluated at,
 //!
@@ -28,8 +28,7 @@
 //! (`≥ v_hi`: a motion the reference does not know, an impact, a slip, or a joint that
 //! follows the reference), the reference's only near rest (both below `v_lo`), so a joint
 //! at rest with a reference at rest gets no feedforward whatever its velocity noise.
-//! (Evaluated at the reference also where the reference moves, round 5's try 2 in
-//! docs/controller.md, the joints the reference moves but that stick lose the measured
+//! (Evaluated at the reference also where the reference moves, the joints the reference moves but that stick lose the measured
 //! velocity's dither, and the slope at d = 2 settled later.)
 
 use crate::friction::FrictionModel;
@@ -80,8 +79,8 @@ fn mix<const N: usize>(b: &ReferenceBlend, dq: &JointVec<N>, measured: &JointVec
     })
 }
 
-/// Where the friction feedforward takes the unfiltered joint velocity instead of the median
-/// (round 10 of issue 12, docs/controller.md): the median is `d + 2` periods old, and on a
+/// Where the friction feedforward takes the unfiltered joint velocity instead of the median:
+/// the median is `d + 2` periods old, and on a
 /// Stribeck drop (a negative slope of `τ_f`) that lag leaves part of the drop's negative
 /// damping uncancelled (joint 4 oscillated at 46 Hz while the tool slid on a stiff surface);
 /// the unfiltered velocity is `d` periods old. Only where that is the cause: in contact, in
@@ -99,11 +98,10 @@ pub struct FastVelocity {
     /// Stribeck drop, [`drop_bands`]): `[lo⁻, hi⁻, lo⁺, hi⁺]` [rad/s], the unfiltered velocity
     /// only where the median lies in one of them; `None`: at every speed.
     pub drop: Option<[[f64; 4]; MAX_JOINTS]>,
-    /// Periods by which the unfiltered velocity is extrapolated (round 11): `q̇_f = q̇_raw +
+    /// Periods by which the unfiltered velocity is extrapolated: `q̇_f = q̇_raw +
     /// (lead / base) (q̇_raw − q̇_raw,−base)`, `q̇_raw,−base` the unfiltered velocity `base`
     /// cycles before. The unfiltered velocity is still `d` periods old (and the torque held
-    /// for one more), which at d = 2 left joint 4 oscillating at 44 Hz in its drop (round 10
-    /// item 3). 0: none.
+    /// for one more), which at d = 2 left joint 4 oscillating at 44 Hz in its drop. 0: none.
     pub lead: f64,
     /// The extrapolation's baseline in cycles, 1 or 2: over 2 cycles the lead multiplies
     /// the encoders' white velocity noise by `√((1 + l/2)² + (l/2)²)` (√5 at `lead` = 2)
@@ -116,10 +114,10 @@ pub struct FastVelocity {
 }
 
 impl FastVelocity {
-    /// The setting of the table (round 10): `v_on` = 16 mrad/s (8 σ of the encoders' velocity
+    /// The setting of the table: `v_on` = 16 mrad/s (8 σ of the encoders' velocity
     /// noise, so the sign test does not flip on noise; 8 mrad/s measured the same, 32 mrad/s
     /// lost the 46 Hz band's lower half), in contact from its start, in `model`'s drops; and
-    /// (round 11) led by 2 periods (the loop delay the scheduled law's predictor is designed
+    /// led by 2 periods (the loop delay the scheduled law's predictor is designed
     /// for, `ScheduleParams::delay_cycles`; 1.5 measured the same) over a 2-cycle baseline
     /// (`q̇_f = 2 q̇_raw − q̇_raw,−2`: noise × √5; over 1 cycle, × √13, acrylic's settling under a
     /// model error got tails of 0.18–0.26 s) on surfaces of at least 10 000 N/m (the force
@@ -129,7 +127,7 @@ impl FastVelocity {
         Self { v_on: 0.016, contact_age: Some(0.0), drop: Some(drop_bands(model)), lead: 2.0, lead_base: 2, lead_k_min: 10_000.0 }
     }
 
-    /// The gate [`blend_fast`] takes: 1 in contact from `contact_age` [s] on (round 10: out
+    /// The gate [`blend_fast`] takes: 1 in contact from `contact_age` [s] on (out
     /// of contact the fast velocity changed the approach's stick-slip and two-material's
     /// contact), everywhere without `contact_age`, else 0.
     pub fn contact_gate(&self, in_contact: bool, contact_age_s: f64) -> f64 {

@@ -1,5 +1,5 @@
-//! The model's acceleration gain along n, estimated online (round 13 of issue 12,
-//! docs/controller.md).
+//! The model's acceleration gain along n, estimated online (its measurements:
+//! docs/notes/2026-12-scheduled-tuning-rounds.md).
 //!
 //! # Why
 //!
@@ -14,7 +14,7 @@
 //!
 //! The scheduled law's observers and predictor integrate the commands at full size (`g = 1`);
 //! under a light model (`F` = 0.8) the velocity observer's `v̄` was biased by 0.1–0.9 mm/s
-//! while acrylic's force settled (round 12), and the loop's gains were `F` of the designed.
+//! while acrylic's force settled, and the loop's gains were `F` of the designed.
 //!
 //! # The estimate
 //!
@@ -90,21 +90,20 @@ pub struct GainParams {
     /// Divide the contact command along n by `ĝ` and keep the predictor's history in realised
     /// units (see the module's doc); `false`: estimated only (reported, not used). Keeping
     /// only the history in realised units (the loop's gain the model's) was measured worse
-    /// (round 13: acrylic at 1.25 lost its goal) and is not offered.
+    /// (acrylic at F = 1.25 lost its goal) and is not offered.
     pub scale_commands: bool,
     /// The light model's gravity compensation corrected with the estimate once it is learnt
-    /// ([`GravityCorrection`]); `None`: off (as before round 15).
+    /// ([`GravityCorrection`]); `None`: off.
     pub gravity: Option<GravityCorrection>,
 }
 
-/// The gravity compensation corrected by the learnt gain (round 15 of issue 12,
-/// docs/controller.md).
+/// The gravity compensation corrected by the learnt gain.
 ///
 /// With every mass of the model scaled by `F` its gravity torque is `F G(q)`: a light model
 /// (`F` < 1) leaves `(1 − F) G(q)` on every joint uncompensated. Along n the law's
 /// disturbance estimate feeds it forward; on the other axes the tangential stiffness and the
 /// joints' static friction hold it, so a slide that starts breaks a different load on each
-/// joint and they break away tens of ms apart (two-material at F = 0.8, round 14). The
+/// joint and they break away tens of ms apart (two-material at F = 0.8). The
 /// correction adds
 ///
 /// ```text
@@ -113,13 +112,13 @@ pub struct GainParams {
 ///
 /// (`= (1 − F) G` for `ĝ_frozen = F`) with `ĝ_frozen` the estimate taken once
 /// when it has not updated for `quiet` (the approach's start is over: the correction never
-/// moves with an estimate that is learning, round 14 try 3), ramped in by `r(t)` from 0 to 1
+/// moves with an estimate that is learning), ramped in by `r(t)` from 0 to 1
 /// over `ramp` (in free space the approach servo's integral takes up the change, and at
 /// contact primes the observers with it). `threshold`: at F = 1 the estimate reads
 /// 0.93–1.00 (d = 1, seeds 1–10 of the table's scenarios), and divided by that the gravity
-/// was over-compensated by up to 7 % (round 14 try 2; two-material's seed 3 at ĝ = 0.975
-/// 8.0 → 13.1 % first-contact overshoot, round 15 try 1), at F = 0.8 0.78–0.92. A partial
-/// correction (`ĝ + 0.05` as the divisor) did not hold over ten seeds (round 15), so the
+/// was over-compensated by up to 7 % (two-material's seed 3 at ĝ = 0.975:
+/// 8.0 → 13.1 % first-contact overshoot), at F = 0.8 0.78–0.92. A partial
+/// correction (`ĝ + 0.05` as the divisor) did not hold over ten seeds, so the
 /// correction is whole where it applies, and off where the estimate cannot tell the model from
 /// an exact one.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,7 +129,7 @@ pub struct GravityCorrection {
     pub ramp: f64,
     /// The correction applies where `ĝ_frozen < threshold`, in (0, 1].
     pub threshold: f64,
-    /// The heavy side (round 17): the model's mass factor read from **statics** in the
+    /// The heavy side: the model's mass factor read from **statics** in the
     /// approach and the gravity corrected where it is above `heavy_threshold`, > 1
     /// (`f64::INFINITY`: off). In free space at a steady approach the servo's integral `a_I`
     /// along n holds the acceleration the model's gravity error leaves there: with every mass
@@ -140,7 +139,7 @@ pub struct GravityCorrection {
     /// model and the arm: both scale by `F`). Hence `F̂_s = 1 / (1 − a_I / a_free)` and the
     /// correction `(1/F̂_s − 1) G_model = −(a_I / a_free) G_model`. A static reading: the
     /// loop's delay does not bias it (the dynamic `ĝ` reads an exact model at d = 2 as
-    /// 1.00–1.55, round 15), and the friction feedforward on the reference leaves little of
+    /// 1.00–1.55), and the friction feedforward on the reference leaves little of
     /// the joints' friction at a constant speed (F = 1 reads `a_I` −0.19…+0.13 m/s² against
     /// `a_free` ≈ 9 m/s², F̂_s 0.98–1.02; F = 1.25 1.5–1.9 m/s², F̂_s 1.20–1.27, d = 1 and 2).
     pub heavy_threshold: f64,
@@ -148,13 +147,13 @@ pub struct GravityCorrection {
     /// approach's start is over and its servo's integral has had time to settle), in free
     /// space only (never in contact); ramped in over `ramp` as the light side.
     pub heavy_settle: f64,
-    /// The light side's gate by statics (round 18): the light correction (`ĝ_frozen <
+    /// The light side's gate by statics: the light correction (`ĝ_frozen <
     /// threshold`) applies only where the static reading `F̂_s` ([`Self::heavy_threshold`]) is
-    /// also below `light_static`, in (0, 1) (`f64::INFINITY`: no gate, round 15's light side
+    /// also below `light_static`, in (0, 1) (`f64::INFINITY`: no gate, the light side
     /// from the moment `ĝ` froze). The dynamic `ĝ` reads an exact model as low as 0.9125 on the
     /// lockstep DDS chain (0.93–1.00 in process), so `threshold` alone corrected an exact model
     /// by +9.6 %; `F̂_s` reads an exact model 0.984–0.985 and F = 0.95 0.935–0.936, F = 0.8
-    /// ≈ 0.79 (round 17), the delay does not bias it. With the gate the light correction waits
+    /// ≈ 0.79, the delay does not bias it. With the gate the light correction waits
     /// for the reading (taken `heavy_settle` after `ĝ` froze, before any correction moves the
     /// servo's `a_I`) and ramps in over `ramp` from it; its size stays `1/ĝ_frozen − 1`.
     pub light_static: f64,
@@ -250,7 +249,7 @@ pub const MAX_TAPS: usize = 8;
 /// the correction then takes a third of the model's gravity away (`1/F̂_s − 1` = −1/3). The
 /// table covers 1.25 (read as 1.20–1.27); a larger reading is more likely something pushing
 /// the tool in the approach than a model 50 % too heavy, and a real arm should not lose more of
-/// its gravity compensation to it (it was 2 when round 17 measured: no reading reached 1.5).
+/// its gravity compensation to it (no reading reached 1.5 on the table's runs).
 pub const HEAVY_MAX: f64 = 1.5;
 
 /// The estimate and its data (fixed-size rings: no allocation).
@@ -351,7 +350,7 @@ impl GainEstimator {
     }
 
     /// The factor `c` of the gravity correction `τ_g = c G_model(q)` ([`GravityCorrection`]):
-    /// `r(t) (1/ĝ_frozen − 1)` where `ĝ_frozen < threshold` and (gated, round 18) the static
+    /// `r(t) (1/ĝ_frozen − 1)` where `ĝ_frozen < threshold` and (gated) the static
     /// reading `F̂_s < light_static`, ramped from the reading; `r(t) (1/F̂_s − 1)` where `F̂_s >
     /// heavy_threshold`; 0 until `ĝ` is frozen (gated: until the reading), elsewhere and
     /// without the correction.
@@ -528,7 +527,7 @@ mod tests {
     /// `threshold`, nor without the correction. Its parameters are validated.
     #[test]
     fn the_gravity_correction_freezes_ramps_and_stays_off_near_an_exact_model() {
-        // Round 15's light side as it was, without round 18's gate by statics (tested below).
+        // The light side without the gate by statics (the gate is tested below).
         let gc = GravityCorrection { light_static: f64::INFINITY, ..GainParams::default().gravity.expect("on by default") };
         let p = GainParams { gravity: Some(gc), ..GainParams::default() };
         assert!(p.validate().is_ok());
@@ -604,7 +603,7 @@ mod tests {
         }
     }
 
-    /// The heavy side (round 17): the static reading is due `heavy_settle` after `ĝ` froze,
+    /// The heavy side: the static reading is due `heavy_settle` after `ĝ` froze,
     /// once; `F̂_s = 1 / (1 − a_I / a_free)` (F = 1.25: `a_I = 0.2 a_free`); the factor
     /// `1/F̂_s − 1` ramps in over `ramp` from the reading, only above `heavy_threshold`, and
     /// the light side (`ĝ_frozen < threshold`) takes precedence. Off with an infinite threshold.
@@ -638,7 +637,7 @@ mod tests {
         assert_eq!(due.with_heavy(0.9 * a_free, a_free).heavy, Some(1.0), "beyond the bound: none");
         // A reading above HEAVY_MAX (a_I = 0.45 a_free would be F = 1.82) is bounded to it.
         assert_eq!(due.with_heavy(0.45 * a_free, a_free).heavy, Some(HEAVY_MAX));
-        // A frozen ĝ below `threshold` with a heavy static reading: the gate (round 18) keeps
+        // A frozen ĝ below `threshold` with a heavy static reading: the gate keeps
         // the light side off and the heavy side applies; ungated the light side came first.
         let light = GainEstimator { frozen: Some(0.8), ..done };
         assert!((light.gravity_factor(&p, t) - (1.0 / 1.25 - 1.0)).abs() < 1e-12);
@@ -649,7 +648,7 @@ mod tests {
         assert!(off.validate().is_ok() && !hold(&off, frozen, settle + 10).wants_heavy(&off, t));
         assert_eq!(done.gravity_factor(&off, t), 0.0);
     }
-    /// The light side's gate by statics (round 18, `light_static`): with `ĝ` frozen below
+    /// The light side's gate by statics (`light_static`): with `ĝ` frozen below
     /// `threshold` nothing applies until the static reading is taken (`heavy_settle` after the
     /// freeze, due even with the heavy side off); then `1/ĝ − 1` ramps in over `ramp` from the
     /// reading where `F̂_s < light_static`, and nothing where the reading says the model is exact
@@ -696,7 +695,7 @@ mod tests {
             assert_eq!(hold(&q, high, settle).wants_heavy(&q, t), heavy_threshold.is_finite());
             assert_eq!(hold(&q, high.with_heavy(a_i(0.8), a_free), ramp + 10).gravity_factor(&q, t), 0.0);
         }
-        // Ungated (inf): round 15's light side from the freeze, no reading needed for it.
+        // Ungated (inf): the light side from the freeze, no reading needed for it.
         let ungated = GainParams { gravity: Some(GravityCorrection { light_static: f64::INFINITY, heavy_threshold: f64::INFINITY, ..gc }), ..p };
         assert!(ungated.validate().is_ok() && !ungated.gravity.unwrap().gated());
         let frozen = GainEstimator { frozen: Some(0.8), updates: 10, ..GainEstimator::new(&ungated) };

@@ -134,13 +134,13 @@ pub struct ScheduledParams {
     /// `−ĝ a_I` (held from the contact on soft surfaces it moved every soft scenario's runs
     /// and, by one seed's noise, stiffness-step d = 2's settling against `oracle`). So only
     /// where a stiff surface was observed (two-material's acrylic) and the tip then moves
-    /// onto a soft one. 0: `w̄ = 0` there (before round 16). Why: the disturbance is the arm's (the
+    /// onto a soft one. 0: `w̄ = 0` there. Why: the disturbance is the arm's (the
     /// gravity compensation off by the model's mass error, and friction), not the surface's;
     /// dropped when the tip slides from acrylic onto the foam, it fell to the integral, which
     /// is frozen through the switch (the jump, then `integral_release` outside its band) at
     /// its acrylic value: at F = 0.8 `w̄` = 1.78 m/s² was dropped, the integral stayed at
     /// +0.22 N against the foam's −0.34 N, and the recovery overshot by 13 % (two-material
-    /// seed 1, d = 1; round 16 of issue 12 in docs/controller.md).
+    /// seed 1, d = 1).
     pub disturbance_hold: f64,
     /// Time outside the integral band after which the integral integrates the error clipped
     /// to the band's edge ([`integral_step`]) [s]: longer than the transients the
@@ -173,14 +173,13 @@ pub struct ScheduledParams {
     /// µm on acrylic (two-material's wander at rest, 1.5–3.7 N against f_d = 3 N); through the
     /// raw velocity along n the same noise flipped the feedforward of joint 4, which creeps
     /// at ≈ 2 mrad/s while the tool slides on the foam (±3.3 N·m, force dips of up to
-    /// 0.09 N against f_d = 3 N; docs/controller.md, round 6). `None`: the measured velocity,
+    /// 0.09 N against f_d = 3 N). `None`: the measured velocity,
     /// as for the paper's laws.
     pub friction_reference: Option<ReferenceBlend>,
     /// Where the friction feedforward's measured velocity is the unfiltered one instead of
-    /// the median ([`crate::pipeline::feedforward::FastVelocity`], round 10 of issue 12 in
-    /// docs/controller.md): in contact, in a joint's Stribeck drop. Its drop bands come from
+    /// the median ([`crate::pipeline::feedforward::FastVelocity`]): in contact, in a joint's Stribeck drop. Its drop bands come from
     /// the friction model, which these parameters do not know: `None` (the default) is the
-    /// median everywhere, as before round 10; the simulator sets
+    /// median everywhere; the simulator sets
     /// [`FastVelocity::for_model`] of its feedforward model, the controller node that of its
     /// `friction_file`. Only with `friction_reference`. Why: the sweep on flat at 20 000 / 50 000 N/m,
     /// d = 1, settled in 1.2 s (joint 4's 46 Hz oscillation in its drop); with it 0.03–0.08 s.
@@ -191,11 +190,11 @@ pub struct ScheduledParams {
     /// a critically damped second-order filter, so a step of it (a slide that starts) becomes
     /// a smooth start with finite jerk; at a constant velocity, and out of contact, the
     /// reference passes unchanged. Two-material at d = 2: first contact 13.4 → 8.2 % (medians
-    /// of seeds 1–5; docs/controller.md, round 7).
+    /// of seeds 1–5).
     pub reference_shaping: f64,
     /// The model's acceleration gain along n estimated online ([`gain`]): `ẍ = ĝ a + w` from
     /// the free-space approach; with `scale_commands` the contact command along n is divided
-    /// by `ĝ` and the observers integrate `ĝ a`. `window = 0`: off (`ĝ = 1`, as before round 13).
+    /// by `ĝ` and the observers integrate `ĝ a`. `window = 0`: off (`ĝ = 1`).
     pub model_gain: GainParams,
 }
 
@@ -820,7 +819,7 @@ mod tests {
 
     /// [`ScheduledParams::disturbance_hold`]: a `w̄` observed on a stiff surface with a
     /// confident stiffness is kept where the observer turns off (a soft surface), and fed
-    /// forward there; 0 drops it (as before round 16); an unconfident observation is not held;
+    /// forward there; 0 drops it; an unconfident observation is not held;
     /// outside [0, 1] it is refused.
     #[test]
     fn the_disturbance_observed_on_a_stiff_surface_is_held_on_a_soft_one() {

@@ -69,8 +69,7 @@ pub struct ScheduleParams {
     /// the force was back (two-material's recovery at F = 1.25, seeds 1–10: 1.741 s, every
     /// seed back within ±2 % by 0.27 s). 0.125 kg keeps the realised floor at the former
     /// 0.1 kg for the heaviest model the schedule covers (F = 1.25, as `prediction` does for
-    /// the delay): 1.741 → 0.208 s; at F = 1 the soft surfaces settle 4–9 ms later (round 16
-    /// of issue 12, docs/controller.md).
+    /// the delay): 1.741 → 0.208 s; at F = 1 the soft surfaces settle 4–9 ms later.
     pub m_d_min: f64,
     /// Target damping ratio ζ.
     pub zeta: f64,
@@ -264,7 +263,7 @@ mod tests {
         assert!((ScheduleParams { prediction: 0.0, ..p }.velocity_delay(1e-3) - 4.5e-3).abs() < 1e-15);
         let g = schedule(&p, 20_000.0, 1e-3);
         assert!((g.m_d - p.m_d_min.max(20_000.0 * (2.0 * 1.5e-3 / 0.7f64).powi(2))).abs() < 1e-12, "{g:?}");
-        // Soft surfaces sit at the floor: 0.125 kg since round 16 (0.1 kg realised under a
+        // Soft surfaces sit at the floor: 0.125 kg (0.1 kg realised under a
         // model 1.25 × too heavy).
         assert_eq!(p.m_d_min, 0.125);
         let g = schedule(&p, 1000.0, 1e-3);
