@@ -85,3 +85,14 @@ def test_docstrings_carry_no_tuning_history(root):
                 bad.append(f"{p.relative_to(root)}:{n}: {what} ({m.group(0)!r})")
     assert seen > 1000, f"only {seen} doc-comment lines found: is the tree where the test looks?"
     assert not bad, "tuning history in docstrings (move it to docs/notes/):\n" + "\n".join(bad)
+
+
+def test_readme_and_controller_page_stay_short(root):
+    """Issue 40's bounds: the README is a front page (≤ 150 lines, ≤ 8 KB), the controller
+    page a reference (≤ 600 lines); detail goes to the other docs/ pages."""
+    readme = (root / "README.md").read_bytes()
+    lines = readme.count(b"\n")
+    assert lines <= 150, f"README.md has {lines} lines (at most 150): move detail to docs/"
+    assert len(readme) <= 8 * 1024, f"README.md is {len(readme)} bytes (at most 8 KB): move detail to docs/"
+    ctrl = (root / "docs" / "controller.md").read_text().splitlines()
+    assert len(ctrl) <= 600, f"docs/controller.md has {len(ctrl)} lines (at most 600)"
