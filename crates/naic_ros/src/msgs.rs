@@ -86,6 +86,8 @@ pub fn set_effort_msg(m: &mut Float64MultiArray, tau: &[f64], source_stamp_ns: O
     let n = tau.len() as u32;
     let d = &mut m.layout.dim[0];
     d.label.clear();
+    // Sized once for the longest label (no regrowth as the stamp gains digits).
+    d.label.reserve(EFFORT_LABEL_CAPACITY);
     d.label.push_str(if dims == 2 { EFFORT_AND_VELOCITY } else { "joints" });
     if let Some(ns) = source_stamp_ns {
         let _ = write!(d.label, ";stamp_ns={ns}");
@@ -104,6 +106,43 @@ pub fn set_effort_msg(m: &mut Float64MultiArray, tau: &[f64], source_stamp_ns: O
     m.data.extend_from_slice(tau);
     if let Some(v) = friction_velocity {
         m.data.extend_from_slice(v);
+    }
+}
+
+/// A `/naic/effort` buffer that stays allocation-free when the message changes between one
+/// row (torques) and two (torques and the friction feedforward's velocity, [`set_effort_msg`]):
+/// it is sized for two rows of `n` joints and a stamp of any length when made, and keeps the
+/// second dimension aside while the message has one row, so that a law that starts giving
+/// a velocity mid-run (the scheduled law, once the tare is done) does not grow the message
+/// in the 1 kHz path.
+pub struct EffortBuffer {
+    pub msg: Float64MultiArray,
+    spare: Option<MultiArrayDimension>,
+}
+
+/// The longest first-dimension label [`set_effort_msg`] writes: the two-row label and
+/// `;stamp_ns=` with an i64 (20 characters with its sign).
+const EFFORT_LABEL_CAPACITY: usize = EFFORT_AND_VELOCITY.len() + ";stamp_ns=".len() + 20;
+
+impl EffortBuffer {
+    pub fn new(n: usize) -> Self {
+        let mut msg = Float64MultiArray::default();
+        msg.layout.dim.reserve_exact(2);
+        msg.layout.dim.push(MultiArrayDimension { label: String::with_capacity(EFFORT_LABEL_CAPACITY), ..Default::default() });
+        msg.data.reserve_exact(2 * n);
+        let spare = MultiArrayDimension { label: String::with_capacity("joints".len()), ..Default::default() };
+        Self { msg, spare: Some(spare) }
+    }
+
+    /// [`set_effort_msg`] into the buffer, without allocating once made for this `n`.
+    pub fn set(&mut self, tau: &[f64], source_stamp_ns: Option<i64>, friction_velocity: Option<&[f64]>) {
+        let dim = &mut self.msg.layout.dim;
+        match (friction_velocity.is_some(), dim.len()) {
+            (true, 1) => dim.push(self.spare.take().unwrap_or_default()),
+            (false, 2) => self.spare = dim.pop(),
+            _ => {}
+        }
+        set_effort_msg(&mut self.msg, tau, source_stamp_ns, friction_velocity);
     }
 }
 
@@ -167,6 +206,34 @@ fn n_finite<const N: usize>(data: &[f64], off: usize, out: &mut JointVec<N>) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The controller's `/naic/effort` buffer: one row, two rows, one again, with stamps of
+    /// every length, allocates nothing once made (the 1 kHz path of the scheduled law,
+    /// which gives the friction velocity only once the tare is done).
+    #[test]
+    fn the_effort_buffer_changes_rows_without_allocating() {
+        let mut b = EffortBuffer::new(7);
+        let (tau, v) = ([1.0; 7], [0.5; 7]);
+        let ((), n) = crate::alloc_check::counted(|| {
+            for (k, stamp) in [0_i64, 9, 1_000_000_000, i64::MAX, i64::MIN].into_iter().enumerate() {
+                b.set(&tau, Some(stamp), None);
+                b.set(&tau, Some(stamp), Some(&v));
+                b.set(&tau, if k % 2 == 0 { None } else { Some(stamp) }, Some(&v));
+                b.set(&tau, Some(stamp), None);
+            }
+        });
+        assert_eq!(n, 0, "allocations");
+        b.set(&tau, Some(42), Some(&v));
+        assert_eq!((b.msg.layout.dim.len(), b.msg.data.len()), (2, 14));
+        let mut out = [0.0; 7];
+        assert!(effort_friction_velocity::<7>(&b.msg, &mut out).unwrap());
+        assert_eq!((out, effort_source_stamp(&b.msg)), ([0.5; 7], Some(42)));
+        b.set(&tau, Some(43), None);
+        assert_eq!((b.msg.layout.dim.len(), b.msg.data.len()), (1, 7));
+        assert!(!effort_friction_velocity::<7>(&b.msg, &mut out).unwrap());
+        assert_eq!(b.msg, effort_msg(&tau, Some(43)), "the same message as a fresh one");
+    }
+
     #[test]
     fn stamp_label_round_trip() {
         let m = effort_msg(&[1.0; 6], Some(1_700_000_000_000_000_123));

@@ -34,7 +34,7 @@ pub struct Runner<const N: usize = { naic_core::N_JOINTS }> {
     base: ControllerParams<N>,
     /// Generation of the parameter table last applied.
     gen: u64,
-    effort: Float64MultiArray,
+    effort: msgs::EffortBuffer,
     report: NaicParams,
     warned: bool,
 }
@@ -56,7 +56,7 @@ impl<const N: usize> Runner<N> {
             ws,
             base: setup.base,
             gen: params.generation(),
-            effort: Float64MultiArray::default(),
+            effort: msgs::EffortBuffer::new(N),
             report: NaicParams::default(),
             warned: false,
         }
@@ -129,12 +129,12 @@ impl<const N: usize> Runner<N> {
         }
         log_events(&out.events, self.p.settings.force_limit, &self.p.joints);
         if let Some((tau, stamp)) = out.effort {
-            msgs::set_effort_msg(&mut self.effort, &tau, Some(stamp), out.friction_velocity.as_ref().map(|v| &v[..]));
+            self.effort.set(&tau, Some(stamp), out.friction_velocity.as_ref().map(|v| &v[..]));
         }
         if let Some(r) = &out.report {
             fill_report(&mut self.report, r, &self.p.reference_params.base_frame);
         }
-        Published { effort: out.effort.map(|_| &self.effort), report: out.report.map(|_| &self.report) }
+        Published { effort: out.effort.map(|_| &self.effort.msg), report: out.report.map(|_| &self.report) }
     }
 }
 
@@ -345,7 +345,7 @@ mod tests {
         let out = r.joint_states(&js(0), |_| panic!("the wrench of stamp 0 is in: nothing to wait for"));
         assert_eq!(out.effort.map(effort_source_stamp), Some(Some(0)), "the command carries its state's stamp");
         let report = out.report.expect("a report every cycle");
-        assert_eq!((report.header.stamp.to_nanos(), report.mode.as_str(), report.fault.as_str()), (0, "naic", ""));
+        assert_eq!((report.header.stamp.to_nanos(), report.mode.as_str(), report.fault.as_str()), (0, "scheduled", ""));
         assert_eq!(report.header.frame_id, "base_link", "the frame of reference_position and the force axis");
         // The next state's wrench is not in yet: the runner asks for it, once.
         let mut asked = Vec::new();
@@ -366,10 +366,10 @@ mod tests {
     fn an_accepted_parameter_applies_at_the_next_reload() {
         let (mut r, table) = runner(&["use_sim_time:=true"]);
         r.wrench(&wrench(0));
-        assert_eq!(r.joint_states(&js(0), |_| None).report.unwrap().mode, "naic");
+        assert_eq!(r.joint_states(&js(0), |_| None).report.unwrap().mode, "scheduled", "the default law");
         table.set_atomically(&[("mode".into(), ParameterValue::String("aic".into()))]).unwrap();
         r.wrench(&wrench(1_000_000));
-        assert_eq!(r.joint_states(&js(1_000_000), |_| None).report.unwrap().mode, "naic", "not before the reload");
+        assert_eq!(r.joint_states(&js(1_000_000), |_| None).report.unwrap().mode, "scheduled", "not before the reload");
         r.reload(&table);
         r.wrench(&wrench(2_000_000));
         assert_eq!(r.joint_states(&js(2_000_000), |_| None).report.unwrap().mode, "aic");

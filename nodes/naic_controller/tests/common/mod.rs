@@ -70,7 +70,7 @@ pub struct Chain<const N: usize = 6> {
     pub state: StateMsgs<N>,
     /// [`Chain::step_with`] has edited the names of `/joint_states` (they stay edited).
     names_edited: bool,
-    effort: Float64MultiArray,
+    effort: msgs::EffortBuffer,
     cmd: Float64MultiArray,
 }
 
@@ -117,7 +117,7 @@ impl<const N: usize> Chain<N> {
             fs: fc::State::default(),
             state: StateMsgs::in_order(order, &d.joints),
             names_edited: false,
-            effort: Float64MultiArray::default(),
+            effort: msgs::EffortBuffer::new(N),
             cmd: Float64MultiArray::default(),
         }
     }
@@ -167,14 +167,14 @@ impl<const N: usize> Chain<N> {
         }
         let report = out.report;
         if let Some((tau, src)) = out.effort {
-            msgs::set_effort_msg(&mut self.effort, &tau, Some(src), out.friction_velocity.as_ref().map(|v| &v[..]));
+            self.effort.set(&tau, Some(src), out.friction_velocity.as_ref().map(|v| &v[..]));
             let f = |s: &mut fc::State<N>, inbox: fc::Inbox, now: i64| {
                 let (next, out) = fc::step(&self.fp, s, &inbox, now);
                 *s = next;
                 out
             };
             f(&mut self.fs, fc::Inbox { joint_states: Some(&self.state.js), ..Default::default() }, stamp);
-            let mut o = f(&mut self.fs, fc::Inbox { command: Some(&self.effort), ..Default::default() }, stamp);
+            let mut o = f(&mut self.fs, fc::Inbox { command: Some(&self.effort.msg), ..Default::default() }, stamp);
             if let Some(until) = o.wait_until_ns {
                 // Only an unusable joint state leaves a command waiting for the state of its
                 // stamp: the shell steps again with an empty inbox when the wait is over.
