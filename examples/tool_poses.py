@@ -25,7 +25,7 @@ and --use-sim-time here.
 
 The controller runs the stiffness-scheduled law here (CONTROLLER_PARAMS, set on
 naic_controller through its SetParameters service before the first move): with the paper's
-law (`mode: naic`, the default) the arm in free space does not settle: on the in-process
+law (`mode: naic`) the arm in free space does not settle: on the in-process
 lockstep chain its fastest joint reached 0.09-0.14 rad/s in every second of a 12 s hold
 at each of three orientations, while with `scheduled` it stayed at 0.007-0.009 rad/s
 (nodes/naic_controller's in-process chain, true joint speeds).

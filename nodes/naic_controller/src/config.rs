@@ -35,7 +35,7 @@ pub fn specs<const N: usize>(base: &ControllerParams<N>) -> Vec<ParamSpec> {
     vec![
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model (URDF with 'tip' and 'ft_sensor' frames)").read_only(),
         ParamSpec::string("friction_file", FRICTION_FILE, "Mode 'scheduled': the friction model (friction_compensation's friction_file) whose Stribeck drops get the unfiltered joint velocity in contact ('': the median everywhere)").read_only(),
-        ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed", "scheduled"], "Force law on the force axis: NAIC (eq 10-15), AIC (eq 9), fixed impedance (eq 8) or 'scheduled' (impedance scheduled from an online stiffness estimate k_e_hat, reported in /naic/params; not a paper law)"),
+        ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed", "scheduled"], "Force law on the force axis: 'scheduled' (the default and the recommended law, docs/controller.md: impedance scheduled from an online stiffness estimate k_e_hat, reported in /naic/params; not a paper law), or the paper's NAIC (eq 10-15), AIC (eq 9), fixed impedance (eq 8)"),
         ParamSpec::double("desired_force", 10.0, 0.0, 100.0, "f_d [N]: force the tool applies to the environment along the force axis (pushing positive)"),
         ParamSpec::double("learning_rate", fl.gamma, 0.0, 100.0, "gamma of eq 15 (NAIC): requested learning rate, clipped every cycle to the eq-15 bound"),
         ParamSpec::doubles("m_d", &imp.m_d, 0.001, 1000.0, "Impedance mass M_d per Cartesian axis x,y,z,rx,ry,rz [kg, kg m^2] (eq 6); force-axis entry is NAIC weight w1"),
@@ -244,7 +244,7 @@ mod tests {
     fn base() -> ControllerParams {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../urdf/jk5.urdf");
         let model = Model::from_urdf_file(root).unwrap();
-        ControllerParams::paper_defaults(&model, Mode::Naic, naic_core::pipeline::control::force_law::DEFAULT_GAMMA)
+        ControllerParams::paper_defaults(&model, Mode::Scheduled, naic_core::pipeline::control::force_law::DEFAULT_GAMMA)
     }
 
     fn table() -> (ParamTable, ControllerParams) {
@@ -256,6 +256,7 @@ mod tests {
     fn defaults_reproduce_the_core_paper_defaults() {
         let (t, b) = table();
         let cp = t.with(|p| controller_params(p, &b)).unwrap();
+        // The mode is the recommended law ('scheduled') on both sides (base() asks for it).
         // The two differences: the node latches the force-limit retraction (resumed by
         // ~/reset_force_limit; the core's default resumes by itself), and its tare waits
         // for rest (the core's default, the simulator's, tares over the first cycles).

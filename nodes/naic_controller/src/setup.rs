@@ -58,8 +58,10 @@ impl<const N: usize> Setup<N> {
             None => Model::from_urdf_file(&urdf)
                 .map_err(|e| RosError::param(format!("cannot load the robot model '{urdf}': {e} (set -p urdf:=PATH)")))?,
         };
-        // Defaults: the core's paper settings on this model (learning rate: not in the paper).
-        let mut base = ControllerParams::<N>::paper_defaults(&model, Mode::Naic, force_law::DEFAULT_GAMMA);
+        // Defaults: the core's paper settings on this model (learning rate: not in the paper),
+        // with the law docs/controller.md recommends ('scheduled'); the paper's laws are a
+        // `mode` away.
+        let mut base = ControllerParams::<N>::paper_defaults(&model, Mode::Scheduled, force_law::DEFAULT_GAMMA);
         // Another arm's tool (the JK5's is the paper defaults' already).
         if let Some(r) = robot.as_ref().filter(|r| !r.is_paper_jk5()) {
             base.tool.mass = r.tool.mass;
