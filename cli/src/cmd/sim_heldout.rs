@@ -274,7 +274,7 @@ mod tests {
     #[test]
     fn the_moving_surface_recedes_at_the_asked_speed() {
         let model = load_model(None).unwrap();
-        let ctx = Ctx { plant: PlantChoice::Own, model, friction: None, tool: (0.0, Vector3::zeros()), tool_inertia: nalgebra::Matrix3::zeros(), sensor: super::sim::SensorOpts { inertial_wrench: false, tare_at_rest: false } };
+        let ctx = Ctx { plant: PlantChoice::Own, model, friction: None, tool: (0.0, Vector3::zeros()), tool_inertia: nalgebra::Matrix3::zeros(), sensor: super::super::sim::SensorOpts { inertial_wrench: false, tare_at_rest: false } };
         let c = Case { group: "moving surface", scenario: "slope", controller: "scheduled", delay: 2, mass_error: 1.0, stiffness: Some(2000.0), moving: Some(0.01), duration: None, seed: 6 };
         let s = scenario_of(&ctx, &c).unwrap();
         let r = s.task.ramp;
