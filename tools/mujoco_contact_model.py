@@ -4,7 +4,8 @@
 For each contact state of a `naic sim --plant mujoco` run (its `<law>.truth.csv`: joints,
 joint velocities, surface height), this rebuilds the scenario's table box the way
 naic_sim's MuJoCo plant does (top face at naic's surface less the tip sphere's radius,
-solref "-k_e -max(b_e, 0.1)", solimp "0.1 0.3 0.001 0.5 2", condim 1) and reads MuJoCo's
+solref "-k_e -max(b_e, 0.1)", solimp "0.1 0.3 0.001 0.5 2", condim 1, a priority above every
+other geom's so that the contact takes these and not a mix with the tip sphere's) and reads MuJoCo's
 constraint row of the tip contact:
 
     A   = J M^-1 J^T        (the inverse of the apparent mass D along the normal)
@@ -33,6 +34,7 @@ MATERIALS = {"paper": (2000.0, 0.0), "foam": (1000.0, 10.0), "acrylic": (50000.0
 def scene_xml(mjcf_text, surface_z, normal, k_e, b_e, center_xy):
     text = re.sub(r"<!--.*?-->", "", mjcf_text, flags=re.S)
     text = re.sub(r'<body name="table".*?</body>', "", text, flags=re.S)
+    priority = 1 + int(max(mujoco.MjModel.from_xml_string(text).geom_priority, default=0))
     n = np.asarray(normal, float) / np.linalg.norm(normal)
     # quaternion rotating z onto n
     z = np.array([0.0, 0.0, 1.0])
@@ -48,7 +50,7 @@ def scene_xml(mjcf_text, surface_z, normal, k_e, b_e, center_xy):
     p = np.array([center_xy[0], center_xy[1], surface_z])
     c = p - n * (r_tip + half)
     geom = (f'<geom name="naic_table" type="box" size="1 1 {half}" pos="{c[0]} {c[1]} {c[2]}" '
-            f'quat="{quat[0]} {quat[1]} {quat[2]} {quat[3]}" condim="1" '
+            f'quat="{quat[0]} {quat[1]} {quat[2]} {quat[3]}" condim="1" priority="{priority}" '
             f'solref="{-k_e} {-max(b_e, 0.1)}" solimp="{" ".join(map(str, SOLIMP))}"/>')
     i = text.rfind("</worldbody>")
     return text[:i] + geom + text[i:]
@@ -113,7 +115,7 @@ def measure(m, d, gid, tau):
     d.qpos[:] = qpos0
     e = con.efc_address
     k, b, imp, _ = d.efc_KBIP[e]
-    return dict(f=f0, mu=mu, k_e=k_e, b_e=b_e, D=D, imp=imp, k=k, b=b, dim=con.dim, fric=con.friction[0], pen=-(d.efc_pos[e] - d.efc_margin[e]))
+    return dict(f=f0, mu=mu, k_e=k_e, b_e=b_e, D=D, imp=imp, k=k, b=b, dim=con.dim, fric=con.friction[0] if con.dim > 1 else 0.0, pen=-(d.efc_pos[e] - d.efc_margin[e]))
 
 
 def main():

@@ -139,6 +139,42 @@ pub struct SimArgs {
     /// on each scenario's materials, then exit.
     #[arg(long)]
     pub stiffness_report: bool,
+    /// The own plant's F/T sensor reads the tool's inertial wrench, as a real sensor and
+    /// MuJoCo's do (off: the tool's weight only) [default: naic_sim::sensor::INERTIAL_WRENCH].
+    #[arg(long)]
+    pub inertial_wrench: bool,
+    /// The start-up F/T tare: `at-rest` (readings at rest only, the arm held meanwhile: the
+    /// node's) or `moving` (the first samples, controlled as usual) [default: moving; see
+    /// docs/simulation.md for what at-rest does on a sensor that reads the tool's inertia].
+    #[arg(long, value_name = "at-rest|moving")]
+    pub tare: Option<String>,
+}
+
+/// The F/T sensor and tare of a `naic sim` run (`--inertial-wrench`, `--tare`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorOpts {
+    /// The own plant's sensor reads the tool's inertial wrench (MuJoCo's always does).
+    pub inertial_wrench: bool,
+    /// `LoopSettings::tare_at_rest`.
+    pub tare_at_rest: bool,
+}
+
+impl SensorOpts {
+    pub fn from_args(inertial_wrench: bool, tare: Option<&str>) -> Result<Self, CliError> {
+        let inertial_wrench = inertial_wrench || naic_sim::sensor::INERTIAL_WRENCH;
+        let tare_at_rest = match tare {
+            None => false,
+            Some("at-rest") => true,
+            Some("moving") => false,
+            Some(o) => return Err(CliError::usage(format!("--tare '{o}': use at-rest or moving"))),
+        };
+        Ok(Self { inertial_wrench, tare_at_rest })
+    }
+
+    /// `p` with this sensor (the own plant's; MuJoCo's sensor is MuJoCo's).
+    pub fn apply<const N: usize>(&self, p: &mut PlantParams<N>) {
+        p.ft.inertial |= self.inertial_wrench;
+    }
 }
 
 /// The plant of `--plant`/`--mjcf`.
@@ -514,11 +550,13 @@ pub fn run(a: SimArgs) -> CliResult {
             }
             let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-held-out", utc_stamp())));
             let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
-            return super::sim_heldout::run(&out, a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice);
+            let sensor = SensorOpts::from_args(a.inertial_wrench, a.tare.as_deref())?;
+            return super::sim_heldout::run(&out, a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice, sensor);
         }
         let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-table", utc_stamp())));
         let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
-        return super::sim_table::run(&out, a.seeds.unwrap_or(5), a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice);
+        let sensor = SensorOpts::from_args(a.inertial_wrench, a.tare.as_deref())?;
+        return super::sim_table::run(&out, a.seeds.unwrap_or(5), a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice, sensor);
     }
     let name = a.scenario.clone().unwrap_or_else(|| "flat".into());
     if !SCENARIOS.contains(&name.as_str()) {
@@ -567,7 +605,8 @@ pub fn run(a: SimArgs) -> CliResult {
             s.task.duration = d;
         }
     }
-    let mut settings = LoopSettings::default();
+    let sensor = SensorOpts::from_args(a.inertial_wrench, a.tare.as_deref())?;
+    let mut settings = LoopSettings { tare_at_rest: sensor.tare_at_rest, ..LoopSettings::default() };
     if let Some(g) = a.gamma {
         if !(g >= 0.0 && g.is_finite()) {
             return Err(CliError::usage(format!("--gamma {g}: must be a finite number >= 0")));
@@ -703,6 +742,9 @@ fn run_seeds<const N: usize>(
         let dir = if a.seeds.is_some() { out.join(format!("seed-{}", s.seed)) } else { out.clone() };
         let mut plant = scenario_plant(&s, model.clone(), friction.clone(), true_tool, &tool_i)?;
         scenario::apply_sensor_spec(&mut plant, &robot.sensor);
+        if a.inertial_wrench {
+            plant.ft.inertial = true;
+        }
         eprintln!(
             "naic sim: {} plant, {}, scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
             a.plant.as_deref().unwrap_or("own"),

@@ -166,8 +166,10 @@ pub struct Scored {
 
 fn run_case(ctx: &Ctx, c: &Case) -> Result<Scored, CliError> {
     let s = scenario_of(ctx, c)?;
-    let plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool, &ctx.tool_inertia)?;
-    let settings = LoopSettings { delay_cycles: c.delay, model_mass_error: c.mass_error, ..LoopSettings::default() };
+    let mut plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool, &ctx.tool_inertia)?;
+    ctx.sensor.apply(&mut plant);
+    let settings =
+        LoopSettings { delay_cycles: c.delay, model_mass_error: c.mass_error, tare_at_rest: ctx.sensor.tare_at_rest, ..LoopSettings::default() };
     let mut pc = PipelineController::by_name(c.controller, &s, &ctx.model, ctx.friction.clone(), ctx.tool, &settings).map_err(CliError::usage)?;
     let mut p = ctx.plant.build(&plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
     let r = runner::run_on(&s, &mut *p, &mut pc, &mut |_| {});
@@ -205,9 +207,16 @@ fn goals(r: &Scored, oracle: Option<&Scored>) -> Vec<(&'static str, bool, String
 }
 
 /// Runs the protocol into `out` (module docs).
-pub fn run(out: &Path, urdf: Option<&Path>, friction_file: Option<&Path>, no_friction: bool, plant: &PlantChoice) -> CliResult {
+pub fn run(
+    out: &Path,
+    urdf: Option<&Path>,
+    friction_file: Option<&Path>,
+    no_friction: bool,
+    plant: &PlantChoice,
+    sensor: super::sim::SensorOpts,
+) -> CliResult {
     let t0 = std::time::Instant::now();
-    let ctx = Ctx::load(urdf, friction_file, no_friction, plant)?;
+    let ctx = Ctx::load(urdf, friction_file, no_friction, plant, sensor)?;
     let jobs = cases();
     std::fs::create_dir_all(out).map_err(|e| CliError::failure(format!("--out {}: {e}", out.display())))?;
     eprintln!("naic sim --held-out: {} runs on the {} plant -> {}", jobs.len(), plant.name(), out.display());
@@ -265,7 +274,7 @@ mod tests {
     #[test]
     fn the_moving_surface_recedes_at_the_asked_speed() {
         let model = load_model(None).unwrap();
-        let ctx = Ctx { plant: PlantChoice::Own, model, friction: None, tool: (0.0, Vector3::zeros()), tool_inertia: nalgebra::Matrix3::zeros() };
+        let ctx = Ctx { plant: PlantChoice::Own, model, friction: None, tool: (0.0, Vector3::zeros()), tool_inertia: nalgebra::Matrix3::zeros(), sensor: super::super::sim::SensorOpts { inertial_wrench: false, tare_at_rest: false } };
         let c = Case { group: "moving surface", scenario: "slope", controller: "scheduled", delay: 2, mass_error: 1.0, stiffness: Some(2000.0), moving: Some(0.01), duration: None, seed: 6 };
         let s = scenario_of(&ctx, &c).unwrap();
         let r = s.task.ramp;

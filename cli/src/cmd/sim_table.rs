@@ -72,18 +72,26 @@ pub(super) struct Ctx {
     pub(super) friction: Option<FrictionModel>,
     pub(super) tool: (f64, Vector3<f64>),
     pub(super) tool_inertia: nalgebra::Matrix3<f64>,
+    /// The sensor's inertial wrench and the tare (`--inertial-wrench`, `--tare`).
+    pub(super) sensor: super::sim::SensorOpts,
 }
 
 impl Ctx {
     /// The model of `--urdf` (default the JK5's), its friction as `--friction` /
     /// `--no-friction` give it for `plant`, and the tool of its `ft_sensor` link.
-    pub(super) fn load(urdf: Option<&Path>, friction_file: Option<&Path>, no_friction: bool, plant: &PlantChoice) -> Result<Ctx, CliError> {
+    pub(super) fn load(
+        urdf: Option<&Path>,
+        friction_file: Option<&Path>,
+        no_friction: bool,
+        plant: &PlantChoice,
+        sensor: super::sim::SensorOpts,
+    ) -> Result<Ctx, CliError> {
         let model = load_model(urdf)?;
         let friction = super::sim::friction_for(plant, friction_file, no_friction)?;
         let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| super::sim::default_path("urdf/jk5.urdf"));
         let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
         let tool_inertia = super::sim::tool_inertia(&urdf_path)?;
-        Ok(Ctx { plant: plant.clone(), model, friction, tool, tool_inertia })
+        Ok(Ctx { plant: plant.clone(), model, friction, tool, tool_inertia, sensor })
     }
 }
 
@@ -98,8 +106,10 @@ fn scenario_for(ctx: &Ctx, j: &Job) -> Result<Scenario, CliError> {
 
 fn run_job(ctx: &Ctx, j: &Job) -> Result<RunResult, CliError> {
     let s = scenario_for(ctx, j)?;
-    let plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool, &ctx.tool_inertia)?;
-    let settings = LoopSettings { delay_cycles: j.delay, model_mass_error: j.mass_error, ..LoopSettings::default() };
+    let mut plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool, &ctx.tool_inertia)?;
+    ctx.sensor.apply(&mut plant);
+    let settings =
+        LoopSettings { delay_cycles: j.delay, model_mass_error: j.mass_error, tare_at_rest: ctx.sensor.tare_at_rest, ..LoopSettings::default() };
     let mut c = PipelineController::by_name(j.controller, &s, &ctx.model, ctx.friction.clone(), ctx.tool, &settings)
         .map_err(CliError::usage)?;
     let mut p = ctx.plant.build(&plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
@@ -337,12 +347,20 @@ fn color(name: &str) -> &'static str {
 }
 
 /// `naic sim --table`.
-pub fn run(out: &Path, seeds: u32, urdf: Option<&Path>, friction_file: Option<&Path>, no_friction: bool, plant: &PlantChoice) -> CliResult {
+pub fn run(
+    out: &Path,
+    seeds: u32,
+    urdf: Option<&Path>,
+    friction_file: Option<&Path>,
+    no_friction: bool,
+    plant: &PlantChoice,
+    sensor: super::sim::SensorOpts,
+) -> CliResult {
     if seeds == 0 {
         return Err(CliError::usage("--seeds 0: give at least 1"));
     }
     let t0 = std::time::Instant::now();
-    let ctx = Ctx::load(urdf, friction_file, no_friction, plant)?;
+    let ctx = Ctx::load(urdf, friction_file, no_friction, plant, sensor)?;
     let mut jobs = Vec::new();
     for seed in 1..=u64::from(seeds) {
         for sc in TABLE_SCENARIOS {
@@ -512,7 +530,7 @@ mod tests {
     #[test]
     fn the_table_meets_every_goal_of_issue_12() {
         let out = std::env::temp_dir().join(format!("naic-table-test-{}", std::process::id()));
-        let r = run(&out, 5, None, None, false, &PlantChoice::Own);
+        let r = run(&out, 5, None, None, false, &PlantChoice::Own, super::super::sim::SensorOpts { inertial_wrench: false, tare_at_rest: false });
         let md = std::fs::read_to_string(out.join("table.md"));
         let _ = std::fs::remove_dir_all(&out);
         r.unwrap_or_else(|e| panic!("naic sim --table: {e}"));

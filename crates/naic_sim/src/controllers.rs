@@ -41,6 +41,11 @@ pub struct LoopSettings {
     pub delay_cycles: usize,
     /// The controller's dynamic model is the plant's with every mass and inertia scaled by this.
     pub model_mass_error: f64,
+    /// The F/T tare takes readings at rest only and holds the arm meanwhile
+    /// (`ControllerParams::tare_at_rest`, the node's default; `naic sim --tare at-rest`).
+    /// Off: the first samples while the arm starts moving, which on a sensor that reads the
+    /// tool's inertial wrench (MuJoCo's) keeps the tool's inertial force as a bias.
+    pub tare_at_rest: bool,
 }
 
 /// The largest `delay_cycles` the simulated loop supports.
@@ -63,9 +68,11 @@ impl Default for LoopSettings {
             force_limit_n: 50.0,
             delay_cycles: 0,
             model_mass_error: 1.0,
+            tare_at_rest: false,
         }
     }
 }
+
 
 /// The core pipeline + friction feedforward + actuation, as the simulator drives it.
 #[derive(Clone)]
@@ -108,6 +115,7 @@ impl<const N: usize> PipelineController<N> {
         params.sense.median_window = settings.median_window;
         params.tool = ToolParams { mass: tool_mass, com: tool_com, gravity: model.gravity, ..params.tool };
         params.tare_samples = settings.tare_samples;
+        params.tare_at_rest = settings.tare_at_rest;
         let imp = &scenario.task.impedance;
         let c = &mut params.control;
         c.impedance = imp.params;

@@ -11,7 +11,12 @@
 //!   both touch at the same tip position), `condim="1"` (frictionless, as every naic
 //!   material), `solref="-k_e -b"` (the direct form: the scenario's k_e as MuJoCo's
 //!   stiffness, `b = max(b_e, 0.1)`, the authors' own mapping of the paper's 2000 N/m in
-//!   their file) and the authors' `solimp="0.1 0.3 0.001 0.5 2"`. MuJoCo's contact is
+//!   their file) and the authors' `solimp="0.1 0.3 0.001 0.5 2"`, with a `priority` one above
+//!   the highest of the MJCF's geoms so that a contact takes these as they are (MuJoCo would
+//!   otherwise mix them with the tip sphere's defaults: the mean `solimp` and the larger
+//!   `condim`, 3 with friction 1; with unequal priorities MuJoCo takes the higher one's
+//!   `condim`, `friction`, `solref` and `solimp`, its "Contact parameters";
+//!   [`MujocoPlant::table_contacts`] reads them back). MuJoCo's contact is
 //!   a soft constraint, not a spring: the static stiffness this gives is not k_e and is
 //!   measured by [`static_stiffness`] (`naic sim --plant mujoco --stiffness-report`);
 //! * the time step is the control period over the own plant's sub-step count.
@@ -55,6 +60,20 @@ struct TableGeom {
     /// A point on the surface over the geom (material lookup).
     surface_point: Vector3<f64>,
     solref: [f64; 2],
+}
+
+/// The parameters MuJoCo used for one contact of the tip with the table (read from
+/// `mjData.contact` after collision detection).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactParams {
+    /// `dim`: 1 frictionless, 3 sliding friction, 4 and 6 with torsional and rolling.
+    pub dim: i32,
+    pub friction: [f64; 5],
+    pub solref: [f64; 2],
+    pub solimp: [f64; 5],
+    /// Normal force [N] and the tangential force [N] (norm of the friction rows) of the contact.
+    pub normal_n: f64,
+    pub tangential_n: f64,
 }
 
 /// MuJoCo stepping an MJCF, as a [`crate::plants::Plant`].
@@ -186,14 +205,15 @@ fn regions(env: &Environment, at: Vector3<f64>, r_tip: f64) -> Vec<Region> {
     }
 }
 
-fn table_xml(regions: &[Region]) -> String {
+/// The table geoms; `priority` above every geom of the MJCF (module docs).
+fn table_xml(regions: &[Region], priority: i32) -> String {
     let mut s = String::new();
     for (i, r) in regions.iter().enumerate() {
         let q = r.rot.quaternion();
         let sr = solref_for(&r.material);
         let si = AUTHORS_SOLIMP;
         s.push_str(&format!(
-            "<geom name=\"naic_table_{i}\" type=\"box\" size=\"{} {} {}\" pos=\"{} {} {}\" quat=\"{} {} {} {}\" condim=\"1\" solref=\"{} {}\" solimp=\"{} {} {} {} {}\"/>",
+            "<geom name=\"naic_table_{i}\" type=\"box\" size=\"{} {} {}\" pos=\"{} {} {}\" quat=\"{} {} {} {}\" condim=\"1\" priority=\"{priority}\" solref=\"{} {}\" solimp=\"{} {} {} {} {}\"/>",
             r.half[0], r.half[1], r.half[2], r.center.x, r.center.y, r.center.z, q.w, q.i, q.j, q.k, sr[0], sr[1], si[0], si[1], si[2], si[3], si[4]
         ));
     }
@@ -232,8 +252,9 @@ impl MujocoPlant {
         q0a.copy_from_slice(q0);
         let (tip0, _) = naic_core::task::tip_pose(&p.model, &q0a);
         let regs = regions(&p.env, tip0, r_tip);
+        let priority = 1 + (0..mf.ngeom as usize).map(|g| unsafe { *mf.geom_priority.add(g) }).max().unwrap_or(0);
         let xml = match base.rfind("</worldbody>") {
-            Some(i) => format!("{}{}{}", &base[..i], table_xml(&regs), &base[i..]),
+            Some(i) => format!("{}{}{}", &base[..i], table_xml(&regs, priority), &base[i..]),
             None => return Err(mjcf_err(mjcf, "no </worldbody>")),
         };
         let model = load(mjcf, &xml)?;
@@ -335,6 +356,38 @@ impl MujocoPlant {
         }
         plant.observe(hold, false);
         Ok(plant)
+    }
+
+    /// The contacts of the table with the robot now, with the parameters MuJoCo combined
+    /// for them (`mjData.contact`) and their forces. For tests and reports (allocates).
+    pub fn table_contacts(&self) -> Vec<ContactParams> {
+        let d = self.data.ffi();
+        let m = self.data.model().ffi();
+        let mut out = Vec::new();
+        for c in 0..d.ncon as usize {
+            let con = unsafe { &*d.contact.add(c) };
+            let t1 = self.table.iter().any(|g| g.id as i32 == con.geom1);
+            let t2 = self.table.iter().any(|g| g.id as i32 == con.geom2);
+            if t1 == t2 {
+                continue;
+            }
+            let mut f = [0.0; 6];
+            unsafe { ffi::mj_contactForce(m, d, c as i32, &mut f) };
+            out.push(ContactParams {
+                dim: con.dim,
+                friction: con.friction,
+                solref: con.solref,
+                solimp: con.solimp,
+                normal_n: f[0],
+                tangential_n: (f[1] * f[1] + f[2] * f[2]).sqrt(),
+            });
+        }
+        out
+    }
+
+    /// The tip's position [m] (MuJoCo's site `ee`).
+    pub fn tip_position(&self) -> Vector3<f64> {
+        self.site_pos()
     }
 
     fn site_pos(&self) -> Vector3<f64> {
@@ -440,6 +493,12 @@ impl MujocoPlant {
     /// position and orientation held by springs), for `seconds`; returns the mean
     /// contact normal force [N] and penetration [m] over the last 0.2 s.
     fn push(&mut self, f_n: f64, seconds: f64) -> (f64, f64) {
+        self.push_along(f_n, None, seconds)
+    }
+
+    /// [`Self::push`] with, if `f_t` is given, that constant tangential force [N] on the
+    /// tip instead of the tangential position hold (`f_t`'s part along n is dropped).
+    pub fn push_along(&mut self, f_n: f64, f_t: Option<Vector3<f64>>, seconds: f64) -> (f64, f64) {
         let nv = N_JOINTS;
         let n = self.env.normal.into_inner();
         let p0 = self.site_pos();
@@ -465,7 +524,11 @@ impl MujocoPlant {
             let dp = p0 - p;
             let dp_t = dp - n * n.dot(&dp);
             let v_t = v - n * n.dot(&v);
-            let f = -n * f_n + dp_t * k_t - v_t * d_t - n * (d_n * n.dot(&v));
+            let tangential = match f_t {
+                Some(f_t) => f_t - n * n.dot(&f_t),
+                None => dp_t * k_t - v_t * d_t,
+            };
+            let f = -n * f_n + tangential - n * (d_n * n.dot(&v));
             let rot_err = Rotation3::from_matrix_unchecked(r0 * r.transpose()).scaled_axis();
             let mm = rot_err * k_r - w * d_r;
             let bias: Vec<f64> = self.data.qfrc_bias().to_vec();
