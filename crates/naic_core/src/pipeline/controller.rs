@@ -282,10 +282,9 @@ pub fn step<const N: usize>(
     let dq = SVector::<f64, N>::from(sensed.dq);
     let mut next = ControllerState { sense: sense_state, fault: None, last_q: Some(sensed.q), ..*s };
 
-    // Kinematics: sensor orientation, tip pose and velocity.
-    dynamics::forward_kinematics(&c.model, &mut ws.data, &q);
-    let r_ws = ws.data.frame_se3(c.sensor).rot;
-    let tip = *ws.data.frame_se3(c.tip);
+    // Kinematics: sensor orientation and tip pose (only these two frames are placed).
+    let r_ws = dynamics::frame_placement(&c.model, &mut ws.data, &q, c.sensor).rot;
+    let tip = *dynamics::frame_placement(&c.model, &mut ws.data, &q, c.tip);
 
     // Estimate the contact wrench, after the tare. While taring the arm is held (gravity
     // compensation and joint damping: it comes to rest) and the tare takes only samples at
@@ -416,7 +415,7 @@ fn taring<const N: usize>(
     ws: &mut Workspace<N>,
 ) -> (ControllerState<N>, ControlOutputs<N>) {
     let p = &c.params;
-    let tip = ws.data.frame_se3(c.tip).trans; // forward kinematics at q: the caller's
+    let tip = ws.data.frame_se3(c.tip).trans; // placed at q by the caller
     let q_hold = tare.q_hold.unwrap_or(*q);
     let mut tare = tare;
     tare.q_hold = Some(q_hold);
