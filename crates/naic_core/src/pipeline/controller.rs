@@ -462,7 +462,11 @@ fn solve_eq6<const N: usize>(
         return (SVector::<f64, N>::from_fn(|i, _| x[i]), damped);
     }
     let m = *dynamics::crba(&c.model, &mut ws.data, q);
-    let Some(inv) = dynamics::consistent_inverse(j, &m, &p.damping) else {
+    // One Cholesky factor of M for J̄ and the posture task's M⁻¹ τ₀.
+    let Some((ch, inv)) = dynamics::task_inverse::factor(j, &m).and_then(|ch| {
+        let inv = dynamics::task_inverse::consistent_inverse_factored(j, &m, &ch, &p.damping)?;
+        Some((ch, inv))
+    }) else {
         return (SVector::<f64, N>::zeros(), true);
     };
     let mut qdd = inv.j_bar * b;
@@ -470,9 +474,7 @@ fn solve_eq6<const N: usize>(
         let m_diag: JointVec<N> = std::array::from_fn(|i| m[(i, i)]);
         let d = super::hold::stable_damping(&m_diag, &[p.nullspace.damping; N], p.control.force_law.lambda);
         let tau0 = SVector::<f64, N>::from_fn(|i, _| p.nullspace.stiffness * (q_n[i] - q[i]) - d[i] * dq[i]);
-        if let Some(ch) = m.cholesky() {
-            qdd += dynamics::task_inverse::null_space_project(&inv, j, &ch.solve(&tau0));
-        }
+        qdd += dynamics::task_inverse::null_space_project(&inv, j, &ch.solve(&tau0));
     }
     (qdd, inv.damped)
 }
