@@ -289,14 +289,13 @@ pub fn update<const N: usize>(
     ws: &mut Workspace<N>,
 ) -> ControlOutputs<N> {
     let p = &c.params;
-    let (sense_state, sensed) = sense::step(&p.sense, &next.sense, m);
-    let sensed = match sensed {
+    // The sense stage keeps its state on a fault (the hold's state is the last valid one).
+    let sensed = match sense::update(&p.sense, &mut next.sense, m) {
         Ok(x) => x,
         Err(fault) => return hold(c, next, m, r, ws, fault),
     };
     let q = SVector::<f64, N>::from(sensed.q);
     let dq = SVector::<f64, N>::from(sensed.dq);
-    next.sense = sense_state;
     next.fault = None;
     next.last_q = Some(sensed.q);
 
