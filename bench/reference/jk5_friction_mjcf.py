@@ -19,6 +19,7 @@ mujoco_step_bench.py imports friction_variant() and loads the text directly.
 """
 import argparse
 import json
+import os
 import pathlib
 import sys
 import xml.etree.ElementTree as ET
@@ -26,7 +27,9 @@ import xml.etree.ElementTree as ET
 import yaml
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-DEFAULT_MJCF = ROOT.parent / "shared" / "reference" / "jk5" / "jk5_table.nomesh.mjcf.xml"
+# ../shared beside the repository, or NAIC_SHARED (a git worktree elsewhere).
+SHARED = pathlib.Path(os.environ["NAIC_SHARED"]) if os.environ.get("NAIC_SHARED") else ROOT.parent / "shared"
+DEFAULT_MJCF = SHARED / "reference" / "jk5" / "jk5_table.nomesh.mjcf.xml"
 DEFAULT_FRICTION = ROOT / "params" / "friction_jk5.yaml"
 DEFAULT_OUT = ROOT / "target" / "reference" / "jk5_table.friction.mjcf.xml"
 

@@ -26,6 +26,7 @@ Usage: python bench/reference/mujoco_step_bench.py [--mjcf PATH] [--friction YAM
 """
 import argparse
 import json
+import os
 import pathlib
 import statistics
 import sys
@@ -34,7 +35,9 @@ import time
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-DEFAULT_MJCF = ROOT.parent / "shared" / "reference" / "jk5" / "jk5_table.nomesh.mjcf.xml"
+# ../shared beside the repository, or NAIC_SHARED (a git worktree elsewhere).
+SHARED = pathlib.Path(os.environ["NAIC_SHARED"]) if os.environ.get("NAIC_SHARED") else ROOT.parent / "shared"
+DEFAULT_MJCF = SHARED / "reference" / "jk5" / "jk5_table.nomesh.mjcf.xml"
 PRESS_N = 10.0
 TIP_RADIUS = 0.01  # the tip sphere geom
 

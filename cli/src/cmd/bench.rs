@@ -149,7 +149,8 @@ where
     Timings { rnea, crba, aba, jac }
 }
 
-/// Median ns of one NAIC controller cycle (`naic_core::pipeline::controller::step`,
+/// Median ns of one NAIC controller cycle (`naic_core::pipeline::controller::update`, the
+/// in-place form of `step` the simulator runs,
 /// paper defaults, γ = 1e-6) in contact near the paper's start pose: 1000
 /// pre-generated measurements (q within ±0.2 rad of (0, −30°, 120°, 0, −90°, 0),
 /// q̇ within ±0.3 rad/s, the tool weight plus a 10 N push at the tip in the
@@ -228,10 +229,10 @@ fn controller_step<const N: usize>(model: &Model, batches: usize, robot: Option<
         t += 1e-3;
         let (q, dq, wrench) = inputs[k];
         let m = RawMeasurements { t, q, dq, joints_stamp: t, wrench, wrench_stamp: t };
-        let (next, out) = controller::step(&ctl, &s, black_box(&m), &reference, &mut ws);
+        let out = controller::update(&ctl, &mut s, black_box(&m), &reference, &mut ws);
         faults += out.status.fault.is_some() as usize;
         calls += 1;
-        s = black_box(next);
+        black_box(&mut s);
     });
     if faults * 100 > calls {
         return Err(CliError::failure(format!(

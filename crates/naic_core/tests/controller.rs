@@ -267,3 +267,61 @@ fn the_posture_torque_of_a_seven_joint_arm_moves_nothing_of_the_task() {
     assert!(dtau.norm() > 0.1 && minv_dtau.norm() > 1.0, "the posture task did nothing: {dtau}");
     assert!(task.norm() < 1e-9 * minv_dtau.norm().max(1.0), "the posture torque moves the tip: J M⁻¹ Δτ = {task}");
 }
+
+/// `controller::update` (the caller keeps one state) is `controller::step` (state in, state
+/// out) bit for bit: the same states and outputs on the Panda through the tare held at rest,
+/// a rejected cycle and its hold, and force control in contact.
+#[test]
+fn the_in_place_update_is_the_step_bit_for_bit() {
+    use naic_core::model::DataN;
+    use nalgebra::SVector;
+    let robot = naic_core::robot_file::Robot::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../params/robots/panda.yaml")).unwrap();
+    let model = robot.model.clone();
+    let q_start: [f64; 7] = std::array::from_fn(|i| robot.start_q.as_ref().unwrap()[i]);
+    let mut p = ControllerParams::<7>::paper_defaults(&model, Mode::Naic, 1e-6);
+    (p.sense.median_window, p.tare_samples, p.tare_at_rest) = (3, 10, true);
+    (p.tool.mass, p.tool.com) = (robot.tool.mass, robot.tool.com);
+    p.tool.tip = robot.tip_in_sensor().unwrap();
+    let ctl = Controller::new(model.clone(), p).unwrap();
+    let (mut wa, mut wb) = (ctl.workspace(), ctl.workspace());
+    let mut data = DataN::<7>::try_new(&model).unwrap();
+    let (tip, sensor) = (model.frame_id("tip").unwrap(), model.frame_id("ft_sensor").unwrap());
+    let tool = ctl.params().tool;
+    let mut reading = |q: &[f64; 7], push: f64| -> [f64; 6] {
+        dynamics::forward_kinematics(&model, &mut data, &SVector::<f64, 7>::from(*q));
+        let r = data.frame_se3(sensor).rot;
+        let f = r.transpose() * Vector3::new(0.0, 0.0, push);
+        let m = tool.tip.cross(&f);
+        (estimate::tool_weight_wrench(&tool, &r) + Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)).into()
+    };
+    let mut fk = DataN::<7>::try_new(&model).unwrap();
+    dynamics::forward_kinematics(&model, &mut fk, &SVector::<f64, 7>::from(q_start));
+    let start = *fk.frame_se3(tip);
+    let r_d = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(start.rot));
+    let reference = Reference { p_d: start.trans - Vector3::new(0.0, 0.0, 0.01), r_d, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d: 10.0 };
+    let (mut s, mut kept) = (ctl.initial_state(), ctl.initial_state());
+    let (mut held, mut contact) = (false, false);
+    for k in 0..300 {
+        let t = k as f64 * 1e-3;
+        // At rest while taring, then moving a little; pushed with 10 N from cycle 60.
+        let moving = if k > 20 { 1.0 } else { 0.0 };
+        let q: [f64; 7] = std::array::from_fn(|i| q_start[i] + moving * 0.02 * (0.01 * k as f64 + i as f64).sin());
+        let dq: [f64; 7] = std::array::from_fn(|i| moving * 0.05 * (0.02 * k as f64 + i as f64).cos());
+        let mut wrench = reading(&q, if k >= 60 { 10.0 } else { 0.0 });
+        if k == 40 {
+            wrench[2] = f64::NAN;
+        }
+        let m = RawMeasurements { t, q, dq, joints_stamp: t, wrench, wrench_stamp: t };
+        let (next, out) = controller::step(&ctl, &s, &m, &reference, &mut wa);
+        let out_kept = controller::update(&ctl, &mut kept, &m, &reference, &mut wb);
+        // Debug prints every f64 so that it reads back to the same bits (NaN included).
+        assert_eq!(format!("{next:?}"), format!("{kept:?}"), "state after cycle {k}");
+        assert_eq!(format!("{out:?}"), format!("{out_kept:?}"), "outputs of cycle {k}");
+        held |= out.status.phase == Phase::Hold && out.status.fault.is_some();
+        contact |= out.status.phase == Phase::Contact;
+        s = next;
+    }
+    assert!(s.tare.done(10), "the tare completed");
+    assert!(held, "cycle 40 was rejected and held");
+    assert!(contact, "contact was reached");
+}

@@ -569,3 +569,27 @@ fn reused_placements_give_bit_identical_results_in_any_call_order() {
         assert!(calls.iter().all(|&c| c > 20), "{name}: every algorithm must be exercised: {calls:?}");
     }
 }
+
+/// `frame_placement` places one frame with exactly the numbers `forward_kinematics` gives
+/// it (the controller places only its sensor and tip frames), on every frame of every model
+/// and on the Panda's URDF with its many frames.
+#[test]
+fn frame_placement_is_forward_kinematics_bit_for_bit() {
+    let mut all = models();
+    all.push(("panda", Model::from_urdf_file(concat!(env!("CARGO_MANIFEST_DIR"), "/../../urdf/panda.urdf")).unwrap()));
+    let mut rng = Rng::seed(37);
+    for (name, model) in &all {
+        let (mut fk, mut one) = (Data::new(model), Data::new(model));
+        for _ in 0..20 {
+            let q = random_q(model, &mut rng);
+            dynamics::forward_kinematics(model, &mut fk, &q);
+            for (k, frame) in model.frames().iter().enumerate() {
+                let id = naic_core::model::FrameId(k);
+                let placed = *dynamics::frame_placement(model, &mut one, &q, id);
+                let want = fk.frame_se3(id);
+                let same = placed.rot.iter().chain(placed.trans.iter()).zip(want.rot.iter().chain(want.trans.iter())).all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(same, "{name}: frame {k} '{}' placed at {placed:?}, forward kinematics {want:?}", frame.name);
+            }
+        }
+    }
+}

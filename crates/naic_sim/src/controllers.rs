@@ -211,8 +211,7 @@ impl<const N: usize> SimController<N> for PipelineController<N> {
         self.delayed.rotate_right(1);
         self.delayed[0] = Some(*m);
         let m = &self.delayed[..=self.delay].iter().rev().find_map(|x| *x).unwrap_or(*m);
-        let (state, out) = pipeline::step(&self.pipeline, &self.state, m, r, &mut self.ws);
-        self.state = state;
+        let out = pipeline::update(&self.pipeline, &mut self.state, m, r, &mut self.ws);
         (out.tau, out.control.status)
     }
 }

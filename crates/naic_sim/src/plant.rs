@@ -357,7 +357,7 @@ fn observe_with_friction<const N: usize>(
         omega: v6.fixed_rows::<3>(3).into_owned(),
         alpha: a6.fixed_rows::<3>(3).into_owned(),
     };
-    dynamics::forward_kinematics(&p.model, &mut ws.data, &q);
+    // frame_jacobian placed the sensor frame at q (the numbers forward_kinematics gives it).
     let sen = *ws.data.frame_se3(p.sensor_frame);
     let r_ws = Rotation3::from_matrix_unchecked(sen.rot);
     let r_tip = pos - sen.trans;

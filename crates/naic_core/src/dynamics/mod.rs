@@ -5,6 +5,7 @@
 //! | function | computes | algorithm |
 //! | --- | --- | --- |
 //! | [`forward_kinematics`] | world pose of every joint and frame | recursive `oMi = oMλ(i) · λMi(q)` |
+//! | [`frame_placement`] | world pose of one frame | the same recursion up to the frame's parent |
 //! | [`frame_jacobian`] | `J(q)` of a frame, 6×nv | geometric columns `[ωⱼ × (p − pⱼ); ωⱼ]` (Pinocchio `getFrameJacobian`) |
 //! | [`frame_jdot_qdot`] | `J̇ q̇` of a frame | classical acceleration at `q̈ = 0`, no gravity (Pinocchio `getFrameClassicalAcceleration`) |
 //! | [`rnea`] | `τ = M q̈ + C q̇ + G` | Recursive Newton–Euler (Featherstone 2008, §5.3, table 5.1) |
@@ -127,6 +128,25 @@ where
             Some(p) => data.o_m_i[p].compose(&fr.placement),
         };
     }
+}
+
+/// World pose of one frame: the joint placements up to its parent and the frame's own, the
+/// same numbers [`forward_kinematics`] gives it, without placing the model's other frames
+/// (a URDF such as the Panda's has many). Also in `data` ([`Data::frame_se3`]).
+pub fn frame_placement<'d, D: Dim, S: Storage<f64, D>>(model: &Model, data: &'d mut Data<D>, q: &Vector<f64, D, S>, frame: FrameId) -> &'d spatial::Se3
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U6, D>,
+{
+    check(model, data, q, "q");
+    let fr = &model.frames[frame.0];
+    data.o_m_f[frame.0] = match fr.parent {
+        None => fr.placement,
+        Some(p) => {
+            joint_placements(model, data, q, p);
+            data.o_m_i[p].compose(&fr.placement)
+        }
+    };
+    &data.o_m_f[frame.0]
 }
 
 /// Jacobian of `frame` (6×nv, rows `[linear; angular]`, world-aligned at the

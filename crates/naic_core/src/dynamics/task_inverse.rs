@@ -22,7 +22,7 @@
 //! matrix is on the stack.
 
 use super::cartesian::Damping;
-use nalgebra::{Matrix6, SMatrix, SVector, Vector6};
+use nalgebra::{Cholesky, Const, Matrix6, SMatrix, SVector, Vector6};
 
 /// `J̄` and what it was built from.
 #[derive(Clone, Copy, Debug)]
@@ -40,11 +40,28 @@ pub struct TaskInverse<const N: usize> {
 /// `J̄` of the module docs, or `None` for a non-finite input, an `M` that is not
 /// positive definite, or an eigen-decomposition that fails.
 pub fn consistent_inverse<const N: usize>(j: &SMatrix<f64, 6, N>, m: &SMatrix<f64, N, N>, damping: &Damping) -> Option<TaskInverse<N>> {
-    if !j.iter().chain(m.iter()).all(|x| x.is_finite()) {
+    consistent_inverse_factored(j, m, &factor(j, m)?, damping)
+}
+
+/// The Cholesky factor of `M` [`consistent_inverse`] works with, or `None` for a non-finite
+/// `J` or `M`, or an `M` that is not positive definite. A caller that needs `M⁻¹` besides
+/// `J̄` (the null-space posture task) factorises once and passes it to
+/// [`consistent_inverse_factored`].
+pub fn factor<const N: usize>(j: &SMatrix<f64, 6, N>, m: &SMatrix<f64, N, N>) -> Option<Cholesky<f64, Const<N>>> {
+    if !(j.as_slice().iter().all(|x| x.is_finite()) && m.as_slice().iter().all(|x| x.is_finite())) {
         return None;
     }
+    m.cholesky()
+}
+
+/// [`consistent_inverse`] with `M`'s Cholesky factor `ch` from [`factor`] (the same numbers).
+pub fn consistent_inverse_factored<const N: usize>(
+    j: &SMatrix<f64, 6, N>,
+    m: &SMatrix<f64, N, N>,
+    ch: &Cholesky<f64, Const<N>>,
+    damping: &Damping,
+) -> Option<TaskInverse<N>> {
     let m_bar = m.trace() / N as f64;
-    let ch = m.cholesky()?;
     // M⁻¹ Jᵀ (N×6).
     let minv_jt = ch.solve(&j.transpose());
     let a = (j * minv_jt) * m_bar;

@@ -94,7 +94,21 @@ pub fn step<const N: usize>(
     r: &controller::Reference,
     ws: &mut controller::Workspace<N>,
 ) -> (PipelineState<N>, PipelineOutputs<N>) {
-    let (cs, control) = controller::step(&p.controller, &s.controller, m, r, ws);
+    let mut next = *s;
+    let out = update(p, &mut next, m, r, ws);
+    (next, out)
+}
+
+/// [`step`] on a state the caller keeps (this cycle's on entry, the next cycle's on return;
+/// the same numbers, without copying the state in and out: [`controller::update`]).
+pub fn update<const N: usize>(
+    p: &Pipeline<N>,
+    next: &mut PipelineState<N>,
+    m: &sense::RawMeasurements<N>,
+    r: &controller::Reference,
+    ws: &mut controller::Workspace<N>,
+) -> PipelineOutputs<N> {
+    let control = controller::update(&p.controller, &mut next.controller, m, r, ws);
     // Friction feedforward only while the measurements are valid (not in the hold), at the
     // velocity the controller names (the measured one, or the scheduled law's blend with
     // the reference: feedforward.rs).
@@ -102,6 +116,7 @@ pub fn step<const N: usize>(
         (Some(f), None) => feedforward::step(f, control.dq_ff.as_ref().unwrap_or(&control.dq), &control.tau),
         _ => control.tau,
     };
-    let (as_, report) = actuate::step(&p.actuate, &s.actuate, &tau_ff);
-    (PipelineState { controller: cs, actuate: as_ }, PipelineOutputs { tau: report.tau, control, actuate: report })
+    let (as_, report) = actuate::step(&p.actuate, &next.actuate, &tau_ff);
+    next.actuate = as_;
+    PipelineOutputs { tau: report.tau, control, actuate: report }
 }

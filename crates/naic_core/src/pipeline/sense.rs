@@ -230,11 +230,18 @@ fn median(buf: &[f64; MAX_MEDIAN_WINDOW], n: usize) -> f64 {
 /// One cycle of the sense stage. Pure: `(params, state, inputs) -> (state, outputs)`.
 /// Faulty measurements do not enter the filter history.
 pub fn step<const N: usize>(p: &SenseParams<N>, s: &SenseState<N>, m: &RawMeasurements<N>) -> (SenseState<N>, Result<Sensed<N>, Fault>) {
+    let mut next = *s;
+    let out = update(p, &mut next, m);
+    (next, out)
+}
+
+/// [`step`] on a state the caller keeps: `next` is this cycle's state on entry and the next
+/// cycle's on return (unchanged by a fault), without copying the filter history in and out.
+pub fn update<const N: usize>(p: &SenseParams<N>, next: &mut SenseState<N>, m: &RawMeasurements<N>) -> Result<Sensed<N>, Fault> {
     if let Some(f) = check(p, m) {
-        return (*s, Err(f));
+        return Err(f);
     }
     let w = p.median_window.clamp(1, MAX_MEDIAN_WINDOW);
-    let mut next = *s;
     next.hist[next.next] = m.dq;
     next.next = (next.next + 1) % w;
     next.len = (next.len + 1).min(w);
@@ -248,7 +255,7 @@ pub fn step<const N: usize>(p: &SenseParams<N>, s: &SenseState<N>, m: &RawMeasur
     }
     // `next.next` is the slot after the newest; k cycles before it is k + 1 slots back.
     let back = |k: usize| next.hist[(next.next + 2 * w - 1 - k.min(next.len - 1)) % w];
-    (next, Ok(Sensed { q: m.q, dq, dq_raw: m.dq, dq_raw_prev: [back(1), back(2)], wrench: m.wrench }))
+    Ok(Sensed { q: m.q, dq, dq_raw: m.dq, dq_raw_prev: [back(1), back(2)], wrench: m.wrench })
 }
 
 #[cfg(test)]
