@@ -56,7 +56,8 @@ def test_ros_a_rejected_parameter_sets_warning_reaches_rosout():
 def test_ros_topic_info_shows_valid_type_hashes_equal_to_rclpys():
     """`ros2 topic info -v` reads an endpoint's type hash from its discovery USER_DATA
     (`typehash=RIHS01_…;`). Every naic topic of a running chain must show a valid hash, and
-    for the standard types the one rclpy's own endpoints of that type announce (rosidl's)."""
+    for the standard types the one rclpy's own endpoints of that type announce (rosidl's).
+    Each node of the chain has one `/parameter_events` publisher, as an rclcpp node."""
     from geometry_msgs.msg import WrenchStamped
     from rcl_interfaces.msg import Log, ParameterEvent
     from sensor_msgs.msg import JointState
@@ -105,6 +106,13 @@ def test_ros_topic_info_shows_valid_type_hashes_equal_to_rclpys():
         every = every_endpoint()
         ours = {t: str(i.topic_type_hash) for t in topics for i in r.node.get_subscriptions_info_by_topic(t)
                 if i.node_name == "type_hash_probe"}
+        # One /parameter_events publisher per node, as rclcpp (issue 39); once rclpy has every
+        # node's ros_discovery_info (it names an endpoint's node from it).
+        def event_pubs_now():
+            return {n: sum(1 for i in r.node.get_publishers_info_by_topic("/parameter_events") if i.node_name == n)
+                    for n in naic_nodes}
+        r.spin_until(lambda: all(event_pubs_now().values()), 30)
+        event_pubs = event_pubs_now()
     finally:
         r.close()
         assert launch.stop(timeout=15) == 0, launch.output()[-3000:]
@@ -118,6 +126,7 @@ def test_ros_topic_info_shows_valid_type_hashes_equal_to_rclpys():
         if t in ours:
             assert h == ours[t], (t, h, ours[t])
     assert set(ours) == {t for t, ty in topics.items() if ty is not None}, ours
+    assert event_pubs == {n: 1 for n in naic_nodes}, f"/parameter_events publishers per node: {event_pubs}"
 
 
 def test_ros_robot_description_reaches_a_late_joiner():
@@ -161,7 +170,9 @@ def test_ros_parameter_events_are_volatile_as_rclcpp_offers_them():
     after the node started and after a parameter was set receives none of those old events,
     whether it asks for volatile (`ros2 topic echo` against a volatile publisher) or
     transient local; the next set reaches the volatile one (the control: the subscriber
-    works). The node's writer that carries the events announces VOLATILE."""
+    works). The node has one publisher of the topic, as an rclcpp node (ros2-client's own
+    writer carries naic's events: crates/vendor/ros2-client/PATCHED.md), and it announces
+    VOLATILE."""
     from rcl_interfaces.msg import ParameterEvent
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -203,4 +214,5 @@ def test_ros_parameter_events_are_volatile_as_rclcpp_offers_them():
           f"publishers of naic_controller: {[(i.qos_profile.durability.name) for i in pubs]}")
     assert not old_vol and not old_tl, ([m.changed_parameters for m in old_vol], [m.changed_parameters for m in old_tl])
     assert vol[len(old_vol):] and vol[-1].changed_parameters[0].name == "learning_rate", vol
-    assert any(i.qos_profile.durability == DurabilityPolicy.VOLATILE for i in pubs), pubs
+    assert len(pubs) == 1, f"naic_controller has {len(pubs)} /parameter_events publishers (rclcpp: 1): {pubs}"
+    assert pubs[0].qos_profile.durability == DurabilityPolicy.VOLATILE, pubs

@@ -374,6 +374,72 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
+    /// `naic sim --scenario flat` with the true tool given by `--tool-mass-error` and
+    /// `--tool-com-offset` (relative to the URDF's), the controller's from `tool_file` (or the
+    /// URDF's): each controller's mean force error over the last 0.2 s of each force phase.
+    fn flat_late_errors(dir: &Path, seed: u64, true_tool: (f64, Vector3<f64>), tool_file: Option<&Path>) -> Vec<(String, f64)> {
+        let urdf = naic_sim::sensor::tool_from_urdf(Path::new(&format!("{ROOT}/urdf/jk5.urdf"))).unwrap();
+        let off = true_tool.1 - urdf.1;
+        let a = crate::cmd::sim::SimArgs {
+            scenario: Some("flat".into()),
+            out: Some(dir.to_path_buf()),
+            seed: Some(seed),
+            tool_mass_error: Some(true_tool.0 / urdf.0),
+            tool_com_offset: Some(format!("{:e},{:e},{:e}", off[0], off[1], off[2])),
+            tool_file: tool_file.map(Path::to_path_buf),
+            ..Default::default()
+        };
+        crate::cmd::sim::run(a).unwrap();
+        let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("metrics.json")).unwrap()).unwrap();
+        let mut out = Vec::new();
+        for (name, c) in m["controllers"].as_object().unwrap() {
+            for (k, ph) in c["phases"].as_array().unwrap().iter().enumerate() {
+                out.push((format!("{name} phase {}", k + 1), ph["steady_state_error_n"].as_f64().unwrap()));
+            }
+        }
+        out
+    }
+
+    /// Issue 39's goal: after identification, `flat` tracks within 0.05 N of the run with the
+    /// true tool. The tool is identified from 8 simulated static poses (the sensor model's
+    /// bias, noise and resolution), written as `naic tool identify --out` writes it, and given
+    /// to `naic sim --tool-file`; the plant's sensor carries the true tool. Compared: the
+    /// mean force over the last 0.2 s of each force phase (10 N, 20 N), every controller,
+    /// seeds 1-3. The URDF's tool (the controller's without identification) is printed
+    /// alongside: on `flat` the tool points down throughout and the start-up tare absorbs
+    /// most of a wrong weight, so this goal is met by a wrong tool too.
+    #[test]
+    fn flat_with_the_identified_tool_tracks_within_0_05_n_of_the_true_tool() {
+        let dir = std::env::temp_dir().join(format!("naic_tool_flat_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let bag = dir.join("poses.mcap");
+        let truth = (0.51, Vector3::new(0.004, -0.003, 0.028));
+        sim_bag(&bag, truth.0, truth.1, &POSES);
+        let tool_yaml = dir.join("tool.yaml");
+        identify(&IdentifyArgs { out: Some(tool_yaml.clone()), ..args(&bag) }).unwrap();
+        let mut worst: f64 = 0.0;
+        let mut worst_urdf: f64 = 0.0;
+        // The true-tool run: the controller is given the true tool (a tool file saying so).
+        let true_yaml = dir.join("true.yaml");
+        std::fs::write(&true_yaml, format!("tool:\n  mass: {}\n  com: [{}, {}, {}]\n", truth.0, truth.1[0], truth.1[1], truth.1[2])).unwrap();
+        for seed in 1..=3 {
+            let t = flat_late_errors(&dir.join(format!("urdf-{seed}")), seed, truth, None);
+            let t_true = flat_late_errors(&dir.join(format!("truetool-{seed}")), seed, truth, Some(&true_yaml));
+            let t_id = flat_late_errors(&dir.join(format!("ident-{seed}")), seed, truth, Some(&tool_yaml));
+            assert_eq!(t_true.len(), t_id.len());
+            for (((name, e_true), (_, e_id)), (_, e_urdf)) in t_true.iter().zip(&t_id).zip(&t) {
+                let d = (e_id - e_true).abs();
+                let d_urdf = (e_urdf - e_true).abs();
+                eprintln!("seed {seed} {name}: identified - true {:+.4} N, URDF tool - true {:+.4} N", e_id - e_true, e_urdf - e_true);
+                worst = worst.max(d);
+                worst_urdf = worst_urdf.max(d_urdf);
+            }
+        }
+        eprintln!("largest |identified - true| {worst:.4} N (goal 0.05 N); URDF tool {worst_urdf:.4} N");
+        assert!(worst <= 0.05, "flat with the identified tool is {worst:.4} N from the true tool's run (goal: within 0.05 N)");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     #[test]
     fn bags_that_cannot_identify_a_tool_get_a_reason() {
         let dir = std::env::temp_dir().join(format!("naic_tool_id_bad_{}", std::process::id()));

@@ -8,7 +8,7 @@
 //! `get_parameters`, `get_parameter_types`, `set_parameters`, `set_parameters_atomically`,
 //! `list_parameters` and `describe_parameters` from a [`ParamTable`] on a background
 //! thread (mio poll, no busy wait) and publishes `/parameter_events` for every accepted
-//! change.
+//! change, through ros2-client's own writer of the node (one publisher per node, as rclcpp).
 
 use std::{
     collections::HashSet,
@@ -55,14 +55,6 @@ pub const QOS_LATCHED: QosProfile = QosProfile::publisher_default()
     .reliability(Reliability::Reliable { when_full: WhenFull::Fail })
     .durability(ros2_client::qos::Durability::TransientLocal)
     .history(History::KeepLast { depth: 1 });
-
-/// `/parameter_events`' QoS, as rclcpp offers it (`rmw_qos_profile_parameter_events`):
-/// reliable, volatile, keep last 1000. Volatile: a late subscriber gets no start-up events
-/// (the topic's built-in QoS in ros2-client is transient local).
-pub const QOS_PARAMETER_EVENTS: QosProfile = QosProfile::publisher_default()
-    .reliability(Reliability::Reliable { when_full: WhenFull::Fail })
-    .durability(ros2_client::qos::Durability::Volatile)
-    .history(History::KeepLast { depth: 1000 });
 
 /// ROS's sensor-data profile (`rmw_qos_profile_sensor_data`): best effort, keep last 5.
 pub const QOS_SENSOR_DATA: QosProfile =
@@ -319,7 +311,9 @@ struct ParamServices {
     describe: Srv<rcl::DescribeParametersRequest, rcl::DescribeParametersResponse>,
     context: Context,
     sightings: reply::Sightings,
-    events: Publisher<raw::ParameterEvent>,
+    /// The node's one `/parameter_events` writer, ros2-client's (rclcpp's QoS: reliable,
+    /// volatile, keep last 1000; crates/vendor/ros2-client/PATCHED.md).
+    events: Arc<Publisher<raw::ParameterEvent>>,
     /// Re-announces this participant's nodes on `ros_discovery_info` (see [`Rediscovery`]).
     rediscovery: Option<Rediscovery>,
 }
@@ -369,9 +363,7 @@ where
 
 impl ParamServices {
     fn new(node: &mut Node, context: &Context, fqn: &str, rediscover: bool) -> Result<Self, RosError> {
-        let events = node
-            .create_publisher(&context.get_parameter_events_topic(), Some(QOS_PARAMETER_EVENTS))
-            .map_err(|e| RosError::Dds(format!("cannot publish /parameter_events: {e:?}")))?;
+        let events = node.parameter_events_publisher();
         Ok(ParamServices {
             get: server(node, fqn, "get_parameters", "GetParameters")?,
             types: server(node, fqn, "get_parameter_types", "GetParameterTypes")?,

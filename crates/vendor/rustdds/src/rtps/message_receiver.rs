@@ -354,7 +354,12 @@ impl MessageReceiver {
                  message decoding."
               )
             }
-            Err(e) => return error!("{e:?}"),
+            Err(e) => {
+              return error!(
+                "Decoding an RTPS message from participant {:?} failed: {e:?}",
+                self.source_guid_prefix
+              )
+            }
           }
         } else {
           if security_plugins.rtps_not_protected(&self.dest_guid_prefix) {
@@ -718,7 +723,12 @@ impl MessageReceiver {
               source_guid,
               &reader.guid(),
             )
-            .map_err(|e| error!("{e:?}")),
+            .map_err(|e| {
+              error!(
+                "Decoding the payload from writer {source_guid:?} for reader {:?} failed: {e:?}",
+                reader.guid()
+              )
+            }),
           None => Ok(encoded_payload),
         },
       )
@@ -793,7 +803,13 @@ impl MessageReceiver {
             source_guid,
             &reader.guid(),
           )
-          .map_err(|e| error!("{e:?}"))
+          .map_err(|e| {
+            error!(
+              "Decoding the payload fragment from writer {source_guid:?} for reader {:?} failed: \
+               {e:?}",
+              reader.guid()
+            )
+          })
       }
       None => Ok(encoded_payload),
     }

@@ -762,6 +762,41 @@ impl CryptoTransform for CryptographicBuiltin {
     _receiving_datareader_crypto_handle: DatareaderCryptoHandle,
     sending_datawriter_crypto_handle: DatawriterCryptoHandle,
   ) -> SecurityResult<Vec<u8>> {
+    // naic patch (crates/vendor/rustdds/PATCHED.md, "Padded protected payloads"): a DATA
+    // submessage's payload is written padded to a multiple of 4 octets (`Data`'s writer,
+    // messages/submessages/data.rs), and the reader takes the rest of the submessage,
+    // padding included, as the payload. The padding of an encoded payload follows its
+    // CryptoFooter, which is found from the end of the buffer: with 1-3 octets of padding
+    // the footer was read shifted and the MAC never matched (every payload whose
+    // plaintext length is not a multiple of 4 was dropped: e.g. most service requests and
+    // replies). The padding is 0-3 zero octets; try the lengths without it, longest first.
+    let mut result =
+      self.decode_serialized_payload_exact(&encoded_buffer, sending_datawriter_crypto_handle);
+    let mut pad = 1;
+    while result.is_err() && pad <= 3 && pad <= encoded_buffer.len() {
+      let (unpadded, padding) = encoded_buffer.split_at(encoded_buffer.len() - pad);
+      if padding.iter().any(|b| *b != 0) {
+        break;
+      }
+      if let Ok(plain) =
+        self.decode_serialized_payload_exact(unpadded, sending_datawriter_crypto_handle)
+      {
+        result = Ok(plain);
+      }
+      pad += 1;
+    }
+    result
+  }
+}
+
+impl CryptographicBuiltin {
+  /// `decode_serialized_payload` of an encoded payload of exactly `encoded_buffer`'s length
+  /// (no trailing padding).
+  fn decode_serialized_payload_exact(
+    &self,
+    encoded_buffer: &[u8],
+    sending_datawriter_crypto_handle: DatawriterCryptoHandle,
+  ) -> SecurityResult<Vec<u8>> {
     // According to DDS Security spec v1.1 Section
     // "9.5.3.3.4.4 Result from encode_serialized_payload"
     // the incoming data buffer is either
