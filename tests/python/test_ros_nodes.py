@@ -119,7 +119,7 @@ def test_ros_parameters_list_get_describe_set(suite):
         assert p in names, f"{p} not declared: {names}"
     vals = r.wait(c.get_parameters(["desired_force", "mode", "m_d"])).values
     assert vals[0].double_value == 10.0
-    assert vals[1].string_value == "naic"
+    assert vals[1].string_value == "scheduled", "the default law is the recommended one (docs/controller.md)"
     assert list(vals[2].double_array_value) == [1.0] * 6
     d = r.wait(c.describe_parameters(["learning_rate", "mode", "m_d"])).descriptors
     assert d[0].name == "learning_rate" and "eq 15" in d[0].description
