@@ -357,10 +357,14 @@ fn run_bench(a: &ExplainArgs) -> CliResult {
     let gen_s = t0.elapsed().as_secs_f64();
     let opts = ExplainOptions { urdf: a.urdf.clone(), tip_frame: a.tip.clone(), ..Default::default() };
     let t1 = Instant::now();
+    let cpu1 = process_cpu_s();
     let ex = naic_explain::explain_series("bench", input::Kind::TimeSeries, &g.ts, &opts, &progress).map_err(err)?;
     let series_s = t1.elapsed().as_secs_f64();
     let fs = report::findings(&ex);
     let analyse_s = t1.elapsed().as_secs_f64();
+    // CPU time of the analysis, all its threads: the wall time on a core of one's own is at
+    // least this over the thread count, and does not grow with other processes' load
+    let analyse_cpu_s = process_cpu_s().zip(cpu1).map(|(b, a)| b - a);
     if let Some(out) = &a.out {
         report::write_all(&ex, out).map_err(err)?;
     }
@@ -372,6 +376,9 @@ fn run_bench(a: &ExplainArgs) -> CliResult {
     if !a.quiet {
         for (name, s) in &stages {
             eprintln!("  {s:7.3} s  {name}");
+        }
+        if let Some(c) = analyse_cpu_s {
+            eprintln!("  {analyse_s:7.3} s  the analysis, wall; {c:.3} s of CPU on {} threads", opts.threads);
         }
     }
     // Reference 1, measured in the same run: one RNEA(q, dq, 0) per raw sample, the least
@@ -413,6 +420,7 @@ fn run_bench(a: &ExplainArgs) -> CliResult {
         "generate_s": gen_s,
         "analyse_s": analyse_s,
         "analyse_s_per_hour": analyse_s / hours,
+        "analyse_cpu_s": analyse_cpu_s,
         "stages_s": stages.iter().map(|(n, s)| serde_json::json!({"stage": n, "s": s})).collect::<Vec<_>>(),
         "threads": opts.threads,
         "reference_rnea_every_sample_s": reference_s,
@@ -534,6 +542,17 @@ enum NumpySkipped {
 }
 
 /// The 1-minute load average (`/proc/loadavg`), to say how busy the machine was.
+/// User + system CPU time of this process, all threads [s] (`getrusage`).
+fn process_cpu_s() -> Option<f64> {
+    // SAFETY: getrusage writes one `rusage` into the zeroed struct it is given.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut ru) } != 0 {
+        return None;
+    }
+    let s = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    Some(s(ru.ru_utime) + s(ru.ru_stime))
+}
+
 fn load_average() -> Option<f64> {
     std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
 }
