@@ -88,6 +88,17 @@ pub fn update(theta: &mut Vec5, p: &mut Mat5, ph: &Vec5, u: Update, mask: &[bool
     *p = symmetric(out);
 }
 
+/// The estimate projected onto the constraint `θ_i = v` (an active inequality), weighted by
+/// `P⁻¹`: `θ ← θ − P e_i (θ_i − v) / P_ii`, so that the states correlated with `θ_i` move
+/// with it (the constrained Kalman filter's estimate projection).
+pub fn project(theta: &mut Vec5, p: &Mat5, i: usize, v: f64) {
+    let d = (theta[i] - v) / p[i][i];
+    for (j, t) in theta.iter_mut().enumerate() {
+        *t -= p[j][i] * d;
+    }
+    theta[i] = v;
+}
+
 /// `P ← P + σ² g gᵀ`: reopen the covariance along `g`.
 pub fn reopen(p: &mut Mat5, g: &Vec5, var: f64) {
     for (row, gi) in p.iter_mut().zip(g) {

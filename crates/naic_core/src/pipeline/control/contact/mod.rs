@@ -82,20 +82,36 @@
 //! `jump_cycles` such samples in a row the contact has changed, in one of two ways: the
 //! material (the covariance reopened along `[1, x̂_e − x₀, 0, 0, 0] σ_k0`: the stiffness
 //! changes, the surface stays where it was) or the surface's speed (`ẋ_e`'s variance back to
-//! `v_e,max²`). From the state before the
-//! first held sample, the held samples are filtered again with `k_e` reopened and with `ẋ_e`
-//! reopened (one degree of freedom each), and the one with the larger likelihood
-//! `Σ −½ (ν²/S + ln S)` is kept (a surface that starts to move is not a softer material). The
-//! other hypothesis runs on beside it until one is 100 times likelier or for 0.1 s, the
-//! likelier is kept at every sample, and the bounds cover both while both are open. Decided
-//! for a new material, `μ` and `b_e` get their priors' variance back too. A held sample
-//! followed by an ordinary one was an outlier and is dropped.
+//! `v_e,max²`, and for the 0.1 s decision window a manoeuvre: `ẋ_e`'s random walk gets
+//! `v_e,max² / 0.1 s` more, a speed change of up to `v_e,max` within the window, because a
+//! surface that starts to move keeps accelerating after the jump is seen). From the state
+//! before the first held sample, the held samples are filtered again with `k_e` reopened and
+//! with `ẋ_e` reopened (one degree of freedom each); the one with the larger likelihood
+//! `Σ −½ (ν²/S + ln S)` is reported first. The held samples do not decide: a reopened `k_e`
+//! explains an offset at once, a speed only through its integral, so on a surface that starts
+//! to move the held samples favour a softer material. Both hypotheses run on side by side,
+//! their likelihoods counted from the first sample after the held ones, until one is 100 times
+//! likelier or for 0.1 s; the likelier is reported at every sample, and the bounds cover both
+//! while both are open. Decided for a new material, `μ` and `b_e` get their priors' variance
+//! back too. A held sample followed by an ordinary one was an outlier and is dropped.
+//!
+//! # Constraints
+//!
+//! A passive surface has `μ ≥ 0` and `b_e ≥ 0`. Where an update leaves either below zero, the
+//! estimate is projected onto the constraint weighted by `P⁻¹` (`θ ← θ − P e_i θ_i / P_ii`): the
+//! states correlated with it move with it (the constrained Kalman filter's estimate
+//! projection). Without it, on a surface that starts to move, `b̂_e` took up the difference
+//! between the tip's speed and the lagging surface-speed estimate, ran to −400 N·s/m and,
+//! through the term `b_e ẋ_e`, drove `ẋ̂_e` the wrong way.
 //!
 //! # Bounds
 //!
-//! `k̄ = k̂ + z σ_k` and `μ̄ = μ̂ + z σ_μ` from the covariance; the covariance shrinks only with
-//! data, so the bounds fall only on evidence (they rise slowly by the random walks).
-//! Lacking a contact the estimate is the prior's.
+//! `k̄ = k̂ + w`, `k_lower = max(k̂ − w, 0)` with `w = z σ_k + k̂ / z_x²`: the posterior's `z σ`
+//! from the covariance plus the errors-in-variables bias the excitation gate admits (`1/z_x²`
+//! of the estimate: the floor from the noise model). `μ̄ = μ̂ + z σ_μ` (its regressor, the
+//! commanded push, is exact). The covariance shrinks only with data, so the bounds fall only
+//! on evidence (they rise slowly by the random walks). Lacking a contact the estimate is the
+//! prior's.
 
 pub mod kalman;
 pub mod params;
@@ -176,6 +192,8 @@ pub struct ContactState {
     /// surface's speed (else the material).
     pub jumps: u32,
     pub surface_moved: bool,
+    /// Time since the last jump [s] (module docs, "Jumps": the surface's manoeuvre).
+    pub since_jump: f64,
     /// θ and P before the first held sample's update.
     pre_hold: (Vec5, Mat5),
     /// The other hypothesis of the last jump while it is still open (module docs, "Jumps").
@@ -204,6 +222,7 @@ impl Default for ContactState {
             n_hist: 0,
             jumps: 0,
             surface_moved: false,
+            since_jump: f64::INFINITY,
             pre_hold: ([0.0; N], [[0.0; N]; N]),
             alt: None,
             nu: 0.0,
@@ -260,7 +279,8 @@ fn estimate_one(p: &ContactParams, s: &ContactState) -> ContactEstimate {
     let k = s.theta[K];
     let sk = s.p[K][K].max(0.0).sqrt();
     let k_hat = k.max(0.0);
-    let up = k_hat + p.z * sk;
+    let w = half_width(p, k_hat, sk);
+    let up = k_hat + w;
     let k_upper = if k_hat <= p.k_max { up.min(p.k_max) } else { up };
     let x_e = if k > 1e-9 { s.x0 + s.theta[C] / k } else { s.x0 };
     let mu = s.theta[MU];
@@ -269,12 +289,18 @@ fn estimate_one(p: &ContactParams, s: &ContactState) -> ContactEstimate {
     ContactEstimate {
         k_hat,
         k_upper: k_upper.max(k_hat),
-        k_lower: (k - p.z * sk).max(0.0),
+        k_lower: (k - w).max(0.0),
         x_e,
         x_e_dot: s.theta[W],
         mu_hat,
         mu_upper: (mu + p.z * smu).clamp(mu_hat, 1.0),
     }
+}
+
+/// The half-width of the stiffness bounds: `z σ_k` from the covariance plus the
+/// errors-in-variables bias the excitation gate admits, `k̂ / z_x²` (module docs, "Bounds").
+fn half_width(p: &ContactParams, k_hat: f64, sk: f64) -> f64 {
+    p.z * sk + k_hat / (p.z_x * p.z_x)
 }
 
 /// The inputs are usable (finite, positive period and noise, delay in range).
@@ -335,6 +361,7 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
         return (n, estimate(p, &n, i.x));
     }
     n.t += i.dt;
+    n.since_jump += i.dt;
     // prediction
     let q = process_noise(p, &n, i.dt);
     kalman::predict(&mut n.theta, &mut n.p, i.dt, &q);
@@ -358,7 +385,7 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
     let sample = [xc, va, ua, i.f];
     if let Some(mut a) = n.alt {
         // both hypotheses of the last jump on this sample; the likelier is kept
-        let mut h = ContactState { theta: a.theta, p: a.p, alt: None, ..n };
+        let mut h = ContactState { theta: a.theta, p: a.p, alt: None, surface_moved: a.moved, ..n };
         let q = process_noise(p, &h, i.dt);
         kalman::predict(&mut h.theta, &mut h.p, i.dt, &q);
         let l_alt = apply(p, &mut h, sample, i.sigma_f, sigma_x, sigma_v);
@@ -400,13 +427,16 @@ pub fn step(p: &ContactParams, s: &ContactState, i: &ContactInputs) -> (ContactS
                 let m = n.n_held;
                 n.n_held = 0;
                 n.jumps += 1;
+                n.since_jump = 0.0;
                 // one degree of freedom each: which changed, k_e or ẋ_e?
                 let (stiffer, l_k) = refilter(p, &n, m, Reopen::Stiffness, i, sigma_x, sigma_v);
                 let (moved, l_w) = refilter(p, &n, m, Reopen::SurfaceSpeed, i, sigma_x, sigma_v);
                 let (keep, other) = if l_w > l_k { (moved, stiffer) } else { (stiffer, moved) };
                 n = keep;
                 n.surface_moved = l_w > l_k;
-                n.alt = Some(Alt { theta: other.theta, p: other.p, ll: -(l_w - l_k).abs(), t: 0.0, moved: l_w <= l_k });
+                // the held samples choose which is reported first, but the decision is left to
+                // the samples after them (module docs, "Jumps")
+                n.alt = Some(Alt { theta: other.theta, p: other.p, ll: 0.0, t: 0.0, moved: l_w <= l_k });
             }
             return (n, estimate(p, &n, i.x));
         }
@@ -431,6 +461,8 @@ fn refilter(p: &ContactParams, n: &ContactState, m: usize, what: Reopen, i: &Con
     let [s_k0, _, _] = prior_sigmas(p);
     let mut h = *n;
     (h.theta, h.p) = n.pre_hold;
+    h.surface_moved = what == Reopen::SurfaceSpeed;
+    h.since_jump = 0.0;
     if what == Reopen::SurfaceSpeed {
         h.p[W][W] += p.surface_speed * p.surface_speed;
     } else {
@@ -459,6 +491,11 @@ fn process_noise(p: &ContactParams, n: &ContactState, dt: f64) -> Vec5 {
     q[B] = p.b_max * p.b_max * rho2;
     if n.released {
         q[W] = p.surface_accel * p.surface_accel * dt;
+        if n.surface_moved && n.since_jump < DECIDE_S {
+            // the surface's manoeuvre: a speed change of up to v_e,max within the decision
+            // window after a jump taken for the surface's speed
+            q[W] += p.surface_speed * p.surface_speed / DECIDE_S * dt;
+        }
     }
     q
 }
@@ -474,6 +511,7 @@ fn start(p: &ContactParams, n: &mut ContactState, x: f64, v: f64, u: f64, f: f64
     n.t = 0.0;
     n.n_held = 0;
     n.jumps = 0;
+    n.since_jump = f64::INFINITY;
     n.alt = None;
     // at x = x₀: f = −c + μ u + b ẋ
     n.theta = [0.5 * p.k_max, -(f - mu0 * u - b0 * v), 0.0, mu0, b0];
@@ -511,6 +549,12 @@ fn apply(p: &ContactParams, n: &mut ContactState, smp: [f64; 4], sigma_f: f64, s
     let ex_b = eff(B) > p.z_x * sigma_v;
     let mask = [ex_k, true, n.released, ex_mu, true];
     kalman::update(&mut n.theta, &mut n.p, &ph, upd, &mask);
+    // a passive surface: μ ≥ 0, b_e ≥ 0 (module docs, "Constraints")
+    for i in [MU, B] {
+        if n.theta[i] < 0.0 && n.p[i][i] > 0.0 {
+            kalman::project(&mut n.theta, &n.p, i, 0.0);
+        }
+    }
     if !n.theta.iter().all(|v| v.is_finite()) {
         // numerical failure: back to the prior at this sample (fails safe: k̄ = k_max)
         let x0 = n.x0;

@@ -31,8 +31,10 @@ pub struct ContactParams {
     /// (the prior of `ẋ_e`). Default 0.02 (issue 42's fastest moving surface).
     pub surface_speed: f64,
     /// `a_e` [m/s²·√s], [0, 100]: random-walk intensity of the surface speed (its change
-    /// over `t` seconds has σ `a_e √t`). Default 0.1 (a surface reaching 20 mm/s within
-    /// 40 ms has σ 20 mm/s after those 40 ms).
+    /// over `t` seconds has σ `a_e √t`). Default 0.003 (3 mm/s in 1 s, 23 mm/s in 60 s): a
+    /// surface that starts to move is followed through the jump test and its manoeuvre
+    /// (module docs, "Jumps"); a faster walk lets `k_e` and `x_e` trade along the direction
+    /// the data at rest leaves unobserved (`k_e (x − x_e)` = const).
     pub surface_accel: f64,
     /// `ρ` [1/√s], [0, 1]: random-walk intensity of the parameters (k_e relative, μ absolute,
     /// b_e relative to `b_max`): without evidence `σ_k/k̂` grows by `ρ √t`. Default 0.01

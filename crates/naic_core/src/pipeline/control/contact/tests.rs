@@ -230,11 +230,13 @@ fn within_10_percent_0_2_s_after_contact() {
     within_at_0_2_s(&[2000.0, 50_000.0, 200_000.0]);
 }
 
-/// (a) at 300 and 20 000 N/m: not met on every seed yet (16.6 % and 12.8 % worst): k_e
-/// trades with the surface damping during the impact and, on the soft surface, with a
-/// surface speed while the tip still moves at an almost constant speed.
+/// (a) at 300 and 20 000 N/m: not met on every seed yet: the run carries too little
+/// information by 0.2 s (the tip settles within 50 ms and stays still; the posterior's σ_k is
+/// 4–5 %, so a 10 % error is a 2–2.5 σ draw): k_e trades with the surface damping during the
+/// impact and, on the soft surface, with a surface speed while the tip still moves at an
+/// almost constant speed.
 #[test]
-#[ignore = "goal not met yet at 300 and 20 000 N/m on every seed (worst of seeds 1–10: 11.4 %, 11.9 %)"]
+#[ignore = "goal not met yet at 300 and 20 000 N/m on every seed (worst of seeds 1–5: 12.5 %, 11.8 %; of 6–10: 7.1 %, 7.5 %)"]
 fn within_10_percent_0_2_s_after_contact_soft_and_mid() {
     within_at_0_2_s(&[300.0, 20_000.0]);
 }
@@ -257,7 +259,7 @@ fn within_at_0_2_s(stiffnesses: &[f64]) {
 fn within_10_percent_after_60_s_of_steady_contact() {
     let p = ContactParams::default();
     for k in [2000.0, 50_000.0, 200_000.0] {
-        for seed in [1, 6] {
+        for seed in 1..=10 {
             let r = run(&Case { delay: 2, ..Case::still(spring(k), 60.5) }, seed, &p);
             let mut worst = 0.0f64;
             for row in r.rows.iter().filter(|row| row.0 >= 0.2) {
@@ -273,22 +275,27 @@ fn within_10_percent_after_60_s_of_steady_contact() {
 /// k̂ within 10 % through 3 s of motion, and the surface speed estimated.
 #[test]
 fn no_collapse_on_a_surface_moving_at_5_mm_per_s() {
-    moving_surface(&[0.005, -0.005]);
+    moving_surface(&[2000.0, 8000.0, 50_000.0], &[0.005, -0.005]);
 }
 
-/// (c) The same at 20 mm/s: not met yet (worst k̂ error 17 % at 2000 N/m, 100 % at 8000 N/m
-/// on seeds 1–5, 25 % at 50 000 N/m held out).
+/// (c) The same at 20 mm/s, 8000 N/m (the slope case) and 50 000 N/m.
 #[test]
-#[ignore = "goal not met yet: at 20 mm/s k̂ leaves the 10 % band (8000 N/m collapses on seeds 1–5)"]
 fn no_collapse_on_a_surface_moving_at_20_mm_per_s() {
-    moving_surface(&[0.02, -0.02]);
+    moving_surface(&[8000.0, 50_000.0], &[0.02, -0.02]);
 }
 
-fn moving_surface(speeds: &[f64]) {
+/// (c) at 20 mm/s on 2000 N/m: not met on every seed.
+#[test]
+#[ignore = "goal not met yet at 2000 N/m, 20 mm/s (worst k̂ error 13.6 % on seeds 1–5, 14.4 % on 6–10, at -20 mm/s)"]
+fn no_collapse_on_a_soft_surface_moving_at_20_mm_per_s() {
+    moving_surface(&[2000.0], &[0.02, -0.02]);
+}
+
+fn moving_surface(stiffnesses: &[f64], speeds: &[f64]) {
     let p = ContactParams::default();
-    for k in [2000.0, 8000.0, 50_000.0] {
+    for &k in stiffnesses {
         for &v_e in speeds {
-            for seed in [1, 7] {
+            for seed in 1..=10 {
                 let case = Case { v_e, t_move: 0.3, ..Case::still(spring(k), 3.5) };
                 let r = run(&case, seed, &p);
                 let mut worst = 0.0f64;
@@ -320,24 +327,27 @@ fn a_jump_from_acrylic_to_foam_is_re_estimated_within_0_1_s() {
 }
 
 /// (e) MuJoCo's soft constraint: μ̂ within 0.1 of the true μ and k̂ within 10 % of μ D k d,
-/// 0.2 s after contact, for μ 0.2 and 0.9 and stiffness 2000 – 200 000 N/m.
+/// 0.2 s after contact (and at 0.95 s), for μ 0.2 and 0.9 and stiffness 300 – 200 000 N/m,
+/// but 20 000 N/m at μ 0.2 (below).
 #[test]
 fn mujoco_soft_contact_feed_through_and_stiffness() {
-    mujoco_goal(&STIFFNESSES[1..]);
+    let mut cases: Vec<(f64, f64)> = STIFFNESSES.iter().flat_map(|&k| [(k, 0.2), (k, 0.9)]).collect();
+    cases.retain(|&c| c != (20_000.0, 0.2));
+    mujoco_goal(&cases);
 }
 
-/// (e) at 300 N/m: k̂ up to 12.3 % off at μ 0.2 (seeds 1–5).
+/// (e) at 20 000 N/m, μ 0.2: not met on every seed.
 #[test]
-#[ignore = "goal not met on every seed at 300 N/m, μ 0.2 (12.3 % worst of seeds 1–5; this test's seeds 1 and 8 pass)"]
-fn mujoco_soft_contact_at_300_n_per_m() {
-    mujoco_goal(&STIFFNESSES[..1]);
+#[ignore = "goal not met on every seed at 20 000 N/m, μ 0.2 (k̂ 11.6 % off on seeds 1–5; 7.1 % on 6–10)"]
+fn mujoco_soft_contact_at_20000_n_per_m_mu_0_2() {
+    mujoco_goal(&[(20_000.0, 0.2)]);
 }
 
-fn mujoco_goal(stiffnesses: &[f64]) {
+fn mujoco_goal(cases: &[(f64, f64)]) {
     let p = ContactParams::default();
-    for &k in stiffnesses {
-        for mu in [0.2, 0.9] {
-            for seed in [1, 8] {
+    for &(k, mu) in cases {
+        {
+            for seed in 1..=10 {
                 let s = mujoco(k, mu);
                 let (mu_t, k_t, _) = s.truth();
                 assert!((mu_t - mu).abs() < 1e-12 && rel(k_t, k) < 1e-12);
@@ -430,6 +440,101 @@ fn goal_table() {
             }
         }
     }
+}
+
+/// The bound cases: every goal case (still springs, 60 s, moving surfaces, the jump, MuJoCo's
+/// law), each with the time from which its bounds are scored (0.2 s after contact; after
+/// a jump, 0.1 s after the switch as well).
+fn bound_cases() -> Vec<(String, Case, f64)> {
+    let mut v = Vec::new();
+    for k in STIFFNESSES {
+        v.push((format!("spring {k}"), Case::still(spring(k), 1.0), 0.2));
+        for mu in [0.2, 0.9] {
+            v.push((format!("MuJoCo law {k}, μ {mu}"), Case::still(mujoco(k, mu), 1.0), 0.2));
+        }
+    }
+    for k in [2000.0, 50_000.0, 200_000.0] {
+        v.push((format!("spring {k}, 60 s, d = 2"), Case { delay: 2, ..Case::still(spring(k), 60.5) }, 0.2));
+    }
+    for k in [2000.0, 8000.0, 50_000.0] {
+        for v_e in [0.005, -0.005, 0.02, -0.02] {
+            v.push((format!("spring {k}, {} mm/s", v_e * 1e3), Case { v_e, t_move: 0.3, ..Case::still(spring(k), 3.5) }, 0.2));
+        }
+    }
+    v.push(("jump 50 000 → 2000".into(), Case { jump: Some((1.0, spring(2000.0))), ..Case::still(spring(50_000.0), 1.5) }, 0.2));
+    v
+}
+
+/// The bounds hold: over seeds 1–10, in every bound case whose estimate goal is met (all
+/// but 2000 N/m at ±20 mm/s), the true k_e is outside `[k_lower, k_upper]` in at most
+/// `MAX_OUTSIDE` of the cycles from 0.2 s after contact (after a jump: from 0.1 s after the
+/// switch), and the true μ above μ̄ as rarely.
+#[test]
+fn the_bounds_hold_in_the_goal_cases() {
+    let p = ContactParams::default();
+    for (name, case, from) in bound_cases() {
+        if name.starts_with("spring 2000, ") && name.contains("20 mm/s") {
+            continue;
+        }
+        let (mut ko, mut mo, mut n) = (0, 0, 0);
+        for sd in 1..=10 {
+            let r = run(&case, sd, &p);
+            let (a, b) = scored(&r, &case, from, &mut n);
+            ko += a;
+            mo += b;
+        }
+        let (fk, fm) = (ko as f64 / n as f64, mo as f64 / n as f64);
+        assert!(fk <= MAX_OUTSIDE && fm <= MAX_OUTSIDE, "{name}: k_e outside its bounds in {:.2} % of the cycles, μ above μ̄ in {:.2} %", 100.0 * fk, 100.0 * fm);
+    }
+}
+
+/// The level of [`the_bounds_hold_in_the_goal_cases`]: the two-sided Gaussian tail at
+/// z = 3, 0.27 % of the cycles.
+const MAX_OUTSIDE: f64 = 0.0027;
+
+/// The cycles of a run scored for the bounds (from `from` after contact, and not within 0.1 s
+/// after a jump): returns (k_e outside, μ above μ̄) and adds the cycles scored to `n`.
+fn scored(r: &Run, case: &Case, from: f64, n: &mut usize) -> (usize, usize) {
+    let skip = case.jump.map(|(tj, _)| (tj - r.t_contact, tj - r.t_contact + 0.1));
+    let rows: Vec<_> = r.rows.iter().filter(|row| row.0 >= from && skip.map_or(true, |(a, b)| row.0 < a || row.0 >= b)).collect();
+    *n += rows.len();
+    (
+        rows.iter().filter(|row| row.2 < row.1.k_lower || row.2 > row.1.k_upper).count(),
+        rows.iter().filter(|row| row.3 > row.1.mu_upper).count(),
+    )
+}
+
+/// The bounds' coverage per case over seeds 1–5 and 6–10 (`--ignored --nocapture`).
+#[test]
+#[ignore]
+fn bound_table() {
+    let p = params_from_env();
+    println!("| case | k_e outside [k_lower, k_upper], seeds 1–5 / 6–10 | μ > μ̄, 1–5 / 6–10 |");
+    let (mut tk, mut tm, mut tn) = ([0usize; 2], [0usize; 2], [0usize; 2]);
+    for (name, case, from) in bound_cases() {
+        let mut cells = Vec::new();
+        for (h, seeds) in [1..=5u64, 6..=10u64].into_iter().enumerate() {
+            let (mut ko, mut mo, mut n) = (0, 0, 0);
+            for sd in seeds {
+                let r = run(&case, sd, &p);
+                let (a, b) = scored(&r, &case, from, &mut n);
+                ko += a;
+                mo += b;
+            }
+            tk[h] += ko;
+            tm[h] += mo;
+            tn[h] += n;
+            cells.push((100.0 * ko as f64 / n as f64, 100.0 * mo as f64 / n as f64));
+        }
+        println!("| {name} | {:.2} / {:.2} % | {:.2} / {:.2} % |", cells[0].0, cells[1].0, cells[0].1, cells[1].1);
+    }
+    println!(
+        "| all | {:.3} / {:.3} % | {:.3} / {:.3} % |",
+        100.0 * tk[0] as f64 / tn[0] as f64,
+        100.0 * tk[1] as f64 / tn[1] as f64,
+        100.0 * tm[0] as f64 / tn[0] as f64,
+        100.0 * tm[1] as f64 / tn[1] as f64
+    );
 }
 
 /// A trace of one run for diagnosis (`CONTACT_TRACE=k,mu,v_e,seed,delay,duration`).
