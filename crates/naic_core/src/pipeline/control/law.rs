@@ -437,3 +437,90 @@ impl ForceAxis {
         self.n[ax].signum() * z
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::control::{ContactDetect, ForceLimit};
+    use crate::pipeline::control::force_law::{ForceLawParams, WeightBounds};
+
+    fn params(mode: Mode, surface: Option<f64>) -> ControlParams {
+        let mut fl = ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: 50.0, scheduled: Default::default(), derived: Default::default() };
+        fl.scheduled.approach.expected_surface = surface;
+        ControlParams {
+            impedance: ImpedanceParams { m_d: [1.0; 6], b_d: [40.0; 6], k_free: [50.0; 6], k_contact: [100.0; 6] },
+            force_axis: ForceAxis::base(2, -1.0),
+            force_law: fl,
+            contact: ContactDetect { enter_n: 1.0, scheduled_enter_n: 0.5, exit_n: 0.2, exit_cycles: 0 },
+            force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
+        }
+    }
+
+    /// The derived law's free-space target speed along n (`x` the tip along n, the reference
+    /// 3 cm beyond the surface at 0) and the approach's reported bound.
+    fn target_speed(p: &ControlParams, x: f64, f_d: f64) -> f64 {
+        let s = super::super::ControlState::new(p);
+        let u = AxisInputs {
+            regime: Regime::Free,
+            prev_phase: Phase::Free,
+            entered: false,
+            x,
+            x_dot: 0.0,
+            e: 0.03 - x,
+            e_dot: 0.0,
+            v_d: 0.0,
+            a_d: 0.0,
+            f_ext: 0.0,
+            f_d,
+            v_n: 0.0,
+            free_m: 1.0,
+            free_b: 40.0,
+            free_k: 50.0,
+            surface_n: surface_along(p),
+            pre: Prepared::default(),
+        };
+        let (_, _, _, out) = step(p, &s.law, &s.sched, &s.derived, &u);
+        out.v_ref.expect("the derived law names its approach speed")
+    }
+
+    /// Item 5 of issue 42: within the band of an expected surface the derived law approaches
+    /// at `ε f_d / (k̄ (d + ½) T)`, so a first contact on the stiffest surface the estimate
+    /// allows adds at most `ε f_d` before the loop reacts; outside the band, and with no
+    /// expected surface, at the free-space servo's speed (at most `approach_speed`).
+    #[test]
+    fn the_derived_approach_bounds_the_impact_near_an_expected_surface() {
+        for (d, f_d) in [(1.0, 10.0), (2.0, 10.0), (2.0, 3.0), (0.0, 20.0)] {
+            let mut p = params(Mode::Derived, Some(0.0));
+            p.force_law.derived.delay_cycles = d;
+            let dp = &p.force_law.derived;
+            let k = dp.contact.k_max;
+            let v_band = target_speed(&p, -0.005, f_d);
+            let rise = derived::impact_bound(dp, v_band, k, 1e-3);
+            assert!((rise - dp.impact_fraction * f_d).abs() < 1e-9, "d {d}, f_d {f_d}: impact {rise} N at {v_band} m/s");
+            assert!((v_band - dp.impact_fraction * f_d / (k * (d + 0.5) * 1e-3)).abs() < 1e-12);
+            // Before the band: the impedance's own approach (50/40 × the 3.5 cm to the reference).
+            let v_far = target_speed(&p, -0.015, f_d);
+            assert!((v_far - 1.25 * 0.045).abs() < 1e-9 && v_far > v_band, "d {d}: {v_far} m/s");
+        }
+        // No expected surface (scenario none): the guarded approach at the servo's speed,
+        // its impact bound reported; the other laws report none.
+        let p = params(Mode::Derived, None);
+        assert!((target_speed(&p, -0.005, 10.0) - 1.25 * 0.035).abs() < 1e-9);
+        let line = approach_report(&p, 10.0).expect("derived reports its approach");
+        let bound = derived::impact_bound(&p.force_law.derived, p.force_law.scheduled.approach.max_speed, p.force_law.derived.contact.k_max, 1e-3);
+        assert!(line.contains("approach_speed") && line.contains(&format!("{bound:.2} N")), "{line}");
+        assert!(approach_report(&params(Mode::Derived, Some(0.0)), 10.0).unwrap().contains("within approach_band"));
+        for m in [Mode::Naic, Mode::Aic, Mode::Fixed, Mode::Scheduled] {
+            assert_eq!(approach_report(&params(m, None), 10.0), None, "{m:?}");
+        }
+    }
+
+    /// With no force target (`f_d ≤ 0`) nothing bounds the speed but `approach_speed`.
+    #[test]
+    fn the_impact_speed_needs_a_force_target() {
+        let dp = derived::DerivedParams::default();
+        assert_eq!(derived::impact_speed(&dp, 0.0, 1e5, 1e-3), f64::INFINITY);
+        assert_eq!(derived::impact_speed(&dp, 10.0, 0.0, 1e-3), f64::INFINITY);
+        assert!(derived::impact_speed(&dp, 10.0, 1e5, 1e-3).is_finite());
+    }
+}
