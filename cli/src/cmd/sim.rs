@@ -121,7 +121,8 @@ pub struct SimArgs {
     /// the goals of issue 12 and the plots; medians of --seeds seeds [default: 5].
     #[arg(long)]
     pub table: bool,
-    /// Run the held-out protocol of issue 42 into --out: `scheduled` and `oracle` on cases
+    /// Run the held-out protocol of issue 42 into --out: `scheduled` and `derived`, each
+    /// with its oracle (`--controller LAW`: that law alone with its oracle), on cases
     /// outside the tuned table (seeds 6–10, stiffness 300–200 000 N/m, delay 0 and 3, model
     /// mass error 0.7 / 1.4, 60 s runs, a surface receding at 5–20 mm/s), scored with the
     /// honest metrics (docs/controller.md); on --plant.
@@ -522,7 +523,8 @@ pub fn run(a: SimArgs) -> CliResult {
         let what = if a.table { "--table" } else { "--held-out" };
         let given = [
             ("--scenario", a.scenario.is_some()),
-            ("--controller", a.controller.is_some()),
+            // --held-out --controller LAW: that law with its oracle.
+            ("--controller", a.controller.is_some() && !a.held_out),
             ("--stiffness", a.stiffness.is_some()),
             ("--delay-cycles", a.delay_cycles.is_some()),
             ("--model-mass-error", a.model_mass_error.is_some()),
@@ -551,7 +553,7 @@ pub fn run(a: SimArgs) -> CliResult {
             let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-held-out", utc_stamp())));
             let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
             let sensor = SensorOpts::from_args(a.inertial_wrench, a.tare.as_deref())?;
-            return super::sim_heldout::run(&out, a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice, sensor);
+            return super::sim_heldout::run(&out, a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice, sensor, a.controller.as_deref());
         }
         let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-table", utc_stamp())));
         let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;

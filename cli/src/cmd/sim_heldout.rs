@@ -1,7 +1,8 @@
 //! `naic sim --held-out --out DIR`: the held-out protocol of issue 42 in one command.
 //!
-//! `scheduled` is tuned on seeds 1–5 of `naic sim --table` only. This runs it, and `oracle`
-//! (the same law given the true stiffness) beside it, on cases it was not tuned on, on all
+//! `scheduled` and `derived` are tuned on seeds 1–5 of `naic sim --table` only. This runs
+//! each (or the one `--controller` names) with its oracle (`oracle`, `derived_oracle`: the
+//! same law given the true stiffness) beside it, on cases it was not tuned on, on all
 //! cores, and scores every run with the honest metrics (`naic_sim::metrics::Honest`,
 //! docs/controller.md "How runs are scored"):
 //!
@@ -20,8 +21,8 @@
 //! - **overshoot**: after the impact periods ≤ 5 % at first contact (two-material: 10 %);
 //! - **impact**: the first `d + 1` periods' peak ≤ the bound `k_e v₀ (d + 1) T + b_e v₀` + 3 σ;
 //! - **settles**: every phase settles into the band (`max(2 % f_d, 3 σ)`);
-//! - **within 1.5× of oracle**: the first phase's settling at most 1.5× `oracle`'s (same
-//!   case and seed; met where oracle never settles and the law does).
+//! - **within 1.5× of oracle**: the first phase's settling at most 1.5× its oracle's (same
+//!   case and seed; met where the oracle never settles and the law does).
 //!
 //! Writes `DIR/held_out.md` (per group the goals met, and every run's numbers) and
 //! `DIR/held_out.json`.
@@ -39,8 +40,14 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// The controllers compared.
-pub const HELD_OUT_CONTROLLERS: [&str; 2] = ["scheduled", "oracle"];
+/// The controllers compared: each law beside its oracle (the same law given the true
+/// stiffness), [`super::sim_table::LAWS`].
+pub const HELD_OUT_CONTROLLERS: [&str; 4] = ["scheduled", "oracle", "derived", "derived_oracle"];
+
+/// The oracle of a law's name (`None`: it is an oracle).
+fn oracle_of(law: &str) -> Option<&'static str> {
+    super::sim_table::LAWS.iter().find(|(l, _)| *l == law).map(|(_, o)| *o)
+}
 const SCENARIOS: [&str; 6] = ["flat", "foam", "stiffness-step", "acrylic", "two-material", "slope"];
 
 /// One held-out run.
@@ -82,11 +89,11 @@ impl Case {
     }
 }
 
-/// Every case of the protocol (module docs).
-pub fn cases() -> Vec<Case> {
+/// Every case of the protocol (module docs) for `controllers`.
+pub fn cases(controllers: &[&'static str]) -> Vec<Case> {
     let mut v = Vec::new();
     let base = |group, scenario, controller, delay, seed| Case { group, scenario, controller, delay, mass_error: 1.0, stiffness: None, moving: None, duration: None, seed };
-    for c in HELD_OUT_CONTROLLERS {
+    for &c in controllers {
         for sc in SCENARIOS {
             for d in [1, 2] {
                 for seed in 6..=10 {
@@ -207,6 +214,7 @@ fn goals(r: &Scored, oracle: Option<&Scored>) -> Vec<(&'static str, bool, String
 }
 
 /// Runs the protocol into `out` (module docs).
+/// `law`: one of [`super::sim_table::LAWS`]' laws, run with its oracle (None: every law).
 pub fn run(
     out: &Path,
     urdf: Option<&Path>,
@@ -214,21 +222,32 @@ pub fn run(
     no_friction: bool,
     plant: &PlantChoice,
     sensor: super::sim::SensorOpts,
+    law: Option<&str>,
 ) -> CliResult {
     let t0 = std::time::Instant::now();
+    let controllers: Vec<&'static str> = match law {
+        None => HELD_OUT_CONTROLLERS.to_vec(),
+        Some(l) => match super::sim_table::LAWS.iter().find(|(x, _)| *x == l) {
+            Some((x, o)) => vec![*x, *o],
+            None => {
+                let names: Vec<&str> = super::sim_table::LAWS.iter().map(|(x, _)| *x).collect();
+                return Err(CliError::usage(format!("--held-out --controller '{l}': give one of {} (each runs with its oracle), or no --controller for all", names.join(", "))));
+            }
+        },
+    };
     let ctx = Ctx::load(urdf, friction_file, no_friction, plant, sensor)?;
-    let jobs = cases();
+    let jobs = cases(&controllers);
     std::fs::create_dir_all(out).map_err(|e| CliError::failure(format!("--out {}: {e}", out.display())))?;
     eprintln!("naic sim --held-out: {} runs on the {} plant -> {}", jobs.len(), plant.name(), out.display());
     let done = par_map(&jobs, |c| run_case(&ctx, c), true)?;
-    let oracle: BTreeMap<String, &Scored> = done.iter().filter(|r| r.case.controller == "oracle").map(|r| (r.case.key(), r)).collect();
+    let oracle: BTreeMap<(String, &str), &Scored> = done.iter().filter(|r| oracle_of(r.case.controller).is_none()).map(|r| ((r.case.key(), r.case.controller), r)).collect();
     let mut md = String::new();
-    let _ = writeln!(md, "Held-out protocol (issue 42), {} plant: `scheduled` was tuned on seeds 1–5 of `naic sim --table` only; every case here is outside that. Goals per run: late peak-to-peak ≤ 0.4 N; overshoot after the impact periods ≤ 5 % (two-material 10 %); impact ≤ k_e v₀ (d + 1) T + b_e v₀ + 3 σ; every phase settles into max(2 % f_d, 3 σ); first-phase settling within 1.5× of `oracle`'s.\n", plant.name());
+    let _ = writeln!(md, "Held-out protocol (issue 42), {} plant: `scheduled` and `derived` were tuned on seeds 1–5 of `naic sim --table` only; every case here is outside that. Goals per run: late peak-to-peak ≤ 0.4 N; overshoot after the impact periods ≤ 5 % (two-material 10 %); impact ≤ k_e v₀ (d + 1) T + b_e v₀ + 3 σ; every phase settles into max(2 % f_d, 3 σ); first-phase settling within 1.5× of the law's oracle's.\n", plant.name());
     // Per group and controller: goals met / goals.
     let mut counts: BTreeMap<(&str, &str), (usize, usize)> = BTreeMap::new();
     let mut rows = String::new();
     for r in &done {
-        let o = if r.case.controller == "oracle" { None } else { oracle.get(&r.case.key()).copied() };
+        let o = oracle_of(r.case.controller).and_then(|oc| oracle.get(&(r.case.key(), oc)).copied());
         let gs = goals(r, o);
         let e = counts.entry((r.case.group, r.case.controller)).or_default();
         e.0 += gs.iter().filter(|g| g.1).count();
@@ -287,10 +306,14 @@ mod tests {
 
     #[test]
     fn every_case_is_outside_the_tuned_table() {
-        let cs = cases();
+        let cs = cases(&HELD_OUT_CONTROLLERS);
         assert!(cs.iter().all(|c| c.seed > 5), "seeds 1–5 are the tuning set");
         for c in HELD_OUT_CONTROLLERS {
-            assert_eq!(cs.iter().filter(|x| x.controller == c).count(), cs.len() / 2);
+            assert_eq!(cs.iter().filter(|x| x.controller == c).count(), cs.len() / HELD_OUT_CONTROLLERS.len());
         }
+        // Every law is paired with its own oracle.
+        assert_eq!(oracle_of("scheduled"), Some("oracle"));
+        assert_eq!(oracle_of("derived"), Some("derived_oracle"));
+        assert_eq!(oracle_of("derived_oracle"), None);
     }
 }

@@ -52,8 +52,18 @@ pub struct LoopSettings {
 pub const MAX_DELAY_CYCLES: usize = 4;
 
 /// The controllers of `naic sim --controller`: the core's modes, plus the benchmark-only
-/// `oracle` (the scheduled law with the simulator's true k_e instead of its estimate).
-pub const CONTROLLERS: [&str; 5] = ["naic", "aic", "fixed", "scheduled", "oracle"];
+/// `oracle` (the scheduled law with the simulator's true k_e instead of its estimate) and
+/// `derived_oracle` (the derived law with it: `k̂ = k̄ = k_low` = the true k_e).
+pub const CONTROLLERS: [&str; 7] = ["naic", "aic", "fixed", "scheduled", "oracle", "derived", "derived_oracle"];
+
+/// The oracle form of a law by its `naic sim` name: `(mode, oracle)`.
+fn mode_of(name: &str) -> Result<(Mode, bool), ConfigError> {
+    Ok(match name {
+        "oracle" => (Mode::Scheduled, true),
+        "derived_oracle" => (Mode::Derived, true),
+        other => (Mode::parse(other)?, false),
+    })
+}
 
 impl Default for LoopSettings {
     fn default() -> Self {
@@ -128,6 +138,11 @@ impl<const N: usize> PipelineController<N> {
         c.contact.exit_n = settings.contact_exit_n;
         c.force_limit.limit_n = settings.force_limit_n;
         c.force_law.integral_limit_n = settings.force_limit_n;
+        if mode == Mode::Derived {
+            // The task's expected surface, and the loop delay the gains are designed for.
+            c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
+            c.force_law.derived.delay_cycles = settings.delay_cycles as f64;
+        }
         if mode == Mode::Scheduled {
             // The task's expected surface (acrylic, two-material): the approach slows down near it.
             c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
@@ -161,12 +176,11 @@ impl<const N: usize> PipelineController<N> {
         tool: (f64, Vector3<f64>),
         settings: &LoopSettings,
     ) -> Result<Self, ConfigError> {
-        let oracle = name == "oracle";
-        let mode = if oracle { Mode::Scheduled } else { Mode::parse(name)? };
+        let (mode, oracle) = mode_of(name)?;
         let mut c = Self::new(mode, scenario, model, friction, tool.0, tool.1, settings)?;
         c.oracle = oracle;
         if oracle {
-            c.name = "oracle".into();
+            c.name = name.into();
         }
         Ok(c)
     }

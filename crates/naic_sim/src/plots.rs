@@ -12,6 +12,8 @@ pub fn color(name: &str) -> &'static str {
         "naic" => "#d62728",
         "aic" => "#1f77b4",
         "fixed" => "#2ca02c",
+        "derived" => "#ff7f0e",
+        "derived_oracle" => "#8c564b",
         _ => "#9467bd",
     }
 }

@@ -32,10 +32,11 @@ pub fn specs<const N: usize>(base: &ControllerParams<N>) -> Vec<ParamSpec> {
     // The reference stage's defaults (naic_core), so the numbers live in one place.
     let rd = ReferenceParams::new("base_link", c.force_axis, 10.0);
     let ap = &fl.scheduled.approach;
+    let dp = &fl.derived;
     vec![
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model (URDF with 'tip' and 'ft_sensor' frames)").read_only(),
         ParamSpec::string("friction_file", FRICTION_FILE, "Mode 'scheduled': the friction model (friction_compensation's friction_file) whose Stribeck drops get the unfiltered joint velocity in contact ('': the median everywhere)").read_only(),
-        ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed", "scheduled"], "Force law on the force axis: 'scheduled' (the default and the recommended law, docs/controller.md: impedance scheduled from an online stiffness estimate k_e_hat, reported in /naic/params; not a paper law), or the paper's NAIC (eq 10-15), AIC (eq 9), fixed impedance (eq 8)"),
+        ParamSpec::choice("mode", fl.mode.as_str(), &["naic", "aic", "fixed", "scheduled", "derived"], "Force law on the force axis: 'scheduled' (the default and the recommended law, docs/controller.md: impedance scheduled from an online stiffness estimate k_e_hat, reported in /naic/params; not a paper law), the paper's NAIC (eq 10-15), AIC (eq 9), fixed impedance (eq 8), or 'derived' (gains from a stability rule on the contact estimator's stiffness bounds, docs/controller.md; not a paper law, not yet as good as 'scheduled')"),
         ParamSpec::double("desired_force", 10.0, 0.0, 100.0, "f_d [N]: force the tool applies to the environment along the force axis (pushing positive)"),
         ParamSpec::double("learning_rate", fl.gamma, 0.0, 100.0, "gamma of eq 15 (NAIC): requested learning rate, clipped every cycle to the eq-15 bound"),
         ParamSpec::doubles("m_d", &imp.m_d, 0.001, 1000.0, "Impedance mass M_d per Cartesian axis x,y,z,rx,ry,rz [kg, kg m^2] (eq 6); force-axis entry is NAIC weight w1"),
@@ -46,7 +47,7 @@ pub fn specs<const N: usize>(base: &ControllerParams<N>) -> Vec<ParamSpec> {
         ParamSpec::double("sigma_margin", fl.sigma_margin, 0.01, 1.0e9, "NAIC keeps sigma <= sigma_margin * lambda * b_d / m_d (fraction of the force-loop stability limit)"),
         ParamSpec::string("force_axis", &axis, "Direction n in the base frame along which the tool pushes: x, y, z, -x, -y, -z ('-z': down onto a table) or a vector '[x, y, z]' (normalised; not zero)"),
         ParamSpec::double("contact_threshold", c.contact.enter_n, 0.01, 100.0, "Enter contact when the measured force along n exceeds this [N]"),
-        ParamSpec::double("scheduled_contact_threshold", c.contact.scheduled_enter_n, 0.01, 100.0, "Mode 'scheduled': enter contact when the measured force along n exceeds this [N] (8 sigma of the F/T noise, where its stiffness estimator starts; contact_threshold is for the paper's laws)"),
+        ParamSpec::double("scheduled_contact_threshold", c.contact.scheduled_enter_n, 0.01, 100.0, "Modes 'scheduled' and 'derived': enter contact when the measured force along n exceeds this [N] (8 sigma of the F/T noise, where its stiffness estimator starts; contact_threshold is for the paper's laws)"),
         ParamSpec::double("contact_exit_force", c.contact.exit_n, 0.0, 100.0, "Leave contact below this force [N] (after contact_exit_cycles)"),
         ParamSpec::int("contact_exit_cycles", c.contact.exit_cycles as i64, 0, 100_000, "Leave contact after this many cycles below contact_exit_force (0: contact latches, as in the paper)"),
         ParamSpec::double("force_limit", 50.0, 0.1, 500.0, "Above this measured force [N] the controller stops pushing, backs off along -n and stays off the surface until any parameter is set"),
@@ -55,12 +56,21 @@ pub fn specs<const N: usize>(base: &ControllerParams<N>) -> Vec<ParamSpec> {
         ParamSpec::choice("scenario", crate::reference::DEFAULT_SCENARIO, &crate::reference::SCENARIOS,
             "Position reference: a paper task's trajectory (naic_core::task), or 'none' (start pose moved approach_depth along n)").read_only(),
         ParamSpec::double("approach_depth", 0.05, -0.5, 0.5, "With scenario 'none': free-space target = start tip position moved this far along n [m]"),
-        ParamSpec::double("approach_speed", fl.scheduled.approach.max_speed, 1.0e-3, 0.5, "Mode 'scheduled': speed limit of the free-space approach along n [m/s] (a velocity servo toward the reference, robust to model error); the first contact adds k_e * approach_speed * (d + 1/2) * T before the loop reacts (50 000 N/m, 2 cycles of delay: 1.25 N per 10 mm/s)"),
-        ParamSpec::boolean("use_expected_surface", ap.expected_surface.is_some(), "Mode 'scheduled': slow to approach_band_speed within approach_band of the surface at expected_surface (false: approach_speed all the way)"),
-        ParamSpec::double("expected_surface", ap.expected_surface.unwrap_or(0.0), -2.0, 2.0, "Mode 'scheduled', with use_expected_surface: the surface's coordinate on the force axis's base-frame axis [m] (force_axis '-z': the table top's z in base_frame)"),
-        ParamSpec::double("approach_band", ap.band, 0.0, 0.5, "Mode 'scheduled', with use_expected_surface: distance before the expected surface where the approach slows [m]"),
+        ParamSpec::double("approach_speed", fl.scheduled.approach.max_speed, 1.0e-3, 0.5, "Modes 'scheduled' and 'derived': speed limit of the free-space approach along n [m/s] (a velocity servo toward the reference, robust to model error); the first contact adds k_e * approach_speed * (d + 1/2) * T before the loop reacts (50 000 N/m, 2 cycles of delay: 1.25 N per 10 mm/s)"),
+        ParamSpec::boolean("use_expected_surface", ap.expected_surface.is_some(), "Modes 'scheduled' and 'derived': slow within approach_band of the surface at expected_surface, to approach_band_speed ('scheduled') or to the impact-bounded speed of impact_fraction ('derived') (false: approach_speed all the way)"),
+        ParamSpec::double("expected_surface", ap.expected_surface.unwrap_or(0.0), -2.0, 2.0, "Modes 'scheduled' and 'derived', with use_expected_surface: the surface's coordinate on the force axis's base-frame axis [m] (force_axis '-z': the table top's z in base_frame)"),
+        ParamSpec::double("approach_band", ap.band, 0.0, 0.5, "Modes 'scheduled' and 'derived', with use_expected_surface: distance before the expected surface where the approach slows [m]"),
         ParamSpec::double("approach_band_speed", ap.speed, 1.0e-4, 0.5, "Mode 'scheduled', with use_expected_surface: approach speed along n inside approach_band [m/s]"),
         ParamSpec::double("force_observer", fl.scheduled.force_observer, 0.0, 2000.0, "Mode 'scheduled': bandwidth of the disturbance observer that reads the force on stiff surfaces [rad/s] (0: off, the velocity observer alone)"),
+        ParamSpec::double("loop_delay_cycles", dp.delay_cycles, 0.0, naic_core::pipeline::control::contact::MAX_DELAY as f64, "Mode 'derived': the loop delay d its gains are designed for [control periods] (sensor sample to torque; measure it on the chain)"),
+        ParamSpec::double("stiffness_max", dp.contact.k_max, 1.0, 1.0e8, "Mode 'derived': the stiffest surface expected [N/m]: the stiffness bound k_bar before any evidence (the gains are stable for every surface up to k_bar)"),
+        ParamSpec::double("stiffness_min", dp.k_min, 1.0, 1.0e7, "Mode 'derived': the softest surface expected [N/m]: the integral is set for it until the estimate's lower bound is higher"),
+        ParamSpec::double("feedthrough_max", dp.contact.mu_max, 1.0e-3, 1.0, "Mode 'derived': bound on the contact's feed-through mu (the fraction of a push that reaches the force at once: 0 a spring, about 0.9 MuJoCo's soft contact, 1 rigid); 1 is safe on any contact"),
+        ParamSpec::double("surface_damping_max", dp.contact.b_max, 0.0, 1.0e6, "Mode 'derived': the largest surface damping expected [N s/m]"),
+        ParamSpec::double("position_resolution", dp.x_resolution, 1.0e-9, 1.0e-2, "Mode 'derived': the tip's position resolution along n [m] (one encoder count through the Jacobian)"),
+        ParamSpec::double("force_noise", dp.force_noise, 1.0e-4, 10.0, "Mode 'derived': the F/T sensor's noise along n, 1 sigma [N]"),
+        ParamSpec::double("surface_speed", dp.contact.surface_speed, 0.0, 1.0, "Mode 'derived': 1 sigma of the surface's speed along n the contact estimator allows [m/s]"),
+        ParamSpec::double("impact_fraction", dp.impact_fraction, 1.0e-3, 10.0, "Mode 'derived', with use_expected_surface: within approach_band of the surface the approach speed is impact_fraction * f_d / (stiffness_max * (loop_delay_cycles + 1/2) * control_period), so the force a first contact adds before the loop reacts is at most this fraction of f_d"),
         ParamSpec::string("base_frame", "base_link", "The URDF's root link: the frame of /naic/params and of the reference; with scenario 'none', /naic/target_pose and /naic/desired_wrench in any frame of the model (or '' for this one) are expressed in it"),
         ParamSpec::double("tf_rate", crate::tf::DEFAULT_TF_RATE, 0.0, 1000.0, "Rate of /tf [Hz]: the moving joints' transforms from the measured joint states, stamped with them (0: none; the fixed joints go to /tf_static once)"),
         ParamSpec::double("max_speed", rd.linear.max_speed, 1.0e-4, 2.0, "With scenario 'none': speed limit of the position reference [m/s]"),
@@ -148,6 +158,16 @@ pub fn controller_params<const N: usize>(p: &ParamView, base: &ControllerParams<
     sch.approach.band = p.f64("approach_band");
     sch.approach.speed = p.f64("approach_band_speed");
     sch.force_observer = p.f64("force_observer");
+    let der = &mut c.control.force_law.derived;
+    der.delay_cycles = p.f64("loop_delay_cycles");
+    der.contact.k_max = p.f64("stiffness_max");
+    der.k_min = p.f64("stiffness_min");
+    der.contact.mu_max = p.f64("feedthrough_max");
+    der.contact.b_max = p.f64("surface_damping_max");
+    der.x_resolution = p.f64("position_resolution");
+    der.force_noise = p.f64("force_noise");
+    der.contact.surface_speed = p.f64("surface_speed");
+    der.impact_fraction = p.f64("impact_fraction");
     c.control.contact = ContactDetect {
         enter_n: p.f64("contact_threshold"),
         scheduled_enter_n: p.f64("scheduled_contact_threshold"),

@@ -71,6 +71,11 @@ impl<const N: usize> Runner<N> {
         self.gen = params.generation();
         let base = &self.base;
         let (cp, settings, rp) = params.with(|v| (config::controller_params(v, base), config::settings(v), config::reference_params(v)));
+        if let Ok(cp) = &cp {
+            if let Some(line) = naic_core::pipeline::control::law::approach_report(&cp.control, settings.desired_force) {
+                log::info!("{line}");
+            }
+        }
         match cp.and_then(|cp| Ok(core::set_params(&mut self.p, &mut self.s, cp, settings, rp)?)) {
             Ok(_) if self.s.ctl.control.retracting() => log::warn!(
                 "parameters changed; the force-limit retraction stays until ~/reset_force_limit is called (std_srvs/srv/Trigger)"

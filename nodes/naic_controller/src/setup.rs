@@ -83,6 +83,9 @@ impl<const N: usize> Setup<N> {
         let table = ParamTable::new(defaults.apply(config::specs(&base)), Some(config::check(base)), &args.overrides(NODE)?)?;
         let bad_model = |e: naic_core::pipeline::ConfigError| RosError::param(format!("robot model '{urdf}': {e} (set -p urdf:=PATH)"));
         let cp = table.with(|p| config::controller_params(p, &base))?;
+        if let Some(line) = naic_core::pipeline::control::law::approach_report(&cp.control, table.with(|p| p.f64("desired_force"))) {
+            log::info!("{line}");
+        }
         // The model first (its message names the URDF file), then the scenario.
         let ctl = Controller::new(model.clone(), cp).map_err(bad_model)?;
         let scenario = table.with(|p| p.str("scenario").to_string());

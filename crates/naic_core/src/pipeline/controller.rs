@@ -342,6 +342,7 @@ pub fn update<const N: usize>(
     } else {
         f64::NAN
     };
+    let mass_n = if control::law::needs_apparent_mass(&p.control) { apparent_mass(c, ws, &q, &j, &p.control.force_axis) } else { f64::NAN };
     let r = &shaped;
     let e_p = r.p_d - tip.trans;
     let e_r = orientation_error(&r.r_d, &tip.rot);
@@ -353,7 +354,7 @@ pub fn update<const N: usize>(
         a_d: r.a_d,
         f_e,
         f_d: r.f_d,
-        pre: control::law::Prepared { shaper, a_free },
+        pre: control::law::Prepared { shaper, a_free, mass_n },
     };
     let (control_state, out) = control::step(&p.control, &next.control, &task);
     next.control = control_state;
@@ -419,6 +420,20 @@ pub fn update<const N: usize>(
 /// joint 2), so it comes to rest and the tare completes. ω λ = 0.02 at 1 kHz: far from the
 /// discrete stability limit, also with a few cycles of delay.
 pub const TARE_HOLD_OMEGA: f64 = 20.0;
+
+/// The model's apparent mass along the force axis at `q`, `D̂ = 1 / (nᵀ J M⁻¹ Jᵀ n)` [kg]:
+/// `M⁻¹ Jᵀ n` as the forward dynamics' answer to the torque `Jᵀ n` at rest, less its free
+/// fall. NaN where `n` is not reachable (`nᵀ J M⁻¹ Jᵀ n ≤ 0`). No allocation.
+fn apparent_mass<const N: usize>(c: &Controller<N>, ws: &mut Workspace<N>, q: &SVector<f64, N>, j: &SMatrix<f64, 6, N>, n: &control::ForceAxis) -> f64 {
+    let zero = SVector::<f64, N>::zeros();
+    let qdd_free = *dynamics::aba(&c.model, &mut ws.data, q, &zero, &zero);
+    let mut n6 = Vector6::zeros();
+    n.set6(&mut n6, 1.0);
+    let tau_n = j.transpose() * n6;
+    let qdd_n = *dynamics::aba(&c.model, &mut ws.data, q, &zero, &tau_n);
+    let inv = n.dot6(&(j * (qdd_n - qdd_free)));
+    if inv > 0.0 && inv.is_finite() { 1.0 / inv } else { f64::NAN }
+}
 
 /// A cycle of the tare: the arm held at the tare's first position ([`TARE_HOLD_OMEGA`], no
 /// fault), the tare already advanced in `next`; phase free, no force.
@@ -604,6 +619,7 @@ impl<const N: usize> ControllerParams<N> {
                     // = force_limit.limit_n below (anti-windup of eq 9, see ForceLawParams).
                     integral_limit_n: 50.0,
                     scheduled: Default::default(),
+                    derived: Default::default(),
                 },
                 contact: ContactDetect { enter_n: 1.0, scheduled_enter_n: control::SCHEDULED_CONTACT_ENTER_N, exit_n: 0.2, exit_cycles: 0 },
                 force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },

@@ -68,6 +68,7 @@
 //! also projects σ below `sigma_margin` times that limit; `sigma_margin = ∞`
 //! restores the law as written.
 
+use super::derived::DerivedParams;
 use super::scheduled::ScheduledParams;
 
 /// Which law runs on the force axis.
@@ -81,6 +82,9 @@ pub enum Mode {
     Naic,
     /// The stiffness-scheduled law of [`super::scheduled`] (not a paper law).
     Scheduled,
+    /// The law derived from the loop model, [`super::derived`] (not a paper law): gains from
+    /// the contact estimator's bounds by [`crate::force_design::rule`].
+    Derived,
 }
 
 impl Mode {
@@ -91,20 +95,22 @@ impl Mode {
             Mode::Aic => "aic",
             Mode::Naic => "naic",
             Mode::Scheduled => "scheduled",
+            Mode::Derived => "derived",
         }
     }
 
     /// Every mode, paper laws first.
-    pub const ALL: [Mode; 4] = [Mode::Naic, Mode::Aic, Mode::Fixed, Mode::Scheduled];
+    pub const ALL: [Mode; 5] = [Mode::Naic, Mode::Aic, Mode::Fixed, Mode::Scheduled, Mode::Derived];
 
-    /// Parses `fixed`, `aic`, `naic` or `scheduled`.
+    /// Parses `fixed`, `aic`, `naic`, `scheduled` or `derived`.
     pub fn parse(s: &str) -> Result<Mode, crate::pipeline::ConfigError> {
         match s.trim().to_ascii_lowercase().as_str() {
             "fixed" => Ok(Mode::Fixed),
             "aic" => Ok(Mode::Aic),
             "naic" => Ok(Mode::Naic),
             "scheduled" => Ok(Mode::Scheduled),
-            other => Err(crate::pipeline::ConfigError::invalid("controller mode", format!("'{other}'"), "is unknown: use naic, aic, fixed or scheduled")),
+            "derived" => Ok(Mode::Derived),
+            other => Err(crate::pipeline::ConfigError::invalid("controller mode", format!("'{other}'"), "is unknown: use naic, aic, fixed, scheduled or derived")),
         }
     }
 }
@@ -157,8 +163,11 @@ pub struct ForceLawParams {
     /// the robot may apply is never needed. `f64::INFINITY` leaves eq 9 as written.
     /// The scheduled law clamps its integral with the same limit.
     pub integral_limit_n: f64,
-    /// Settings of [`Mode::Scheduled`] (unused by the paper laws).
+    /// Settings of [`Mode::Scheduled`] (unused by the paper laws; [`Mode::Derived`] shares
+    /// its reference shaping, axis impedance bound and approach).
     pub scheduled: ScheduledParams,
+    /// Settings of [`Mode::Derived`] (unused by the other laws).
+    pub derived: DerivedParams,
 }
 
 /// The largest `σ` for which the AIC/NAIC force loop is stable.
@@ -261,9 +270,9 @@ pub fn step(p: &ForceLawParams, s: &ForceLawState, u: &ForceLawInputs) -> (Force
     let mut out = ForceLawOutputs { e_f, gamma_bound: f64::INFINITY, ..Default::default() };
     let mut next = *s;
     match p.mode {
-        // The scheduled law runs in `super::scheduled` (the control stage dispatches);
+        // The scheduled and derived laws run in `super::law` (the control stage dispatches);
         // called here it is fixed impedance with the current weights.
-        Mode::Fixed | Mode::Scheduled => {
+        Mode::Fixed | Mode::Scheduled | Mode::Derived => {
             // Eq 8 with k_d = 0: e_f = m_d ë + b_d ė.
             out.e_ddot = (e_f - s.b_d * u.e_dot) / s.m_d;
         }
@@ -305,7 +314,7 @@ mod tests {
     use super::*;
 
     fn params(mode: Mode, gamma: f64) -> ForceLawParams {
-        ForceLawParams { mode, sigma: 0.01, gamma, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY, scheduled: ScheduledParams::default() }
+        ForceLawParams { mode, sigma: 0.01, gamma, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY, scheduled: ScheduledParams::default(), derived: DerivedParams::default() }
     }
 
     /// A 1-D plant: the impedance law's commanded acceleration is realised

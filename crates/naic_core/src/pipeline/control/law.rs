@@ -23,6 +23,7 @@
 use nalgebra::Vector3;
 
 use super::force_law::{self, ForceLawInputs, ForceLawOutputs, ForceLawState, Mode};
+use super::derived::{self, DerivedInputs, DerivedState};
 use super::scheduled::{self, ScheduledInputs, ScheduledParams, ScheduledState, Shaper};
 use super::{ControlParams, ForceAxis, ImpedanceParams, Phase};
 use crate::pipeline::feedforward::{FastVelocity, ReferenceBlend};
@@ -47,11 +48,14 @@ pub struct Prepared {
     pub shaper: Option<Shaper>,
     /// The model's free-fall acceleration along `n` at this pose [m/s²] (NaN: not computed).
     pub a_free: f64,
+    /// The model's apparent mass along `n` at this pose, `D̂ = 1 / (nᵀ J M⁻¹ Jᵀ n)` [kg]
+    /// (NaN: not computed; [`needs_apparent_mass`]).
+    pub mass_n: f64,
 }
 
 impl Default for Prepared {
     fn default() -> Self {
-        Self { shaper: None, a_free: f64::NAN }
+        Self { shaper: None, a_free: f64::NAN, mass_n: f64::NAN }
     }
 }
 
@@ -117,6 +121,8 @@ pub struct AxisOutputs {
 pub fn validate(p: &ControlParams) -> Result<(), crate::pipeline::ConfigError> {
     match p.force_law.mode {
         Mode::Scheduled => p.force_law.scheduled.validate(),
+        // The derived law shares the scheduled law's approach, shaping and axis bound.
+        Mode::Derived => p.force_law.scheduled.validate().and_then(|_| p.force_law.derived.validate()),
         Mode::Naic | Mode::Aic | Mode::Fixed => Ok(()),
     }
 }
@@ -124,7 +130,7 @@ pub fn validate(p: &ControlParams) -> Result<(), crate::pipeline::ConfigError> {
 /// The law's contact threshold [N].
 pub fn contact_threshold(p: &ControlParams) -> f64 {
     match p.force_law.mode {
-        Mode::Scheduled => p.contact.scheduled_enter_n,
+        Mode::Scheduled | Mode::Derived => p.contact.scheduled_enter_n,
         Mode::Naic | Mode::Aic | Mode::Fixed => p.contact.enter_n,
     }
 }
@@ -132,8 +138,9 @@ pub fn contact_threshold(p: &ControlParams) -> f64 {
 /// The impedance every axis runs with (a law may bound it; the paper laws use it as set).
 pub fn impedance(p: &ControlParams) -> ImpedanceParams {
     match p.force_law.mode {
-        // The scheduled law bounds every axis' damping-to-mass ratio by the loop delay.
-        Mode::Scheduled => {
+        // The scheduled law bounds every axis' damping-to-mass ratio by the loop delay (the
+        // derived law the tangential axes' the same way; along n its rule sets the gains).
+        Mode::Scheduled | Mode::Derived => {
             let sp = &p.force_law.scheduled.schedule;
             ImpedanceParams { m_d: scheduled::schedule::axis_masses(sp, &p.impedance.m_d, &p.impedance.b_d, p.force_law.lambda), ..p.impedance }
         }
@@ -143,13 +150,24 @@ pub fn impedance(p: &ControlParams) -> ImpedanceParams {
 
 /// Whether the law needs [`Prepared::a_free`] (a forward dynamics per cycle).
 pub fn needs_free_fall(p: &ControlParams) -> bool {
-    p.force_law.mode == Mode::Scheduled
+    match p.force_law.mode {
+        Mode::Scheduled => true,
+        Mode::Naic | Mode::Aic | Mode::Fixed | Mode::Derived => false,
+    }
+}
+
+/// Whether the law needs [`Prepared::mass_n`] (two forward dynamics per cycle).
+pub fn needs_apparent_mass(p: &ControlParams) -> bool {
+    match p.force_law.mode {
+        Mode::Derived => true,
+        Mode::Naic | Mode::Aic | Mode::Fixed | Mode::Scheduled => false,
+    }
 }
 
 /// The expected surface along `n` the law approaches (NaN: none).
 pub fn surface_along(p: &ControlParams) -> f64 {
     match p.force_law.mode {
-        Mode::Scheduled => p.force_law.scheduled.approach.expected_surface.map_or(f64::NAN, |z| p.force_axis.surface(z)),
+        Mode::Scheduled | Mode::Derived => p.force_law.scheduled.approach.expected_surface.map_or(f64::NAN, |z| p.force_axis.surface(z)),
         Mode::Naic | Mode::Aic | Mode::Fixed => f64::NAN,
     }
 }
@@ -165,7 +183,11 @@ pub fn shape(
     a_d: &Vector3<f64>,
 ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>, Option<Shaper>) {
     let fl = &p.force_law;
-    if fl.mode != Mode::Scheduled || fl.scheduled.reference_shaping <= 0.0 {
+    let shapes = match fl.mode {
+        Mode::Scheduled | Mode::Derived => fl.scheduled.reference_shaping > 0.0,
+        Mode::Naic | Mode::Aic | Mode::Fixed => false,
+    };
+    if !shapes {
         return (*p_d, *v_d, *a_d, sched.shaper);
     }
     let on = Shaper::on(v_d);
@@ -184,6 +206,37 @@ pub fn shape(
             let (ps, vs, as_, sh) = scheduled::shape_reference(fl.scheduled.reference_shaping, fl.lambda, usize::MAX, &prev, p_d, v_d, a_d);
             (n.with_along(&ps, n.dot(p_d)), n.with_along(&vs, n.dot(v_d)), n.with_along(&as_, n.dot(a_d)), Some(sh))
         }
+    }
+}
+
+/// What the law's approach bounds, for the operator's log (not in the 1 kHz path): the
+/// derived law's guarded approach at `approach_speed` and the force rise its first contact
+/// may add on the stiffest surface expected, `k̄ v (d + ½) T`, or with an expected surface
+/// the impact-bounded speed near it. `None`: the law states no bound.
+pub fn approach_report(p: &ControlParams, f_d: f64) -> Option<String> {
+    let fl = &p.force_law;
+    match fl.mode {
+        Mode::Derived => {
+            let dp = &fl.derived;
+            let (ap, k, t) = (&fl.scheduled.approach, dp.contact.k_max, fl.lambda);
+            let guarded = derived::impact_bound(dp, ap.max_speed, k, t);
+            let mut line = format!(
+                "derived: approach along n at most approach_speed = {:.4} m/s; a first contact at that speed on the stiffest surface expected (stiffness_max = {k} N/m) adds up to k v (d + 1/2) T = {guarded:.2} N before the loop reacts (d = {} periods of {} s)",
+                ap.max_speed, dp.delay_cycles, t
+            );
+            if ap.expected_surface.is_some() {
+                let v = derived::impact_speed(dp, f_d, k, t).min(ap.max_speed);
+                line += &format!(
+                    "; within approach_band = {} m of expected_surface the speed is eps f_d / (k (d + 1/2) T) = {:.4} m/s at f_d = {f_d} N (impact <= eps f_d = {:.2} N, eps = {})",
+                    ap.band,
+                    v,
+                    derived::impact_bound(dp, v, k, t),
+                    dp.impact_fraction
+                );
+            }
+            Some(line)
+        }
+        Mode::Naic | Mode::Aic | Mode::Fixed | Mode::Scheduled => None,
     }
 }
 
@@ -214,8 +267,70 @@ fn estimator_report(p: &ScheduledParams, s: &ScheduledState) -> (f64, f64) {
 }
 
 /// One cycle of the force law along `n`: the one dispatch point. Pure: the law's states
-/// `(law, sched)` in, the next ones and the outputs out.
-pub fn step(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, u: &AxisInputs) -> (ForceLawState, ScheduledState, AxisOutputs) {
+/// `(law, sched, derived)` in, the next ones and the outputs out.
+pub fn step(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, der: &DerivedState, u: &AxisInputs) -> (ForceLawState, ScheduledState, DerivedState, AxisOutputs) {
+    let fl = &p.force_law;
+    if fl.mode == Mode::Derived {
+        let (l, s, d, out) = step_derived(p, law, sched, der, u);
+        return (l, s, d, out);
+    }
+    let (l, s, out) = step_scheduled_or_paper(p, law, sched, u);
+    (l, s, *der, out)
+}
+
+/// The derived law ([`super::derived`]): its step in contact, the scheduled law's approach
+/// servo in free space; the contact estimator every cycle (its history pairs the delayed
+/// force); no gravity factor, model gain or friction velocity of its own.
+fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, der: &DerivedState, u: &AxisInputs) -> (ForceLawState, ScheduledState, DerivedState, AxisOutputs) {
+    let fl = &p.force_law;
+    let dp = &fl.derived;
+    let mut next_law = if u.entered { law.rearm(u.f_ext - u.f_d) } else { *law };
+    let mut next_sched = *sched;
+    let mut out = AxisOutputs {
+        xdd: None,
+        v_ref: None,
+        report: ForceLawOutputs { e_f: u.f_ext - u.f_d, ..Default::default() },
+        gravity_factor: 0.0,
+        model_gain: 1.0,
+        friction: None,
+    };
+    let (d, est) = derived::estimate(dp, der, u.x, u.x_dot, u.f_ext, u.entered, u.regime == Regime::Contact, fl.lambda);
+    let mut next_der = if u.entered { d.rearm(u.f_ext) } else { d };
+    match u.regime {
+        Regime::Contact => {
+            let inputs = DerivedInputs { e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, mass: u.pre.mass_n, estimate: est, k_known: sched.k_known };
+            let (s, r) = derived::step(dp, fl.lambda, fl.integral_limit_n, &next_der, &inputs);
+            next_der = s;
+            // The shared law state reports the gains (Status, /naic/params).
+            next_law = ForceLawState { m_d: s.m_d, b_d: s.b_d, sigma: s.k_i * fl.lambda, phi: s.integral / s.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
+            out.xdd = Some(u.a_d - r.e_ddot);
+            out.report = ForceLawOutputs { e_ddot: r.e_ddot, e_f: r.e_f, k_e_hat: r.estimate.k_hat, k_e_confidence: derived::confidence(&r.estimate), ..Default::default() };
+        }
+        Regime::Free => {
+            // The scheduled law's PI approach servo at most `approach_speed`; within
+            // `approach_band` of an expected surface at the impact-bounded speed
+            // `ε f_d / (k̄ (d + ½) T)` (derived::impact_speed), not `approach_band_speed`.
+            let k_up = if est.k_upper.is_finite() && est.k_upper > 0.0 { est.k_upper } else { dp.contact.k_max };
+            let ap = &scheduled::ApproachParams { speed: derived::impact_speed(dp, u.f_d, k_up, fl.lambda).min(fl.scheduled.approach.max_speed), ..fl.scheduled.approach };
+            let free = scheduled::ApproachAxis { m: u.free_m, b: u.free_b, k: u.free_k, e: u.e, v_d: u.v_d, a_d: u.a_d };
+            let (a_n, e) = scheduled::approach_accel(ap, u.surface_n, u.x, u.x_dot, free, u.v_n, next_sched.approach_integral, fl.lambda);
+            next_sched.approach_integral = e;
+            out.xdd = Some(a_n);
+            out.v_ref = Some(scheduled::approach_target(ap, u.surface_n, u.x, &free));
+            out.report.k_e_hat = est.k_hat;
+            out.report.k_e_confidence = derived::confidence(&est);
+        }
+        Regime::Retracting => {}
+    }
+    next_der = derived::commanded(&next_der, u.pre.mass_n, out.xdd.unwrap_or(u.v_n), u.f_ext);
+    if let Some(shaper) = u.pre.shaper {
+        next_sched.shaper = Some(shaper);
+    }
+    (next_law, next_sched, next_der, out)
+}
+
+/// The scheduled law and the paper laws (the latter: eq 8–15 in contact, nothing else).
+fn step_scheduled_or_paper(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, u: &AxisInputs) -> (ForceLawState, ScheduledState, AxisOutputs) {
     let fl = &p.force_law;
     let (mut next_law, mut next_sched) = (*law, *sched);
     if u.entered {
@@ -320,5 +435,92 @@ impl ForceAxis {
     pub fn surface(&self, z: f64) -> f64 {
         let ax = self.dominant();
         self.n[ax].signum() * z
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::control::{ContactDetect, ForceLimit};
+    use crate::pipeline::control::force_law::{ForceLawParams, WeightBounds};
+
+    fn params(mode: Mode, surface: Option<f64>) -> ControlParams {
+        let mut fl = ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: 50.0, scheduled: Default::default(), derived: Default::default() };
+        fl.scheduled.approach.expected_surface = surface;
+        ControlParams {
+            impedance: ImpedanceParams { m_d: [1.0; 6], b_d: [40.0; 6], k_free: [50.0; 6], k_contact: [100.0; 6] },
+            force_axis: ForceAxis::base(2, -1.0),
+            force_law: fl,
+            contact: ContactDetect { enter_n: 1.0, scheduled_enter_n: 0.5, exit_n: 0.2, exit_cycles: 0 },
+            force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
+        }
+    }
+
+    /// The derived law's free-space target speed along n (`x` the tip along n, the reference
+    /// 3 cm beyond the surface at 0) and the approach's reported bound.
+    fn target_speed(p: &ControlParams, x: f64, f_d: f64) -> f64 {
+        let s = super::super::ControlState::new(p);
+        let u = AxisInputs {
+            regime: Regime::Free,
+            prev_phase: Phase::Free,
+            entered: false,
+            x,
+            x_dot: 0.0,
+            e: 0.03 - x,
+            e_dot: 0.0,
+            v_d: 0.0,
+            a_d: 0.0,
+            f_ext: 0.0,
+            f_d,
+            v_n: 0.0,
+            free_m: 1.0,
+            free_b: 40.0,
+            free_k: 50.0,
+            surface_n: surface_along(p),
+            pre: Prepared::default(),
+        };
+        let (_, _, _, out) = step(p, &s.law, &s.sched, &s.derived, &u);
+        out.v_ref.expect("the derived law names its approach speed")
+    }
+
+    /// Item 5 of issue 42: within the band of an expected surface the derived law approaches
+    /// at `ε f_d / (k̄ (d + ½) T)`, so a first contact on the stiffest surface the estimate
+    /// allows adds at most `ε f_d` before the loop reacts; outside the band, and with no
+    /// expected surface, at the free-space servo's speed (at most `approach_speed`).
+    #[test]
+    fn the_derived_approach_bounds_the_impact_near_an_expected_surface() {
+        for (d, f_d) in [(1.0, 10.0), (2.0, 10.0), (2.0, 3.0), (0.0, 20.0)] {
+            let mut p = params(Mode::Derived, Some(0.0));
+            p.force_law.derived.delay_cycles = d;
+            let dp = &p.force_law.derived;
+            let k = dp.contact.k_max;
+            let v_band = target_speed(&p, -0.005, f_d);
+            let rise = derived::impact_bound(dp, v_band, k, 1e-3);
+            assert!((rise - dp.impact_fraction * f_d).abs() < 1e-9, "d {d}, f_d {f_d}: impact {rise} N at {v_band} m/s");
+            assert!((v_band - dp.impact_fraction * f_d / (k * (d + 0.5) * 1e-3)).abs() < 1e-12);
+            // Before the band: the impedance's own approach (50/40 × the 3.5 cm to the reference).
+            let v_far = target_speed(&p, -0.015, f_d);
+            assert!((v_far - 1.25 * 0.045).abs() < 1e-9 && v_far > v_band, "d {d}: {v_far} m/s");
+        }
+        // No expected surface (scenario none): the guarded approach at the servo's speed,
+        // its impact bound reported; the other laws report none.
+        let p = params(Mode::Derived, None);
+        assert!((target_speed(&p, -0.005, 10.0) - 1.25 * 0.035).abs() < 1e-9);
+        let line = approach_report(&p, 10.0).expect("derived reports its approach");
+        let bound = derived::impact_bound(&p.force_law.derived, p.force_law.scheduled.approach.max_speed, p.force_law.derived.contact.k_max, 1e-3);
+        assert!(line.contains("approach_speed") && line.contains(&format!("{bound:.2} N")), "{line}");
+        assert!(approach_report(&params(Mode::Derived, Some(0.0)), 10.0).unwrap().contains("within approach_band"));
+        for m in [Mode::Naic, Mode::Aic, Mode::Fixed, Mode::Scheduled] {
+            assert_eq!(approach_report(&params(m, None), 10.0), None, "{m:?}");
+        }
+    }
+
+    /// With no force target (`f_d ≤ 0`) nothing bounds the speed but `approach_speed`.
+    #[test]
+    fn the_impact_speed_needs_a_force_target() {
+        let dp = derived::DerivedParams::default();
+        assert_eq!(derived::impact_speed(&dp, 0.0, 1e5, 1e-3), f64::INFINITY);
+        assert_eq!(derived::impact_speed(&dp, 10.0, 0.0, 1e-3), f64::INFINITY);
+        assert!(derived::impact_speed(&dp, 10.0, 1e5, 1e-3).is_finite());
     }
 }

@@ -43,6 +43,7 @@
 //! calls [`ControlState::resume`] (the ROS node does on any parameter change).
 
 pub mod contact;
+pub mod derived;
 pub mod force_law;
 pub mod law;
 pub mod scheduled;
@@ -289,6 +290,8 @@ pub struct ControlState {
     pub retract_hold: Option<f64>,
     /// The scheduled law's memory (estimator, gains, integral); idle for the paper laws.
     pub sched: ScheduledState,
+    /// The derived law's memory (contact estimator, integral); idle for the other laws.
+    pub derived: derived::DerivedState,
 }
 
 impl ControlState {
@@ -301,6 +304,7 @@ impl ControlState {
             retract_left: 0,
             retract_hold: None,
             sched: law::new_sched(p),
+            derived: derived::DerivedState::new(&p.force_law.derived),
         }
     }
 
@@ -323,7 +327,7 @@ impl ControlState {
     /// spins joint 4 past its 6.28 rad/s limit (`nodes/naic_controller/tests/faults_in_process.rs`).
     pub fn hold(&self, p: &ControlParams) -> Self {
         let fresh = Self::new(p);
-        Self { phase: Phase::Hold, below_exit: 0, law: fresh.law, sched: law::after_hold(p, &self.sched), ..*self }
+        Self { phase: Phase::Hold, below_exit: 0, law: fresh.law, sched: law::after_hold(p, &self.sched), derived: fresh.derived, ..*self }
     }
 
     /// A force-limit retraction is in progress or latched.
@@ -416,8 +420,8 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
         pre: u.pre,
     };
     let finish = |next: &mut ControlState, out: &mut TaskOutputs, a: &law::AxisInputs| {
-        let (l, sched, r) = law::step(p, &s.law, &s.sched, a);
-        (next.law, next.sched) = (l, sched);
+        let (l, sched, der, r) = law::step(p, &s.law, &s.sched, &s.derived, a);
+        (next.law, next.sched, next.derived) = (l, sched, der);
         if let Some(x) = r.xdd {
             n.set6(&mut out.v, x);
         }
@@ -525,6 +529,10 @@ mod tests {
     use super::force_law::{Mode, WeightBounds};
     use super::*;
 
+    /// What the controller computes for a law on the unit point mass below: its apparent
+    /// mass along any n is 1 kg (the derived law's `D̂`).
+    const POINT_MASS: law::Prepared = law::Prepared { shaper: None, a_free: f64::NAN, mass_n: 1.0 };
+
     fn params(mode: Mode) -> ControlParams {
         ControlParams {
             impedance: ImpedanceParams {
@@ -534,7 +542,7 @@ mod tests {
                 k_contact: [100.0, 100.0, 0.0, 1000.0, 1000.0, 1000.0],
             },
             force_axis: ForceAxis::base(2, -1.0),
-            force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY, scheduled: Default::default() },
+            force_law: ForceLawParams { mode, sigma: 0.01, gamma: 0.0, bounds: WeightBounds::default(), lambda: 1e-3, sigma_margin: 0.5, integral_limit_n: f64::INFINITY, scheduled: Default::default(), derived: Default::default() },
             contact: ContactDetect { enter_n: 1.0, scheduled_enter_n: SCHEDULED_CONTACT_ENTER_N, exit_n: 0.2, exit_cycles: 0 },
             force_limit: ForceLimit { limit_n: 50.0, retract_speed: 0.02, retract_cycles: 500, latch: false },
         }
@@ -557,7 +565,7 @@ mod tests {
             let pen = (-x[2]).max(0.0);
             let mut f_e = Vector6::zeros();
             f_e[2] = -k_e * pen; // the robot pushes down: F_e,z < 0, f_ext = −F_e,z > 0
-            let u = TaskInputs { p: x.fixed_rows::<3>(0).into(), e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d: 10.0, pre: Default::default() };
+            let u = TaskInputs { p: x.fixed_rows::<3>(0).into(), e: x_d - x, e_dot: -v, x_dot: v, a_d: Vector6::zeros(), f_e, f_d: 10.0, pre: POINT_MASS };
             let (n, o) = step(&p, &s, &u);
             s = n;
             v += o.v * dt;
@@ -607,7 +615,7 @@ mod tests {
                 e.fixed_rows_mut::<3>(0).copy_from(&(x_d - x));
                 let mut xd = Vector6::zeros();
                 xd.fixed_rows_mut::<3>(0).copy_from(&v);
-                let u = TaskInputs { p: x, e, e_dot: -xd, x_dot: xd, a_d: Vector6::zeros(), f_e, f_d: 10.0, pre: Default::default() };
+                let u = TaskInputs { p: x, e, e_dot: -xd, x_dot: xd, a_d: Vector6::zeros(), f_e, f_d: 10.0, pre: POINT_MASS };
                 let (next, o) = step(&p, &s, &u);
                 s = next;
                 v += o.v.fixed_rows::<3>(0).into_owned() * dt;
@@ -806,7 +814,7 @@ mod tests {
             let (below, _) = step(&p, &s, &u(0.45));
             assert_eq!(below.phase, Phase::Free, "{mode:?} at 0.45 N");
             let (mid, _) = step(&p, &s, &u(0.7));
-            let expect = if mode == Mode::Scheduled { Phase::Contact } else { Phase::Free };
+            let expect = if matches!(mode, Mode::Scheduled | Mode::Derived) { Phase::Contact } else { Phase::Free };
             assert_eq!(mid.phase, expect, "{mode:?} at 0.7 N");
             assert_eq!(step(&p, &s, &u(1.2)).0.phase, Phase::Contact, "{mode:?} at 1.2 N");
         }

@@ -51,7 +51,6 @@
 //! base frame) to `approach.speed` within `approach.band` of it. On acrylic at 5 mm/s
 //! the impact is 50 000 · 0.005 · 2.5e-3 = 0.6 N at d = 2.
 
-pub mod derived;
 pub mod estimator;
 pub mod gain;
 pub mod learning;

@@ -1,6 +1,5 @@
-//! A force law along the force axis `n` derived from the loop model
-//! (docs/notes/2026-12-06-issue42-derived-law.md). Not dispatched yet: `scheduled` runs the
-//! law of issue 12, which still meets more goals on naic's own plant. Eq 6 with `k_d = 0` on `n` and the measured
+//! The `derived` force law (`Mode::Derived`) along the force axis `n`, derived from the loop
+//! model (docs/controller.md, "The derived law"). Eq 6 with `k_d = 0` on `n` and the measured
 //! force fed forward, `ë = (e_f − b_d ė − I) / m_d`, whose gains `m_d`, `b_d`, `k_i` are the
 //! rule of [`crate::force_design::rule`] evaluated every cycle from the contact estimator's
 //! bounds (`k̄`, `k_low`, `μ̄`, [`crate::pipeline::control::contact`]), the model's apparent
@@ -8,7 +7,8 @@
 //!
 //! The integral removes what the model does not explain, not the transient: it integrates
 //! the force's distance from the reference response `f_r` the loop would give with the
-//! softest stiffness, `ḟ_r = (k_low / b_d) (f_d − f_r)`, `I_{k+1} = I_k + k_i T (f_r − f_m)`.
+//! estimated stiffness, `ḟ_r = (k̂ / b_d) (f_d − f_r)` (`k̂` within `[k_low, k̄]`),
+//! `I_{k+1} = I_k + k_i T (f_r − f_m)`.
 //! A step of `f_d` then winds up no integral (the step response is the poles', no overshoot
 //! from the integral's zero); a model error or a friction force does. `f_r` starts at the force
 //! measured at contact.
@@ -32,30 +32,63 @@ pub struct DerivedParams {
     pub force_noise: f64,
     /// The contact estimator's settings (`k_max`, `μ_max`, `b_max`, …).
     pub contact: ContactParams,
+    /// `ε` [-]: the fraction of `f_d` the first contact may add before the loop reacts, on
+    /// the stiffest surface the estimate allows (`k̄`): near an expected surface the
+    /// approach speed is at most `ε f_d / (k̄ (d + ½) T)` ([`impact_speed`]).
+    pub impact_fraction: f64,
 }
+
+/// Default [`DerivedParams::impact_fraction`]: the impact on the stiffest surface expected
+/// adds at most half of `f_d` (a peak of 1.5 `f_d`, below the force limit's usual 5 `f_d`).
+pub const IMPACT_FRACTION: f64 = 0.5;
 
 impl Default for DerivedParams {
     fn default() -> Self {
         // 1.5 µm: the JK5's 20-bit encoders at its ~0.5 m reach; 1/16 N: the mini45's count.
-        Self { delay_cycles: 1.0, k_min: 100.0, x_resolution: 1.5e-6, force_noise: 0.0625, contact: ContactParams::default() }
+        Self { delay_cycles: 1.0, k_min: 100.0, x_resolution: 1.5e-6, force_noise: 0.0625, contact: ContactParams::default(), impact_fraction: IMPACT_FRACTION }
     }
+}
+
+/// `τ_f = (d + ½) T` [s]: the mean time from the first contact to the loop's first answer.
+pub fn reaction_time(p: &DerivedParams, period: f64) -> f64 {
+    (p.delay_cycles.max(0.0) + 0.5) * period.max(0.0)
+}
+
+/// The approach speed near an expected surface (item 5 of issue 42): the force rise before
+/// the loop can react, `k̄ v (d + ½) T`, is at most `ε f_d`:
+/// `v = ε f_d / (k̄ (d + ½) T)` [m/s]. `k̄` is the estimate's upper bound (before any evidence
+/// `stiffness_max`). `+∞` where `f_d ≤ 0` (no force target: nothing to bound) or a factor is
+/// not positive; the caller clamps it to its speed limit.
+pub fn impact_speed(p: &DerivedParams, f_d: f64, k_upper: f64, period: f64) -> f64 {
+    let den = k_upper * reaction_time(p, period);
+    let v = p.impact_fraction * f_d / den;
+    if f_d > 0.0 && den > 0.0 && v.is_finite() { v } else { f64::INFINITY }
+}
+
+/// The force rise before the loop reacts when the tool meets a surface of stiffness
+/// `k_upper` at speed `v`: `k̄ v (d + ½) T` [N] (the reported bound of a guarded approach).
+pub fn impact_bound(p: &DerivedParams, v: f64, k_upper: f64, period: f64) -> f64 {
+    k_upper * v.abs() * reaction_time(p, period)
 }
 
 impl DerivedParams {
     pub fn validate(&self) -> Result<(), crate::pipeline::ConfigError> {
         use crate::pipeline::ConfigError;
         if !(self.delay_cycles.is_finite() && (0.0..=contact::MAX_DELAY as f64).contains(&self.delay_cycles)) {
-            return Err(ConfigError::invalid("scheduled.delay_cycles", self.delay_cycles, format!("must be in [0, {}] periods (the measured loop delay)", contact::MAX_DELAY)));
+            return Err(ConfigError::invalid("derived.delay_cycles", self.delay_cycles, format!("must be in [0, {}] periods (the measured loop delay)", contact::MAX_DELAY)));
         }
         let pos = |name: &str, v: f64, what: &str| {
             if v.is_finite() && v > 0.0 { Ok(()) } else { Err(ConfigError::invalid(name, v, what)) }
         };
-        pos("scheduled.k_min", self.k_min, "must be > 0 N/m (the softest surface expected, e.g. 100)")?;
+        pos("derived.k_min", self.k_min, "must be > 0 N/m (the softest surface expected, e.g. 100)")?;
         if self.k_min > self.contact.k_max {
-            return Err(ConfigError::invalid("scheduled.k_min", self.k_min, format!("must be at most contact.k_max = {}", self.contact.k_max)));
+            return Err(ConfigError::invalid("derived.k_min", self.k_min, format!("must be at most contact.k_max = {}", self.contact.k_max)));
         }
-        pos("scheduled.x_resolution", self.x_resolution, "must be > 0 m (the encoders' resolution at the tip, e.g. 1.5e-6)")?;
-        pos("scheduled.force_noise", self.force_noise, "must be > 0 N (the F/T sensor's noise, 1 sigma, e.g. 0.0625)")?;
+        pos("derived.x_resolution", self.x_resolution, "must be > 0 m (the encoders' resolution at the tip, e.g. 1.5e-6)")?;
+        pos("derived.force_noise", self.force_noise, "must be > 0 N (the F/T sensor's noise, 1 sigma, e.g. 0.0625)")?;
+        if !(self.impact_fraction.is_finite() && self.impact_fraction > 0.0 && self.impact_fraction <= 10.0) {
+            return Err(ConfigError::invalid("derived.impact_fraction", self.impact_fraction, "must be in (0, 10] (the fraction of f_d the impact may add, e.g. 0.5)"));
+        }
         self.contact.validate()
     }
 }
@@ -152,11 +185,23 @@ pub fn step(p: &DerivedParams, period: f64, integral_limit: f64, s: &DerivedStat
     let e_ddot = (e_f - g.b_d * u.e_dot - s.integral) / g.m_d;
     let lim = if integral_limit.is_finite() && integral_limit > 0.0 { integral_limit } else { f64::INFINITY };
     next.integral = (s.integral + g.k_i * period * (s.f_ref - u.f_ext)).clamp(-lim, lim);
-    next.f_ref = s.f_ref + (period * k_lower / g.b_d).min(1.0) * (u.f_d - s.f_ref);
+    // The reference response with the best estimate k̂ (within the bounds): with the
+    // softest bound instead, f_r lags the force by (1/k_low − 1/k_e) b_d per newton of a
+    // step and the integral winds up against it by (1 − k_low/k_e)/(4 ζ_i²) of the step,
+    // which then decays at k_i alone (the slow tail of a loose k_low).
+    let k_ref = est.k_hat.clamp(k_lower, est.k_upper.max(k_lower));
+    next.f_ref = s.f_ref + (period * k_ref / g.b_d).min(1.0) * (u.f_d - s.f_ref);
     next.m_d = g.m_d;
     next.b_d = g.b_d;
     next.k_i = g.k_i;
     (next, DerivedOutputs { e_ddot, e_f, estimate: est })
+}
+
+/// The estimate's confidence in [0, 1] for `/naic/params`: `1 − (k̄ − k_low)/(k̄ + k_low)`,
+/// 1 when the bounds meet.
+pub fn confidence(e: &ContactEstimate) -> f64 {
+    let (ku, kl) = (e.k_upper, e.k_lower.max(0.0));
+    if ku > 0.0 && ku.is_finite() { (1.0 - (ku - kl) / (ku + kl)).clamp(0.0, 1.0) } else { 0.0 }
 }
 
 /// Remember the push along n commanded this cycle, `D̂ ẍ_n + f_m` (the estimator's `u` next
@@ -212,9 +257,9 @@ mod tests {
     #[test]
     fn bad_parameters_are_named() {
         let p = DerivedParams { k_min: 1e7, ..Default::default() };
-        assert!(p.validate().unwrap_err().to_string().contains("scheduled.k_min"));
+        assert!(p.validate().unwrap_err().to_string().contains("derived.k_min"));
         let p = DerivedParams { delay_cycles: 20.0, ..Default::default() };
-        assert!(p.validate().unwrap_err().to_string().contains("scheduled.delay_cycles"));
+        assert!(p.validate().unwrap_err().to_string().contains("derived.delay_cycles"));
         assert!(DerivedParams::default().validate().is_ok());
     }
 }

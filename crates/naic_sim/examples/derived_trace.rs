@@ -1,0 +1,86 @@
+//! Trace of the derived law's first contact (docs/controller.md, "The derived law"): the
+//! force, the contact estimate's bounds and the rule's gains every `EVERY_MS` from contact
+//! to `WINDOW_S` after it, one seed.
+//!
+//! ```text
+//! cargo run --release -p naic_sim --example derived_trace -- SCENARIO CONTROLLER D SEED [WINDOW_S] [EVERY_MS] [STIFFNESS]
+//! ```
+//! `CONTROLLER` is `derived` or `derived_oracle`; `STIFFNESS` [N/m] overrides the surface's
+//! k_e (0: the scenario's).
+
+use naic_sim::controllers::{LoopSettings, PipelineController};
+use naic_sim::runner::Controller;
+use naic_sim::scenario;
+use naic_sim::test_support::{model, table1_friction};
+use nalgebra::Vector3;
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let num = |i: usize, d: f64| a.get(i).map_or(Ok(d), |s| s.parse::<f64>().map_err(|_| format!("argument {i} {s:?} is not a number")));
+    let run = || -> Result<(), String> {
+        let sc = a.get(1).map_or("flat", |s| s.as_str());
+        let ctl = a.get(2).map_or("derived", |s| s.as_str());
+        let (d, seed, window, every, k_e) = (num(3, 1.0)? as usize, num(4, 1.0)? as u64, num(5, 0.3)?, num(6, 5.0)?, num(7, 0.0)?);
+        let m = model();
+        let tool = (0.424, Vector3::new(0.0, 0.0, 0.015));
+        let mut s = scenario::preset(sc, &m).map_err(|e| format!("scenario {sc:?}: {e}"))?;
+        if k_e > 0.0 {
+            s = s.with_stiffness(k_e).map_err(|e| e.to_string())?;
+        }
+        s.seed = seed;
+        let friction = Some(table1_friction());
+        let plant = scenario::plant_for(&s, m.clone(), friction.clone(), tool).map_err(|e| e.to_string())?;
+        let settings = LoopSettings { delay_cycles: d, ..LoopSettings::default() };
+        let mut c = PipelineController::by_name(ctl, &s, &m, friction, tool, &settings).map_err(|e| e.to_string())?;
+        let mut rows = vec![];
+        let mut tr = Tracer { inner: &mut c, rows: &mut rows };
+        let r = naic_sim::runner::run(&s, &plant, &mut tr, &mut |_| {});
+        let Some(i0) = r.records.iter().position(|x| x.in_contact) else {
+            println!("no contact");
+            return Ok(());
+        };
+        let t0 = r.records[i0].t;
+        let settle = r.metrics.phases.first().and_then(|p| p.settling_time_2pct_s);
+        println!("contact at {t0:.3} s; ±2 % settling {settle:?}");
+        println!("  t_ms   f_true   f_meas    k_hat  k_upper  k_lower  mu_hat mu_upper    m_d      b_d      k_i     I     f_ref  u_prev");
+        let step = (every * 1e-3 / s.task.dt).round().max(1.0) as usize;
+        for (k, (x, row)) in r.records.iter().zip(rows.iter()).enumerate().skip(i0.saturating_sub(3 * step)).step_by(step) {
+            if x.t > t0 + window {
+                break;
+            }
+            let _ = k;
+            println!("{:6.0} {:8.3} {row}", (x.t - t0) * 1e3, x.f_ext);
+        }
+        Ok(())
+    };
+    if let Err(e) = run() {
+        eprintln!("derived_trace: {e}");
+        std::process::exit(2);
+    }
+}
+
+/// The controller, recording the derived law's state after every step.
+struct Tracer<'a> {
+    inner: &'a mut PipelineController,
+    rows: &'a mut Vec<String>,
+}
+
+impl Controller for Tracer<'_> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn set_true_stiffness(&mut self, k_e: f64) {
+        self.inner.set_true_stiffness(k_e)
+    }
+    fn step(&mut self, meas: &naic_sim::plant::RawMeasurements, reference: &naic_sim::scenario::Reference) -> (naic_core::JointVec, naic_core::pipeline::controller::Status) {
+        let (tau, st) = self.inner.step(meas, reference);
+        let p = &self.inner.params().control.force_law.derived;
+        let d = &self.inner.state().controller.control.derived;
+        let e = naic_core::pipeline::control::contact::estimate(&p.contact, &d.contact, 0.0);
+        self.rows.push(format!(
+            "{:8.3} {:8.0} {:8.0} {:8.0} {:7.3} {:7.3} {:8.3} {:8.1} {:8.4} {:6.2} {:7.3} {:7.3}",
+            st.f_ext, e.k_hat, e.k_upper, e.k_lower, e.mu_hat, e.mu_upper, d.m_d, d.b_d, d.k_i, d.integral, d.f_ref, d.u_prev
+        ));
+        (tau, st)
+    }
+}
