@@ -32,10 +32,11 @@ fn plant_and_controller_steps_do_not_allocate() {
     // (the oracle is the scheduled law with the true stiffness): its approach servo reaches
     // the surface with the model 25 % heavy, so the contact path is covered; and with the
     // model 20 % light, where the gravity correction by the learnt gain is on
-    // (scheduled::gain::GravityCorrection).
+    // (scheduled::gain::GravityCorrection). The derived law (contact estimator, gain rule,
+    // the apparent mass along n) and its oracle with the same delay and model error.
     let delayed = LoopSettings { delay_cycles: 2, model_mass_error: 1.25, ..LoopSettings::default() };
     let light = LoopSettings { delay_cycles: 1, model_mass_error: 0.8, ..LoopSettings::default() };
-    for (name, settings) in [("naic", LoopSettings::default()), ("aic", LoopSettings::default()), ("fixed", LoopSettings::default()), ("scheduled", delayed), ("oracle", delayed), ("scheduled", light)] {
+    for (name, settings) in [("naic", LoopSettings::default()), ("aic", LoopSettings::default()), ("fixed", LoopSettings::default()), ("scheduled", delayed), ("oracle", delayed), ("scheduled", light), ("derived", delayed), ("derived_oracle", delayed)] {
         let c = PipelineController::by_name(name, &s, &m, Some(f.clone()), (0.424, Vector3::new(0.0, 0.0, 0.015)), &settings).unwrap();
         count_in_contact(name, c, &s, &p);
     }
