@@ -58,6 +58,8 @@ impl PlantChoice {
                 Some(f) => Err(PlantError::MjcfWithoutMujoco { mjcf: f.display().to_string() }),
                 None => Ok(Self::Own),
             },
+            // Refused here, before any run, in a build without MuJoCo.
+            "mujoco" if !cfg!(feature = "mujoco") => Err(PlantError::MujocoNotBuilt),
             "mujoco" => Ok(Self::Mujoco { mjcf: mjcf.unwrap_or(default_mjcf) }),
             o => Err(PlantError::UnknownPlant { name: o.to_string() }),
         }
@@ -138,7 +140,13 @@ mod tests {
     fn plant_names_parse_and_errors_name_the_fix() {
         let d = PathBuf::from("default.xml");
         assert_eq!(PlantChoice::parse("own", None, d.clone()).unwrap(), PlantChoice::Own);
-        assert_eq!(PlantChoice::parse("mujoco", None, d.clone()).unwrap(), PlantChoice::Mujoco { mjcf: d.clone() });
+        if cfg!(feature = "mujoco") {
+            assert_eq!(PlantChoice::parse("mujoco", None, d.clone()).unwrap(), PlantChoice::Mujoco { mjcf: d.clone() });
+        } else {
+            // Without MuJoCo the choice is refused before any run, naming the feature.
+            let e = PlantChoice::parse("mujoco", None, d.clone()).unwrap_err().to_string();
+            assert!(e.contains("--features mujoco"), "{e}");
+        }
         let e = PlantChoice::parse("gazebo", None, d.clone()).unwrap_err().to_string();
         assert!(e.contains("'gazebo'") && e.contains("own or mujoco"), "{e}");
         let e = PlantChoice::parse("own", Some("x.xml".into()), d).unwrap_err().to_string();
