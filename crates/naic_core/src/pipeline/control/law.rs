@@ -117,6 +117,15 @@ pub struct AxisOutputs {
     pub friction: Option<FrictionVelocity>,
 }
 
+impl AxisOutputs {
+    /// Nothing of the law's own: the generic stage's command, reference velocity and
+    /// friction velocity, no gravity factor, model gain 1; the report carries the force
+    /// error `e_f` [N].
+    fn generic(e_f: f64) -> Self {
+        AxisOutputs { xdd: None, v_ref: None, report: ForceLawOutputs { e_f, ..Default::default() }, gravity_factor: 0.0, model_gain: 1.0, friction: None }
+    }
+}
+
 /// Checks the law's own parameters (the paper laws' are checked by the control stage).
 pub fn validate(p: &ControlParams) -> Result<(), crate::pipeline::ConfigError> {
     match p.force_law.mode {
@@ -286,14 +295,7 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
     let dp = &fl.derived;
     let mut next_law = if u.entered { law.rearm(u.f_ext - u.f_d) } else { *law };
     let mut next_sched = *sched;
-    let mut out = AxisOutputs {
-        xdd: None,
-        v_ref: None,
-        report: ForceLawOutputs { e_f: u.f_ext - u.f_d, ..Default::default() },
-        gravity_factor: 0.0,
-        model_gain: 1.0,
-        friction: None,
-    };
+    let mut out = AxisOutputs::generic(u.f_ext - u.f_d);
     let (d, est) = derived::estimate(dp, der, u.x, u.x_dot, u.f_ext, u.entered, u.regime == Regime::Contact, fl.lambda);
     let mut next_der = if u.entered { d.rearm(u.f_ext) } else { d };
     match u.regime {
@@ -337,14 +339,7 @@ fn step_scheduled_or_paper(p: &ControlParams, law: &ForceLawState, sched: &Sched
         next_law = law.rearm(u.f_ext - u.f_d);
         next_sched = sched.rearm(&fl.scheduled, u.x, u.f_ext);
     }
-    let mut out = AxisOutputs {
-        xdd: None,
-        v_ref: None,
-        report: ForceLawOutputs { e_f: u.f_ext - u.f_d, ..Default::default() },
-        gravity_factor: 0.0,
-        model_gain: 1.0,
-        friction: None,
-    };
+    let mut out = AxisOutputs::generic(u.f_ext - u.f_d);
     if fl.mode != Mode::Scheduled {
         if u.regime == Regime::Contact {
             let (l, report) = force_law::step(fl, &next_law, &ForceLawInputs { e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d });
