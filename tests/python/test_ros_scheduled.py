@@ -51,7 +51,9 @@ def test_ros_scheduled_mode_reports_the_flat_stiffness_estimate(bins):
     resumes the driver and reads /naic/params (naic_msgs built with colcon) until simulated
     t = 4.5 s (first contact at 1.49 s, the flat scenario's 10 -> 20 N step at 3 s)."""
     domain = ru.fresh_domain(70)
-    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true"], ru.ros_env(domain))
+    # Started in the paper's mode (the default is scheduled), so that the switch is seen.
+    launch = ru.Proc([str(bins / "naic"), "launch", "--lockstep", "-p", "jk5_sim_driver:paused:=true",
+                      "-p", "naic_controller:mode:=naic"], ru.ros_env(domain))
     overlay = ru.naic_msgs_env()
     script = PROBE_HEAD.replace("NODE", '"naic_scheduled_probe"') + textwrap.dedent("""
         from rclpy.parameter import Parameter

@@ -273,12 +273,13 @@ def test_ros_security_the_chain_runs_in_its_enclave_with_named_command_sources(s
     assert "/naic/effort: accepting the writer of /naic_controller" in text, text[-3000:]
     r = json.loads(report.read_text())
     print(f"secured chain: {r['samples']} commands matched, median {r['median_us']} us, missed {r['missed_cycles']}, "
-          f"{r['foreign_commands']} ignored before the writer was named")
+          f"{r['ignored_commands']} ignored before the writer was named, {r['foreign_commands']} foreign")
     assert r["samples"] > 5000 and r["rejected_commands"] == 0, r
     # The gate fails closed: the owner's first commands, before its participant's
     # ros_discovery_info named the writer, are ignored and counted (the driver holds the arm
     # meanwhile); no other node was ever seen writing.
     assert "ignoring the samples of node" not in text, text[-3000:]
+    assert r["foreign_commands"] == 0, r
 
 
 def test_ros_security_a_foreign_writer_in_the_chains_enclave_is_counted_and_ignored(sec_bins, keystore, netns,

@@ -198,6 +198,8 @@ pub struct SourceGate {
     owner: Option<(Gid, i64)>,
     writers: HashMap<Gid, Writer>,
     ignored: Arc<AtomicU64>,
+    /// Of those, the samples of writers named as another node than the source.
+    foreign: Arc<AtomicU64>,
     warned_two: bool,
 }
 
@@ -222,6 +224,7 @@ impl SourceGate {
             owner: None,
             writers: HashMap::new(),
             ignored: Arc::new(AtomicU64::new(0)),
+            foreign: Arc::new(AtomicU64::new(0)),
             warned_two: false,
         }
     }
@@ -231,9 +234,19 @@ impl SourceGate {
         Ok(SourceGate::new(topic, param, source, gap_ns, NodeGraph::new(context)?))
     }
 
-    /// The samples ignored so far (shared: the report reads it from another thread).
+    /// The samples ignored so far, for any reason (shared: the report reads it from another
+    /// thread).
     pub fn ignored(&self) -> Arc<AtomicU64> {
         Arc::clone(&self.ignored)
+    }
+
+    /// Of the ignored samples, those of writers the graph names as a node other than the
+    /// source. A writer's samples that arrived before its name did are counted here once
+    /// the name arrives and is not the source's; the owner's own samples from before its
+    /// name arrived (refused: the gate fails closed) and a second writer of the owning
+    /// node are ignored but not foreign.
+    pub fn foreign(&self) -> Arc<AtomicU64> {
+        Arc::clone(&self.foreign)
     }
 
     /// The writers seen so far and the node each belongs to (`None`: not named yet).
@@ -260,6 +273,10 @@ impl SourceGate {
             if let Some(n) = self.graph.node_of(&gid) {
                 let n = n.to_string();
                 if let Some(w) = self.writers.get_mut(&gid) {
+                    if self.source != ANY && !names(&self.source, &n) {
+                        // Its samples ignored while it was unnamed were a stranger's.
+                        self.foreign.fetch_add(w.ignored, Ordering::Relaxed);
+                    }
                     w.node = Some(n);
                 }
             }
@@ -298,6 +315,9 @@ impl SourceGate {
             node => {
                 w.ignored += 1;
                 self.ignored.fetch_add(1, Ordering::Relaxed);
+                if node.is_some() {
+                    self.foreign.fetch_add(1, Ordering::Relaxed);
+                }
                 match node {
                     Some(node) if !w.logged_named => {
                         w.logged_named = true;
@@ -377,14 +397,14 @@ mod tests {
     #[test]
     fn only_the_owner_is_admitted_and_every_foreign_sample_is_counted() {
         let mut g = gate("friction_compensation", &[(1, "/friction_compensation"), (2, "/teleop")]);
-        let n = g.ignored();
+        let (n, f) = (g.ignored(), g.foreign());
         let mut admitted = 0;
         for i in 0..1000 {
             let t = i * MS;
             admitted += g.admit(gid(1), t) as u64;
             admitted += g.admit(gid(2), t) as u64;
         }
-        assert_eq!((admitted, n.load(Ordering::Relaxed)), (1000, 1000));
+        assert_eq!((admitted, n.load(Ordering::Relaxed), f.load(Ordering::Relaxed)), (1000, 1000, 1000));
         let w = g.writers();
         assert!(w.contains(&(gid(2), Some("/teleop".into()), 1000)), "{:?}", w.iter().map(|x| (&x.1, x.2)).collect::<Vec<_>>());
     }
@@ -397,6 +417,17 @@ mod tests {
         g.graph.insert(gid(1), "/friction_compensation");
         assert!(g.admit(gid(1), MS), "named now: the owner");
         assert_eq!(g.ignored().load(Ordering::Relaxed), 1);
+        assert_eq!(g.foreign().load(Ordering::Relaxed), 0, "the owner's early sample is not foreign");
+    }
+
+    #[test]
+    fn a_strangers_samples_from_before_its_name_count_as_foreign_once_named() {
+        let mut g = gate("friction_compensation", &[]);
+        assert!(!g.admit(gid(2), 0) && !g.admit(gid(2), MS));
+        assert_eq!((g.ignored().load(Ordering::Relaxed), g.foreign().load(Ordering::Relaxed)), (2, 0));
+        g.graph.insert(gid(2), "/teleop");
+        assert!(!g.admit(gid(2), 2 * MS));
+        assert_eq!((g.ignored().load(Ordering::Relaxed), g.foreign().load(Ordering::Relaxed)), (3, 3));
     }
 
     #[test]
@@ -414,6 +445,7 @@ mod tests {
         assert!(!g.admit(gid(1), 42 * MS));
         assert!(g.admit(gid(3), 43 * MS));
         assert_eq!(g.ignored().load(Ordering::Relaxed), 3);
+        assert_eq!(g.foreign().load(Ordering::Relaxed), 0, "the owning node's writers are not foreign");
     }
 
     #[test]

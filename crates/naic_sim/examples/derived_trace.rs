@@ -14,24 +14,38 @@ use naic_sim::scenario;
 use naic_sim::test_support::{model, table1_friction};
 use nalgebra::Vector3;
 
+/// Why a trace could not be made.
+#[derive(Debug, thiserror::Error)]
+enum TraceError {
+    #[error("argument {index} {value:?}: not a number (usage in the file's doc comment)")]
+    Arg { index: usize, value: String },
+    #[error("{what}: {problem}")]
+    Setup { what: String, problem: String },
+}
+
+fn setup<E: std::fmt::Display>(what: impl Into<String>) -> impl FnOnce(E) -> TraceError {
+    let what = what.into();
+    move |e| TraceError::Setup { what, problem: e.to_string() }
+}
+
 fn main() {
     let a: Vec<String> = std::env::args().collect();
-    let num = |i: usize, d: f64| a.get(i).map_or(Ok(d), |s| s.parse::<f64>().map_err(|_| format!("argument {i} {s:?} is not a number")));
-    let run = || -> Result<(), String> {
+    let num = |i: usize, d: f64| a.get(i).map_or(Ok(d), |s| s.parse::<f64>().map_err(|_| TraceError::Arg { index: i, value: s.clone() }));
+    let run = || -> Result<(), TraceError> {
         let sc = a.get(1).map_or("flat", |s| s.as_str());
         let ctl = a.get(2).map_or("derived", |s| s.as_str());
         let (d, seed, window, every, k_e) = (num(3, 1.0)? as usize, num(4, 1.0)? as u64, num(5, 0.3)?, num(6, 5.0)?, num(7, 0.0)?);
         let m = model();
         let tool = (0.424, Vector3::new(0.0, 0.0, 0.015));
-        let mut s = scenario::preset(sc, &m).map_err(|e| format!("scenario {sc:?}: {e}"))?;
+        let mut s = scenario::preset(sc, &m).map_err(setup(format!("scenario {sc:?}")))?;
         if k_e > 0.0 {
-            s = s.with_stiffness(k_e).map_err(|e| e.to_string())?;
+            s = s.with_stiffness(k_e).map_err(setup(format!("stiffness {k_e}")))?;
         }
         s.seed = seed;
         let friction = Some(table1_friction());
-        let plant = scenario::plant_for(&s, m.clone(), friction.clone(), tool).map_err(|e| e.to_string())?;
+        let plant = scenario::plant_for(&s, m.clone(), friction.clone(), tool).map_err(setup("plant"))?;
         let settings = LoopSettings { delay_cycles: d, ..LoopSettings::default() };
-        let mut c = PipelineController::by_name(ctl, &s, &m, friction, tool, &settings).map_err(|e| e.to_string())?;
+        let mut c = PipelineController::by_name(ctl, &s, &m, friction, tool, &settings).map_err(setup(format!("controller {ctl:?}")))?;
         let mut rows = vec![];
         let mut tr = Tracer { inner: &mut c, rows: &mut rows };
         let r = naic_sim::runner::run(&s, &plant, &mut tr, &mut |_| {});

@@ -45,7 +45,7 @@ fn run_arm<const N: usize>(args: RosArgs, robot: Option<naic_core::robot_file::R
     // takeover_gap, when the rate limit restarts from the measured torque anyway.
     let source = node.params.with(|p| p.str("command_source").to_string());
     let mut gate = SourceGate::in_context(&node.context, "/naic/effort", "command_source", &source, r.p.takeover_gap_ns)?;
-    let foreign = gate.ignored();
+    let (ignored, foreign) = (gate.ignored(), gate.foreign());
     let mut waiter = Waiter::new().map_err(|e| RosError::Node(format!("poll: {e}")))?;
     waiter.add(&mut cmd_sub, 0).map_err(|e| RosError::Node(format!("poll: {e}")))?;
 
@@ -69,9 +69,10 @@ fn run_arm<const N: usize>(args: RosArgs, robot: Option<naic_core::robot_file::R
         }
     }
     log::info!(
-        "stopped after {} commands and {} take-overs; {} samples of other writers than command_source ignored",
+        "stopped after {} commands and {} take-overs; {} samples ignored, {} of them from other nodes than command_source",
         r.s.published,
         r.s.takeovers,
+        ignored.load(std::sync::atomic::Ordering::Relaxed),
         foreign.load(std::sync::atomic::Ordering::Relaxed)
     );
     Ok(())

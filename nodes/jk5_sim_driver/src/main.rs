@@ -76,7 +76,7 @@ fn run_arm<const N: usize>(args: RosArgs, robot: Option<naic_core::robot_file::R
     // counted and logged; a restarted owner takes over after command_timeout.
     let source = node.params.with(|p| p.str("command_source").to_string());
     let mut gate = SourceGate::in_context(&node.context, "/joint_effort_cmd", "command_source", &source, d.p.command_timeout_ns)?;
-    let foreign = gate.ignored();
+    let (ignored, foreign) = (gate.ignored(), gate.foreign());
     // Receive thread: wakes on each command, checks its writer and the command, stamps its
     // arrival.
     let rx = Arc::clone(&shared);
@@ -129,6 +129,7 @@ fn run_arm<const N: usize>(args: RosArgs, robot: Option<naic_core::robot_file::R
     }
     let mut extra = if d.p.lockstep { serde_json::json!({}) } else { wake.report() };
     extra["foreign_commands"] = foreign.load(std::sync::atomic::Ordering::Relaxed).into();
+    extra["ignored_commands"] = ignored.load(std::sync::atomic::Ordering::Relaxed).into();
     d.finish(&shared.lock(), &node.params, extra);
     Ok(())
 }
