@@ -27,11 +27,12 @@ use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Default, Debug)]
 pub struct SimArgs {
-    /// Scenario: flat, stiffness-step, slope, foam or two-material [default: flat].
+    /// Scenario: flat, acrylic, stiffness-step, slope, foam or two-material [default: flat].
     #[arg(long)]
     pub scenario: Option<String>,
-    /// Controller: naic, aic, fixed, scheduled, oracle (benchmark: the scheduled law
-    /// with the true k_e) or all (= naic, aic, fixed, scheduled) [default: all].
+    /// Controller: naic, aic, fixed, scheduled, derived, oracle or derived_oracle
+    /// (benchmarks: the scheduled or derived law given the true k_e) or all (= naic, aic,
+    /// fixed, scheduled) [default: all].
     #[arg(long)]
     pub controller: Option<String>,
     /// Output folder [default: a new folder runs/<UTC time>-<scenario>/].
