@@ -15,8 +15,8 @@
 //! (every joint without it), `none` (no joint friction, no feedforward).
 
 use naic_core::pipeline::control::scheduled::estimator;
-use naic_sim::controllers::{LoopSettings, PipelineController};
-use naic_sim::runner::Controller;
+use naic_core::pipeline::controller::Status;
+use naic_sim::controllers::{LoopSettings, Observed, PipelineController};
 use naic_sim::scenario;
 use naic_core::friction::{FrictionModel, JointFriction, Smoothing, DEFAULT_V_S};
 use naic_sim::test_support::{model, table1_friction};
@@ -71,7 +71,25 @@ fn run() -> Result<(), TraceError> {
         let settings = LoopSettings { delay_cycles: d, model_mass_error: mass, ..LoopSettings::default() };
         let mut c = PipelineController::by_name(ctl, &s, &m, friction.clone(), tool, &settings).map_err(|e| TraceError::Setup { what: format!("controller {ctl:?}"), problem: e.to_string() })?;
         let mut rows: Vec<(f64, String)> = vec![];
-        let mut tracer = Tracer { inner: &mut c, rows: &mut rows, t: 0.0, dt: s.task.dt };
+        // The scheduled law's state after every step, with the step's time.
+        let (mut t, dt) = (0.0, s.task.dt);
+        let mut tracer = Observed {
+            inner: &mut c,
+            after: |c: &PipelineController, st: &Status| {
+                let p = &c.params().control.force_law.scheduled;
+                let c = &c.state().controller.control;
+                let sc = &c.sched;
+                let e = estimator::estimate(&p.estimator, &sc.est);
+                rows.push((
+                    t,
+                    format!(
+                        "{:.4},{:?},{:.0},{:.0},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{},{:.3},{:.4},{:.4}",
+                        st.f_ext, c.phase, e.k_e, e.k_std, e.confidence, sc.gains.m_d, sc.gains.b_d, sc.integral, sc.observer.v * 1e3, sc.observer.w, sc.force_observer.w, sc.contact_cycles, sc.approach_integral, sc.gain.g, sc.gain.raw(&p.model_gain)
+                    ),
+                ));
+                t += dt;
+            },
+        };
         let r = naic_sim::runner::run(&s, &plant, &mut tracer, &mut |_| {});
         let rec = &r.records;
         let Some(i0) = rec.iter().position(|x| x.in_contact).filter(|&i| i > 0) else {
@@ -142,37 +160,4 @@ fn friction_variant(name: &str) -> Result<Option<FrictionModel>, TraceError> {
         .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: DEFAULT_V_S }))
         .map(Some)
         .map_err(|e| TraceError::Setup { what: format!("friction {name}"), problem: e.to_string() })
-}
-
-/// The controller, recording its scheduled state after every step.
-struct Tracer<'a> {
-    inner: &'a mut PipelineController,
-    rows: &'a mut Vec<(f64, String)>,
-    t: f64,
-    dt: f64,
-}
-
-impl Controller for Tracer<'_> {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-    fn set_true_stiffness(&mut self, k_e: f64) {
-        self.inner.set_true_stiffness(k_e)
-    }
-    fn step(&mut self, meas: &naic_sim::plant::RawMeasurements, reference: &naic_sim::scenario::Reference) -> (naic_core::JointVec, naic_core::pipeline::controller::Status) {
-        let (tau, st) = self.inner.step(meas, reference);
-        let p = &self.inner.params().control.force_law.scheduled;
-        let c = &self.inner.state().controller.control;
-        let sc = &c.sched;
-        let e = estimator::estimate(&p.estimator, &sc.est);
-        self.rows.push((
-            self.t,
-            format!(
-                "{:.4},{:?},{:.0},{:.0},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{},{:.3},{:.4},{:.4}",
-                st.f_ext, c.phase, e.k_e, e.k_std, e.confidence, sc.gains.m_d, sc.gains.b_d, sc.integral, sc.observer.v * 1e3, sc.observer.w, sc.force_observer.w, sc.contact_cycles, sc.approach_integral, sc.gain.g, sc.gain.raw(&p.model_gain)
-            ),
-        ));
-        self.t += self.dt;
-        (tau, st)
-    }
 }

@@ -8,8 +8,8 @@
 //! `CONTROLLER` is `derived` or `derived_oracle`; `STIFFNESS` [N/m] overrides the surface's
 //! k_e (0: the scenario's).
 
-use naic_sim::controllers::{LoopSettings, PipelineController};
-use naic_sim::runner::Controller;
+use naic_core::pipeline::controller::Status;
+use naic_sim::controllers::{LoopSettings, Observed, PipelineController};
 use naic_sim::scenario;
 use naic_sim::test_support::{model, table1_friction};
 use nalgebra::Vector3;
@@ -47,7 +47,19 @@ fn main() {
         let settings = LoopSettings { delay_cycles: d, ..LoopSettings::default() };
         let mut c = PipelineController::by_name(ctl, &s, &m, friction, tool, &settings).map_err(setup(format!("controller {ctl:?}")))?;
         let mut rows = vec![];
-        let mut tr = Tracer { inner: &mut c, rows: &mut rows };
+        // The derived law's state after every step.
+        let mut tr = Observed {
+            inner: &mut c,
+            after: |c: &PipelineController, st: &Status| {
+                let p = &c.params().control.force_law.derived;
+                let d = &c.state().controller.control.derived;
+                let e = naic_core::pipeline::control::contact::estimate(&p.contact, &d.contact, 0.0);
+                rows.push(format!(
+                    "{:8.3} {:8.0} {:8.0} {:8.0} {:7.3} {:7.3} {:8.3} {:8.1} {:8.4} {:6.2} {:7.3} {:7.3}",
+                    st.f_ext, e.k_hat, e.k_upper, e.k_lower, e.mu_hat, e.mu_upper, d.m_d, d.b_d, d.k_i, d.integral, d.f_ref, d.u_prev
+                ));
+            },
+        };
         let r = naic_sim::runner::run(&s, &plant, &mut tr, &mut |_| {});
         let Some(i0) = r.records.iter().position(|x| x.in_contact) else {
             println!("no contact");
@@ -70,31 +82,5 @@ fn main() {
     if let Err(e) = run() {
         eprintln!("derived_trace: {e}");
         std::process::exit(2);
-    }
-}
-
-/// The controller, recording the derived law's state after every step.
-struct Tracer<'a> {
-    inner: &'a mut PipelineController,
-    rows: &'a mut Vec<String>,
-}
-
-impl Controller for Tracer<'_> {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-    fn set_true_stiffness(&mut self, k_e: f64) {
-        self.inner.set_true_stiffness(k_e)
-    }
-    fn step(&mut self, meas: &naic_sim::plant::RawMeasurements, reference: &naic_sim::scenario::Reference) -> (naic_core::JointVec, naic_core::pipeline::controller::Status) {
-        let (tau, st) = self.inner.step(meas, reference);
-        let p = &self.inner.params().control.force_law.derived;
-        let d = &self.inner.state().controller.control.derived;
-        let e = naic_core::pipeline::control::contact::estimate(&p.contact, &d.contact, 0.0);
-        self.rows.push(format!(
-            "{:8.3} {:8.0} {:8.0} {:8.0} {:7.3} {:7.3} {:8.3} {:8.1} {:8.4} {:6.2} {:7.3} {:7.3}",
-            st.f_ext, e.k_hat, e.k_upper, e.k_lower, e.mu_hat, e.mu_upper, d.m_d, d.b_d, d.k_i, d.integral, d.f_ref, d.u_prev
-        ));
-        (tau, st)
     }
 }

@@ -209,6 +209,29 @@ impl<const N: usize> PipelineController<N> {
     }
 }
 
+/// A [`PipelineController`] that calls `after` with itself and its status after every step:
+/// traces of a law's internal state (`examples/contact_trace.rs`, `examples/derived_trace.rs`).
+pub struct Observed<'a, F, const N: usize = N_JOINTS> {
+    pub inner: &'a mut PipelineController<N>,
+    pub after: F,
+}
+
+impl<const N: usize, F: FnMut(&PipelineController<N>, &Status)> SimController<N> for Observed<'_, F, N> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+
+    fn set_true_stiffness(&mut self, k_e: f64) {
+        self.inner.set_true_stiffness(k_e)
+    }
+
+    fn step(&mut self, m: &RawMeasurements<N>, r: &Reference) -> (JointVec<N>, Status) {
+        let (tau, st) = self.inner.step(m, r);
+        (self.after)(self.inner, &st);
+        (tau, st)
+    }
+}
+
 impl<const N: usize> SimController<N> for PipelineController<N> {
     fn name(&self) -> &str {
         &self.name
