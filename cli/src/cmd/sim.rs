@@ -864,7 +864,7 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
         "frictionless_plant_only_steps_per_s": rate_nf.plant_only.round(),
         "plant_only_steps_per_s": rate.plant_only.round(),
         "controller_only_steps_per_s": rate.controller_only.round(),
-        "what": "closed loop: plant (ABA, implicit friction, contact) + encoders + mini45 + NAIC pipeline + friction feedforward + actuation, 1 ms period, flat scenario in contact",
+        "what": "closed loop: plant (CRBA + RNEA, implicit friction, contact) + encoders + mini45 + NAIC pipeline + friction feedforward + actuation, 1 ms period, flat scenario in contact",
         "in_contact_at_end": last.truth.contact.in_contact,
         "substeps": plant.substeps,
         "timed_steps": steps,

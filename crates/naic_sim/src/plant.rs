@@ -133,6 +133,30 @@ pub struct PlantWorkspace<const N: usize = N_JOINTS> {
     /// The friction torques and slopes at the last implicit step's solution,
     /// reused when the next step starts from that bit-identical velocity.
     friction: implicit::FrictionAt<N>,
+    /// What the last observation computed at its state, reused by the next step's
+    /// first sub-step when that starts from the bit-identical `(t, q, q̇)`.
+    observed: Option<AtState<N>>,
+}
+
+/// Contact, `M(q)` and `b(q, q̇)` at one `(t, q, q̇)`, the key compared bit for bit.
+#[derive(Clone, Copy, Debug)]
+struct AtState<const N: usize> {
+    t: f64,
+    q: SVector<f64, N>,
+    v: SVector<f64, N>,
+    jl: SMatrix<f64, 3, N>,
+    contact: Contact,
+    /// `M(q)` (CRBA).
+    m: SMatrix<f64, N, N>,
+    /// `b(q, q̇)`: Coriolis, centrifugal and gravity torques (RNEA at q̈ = 0).
+    b: SVector<f64, N>,
+}
+
+impl<const N: usize> AtState<N> {
+    fn is_at(&self, t: f64, q: &SVector<f64, N>, v: &SVector<f64, N>) -> bool {
+        let same = |a: &SVector<f64, N>, b: &SVector<f64, N>| a.iter().zip(b.iter()).all(|(x, y)| x.to_bits() == y.to_bits());
+        self.t.to_bits() == t.to_bits() && same(&self.q, q) && same(&self.v, v)
+    }
 }
 
 impl<const N: usize> PlantWorkspace<N> {
@@ -140,6 +164,7 @@ impl<const N: usize> PlantWorkspace<N> {
         Self {
             data: DataN::<N>::try_new(&p.model).expect("PlantParams::new checked the model has N joints"),
             friction: implicit::FrictionAt::default(),
+            observed: None,
         }
     }
 }
@@ -303,9 +328,15 @@ fn integrate<const N: usize>(
             (q1, v1, None)
         }
         Integrator::ImplicitFriction => {
-            let (_, _, jl, c) = tip_contact(p, ws, t, q, v);
-            let rhs0 = tau + jl.transpose() * c.force - dynamics::bias_torques(&p.model, &mut ws.data, q, v);
-            let m = *dynamics::crba(&p.model, &mut ws.data, q);
+            let (jl, c, b, m) = match ws.observed.take() {
+                Some(a) if a.is_at(t, q, v) => (a.jl, a.contact, a.b, a.m),
+                _ => {
+                    let (_, _, jl, c) = tip_contact(p, ws, t, q, v);
+                    let b = *dynamics::bias_torques(&p.model, &mut ws.data, q, v);
+                    (jl, c, b, *dynamics::crba(&p.model, &mut ws.data, q))
+                }
+            };
+            let rhs0 = tau + jl.transpose() * c.force - b;
             let sol = implicit::solve(p.friction.as_ref(), &m, v, &rhs0, h, &mut ws.friction);
             (q + sol.v1 * h, sol.v1, Some(sol.tau_f))
         }
@@ -348,7 +379,21 @@ fn observe_with_friction<const N: usize>(
     // The sensor frame's motion at this state under the applied torque (the plant's own
     // forward dynamics, as in `accel`): what the tool's inertial wrench answers.
     let tau_tot = SVector::<f64, N>::from(tau_applied) + jl.transpose() * contact.force - tf;
-    let ddq = *dynamics::aba(&p.model, &mut ws.data, &q, &v, &tau_tot);
+    let ddq = match p.integrator {
+        // The implicit step starting from this state needs M(q) and b(q, q̇) anyway: compute
+        // them here, solve M q̈ = τ − b with M's Cholesky factor, and leave them for that step.
+        Integrator::ImplicitFriction => {
+            let b = *dynamics::bias_torques(&p.model, &mut ws.data, &q, &v);
+            let m = *dynamics::crba(&p.model, &mut ws.data, &q);
+            let ddq = match m.cholesky() {
+                Some(c) => c.solve(&(tau_tot - b)),
+                None => *dynamics::aba(&p.model, &mut ws.data, &q, &v, &tau_tot),
+            };
+            ws.observed = Some(AtState { t: s.t, q, v, jl, contact, m, b });
+            ddq
+        }
+        Integrator::SemiImplicitEuler | Integrator::Rk4 => *dynamics::aba(&p.model, &mut ws.data, &q, &v, &tau_tot),
+    };
     let jdqd = dynamics::frame_jdot_qdot(&p.model, &mut ws.data, &q, &v, p.sensor_frame);
     let js = dynamics::frame_jacobian(&p.model, &mut ws.data, &q, p.sensor_frame);
     let (a6, v6) = (js * ddq + jdqd, js * v);

@@ -1,6 +1,6 @@
 //! The node's core: one pure step `(params, state, inbox, now) -> (state, outbox)`.
 //!
-//! Around `naic_core::pipeline::controller::step` it adds what the node needs: joints read
+//! Around `naic_core::pipeline::controller::update` it adds what the node needs: joints read
 //! by name, the wrench paired with the joint state of the same stamp in simulated time
 //! (lockstep), the replay of a repeated stamp, the time base (wall clock or stamps), the
 //! position reference (a scenario's trajectory, or the start pose moved along n), the
@@ -490,30 +490,30 @@ fn cycle<const N: usize>(p: &Params<N>, s: &mut State<N>, j: &JointSample<N>, no
     // command, and a slow DDS reader must not change a deterministic run).
     let lag_ns = s.actuated_src_ns.filter(|_| !time.is_sim()).map(|a| j.stamp_ns.saturating_sub(a));
     let not_actuated = lag_ns.is_some_and(|l| l > p.settings.actuation_timeout_ns);
-    let (mut next, o) = controller::step(&p.controller, &s.ctl, &m, &reference, ws);
+    let tare_samples = p.controller.params().tare_samples;
+    let was_tared = s.ctl.tare.done(tare_samples);
+    let o = controller::update(&p.controller, &mut s.ctl, &m, &reference, ws);
     if not_actuated {
         // The torque does not reach the arm: the force error says nothing about the law, and
         // a law that went on adapting against the driver's hold (NAIC: m_d to its floor, σ
         // past the eq-9 bound) shook the arm when commands came back. The driver holds the
         // arm, so the law is where the controller's own safe hold leaves it: configured
         // weights, free space next, contact re-detected.
-        next.control = next.control.hold(&p.controller.params().control);
+        s.ctl.control = s.ctl.control.hold(&p.controller.params().control);
     }
     if not_actuated != s.not_actuated {
         out.events.actuation = Some(if not_actuated { Actuation::Lost(lag_ns.unwrap_or(0) as f64 * 1e-6) } else { Actuation::Restored });
     }
     s.not_actuated = not_actuated;
-    let tare_samples = p.controller.params().tare_samples;
-    if !s.ctl.tare.done(tare_samples) {
-        if next.tare.done(tare_samples) {
-            out.events.tared = Some(next.tare.bias());
-        } else if let Some(why) = next.tare.not_at_rest.filter(|_| next.tare.restarts > 0) {
+    if !was_tared {
+        if s.ctl.tare.done(tare_samples) {
+            out.events.tared = Some(s.ctl.tare.bias());
+        } else if let Some(why) = s.ctl.tare.not_at_rest.filter(|_| s.ctl.tare.restarts > 0) {
             if s.tare_log.ready(now_ns) {
-                out.events.tare_waiting = Some((why, next.tare.restarts));
+                out.events.tare_waiting = Some((why, s.ctl.tare.restarts));
             }
         }
     }
-    s.ctl = next;
     s.cycles += 1;
     let st = o.status;
     s.last_dq = Some(o.dq);

@@ -356,8 +356,7 @@ pub fn update<const N: usize>(
         f_d: r.f_d,
         pre: control::law::Prepared { shaper, a_free, mass_n },
     };
-    let (control_state, out) = control::step(&p.control, &next.control, &task);
-    next.control = control_state;
+    let out = control::update(&p.control, &mut next.control, &task);
 
     // Eq 6 → τ: J q̈* = V − J̇q̇, τ = RNEA(q, q̇, q̈*) + Jᵀ F_e.
     let posture = if N == 6 { None } else { Some(next.q_posture.or(p.nullspace.q).unwrap_or(sensed.q)) };

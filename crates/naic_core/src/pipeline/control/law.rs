@@ -275,16 +275,24 @@ fn estimator_report(p: &ScheduledParams, s: &ScheduledState) -> (f64, f64) {
     (e.k_e, e.confidence)
 }
 
-/// One cycle of the force law along `n`: the one dispatch point. Pure: the law's states
-/// `(law, sched, derived)` in, the next ones and the outputs out.
+/// One cycle of the force law along `n`. Pure: the law's states `(law, sched, derived)`
+/// in, the next ones and the outputs out (the copying form of [`update`]).
 pub fn step(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, der: &DerivedState, u: &AxisInputs) -> (ForceLawState, ScheduledState, DerivedState, AxisOutputs) {
+    let (mut l, mut s, mut d) = (*law, *sched, *der);
+    let out = update(p, &mut l, &mut s, &mut d, u);
+    (l, s, d, out)
+}
+
+/// One cycle of the force law along `n`: the one dispatch point. The law's states
+/// `(law, sched, derived)` are updated in place: the same numbers as [`step`].
+pub fn update(p: &ControlParams, law: &mut ForceLawState, sched: &mut ScheduledState, der: &mut DerivedState, u: &AxisInputs) -> AxisOutputs {
     let fl = &p.force_law;
     if fl.mode == Mode::Derived {
         let (l, s, d, out) = step_derived(p, law, sched, der, u);
-        return (l, s, d, out);
+        (*law, *sched, *der) = (l, s, d);
+        return out;
     }
-    let (l, s, out) = step_scheduled_or_paper(p, law, sched, u);
-    (l, s, *der, out)
+    update_scheduled_or_paper(p, law, sched, u)
 }
 
 /// The derived law ([`super::derived`]): its step in contact, the scheduled law's approach
@@ -332,38 +340,40 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
 }
 
 /// The scheduled law and the paper laws (the latter: eq 8–15 in contact, nothing else).
-fn step_scheduled_or_paper(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, u: &AxisInputs) -> (ForceLawState, ScheduledState, AxisOutputs) {
+/// In place: `law` and `sched` hold the previous cycle's states on entry.
+fn update_scheduled_or_paper(p: &ControlParams, law: &mut ForceLawState, sched: &mut ScheduledState, u: &AxisInputs) -> AxisOutputs {
     let fl = &p.force_law;
-    let (mut next_law, mut next_sched) = (*law, *sched);
+    let sp = &fl.scheduled;
+    // The ĝ this cycle's commands are made with (in realised units for the predictor):
+    // the previous cycle's, read before a re-arm.
+    let g_used = sched.gain.used(&sp.model_gain);
     if u.entered {
-        next_law = law.rearm(u.f_ext - u.f_d);
-        next_sched = sched.rearm(&fl.scheduled, u.x, u.f_ext);
+        *law = law.rearm(u.f_ext - u.f_d);
+        *sched = sched.rearm(&fl.scheduled, u.x, u.f_ext);
     }
+    let (next_law, next_sched) = (law, sched);
     let mut out = AxisOutputs::generic(u.f_ext - u.f_d);
     if fl.mode != Mode::Scheduled {
         if u.regime == Regime::Contact {
             let (l, report) = force_law::step(fl, &next_law, &ForceLawInputs { e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d });
-            next_law = l;
+            *next_law = l;
             out.xdd = Some(u.a_d - report.e_ddot);
             out.report = report;
         }
-        return (next_law, next_sched, out);
+        return out;
     }
 
     // The scheduled law.
-    let sp = &fl.scheduled;
-    // The ĝ this cycle's commands are made with (in realised units for the predictor).
-    let g_used = sched.gain.used(&sp.model_gain);
     match u.regime {
         Regime::Contact => {
             let inputs = ScheduledInputs { x: u.x, x_dot: u.x_dot, e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, xdd_d: u.a_d };
             let (s, r) = scheduled::step(sp, fl.lambda, fl.integral_limit_n, &next_sched, &inputs);
-            next_sched = s;
+            *next_sched = s;
             let g = &s.gains;
             // The shared law state reports the scheduled weights (Status, /naic/params).
-            next_law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: s.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
+            *next_law = ForceLawState { m_d: g.m_d, b_d: g.b_d, sigma: g.sigma, phi: s.integral / g.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
             // Divided by the model's gain along n: the arm realises what the law asks.
-            out.xdd = Some((u.a_d - r.e_ddot) / sched.gain.used(&sp.model_gain));
+            out.xdd = Some((u.a_d - r.e_ddot) / g_used);
             // The friction feedforward's velocity along n: the observer's v̄ where it runs,
             // the reference's where v̄ would be the raw encoder velocity.
             out.v_ref = r.v_bar;
@@ -390,14 +400,14 @@ fn step_scheduled_or_paper(p: &ControlParams, law: &ForceLawState, sched: &Sched
         Regime::Retracting => {}
     }
     if u.regime != Regime::Retracting {
-        let e = estimator_report(sp, &next_sched);
+        let e = estimator_report(sp, next_sched);
         out.report.k_e_hat = e.0;
         out.report.k_e_confidence = e.1;
     }
     let v_n = out.xdd.unwrap_or(u.v_n);
     if u.regime != Regime::Contact {
         // The predictor remembers every command along n; in contact the law pushes its own.
-        next_sched = next_sched.commanded(g_used * v_n);
+        *next_sched = next_sched.commanded(g_used * v_n);
     }
     // The model's gain along n: learnt in free space only (no contact force).
     let phase_free = u.regime == Regime::Free;
@@ -421,7 +431,7 @@ fn step_scheduled_or_paper(p: &ControlParams, law: &ForceLawState, sched: &Sched
         });
         out.friction = Some(FrictionVelocity { blend: b, fast });
     }
-    (next_law, next_sched, out)
+    out
 }
 
 /// The expected surface's coordinate `z` on `n`'s dominant base axis, as a position along

@@ -392,17 +392,25 @@ fn eq6(imp: &ImpedanceParams, k: &[f64; 6], u: &TaskInputs) -> Vector6<f64> {
 }
 
 /// One cycle of the control stage (contact detection, eq 6/8 on every axis, the force law
-/// along `n` through [`law::step`], the one dispatch point).
-/// Pure: `(params, state, inputs) -> (state, outputs)`.
+/// along `n` through [`law::update`], the one dispatch point).
+/// Pure: `(params, state, inputs) -> (state, outputs)`; the copying form of [`update`].
 pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlState, TaskOutputs) {
+    let mut next = *s;
+    let out = update(p, &mut next, u);
+    (next, out)
+}
+
+/// [`step`] in place: `next` holds the previous cycle's state on entry and this cycle's on
+/// return (the same numbers, without copying the state in and out).
+pub fn update(p: &ControlParams, next: &mut ControlState, u: &TaskInputs) -> TaskOutputs {
     let n = &p.force_axis;
     let f_ext = n.dot6(&u.f_e);
-    let mut next = *s;
+    let (prev_phase, prev_below_exit) = (next.phase, next.below_exit);
     let mut v_ref = u.e_dot + u.x_dot;
     let imp = &law::impedance(p);
     let along = |u: &TaskInputs, regime: law::Regime, entered: bool, v_n: f64| law::AxisInputs {
         regime,
-        prev_phase: s.phase,
+        prev_phase,
         entered,
         x: n.dot(&u.p),
         x_dot: n.dot6(&u.x_dot),
@@ -420,8 +428,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
         pre: u.pre,
     };
     let finish = |next: &mut ControlState, out: &mut TaskOutputs, a: &law::AxisInputs| {
-        let (l, sched, der, r) = law::step(p, &s.law, &s.sched, &s.derived, a);
-        (next.law, next.sched, next.derived) = (l, sched, der);
+        let r = law::update(p, &mut next.law, &mut next.sched, &mut next.derived, a);
         if let Some(x) = r.xdd {
             n.set6(&mut out.v, x);
         }
@@ -475,13 +482,13 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
             model_gain: 1.0,
             friction: None,
         };
-        finish(&mut next, &mut out, &a);
-        return (next, out);
+        finish(next, &mut out, &a);
+        return out;
     }
 
     // Phase transitions (a hold ends in free space: contact is re-detected).
     let mut entered = false;
-    match s.phase {
+    match prev_phase {
         Phase::Free | Phase::Hold => {
             next.phase = Phase::Free;
             if f_ext > law::contact_threshold(p) {
@@ -491,7 +498,7 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
             }
         }
         Phase::Contact => {
-            next.below_exit = if f_ext < p.contact.exit_n { s.below_exit + 1 } else { 0 };
+            next.below_exit = if f_ext < p.contact.exit_n { prev_below_exit + 1 } else { 0 };
             if p.contact.exit_cycles > 0 && next.below_exit >= p.contact.exit_cycles {
                 next.phase = Phase::Free;
             }
@@ -520,8 +527,8 @@ pub fn step(p: &ControlParams, s: &ControlState, u: &TaskInputs) -> (ControlStat
         model_gain: 1.0,
         friction: None,
     };
-    finish(&mut next, &mut out, &a);
-    (next, out)
+    finish(next, &mut out, &a);
+    out
 }
 
 #[cfg(test)]
