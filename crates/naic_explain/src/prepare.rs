@@ -283,8 +283,10 @@ pub fn prepare(
 ) -> Result<Prepared, ExplainError> {
     let n = ts.len();
     let dt = ts.dt();
-    let mut h = ((opts.window_s / dt) / 2.0).round() as usize;
-    h = h.max(opts.order.div_ceil(2) + 1);
+    // half the chosen window in samples; the fit needs at least order/2 + 1 (at 100 Hz a 51 ms
+    // window is 5 samples and the quintic takes 9: 90 ms)
+    let h_chosen = ((opts.window_s / dt) / 2.0).round() as usize;
+    let h = h_chosen.max(opts.order.div_ceil(2) + 1);
     if 2 * h + 1 >= n {
         return Err(ExplainError::input(format!(
             "only {n} samples at dt = {dt} s; the {} s filter window needs far more (record longer)",
@@ -299,8 +301,12 @@ pub fn prepare(
     let [c0, c1, c2] = savgol_coefficients(h, opts.order, dt);
     // a fit of q over a window RATE_WINDOW_FACTOR times longer, for q⃛ and the states at t ± δ
     // (the short fit's third derivative carries the encoder's quantisation noise many times
-    // over: on 2¹⁹-count data τ̇_rb came out with noise of ~14 N·m/s on the JK5's joint 2)
-    let hl = RATE_WINDOW_FACTOR * h;
+    // over: on 2¹⁹-count data τ̇_rb came out with noise of ~14 N·m/s on the JK5's joint 2).
+    // Where the order's minimum already widened the filter past the chosen window (100 Hz:
+    // 51 → 90 ms), the filter's own fit: three such windows (270 ms) smoothed τ̇_rb across a
+    // trapezoid's 50 ms acceleration phase, −d·τ̇_rb no longer matched the shift of the
+    // filtered torque, and 4–6 ms delays went unnamed (docs/notes/2026-12-06-issue38-delay-100hz.md).
+    let hl = if h > h_chosen { h } else { RATE_WINDOW_FACTOR * h };
     let poly_short = savgol_polynomial(h, opts.order, dt);
     let poly_long = savgol_polynomial(hl, opts.order, dt);
     let delta = RB_RATE_HALF_SPAN_S.min(h as f64 * dt);
