@@ -313,7 +313,11 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
             next_der = s;
             // The shared law state reports the gains (Status, /naic/params).
             next_law = ForceLawState { m_d: s.m_d, b_d: s.b_d, sigma: s.k_i * fl.lambda, phi: s.integral / s.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
-            out.xdd = Some(u.a_d - r.e_ddot);
+            // The approach servo's integral `a_i` is the free-space estimate of the constant
+            // acceleration disturbance along n (the model's gravity error, b⁻¹ΔF at rest):
+            // it persists in contact, so it stays as a feedforward there (held, not updated)
+            // instead of stepping the contact loop by ΔF at the first contact.
+            out.xdd = Some(u.a_d - r.e_ddot + sched.approach_integral);
             out.report = ForceLawOutputs { e_ddot: r.e_ddot, e_f: r.e_f, k_e_hat: r.estimate.k_hat, k_e_confidence: derived::confidence(&r.estimate), ..Default::default() };
         }
         Regime::Free => {
