@@ -231,6 +231,15 @@ struct Goal {
 }
 
 /// The per-scenario goals of issue 12 for one cell `c` of `scheduled` (`at`: "d = 1", "F = 0.8", ...).
+/// `title: m of n met.` and the goals' table, into the table's markdown.
+fn goal_table(md: &mut String, title: &str, gs: &[Goal]) {
+    let met = gs.iter().filter(|g| g.met).count();
+    let _ = writeln!(md, "\n{title}: {met} of {} met.\n\n| goal | measured | met |\n|---|---|---|", gs.len());
+    for g in gs {
+        let _ = writeln!(md, "| {} | {} | {} |", g.what, g.measured, if g.met { "yes" } else { "**no**" });
+    }
+}
+
 fn scenario_goals(sc: &str, at: &str, c: &RunSummary) -> Vec<Goal> {
     let mut g = Vec::new();
     let le = |x: Option<f64>, b: f64| x.is_some_and(|x| x <= b);
@@ -444,44 +453,31 @@ pub fn run(
         // The scheduled law's lines first, as before; each other law's lines name it first.
         let head = |scheduled: &str, other: &str| if law == "scheduled" { scheduled.to_string() } else { format!("For `{law}`: {other}") };
         let gs = goals(&get, law, oracle);
-        let met = gs.iter().filter(|g| g.met).count();
-        let _ = writeln!(md, "\nGoals of issue 12 for `{law}` (medians above): {met} of {} met.\n\n| goal | measured | met |\n|---|---|---|", gs.len());
-        for g in &gs {
-            let _ = writeln!(md, "| {} | {} | {} |", g.what, g.measured, if g.met { "yes" } else { "**no**" });
-        }
+        goal_table(&mut md, &format!("Goals of issue 12 for `{law}` (medians above)"), &gs);
+        // The per-scenario goals at each model mass error F (d = 1).
+        let at_mass_errors = |fs: &[f64]| {
+            let mut v = Vec::new();
+            for &f in fs {
+                for sc in TABLE_SCENARIOS {
+                    let c = cell(&select(&done, |x| x.scenario == sc && x.controller == law && x.model_mass_error == f));
+                    v.extend(scenario_goals(sc, &format!("F = {f}, d = 1"), &c.median));
+                }
+            }
+            v
+        };
         // The issue's "every goal holds under --model-mass-error 0.8 and 1.25 and over the whole
         // stiffness sweep": the same per-scenario goals at F (d = 1), and flat's goals at every k_e.
-        let mut rg = Vec::new();
-        for f in MASS_ERRORS {
-            for sc in TABLE_SCENARIOS {
-                let c = cell(&select(&done, |x| x.scenario == sc && x.controller == law && x.model_mass_error == f));
-                rg.extend(scenario_goals(sc, &format!("F = {f}, d = 1"), &c.median));
-            }
-        }
+        let mut rg = at_mass_errors(&MASS_ERRORS);
         for k in SWEEP_K {
             for d in DELAYS {
                 rg.extend(scenario_goals("flat", &format!("k_e = {k:.0} N/m, d = {d}"), &sweep(k, law, d)));
             }
         }
-        let met = rg.iter().filter(|g| g.met).count();
         let what = "the same goals under model mass error (d = 1) and over the stiffness sweep (flat's goals at each k_e)";
-        let _ = writeln!(md, "\n{}: {met} of {} met.\n\n| goal | measured | met |\n|---|---|---|", head("The same goals under model mass error (d = 1) and over the stiffness sweep (flat's goals at each k_e)", what), rg.len());
-        for g in &rg {
-            let _ = writeln!(md, "| {} | {} | {} |", g.what, g.measured, if g.met { "yes" } else { "**no**" });
-        }
-        let mut small = Vec::new();
-        for f in SMALL_MASS_ERRORS {
-            for sc in TABLE_SCENARIOS {
-                let c = cell(&select(&done, |x| x.scenario == sc && x.controller == law && x.model_mass_error == f));
-                small.extend(scenario_goals(sc, &format!("F = {f}, d = 1"), &c.median));
-            }
-        }
-        let met = small.iter().filter(|g| g.met).count();
+        goal_table(&mut md, &head("The same goals under model mass error (d = 1) and over the stiffness sweep (flat's goals at each k_e)", what), &rg);
+        let small = at_mass_errors(&SMALL_MASS_ERRORS);
         let what = "a check beside the issue's goals, the same goals at a small model mass error (d = 1)";
-        let _ = writeln!(md, "\n{}: {met} of {} met.\n\n| goal | measured | met |\n|---|---|---|", head("A check beside the issue's goals: the same goals at a small model mass error (d = 1)", what), small.len());
-        for g in &small {
-            let _ = writeln!(md, "| {} | {} | {} |", g.what, g.measured, if g.met { "yes" } else { "**no**" });
-        }
+        goal_table(&mut md, &head("A check beside the issue's goals: the same goals at a small model mass error (d = 1)", what), &small);
     }
     let secs = t0.elapsed().as_secs_f64();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
