@@ -23,7 +23,14 @@
 //!
 //! Torque enters through `qfrc_applied` (saturated at the URDF effort limits like the
 //! own plant; the MJCF motors' ±100 N·m ctrlrange is not used), held over the period.
-//! The joints have no friction (the MJCF has none). After each period `mj_forward`
+//! Joint friction (the MJCF has none): when `PlantParams::friction` holds the robot's model
+//! (the JK5's Table 1, eq 5 per direction), MuJoCo computes it, set on the model at load
+//! ([`JointFrictionSplit`]): the Coulomb level common to both directions and every speed as
+//! the DOF's `frictionloss` (an implicit constraint: it holds a joint at rest), the smaller
+//! viscous coefficient as the DOF's `damping` (implicit in MuJoCo's Euler), and the
+//! remainder (the Stribeck excess and the direction-dependent parts) as an explicit
+//! `qfrc_applied` evaluated before each MuJoCo step. Without a model the joints are
+//! frictionless. After each period `mj_forward`
 //! evaluates the sensors at the new state under the held torque, so the F/T reading
 //! includes the tool's weight and inertial wrench as a real sensor does. The naic
 //! convention (the wrench the tool exerts on the sensor) is the negative of MuJoCo's
@@ -98,6 +105,66 @@ pub struct MujocoPlant {
     table: Vec<TableGeom>,
     qadr: [usize; N_JOINTS],
     vadr: [usize; N_JOINTS],
+    /// The robot's joint friction as MuJoCo computes it (`None`: frictionless joints).
+    friction: Option<[JointFrictionSplit; N_JOINTS]>,
+}
+
+/// One joint's friction law (eq 4 or 5) split for MuJoCo: `τ_f(q̇) = c·sgn(q̇) + b·q̇ + r(q̇)`
+/// with `c` (DOF `frictionloss`) the smallest of the law's Coulomb and breakaway levels over
+/// both directions and `b` (DOF `damping`) the smaller viscous coefficient, so that the
+/// remainder `r` (the same law with `c` taken off its levels and `b` off its viscous
+/// coefficients) opposes the motion at every speed. `r` is applied explicitly, so its sign
+/// is smoothed, `tanh(q̇/v_r)`, with `v_r` wide enough for an explicit step of MuJoCo's
+/// (`|∂r/∂q̇|·h/I ≤ 1`, half of explicit Euler's limit 2, `I` the joint's diagonal
+/// inertia at the start pose; JK5 at 1 ms: `v_r` 0.05 rad/s on joint 4); inside
+/// `|q̇| < v_r` the joint is held by `c` alone. For `|q̇| ≥ 3 v_r` the sum is the law as printed
+/// (within 0.5 % of the remainder's Coulomb part).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointFrictionSplit {
+    /// Coulomb level [N·m], MuJoCo's `frictionloss`.
+    pub c: f64,
+    /// Viscous coefficient [N·m·s/rad], MuJoCo's `damping`.
+    pub b: f64,
+    /// The remainder's law.
+    pub r: naic_core::friction::JointFriction,
+    /// The remainder's smoothing velocity [rad/s].
+    pub v_r: f64,
+}
+
+impl JointFrictionSplit {
+    /// Split `law` for a joint of diagonal inertia `inertia` [kg·m²] stepped at `h` [s];
+    /// `v_s`: the smallest smoothing velocity [rad/s] (the model's own).
+    pub fn new(law: &naic_core::friction::JointFriction, inertia: f64, h: f64, v_s: f64) -> Self {
+        use naic_core::friction::{JointFriction as L, StribeckParams as S};
+        let less = |p: &S, c: f64, b: f64| S { f_a: p.f_a - c, f_b: p.f_b - c, q_s: p.q_s, f_v: p.f_v - b };
+        let (c, b, r, excess) = match law {
+            L::CoulombViscous { f_c, f_v } => (*f_c, *f_v, L::CoulombViscous { f_c: 0.0, f_v: 0.0 }, 0.0),
+            L::Stribeck(p) => {
+                let c = p.f_a.min(p.f_b);
+                (c, p.f_v, L::Stribeck(less(p, c, p.f_v)), p.f_a.max(p.f_b) - c)
+            }
+            L::StribeckPerDirection { positive: pp, negative: pn } => {
+                let c = pp.f_a.min(pp.f_b).min(pn.f_a).min(pn.f_b);
+                let b = pp.f_v.min(pn.f_v);
+                let excess = pp.f_a.max(pp.f_b).max(pn.f_a).max(pn.f_b) - c;
+                (c, b, L::StribeckPerDirection { positive: less(pp, c, b), negative: less(pn, c, b) }, excess)
+            }
+        };
+        // |∂r/∂q̇| near 0 ≈ excess/v_r: keep |∂r/∂q̇|·h/I ≤ 1 (explicit Euler's limit is 2).
+        let v_r = if inertia > 0.0 { (excess * h / inertia).max(v_s) } else { v_s.max(1.0) };
+        Self { c, b, r, v_r }
+    }
+
+    /// The remainder `r(q̇)` [N·m] (the torque opposing the motion).
+    #[inline]
+    pub fn remainder(&self, qdot: f64) -> f64 {
+        self.r.tau_f_smooth(qdot, self.v_r)
+    }
+
+    /// The whole law `c·sgn(q̇) + b·q̇ + r(q̇)` away from rest [N·m].
+    pub fn tau_f(&self, qdot: f64) -> f64 {
+        self.c * qdot.signum() + self.b * qdot + self.remainder(qdot)
+    }
 }
 
 fn mjcf_err(path: &Path, problem: impl Into<String>) -> PlantError {
@@ -323,6 +390,7 @@ impl MujocoPlant {
             table,
             qadr,
             vadr,
+            friction: None,
         };
         {
             let qp = plant.data.qpos_mut();
@@ -354,8 +422,70 @@ impl MujocoPlant {
                 format!("its site 'ee' at q0 is at {p_mj:?}, naic's URDF tip at {tip0:?}: the MJCF and --urdf must describe the same arm"),
             ));
         }
+        if let Some(f) = &p.friction {
+            plant.set_joint_friction(f).map_err(|e| mjcf_err(mjcf, e))?;
+        }
         plant.observe(hold, false);
         Ok(plant)
+    }
+
+    /// Give the DOFs the robot's joint friction (module docs, [`JointFrictionSplit`]): on the
+    /// model, `frictionloss`, `damping` and the friction constraint's `solref`/`solimp`
+    /// (time constant two steps, impedance 0.9999, MuJoCo's largest: a joint held by it
+    /// creeps at about `1e-4·(τ/I)/(1000/s)`, against `0.1·(τ/I)/(100/s)` with MuJoCo's
+    /// defaults), and the explicit
+    /// remainders kept for [`crate::plants::Plant::step`]. At start-up only (allocates).
+    fn set_joint_friction(&mut self, f: &naic_core::friction::FrictionModel) -> Result<(), String> {
+        if f.n_joints() != N_JOINTS {
+            return Err(format!("the friction model has {} joints; the MJCF's arm has {N_JOINTS} (give the JK5's friction file, or --no-friction)", f.n_joints()));
+        }
+        let v_s = match f.smoothing() {
+            naic_core::friction::Smoothing::Tanh { v_s } => v_s,
+            naic_core::friction::Smoothing::Exact => naic_core::friction::DEFAULT_V_S,
+        };
+        let h = self.dt / self.substeps as f64;
+        let nv = N_JOINTS;
+        let mut full = vec![0.0; nv * nv];
+        unsafe { ffi::mj_fullM(self.data.model().ffi(), self.data.ffi(), full.as_mut_ptr()) };
+        let mut split = [JointFrictionSplit::new(&naic_core::friction::JointFriction::CoulombViscous { f_c: 0.0, f_v: 0.0 }, 1.0, h, v_s); N_JOINTS];
+        for (j, law) in f.joints().iter().enumerate() {
+            let dof = self.vadr[j];
+            split[j] = JointFrictionSplit::new(law, full[dof * nv + dof], h, v_s);
+            unsafe {
+                let m = self.data.model_mut().ffi_mut();
+                *m.dof_frictionloss.add(dof) = split[j].c;
+                *m.dof_damping.add(dof) = split[j].b;
+                *m.dof_solref.add(2 * dof) = 2.0 * h;
+                *m.dof_solref.add(2 * dof + 1) = 1.0;
+                for (k, v) in [0.9999, 0.9999, 0.001, 0.5, 2.0].into_iter().enumerate() {
+                    *m.dof_solimp.add(5 * dof + k) = v;
+                }
+            }
+        }
+        self.friction = Some(split);
+        Ok(())
+    }
+
+    /// The joint friction torques now [N·m] (opposing the motion, as the own plant's
+    /// `tau_friction`): MuJoCo's `frictionloss` constraint force and damping, plus the remainder.
+    fn friction_torques(&self) -> JointVec {
+        let mut out = [0.0; N_JOINTS];
+        let Some(split) = &self.friction else { return out };
+        let d = self.data.ffi();
+        let qv = self.data.qvel();
+        for j in 0..N_JOINTS {
+            let v = qv[self.vadr[j]];
+            out[j] = split[j].b * v + split[j].remainder(v);
+        }
+        for i in 0..d.nefc as usize {
+            let (ty, id, f) = unsafe { (*d.efc_type.add(i), *d.efc_id.add(i), *d.efc_force.add(i)) };
+            if ty == ffi::mjtConstraint::mjCNSTR_FRICTION_DOF as i32 {
+                if let Some(j) = self.vadr.iter().position(|&a| a as i32 == id) {
+                    out[j] -= f;
+                }
+            }
+        }
+        out
     }
 
     /// The contacts of the table with the robot now, with the parameters MuJoCo combined
@@ -480,7 +610,7 @@ impl MujocoPlant {
                 tip_velocity: Vector3::new(v6[3], v6[4], v6[5]),
                 contact,
                 tau_applied,
-                tau_friction: [0.0; N_JOINTS],
+                tau_friction: self.friction_torques(),
                 saturated,
                 limit_violation,
                 wrench_true: w_true,
@@ -579,6 +709,18 @@ impl crate::plants::Plant for MujocoPlant {
         let h = self.dt / self.substeps as f64;
         for s in 0..self.substeps {
             self.update_materials(self.k as f64 * self.dt + s as f64 * h);
+            if let Some(split) = &self.friction {
+                // the explicit remainder at this step's velocity (module docs)
+                let mut r = [0.0; N_JOINTS];
+                let qv = self.data.qvel();
+                for j in 0..N_JOINTS {
+                    r[j] = split[j].remainder(qv[self.vadr[j]]);
+                }
+                let f = self.data.qfrc_applied_mut();
+                for j in 0..N_JOINTS {
+                    f[self.vadr[j]] = tau[j] - r[j];
+                }
+            }
             self.data.step();
         }
         self.k += 1;
