@@ -116,9 +116,11 @@ pub struct MujocoPlant {
 /// coefficients) opposes the motion at every speed. `r` is applied explicitly, so its sign
 /// is smoothed, `tanh(q̇/v_r)`, with `v_r` wide enough for an explicit step of MuJoCo's
 /// (`|∂r/∂q̇|·h/I ≤ 1`, half of explicit Euler's limit 2, `I` the joint's diagonal
-/// inertia at the start pose; JK5 at 1 ms: `v_r` 0.05 rad/s on joint 4); inside
-/// `|q̇| < v_r` the joint is held by `c` alone. For `|q̇| ≥ 3 v_r` the sum is the law as printed
-/// (within 0.5 % of the remainder's Coulomb part).
+/// inertia at the start pose; the JK5 at 1 ms: `v_r` ≤ 0.015 rad/s on joints 1–3, 0.045 on
+/// joint 4, 0.071 on joint 5, 1.5 on joint 6, whose inertia in the MJCF is 0.0004 kg·m²);
+/// inside `|q̇| < v_r` the joint is held by `c` alone. For `|q̇| ≥ 3 v_r` the sum is the law as
+/// printed (within 0.5 % of the remainder's Coulomb part); below, the remainder is scaled by
+/// `tanh(q̇/v_r)` (joint 6: its 0.11 N·m of direction asymmetry and its Stribeck excess).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointFrictionSplit {
     /// Coulomb level [N·m], MuJoCo's `frictionloss`.
