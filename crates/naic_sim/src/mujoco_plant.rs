@@ -24,12 +24,12 @@
 //! Torque enters through `qfrc_applied` (saturated at the URDF effort limits like the
 //! own plant; the MJCF motors' ±100 N·m ctrlrange is not used), held over the period.
 //! Joint friction (the MJCF has none): when `PlantParams::friction` holds the robot's model
-//! (the JK5's Table 1, eq 5 per direction), MuJoCo computes it, set on the model at load
-//! ([`JointFrictionSplit`]): the Coulomb level common to both directions and every speed as
-//! the DOF's `frictionloss` (an implicit constraint: it holds a joint at rest), the smaller
-//! viscous coefficient as the DOF's `damping` (implicit in MuJoCo's Euler), and the
-//! remainder (the Stribeck excess and the direction-dependent parts) as an explicit
-//! `qfrc_applied` evaluated before each MuJoCo step. Without a model the joints are
+//! (the JK5's Table 1, eq 5 per direction), MuJoCo computes it ([`MujocoJointFriction`]):
+//! the law's Coulomb/Stribeck level at the joint's speed and direction is the DOF's
+//! `frictionloss` (an implicit constraint: it holds a joint at rest and never pushes), its
+//! viscous coefficient in that direction the DOF's `damping` (implicit in MuJoCo's Euler),
+//! both written on the model before each MuJoCo step from the velocity then. Nothing of it
+//! is explicit. Without a model the joints are
 //! frictionless. After each period `mj_forward`
 //! evaluates the sensors at the new state under the held torque, so the F/T reading
 //! includes the tool's weight and inertial wrench as a real sensor does. The naic
@@ -106,66 +106,44 @@ pub struct MujocoPlant {
     qadr: [usize; N_JOINTS],
     vadr: [usize; N_JOINTS],
     /// The robot's joint friction as MuJoCo computes it (`None`: frictionless joints).
-    friction: Option<[JointFrictionSplit; N_JOINTS]>,
+    friction: Option<[MujocoJointFriction; N_JOINTS]>,
 }
 
-/// One joint's friction law (eq 4 or 5) split for MuJoCo: `τ_f(q̇) = c·sgn(q̇) + b·q̇ + r(q̇)`
-/// with `c` (DOF `frictionloss`) the smallest of the law's Coulomb and breakaway levels over
-/// both directions and `b` (DOF `damping`) the smaller viscous coefficient, so that the
-/// remainder `r` (the same law with `c` taken off its levels and `b` off its viscous
-/// coefficients) opposes the motion at every speed. `r` is applied explicitly, so its sign
-/// is smoothed, `tanh(q̇/v_r)`, with `v_r` wide enough for an explicit step of MuJoCo's
-/// (`|∂r/∂q̇|·h/I ≤ 1`, half of explicit Euler's limit 2, `I` the joint's diagonal
-/// inertia at the start pose; the JK5 at 1 ms: `v_r` ≤ 0.015 rad/s on joints 1–3, 0.045 on
-/// joint 4, 0.071 on joint 5, 1.5 on joint 6, whose inertia in the MJCF is 0.0004 kg·m²);
-/// inside `|q̇| < v_r` the joint is held by `c` alone. For `|q̇| ≥ 3 v_r` the sum is the law as
-/// printed (within 0.5 % of the remainder's Coulomb part); below, the remainder is scaled by
-/// `tanh(q̇/v_r)` (joint 6: its 0.11 N·m of direction asymmetry and its Stribeck excess).
+/// One joint's friction law (eq 4 or 5) as MuJoCo computes it: `τ_f(q̇) = g(q̇)·sgn(q̇) + f_v·q̇`
+/// with the level `g` (eq 5's `f_a + (f_b − f_a)e^{−(q̇/q_s)²}` of the direction of motion)
+/// as the DOF's `frictionloss` and the direction's `f_v` as its `damping`, set from the
+/// velocity before each MuJoCo step (one step of lag in the level; both act implicitly, so
+/// a light joint needs no smoothing: the JK5's joint 6 has 0.0004 kg·m² in the MJCF, and
+/// an explicit Stribeck term of 0.57 N·m would need `tanh(q̇/1.5 rad/s)` to be stable at
+/// 1 ms). Within `v_s` of rest (the model's smoothing velocity) the level is the smaller
+/// breakaway level `min(f_b⁺, f_b⁻)` and the damping the smaller `f_v`: the constraint
+/// holds the joint against up to that torque in either direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct JointFrictionSplit {
-    /// Coulomb level [N·m], MuJoCo's `frictionloss`.
-    pub c: f64,
-    /// Viscous coefficient [N·m·s/rad], MuJoCo's `damping`.
-    pub b: f64,
-    /// The remainder's law.
-    pub r: naic_core::friction::JointFriction,
-    /// The remainder's smoothing velocity [rad/s].
-    pub v_r: f64,
+pub struct MujocoJointFriction {
+    pub law: naic_core::friction::JointFriction,
+    /// [rad/s]
+    pub v_s: f64,
 }
 
-impl JointFrictionSplit {
-    /// Split `law` for a joint of diagonal inertia `inertia` [kg·m²] stepped at `h` [s];
-    /// `v_s`: the smallest smoothing velocity [rad/s] (the model's own).
-    pub fn new(law: &naic_core::friction::JointFriction, inertia: f64, h: f64, v_s: f64) -> Self {
-        use naic_core::friction::{JointFriction as L, StribeckParams as S};
-        let less = |p: &S, c: f64, b: f64| S { f_a: p.f_a - c, f_b: p.f_b - c, q_s: p.q_s, f_v: p.f_v - b };
-        let (c, b, r, excess) = match law {
-            L::CoulombViscous { f_c, f_v } => (*f_c, *f_v, L::CoulombViscous { f_c: 0.0, f_v: 0.0 }, 0.0),
-            L::Stribeck(p) => {
-                let c = p.f_a.min(p.f_b);
-                (c, p.f_v, L::Stribeck(less(p, c, p.f_v)), p.f_a.max(p.f_b) - c)
-            }
-            L::StribeckPerDirection { positive: pp, negative: pn } => {
-                let c = pp.f_a.min(pp.f_b).min(pn.f_a).min(pn.f_b);
-                let b = pp.f_v.min(pn.f_v);
-                let excess = pp.f_a.max(pp.f_b).max(pn.f_a).max(pn.f_b) - c;
-                (c, b, L::StribeckPerDirection { positive: less(pp, c, b), negative: less(pn, c, b) }, excess)
-            }
-        };
-        // |∂r/∂q̇| near 0 ≈ excess/v_r: keep |∂r/∂q̇|·h/I ≤ 1 (explicit Euler's limit is 2).
-        let v_r = if inertia > 0.0 { (excess * h / inertia).max(v_s) } else { v_s.max(1.0) };
-        Self { c, b, r, v_r }
-    }
-
-    /// The remainder `r(q̇)` [N·m] (the torque opposing the motion).
+impl MujocoJointFriction {
+    /// `(frictionloss [N·m], damping [N·m·s/rad])` at joint velocity `qdot`.
     #[inline]
-    pub fn remainder(&self, qdot: f64) -> f64 {
-        self.r.tau_f_smooth(qdot, self.v_r)
-    }
-
-    /// The whole law `c·sgn(q̇) + b·q̇ + r(q̇)` away from rest [N·m].
-    pub fn tau_f(&self, qdot: f64) -> f64 {
-        self.c * qdot.signum() + self.b * qdot + self.remainder(qdot)
+    pub fn level_and_damping(&self, qdot: f64) -> (f64, f64) {
+        use naic_core::friction::JointFriction as L;
+        let moving = qdot.abs() > self.v_s;
+        match &self.law {
+            L::CoulombViscous { f_c, f_v } => (*f_c, *f_v),
+            L::Stribeck(p) => (if moving { p.magnitude(qdot) } else { p.f_b }, p.f_v),
+            L::StribeckPerDirection { positive, negative } => {
+                if !moving {
+                    (positive.f_b.min(negative.f_b), positive.f_v.min(negative.f_v))
+                } else if qdot > 0.0 {
+                    (positive.magnitude(qdot), positive.f_v)
+                } else {
+                    (negative.magnitude(qdot), negative.f_v)
+                }
+            }
+        }
     }
 }
 
@@ -431,12 +409,11 @@ impl MujocoPlant {
         Ok(plant)
     }
 
-    /// Give the DOFs the robot's joint friction (module docs, [`JointFrictionSplit`]): on the
-    /// model, `frictionloss`, `damping` and the friction constraint's `solref`/`solimp`
-    /// (time constant two steps, impedance 0.9999, MuJoCo's largest: a joint held by it
-    /// creeps at about `1e-4·(τ/I)/(1000/s)`, against `0.1·(τ/I)/(100/s)` with MuJoCo's
-    /// defaults), and the explicit
-    /// remainders kept for [`crate::plants::Plant::step`]. At start-up only (allocates).
+    /// Give the DOFs the robot's joint friction (module docs, [`MujocoJointFriction`]): the
+    /// friction constraint's `solref`/`solimp` (time constant two steps, impedance 0.9999,
+    /// MuJoCo's largest: a joint held by it creeps at about `1e-4·(τ/I)/(1000/s)`, against
+    /// `0.1·(τ/I)/(100/s)` with MuJoCo's defaults) on the model, and the laws kept for
+    /// [`Self::set_friction_at`]. At start-up only.
     fn set_joint_friction(&mut self, f: &naic_core::friction::FrictionModel) -> Result<(), String> {
         if f.n_joints() != N_JOINTS {
             return Err(format!("the friction model has {} joints; the MJCF's arm has {N_JOINTS} (give the JK5's friction file, or --no-friction)", f.n_joints()));
@@ -446,17 +423,12 @@ impl MujocoPlant {
             naic_core::friction::Smoothing::Exact => naic_core::friction::DEFAULT_V_S,
         };
         let h = self.dt / self.substeps as f64;
-        let nv = N_JOINTS;
-        let mut full = vec![0.0; nv * nv];
-        unsafe { ffi::mj_fullM(self.data.model().ffi(), self.data.ffi(), full.as_mut_ptr()) };
-        let mut split = [JointFrictionSplit::new(&naic_core::friction::JointFriction::CoulombViscous { f_c: 0.0, f_v: 0.0 }, 1.0, h, v_s); N_JOINTS];
+        let mut laws = [MujocoJointFriction { law: naic_core::friction::JointFriction::CoulombViscous { f_c: 0.0, f_v: 0.0 }, v_s }; N_JOINTS];
         for (j, law) in f.joints().iter().enumerate() {
+            laws[j].law = *law;
             let dof = self.vadr[j];
-            split[j] = JointFrictionSplit::new(law, full[dof * nv + dof], h, v_s);
             unsafe {
                 let m = self.data.model_mut().ffi_mut();
-                *m.dof_frictionloss.add(dof) = split[j].c;
-                *m.dof_damping.add(dof) = split[j].b;
                 *m.dof_solref.add(2 * dof) = 2.0 * h;
                 *m.dof_solref.add(2 * dof + 1) = 1.0;
                 for (k, v) in [0.9999, 0.9999, 0.001, 0.5, 2.0].into_iter().enumerate() {
@@ -464,20 +436,42 @@ impl MujocoPlant {
                 }
             }
         }
-        self.friction = Some(split);
+        self.friction = Some(laws);
+        self.set_friction_at();
         Ok(())
     }
 
+    /// Each DOF's `frictionloss` and `damping` from its law at the velocity now.
+    fn set_friction_at(&mut self) {
+        let Some(laws) = self.friction else { return };
+        let mut lv = [(0.0, 0.0); N_JOINTS];
+        {
+            let qv = self.data.qvel();
+            for j in 0..N_JOINTS {
+                lv[j] = laws[j].level_and_damping(qv[self.vadr[j]]);
+            }
+        }
+        let m = unsafe { self.data.model_mut().ffi_mut() };
+        for j in 0..N_JOINTS {
+            unsafe {
+                *m.dof_frictionloss.add(self.vadr[j]) = lv[j].0;
+                *m.dof_damping.add(self.vadr[j]) = lv[j].1;
+            }
+        }
+    }
+
     /// The joint friction torques now [N·m] (opposing the motion, as the own plant's
-    /// `tau_friction`): MuJoCo's `frictionloss` constraint force and damping, plus the remainder.
+    /// `tau_friction`): MuJoCo's `frictionloss` constraint force and its damping.
     fn friction_torques(&self) -> JointVec {
         let mut out = [0.0; N_JOINTS];
-        let Some(split) = &self.friction else { return out };
+        if self.friction.is_none() {
+            return out;
+        }
         let d = self.data.ffi();
+        let m = self.data.model().ffi();
         let qv = self.data.qvel();
         for j in 0..N_JOINTS {
-            let v = qv[self.vadr[j]];
-            out[j] = split[j].b * v + split[j].remainder(v);
+            out[j] = unsafe { *m.dof_damping.add(self.vadr[j]) } * qv[self.vadr[j]];
         }
         for i in 0..d.nefc as usize {
             let (ty, id, f) = unsafe { (*d.efc_type.add(i), *d.efc_id.add(i), *d.efc_force.add(i)) };
@@ -711,18 +705,7 @@ impl crate::plants::Plant for MujocoPlant {
         let h = self.dt / self.substeps as f64;
         for s in 0..self.substeps {
             self.update_materials(self.k as f64 * self.dt + s as f64 * h);
-            if let Some(split) = &self.friction {
-                // the explicit remainder at this step's velocity (module docs)
-                let mut r = [0.0; N_JOINTS];
-                let qv = self.data.qvel();
-                for j in 0..N_JOINTS {
-                    r[j] = split[j].remainder(qv[self.vadr[j]]);
-                }
-                let f = self.data.qfrc_applied_mut();
-                for j in 0..N_JOINTS {
-                    f[self.vadr[j]] = tau[j] - r[j];
-                }
-            }
+            self.set_friction_at();
             self.data.step();
         }
         self.k += 1;
