@@ -184,16 +184,13 @@ pub fn plant_choice(plant: Option<&str>, mjcf: Option<PathBuf>) -> Result<PlantC
     PlantChoice::parse(plant.unwrap_or("own"), mjcf, default_path(DEFAULT_MJCF)).map_err(|e| CliError::usage(format!("--plant: {e}")))
 }
 
-/// The joint friction of a run: MuJoCo's joints have none (nor does the controller's
-/// feedforward then); the own plant's is `--friction` unless `--no-friction`.
-pub fn friction_for(choice: &PlantChoice, file: Option<&Path>, no_friction: bool) -> Result<Option<FrictionModel>, CliError> {
-    match choice {
-        PlantChoice::Mujoco { .. } if file.is_some() => {
-            Err(CliError::usage("--friction: the MuJoCo plant's joints have no friction; drop --friction (the controller's feedforward is off on MuJoCo)"))
-        }
-        PlantChoice::Mujoco { .. } => Ok(None),
-        PlantChoice::Own if no_friction => Ok(None),
-        PlantChoice::Own => Ok(Some(load_friction(file)?)),
+/// The joint friction of a run, on either plant (MuJoCo computes it, `naic_sim::mujoco_plant`)
+/// and in the controller's feedforward: `--friction` (default the JK5's) unless `--no-friction`.
+pub fn friction_for(file: Option<&Path>, no_friction: bool) -> Result<Option<FrictionModel>, CliError> {
+    if no_friction {
+        Ok(None)
+    } else {
+        Ok(Some(load_friction(file)?))
     }
 }
 
@@ -585,10 +582,10 @@ pub fn run(a: SimArgs) -> CliResult {
     if a.stiffness_report {
         return stiffness_report(&choice, &model, a.urdf.as_deref());
     }
-    // The robot file's friction, unless --friction / --no-friction or MuJoCo say otherwise.
-    let friction = match (&choice, &a.friction, a.no_friction, &a.urdf) {
-        (PlantChoice::Own, None, false, None) => robot.friction.as_ref().map(|f| f.1.clone()),
-        _ => friction_for(&choice, a.friction.as_deref(), a.no_friction)?,
+    // The robot file's friction, unless --friction / --no-friction say otherwise.
+    let friction = match (&a.friction, a.no_friction, &a.urdf) {
+        (None, false, None) => robot.friction.as_ref().map(|f| f.1.clone()),
+        _ => friction_for(a.friction.as_deref(), a.no_friction)?,
     };
     if let Some(d) = a.duration {
         if !(d > 0.0 && d.is_finite()) {

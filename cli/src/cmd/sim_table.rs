@@ -90,7 +90,7 @@ impl Ctx {
         sensor: super::sim::SensorOpts,
     ) -> Result<Ctx, CliError> {
         let model = load_model(urdf)?;
-        let friction = super::sim::friction_for(plant, friction_file, no_friction)?;
+        let friction = super::sim::friction_for(friction_file, no_friction)?;
         let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| super::sim::default_path("urdf/jk5.urdf"));
         let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
         let tool_inertia = super::sim::tool_inertia(&urdf_path)?;

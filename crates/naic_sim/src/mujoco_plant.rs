@@ -23,7 +23,14 @@
 //!
 //! Torque enters through `qfrc_applied` (saturated at the URDF effort limits like the
 //! own plant; the MJCF motors' ±100 N·m ctrlrange is not used), held over the period.
-//! The joints have no friction (the MJCF has none). After each period `mj_forward`
+//! Joint friction (the MJCF has none): when `PlantParams::friction` holds the robot's model
+//! (the JK5's Table 1, eq 5 per direction), MuJoCo computes it ([`MujocoJointFriction`]):
+//! the law's Coulomb/Stribeck level at the joint's speed and direction is the DOF's
+//! `frictionloss` (an implicit constraint: it holds a joint at rest and never pushes), its
+//! viscous coefficient in that direction the DOF's `damping` (implicit in MuJoCo's Euler),
+//! both written on the model before each MuJoCo step from the velocity then. Nothing of it
+//! is explicit. Without a model the joints are
+//! frictionless. After each period `mj_forward`
 //! evaluates the sensors at the new state under the held torque, so the F/T reading
 //! includes the tool's weight and inertial wrench as a real sensor does. The naic
 //! convention (the wrench the tool exerts on the sensor) is the negative of MuJoCo's
@@ -98,6 +105,46 @@ pub struct MujocoPlant {
     table: Vec<TableGeom>,
     qadr: [usize; N_JOINTS],
     vadr: [usize; N_JOINTS],
+    /// The robot's joint friction as MuJoCo computes it (`None`: frictionless joints).
+    friction: Option<[MujocoJointFriction; N_JOINTS]>,
+}
+
+/// One joint's friction law (eq 4 or 5) as MuJoCo computes it: `τ_f(q̇) = g(q̇)·sgn(q̇) + f_v·q̇`
+/// with the level `g` (eq 5's `f_a + (f_b − f_a)e^{−(q̇/q_s)²}` of the direction of motion)
+/// as the DOF's `frictionloss` and the direction's `f_v` as its `damping`, set from the
+/// velocity before each MuJoCo step (one step of lag in the level; both act implicitly, so
+/// a light joint needs no smoothing: the JK5's joint 6 has 0.0004 kg·m² in the MJCF, and
+/// an explicit Stribeck term of 0.57 N·m would need `tanh(q̇/1.5 rad/s)` to be stable at
+/// 1 ms). Within `v_s` of rest (the model's smoothing velocity) the level is the smaller
+/// breakaway level `min(f_b⁺, f_b⁻)` and the damping the smaller `f_v`: the constraint
+/// holds the joint against up to that torque in either direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MujocoJointFriction {
+    pub law: naic_core::friction::JointFriction,
+    /// [rad/s]
+    pub v_s: f64,
+}
+
+impl MujocoJointFriction {
+    /// `(frictionloss [N·m], damping [N·m·s/rad])` at joint velocity `qdot`.
+    #[inline]
+    pub fn level_and_damping(&self, qdot: f64) -> (f64, f64) {
+        use naic_core::friction::JointFriction as L;
+        let moving = qdot.abs() > self.v_s;
+        match &self.law {
+            L::CoulombViscous { f_c, f_v } => (*f_c, *f_v),
+            L::Stribeck(p) => (if moving { p.magnitude(qdot) } else { p.f_b }, p.f_v),
+            L::StribeckPerDirection { positive, negative } => {
+                if !moving {
+                    (positive.f_b.min(negative.f_b), positive.f_v.min(negative.f_v))
+                } else if qdot > 0.0 {
+                    (positive.magnitude(qdot), positive.f_v)
+                } else {
+                    (negative.magnitude(qdot), negative.f_v)
+                }
+            }
+        }
+    }
 }
 
 fn mjcf_err(path: &Path, problem: impl Into<String>) -> PlantError {
@@ -323,6 +370,7 @@ impl MujocoPlant {
             table,
             qadr,
             vadr,
+            friction: None,
         };
         {
             let qp = plant.data.qpos_mut();
@@ -354,8 +402,86 @@ impl MujocoPlant {
                 format!("its site 'ee' at q0 is at {p_mj:?}, naic's URDF tip at {tip0:?}: the MJCF and --urdf must describe the same arm"),
             ));
         }
+        if let Some(f) = &p.friction {
+            plant.set_joint_friction(f).map_err(|e| mjcf_err(mjcf, e))?;
+        }
         plant.observe(hold, false);
         Ok(plant)
+    }
+
+    /// Give the DOFs the robot's joint friction (module docs, [`MujocoJointFriction`]): the
+    /// friction constraint's `solref`/`solimp` (time constant two steps, impedance 0.9999,
+    /// MuJoCo's largest: a joint held by it creeps at about `1e-4·(τ/I)/(1000/s)`, against
+    /// `0.1·(τ/I)/(100/s)` with MuJoCo's defaults) on the model, and the laws kept for
+    /// [`Self::set_friction_at`]. At start-up only.
+    fn set_joint_friction(&mut self, f: &naic_core::friction::FrictionModel) -> Result<(), String> {
+        if f.n_joints() != N_JOINTS {
+            return Err(format!("the friction model has {} joints; the MJCF's arm has {N_JOINTS} (give the JK5's friction file, or --no-friction)", f.n_joints()));
+        }
+        let v_s = match f.smoothing() {
+            naic_core::friction::Smoothing::Tanh { v_s } => v_s,
+            naic_core::friction::Smoothing::Exact => naic_core::friction::DEFAULT_V_S,
+        };
+        let h = self.dt / self.substeps as f64;
+        let mut laws = [MujocoJointFriction { law: naic_core::friction::JointFriction::CoulombViscous { f_c: 0.0, f_v: 0.0 }, v_s }; N_JOINTS];
+        for (j, law) in f.joints().iter().enumerate() {
+            laws[j].law = *law;
+            let dof = self.vadr[j];
+            unsafe {
+                let m = self.data.model_mut().ffi_mut();
+                *m.dof_solref.add(2 * dof) = 2.0 * h;
+                *m.dof_solref.add(2 * dof + 1) = 1.0;
+                for (k, v) in [0.9999, 0.9999, 0.001, 0.5, 2.0].into_iter().enumerate() {
+                    *m.dof_solimp.add(5 * dof + k) = v;
+                }
+            }
+        }
+        self.friction = Some(laws);
+        self.set_friction_at();
+        Ok(())
+    }
+
+    /// Each DOF's `frictionloss` and `damping` from its law at the velocity now.
+    fn set_friction_at(&mut self) {
+        let Some(laws) = self.friction else { return };
+        let mut lv = [(0.0, 0.0); N_JOINTS];
+        {
+            let qv = self.data.qvel();
+            for j in 0..N_JOINTS {
+                lv[j] = laws[j].level_and_damping(qv[self.vadr[j]]);
+            }
+        }
+        let m = unsafe { self.data.model_mut().ffi_mut() };
+        for j in 0..N_JOINTS {
+            unsafe {
+                *m.dof_frictionloss.add(self.vadr[j]) = lv[j].0;
+                *m.dof_damping.add(self.vadr[j]) = lv[j].1;
+            }
+        }
+    }
+
+    /// The joint friction torques now [N·m] (opposing the motion, as the own plant's
+    /// `tau_friction`): MuJoCo's `frictionloss` constraint force and its damping.
+    fn friction_torques(&self) -> JointVec {
+        let mut out = [0.0; N_JOINTS];
+        if self.friction.is_none() {
+            return out;
+        }
+        let d = self.data.ffi();
+        let m = self.data.model().ffi();
+        let qv = self.data.qvel();
+        for j in 0..N_JOINTS {
+            out[j] = unsafe { *m.dof_damping.add(self.vadr[j]) } * qv[self.vadr[j]];
+        }
+        for i in 0..d.nefc as usize {
+            let (ty, id, f) = unsafe { (*d.efc_type.add(i), *d.efc_id.add(i), *d.efc_force.add(i)) };
+            if ty == ffi::mjtConstraint::mjCNSTR_FRICTION_DOF as i32 {
+                if let Some(j) = self.vadr.iter().position(|&a| a as i32 == id) {
+                    out[j] -= f;
+                }
+            }
+        }
+        out
     }
 
     /// The contacts of the table with the robot now, with the parameters MuJoCo combined
@@ -480,7 +606,7 @@ impl MujocoPlant {
                 tip_velocity: Vector3::new(v6[3], v6[4], v6[5]),
                 contact,
                 tau_applied,
-                tau_friction: [0.0; N_JOINTS],
+                tau_friction: self.friction_torques(),
                 saturated,
                 limit_violation,
                 wrench_true: w_true,
@@ -579,6 +705,7 @@ impl crate::plants::Plant for MujocoPlant {
         let h = self.dt / self.substeps as f64;
         for s in 0..self.substeps {
             self.update_materials(self.k as f64 * self.dt + s as f64 * h);
+            self.set_friction_at();
             self.data.step();
         }
         self.k += 1;

@@ -22,7 +22,7 @@ pub fn specs<const N: usize>(urdf_effort: &JointVec<N>, joints: &[String; N]) ->
         ),
         ParamSpec::double("rate", 1000.0, 1.0, 5000.0, "Simulation and publishing rate [Hz]; the simulator's control period is 1/rate").read_only(),
         ParamSpec::string("urdf", "urdf/jk5.urdf", "Robot model of the simulator").read_only(),
-        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Joint friction acting in the simulator (naic_core::friction YAML; with -p robot:=FILE the robot file's, '' for none)").read_only(),
+        ParamSpec::string("friction_file", "params/friction_jk5.yaml", "Joint friction acting in the simulator, on either plant (naic_core::friction YAML; with -p robot:=FILE the robot file's, '' for none)").read_only(),
         ParamSpec::double("friction_smoothing", naic_core::friction::DEFAULT_V_S, 1.0e-5, 1.0, "v_s [rad/s] of the simulator's tanh-smoothed friction").read_only(),
         ParamSpec::double("tool_mass_error", 1.0, 0.1, 10.0, "The simulated sensor's tool is this many times as heavy as the URDF's ft_sensor link says (as naic sim --tool-mass-error; to test naic tool identify)").read_only(),
         ParamSpec::doubles("tool_com_offset", &[0.0, 0.0, 0.0], -0.2, 0.2, "The simulated sensor's tool centre of mass is this far from the URDF's [m], sensor frame, 3 numbers (as naic sim --tool-com-offset)").read_only(),

@@ -84,7 +84,8 @@ fn make_robot_plant<const N: usize>(p: &naic_ros::ParamView, r: &Robot) -> Resul
 }
 
 /// The plant of scenario `scenario` (naic_sim presets) on `urdf`, with the friction of
-/// `friction_file` (tanh-smoothed with `v_s`) acting on the joints, at period `1/rate`.
+/// `friction_file` (tanh-smoothed with `v_s`; '' for none) acting on the joints, on either
+/// plant, at period `1/rate`.
 pub fn make_jk5_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
     let (urdf, name, friction_file) = (p.str("urdf"), p.str("scenario"), p.str("friction_file"));
     const URDF_FIX: &str = "set -p urdf:=PATH";
@@ -100,13 +101,19 @@ pub fn make_jk5_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
             return Err(ParamError::file("plant", other, format!("unknown plant '{other}'"), "set -p plant:=naic_sim or -p plant:=mujoco"));
         }
     };
-    let friction = FrictionParams::from_yaml_file(friction_file)
-        .and_then(|f| f.to_model())
-        .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: p.f64("friction_smoothing") }))
-        .map_err(|e| bad_friction(format!("friction_file '{friction_file}': {e}")))?;
-    if friction.n_joints() != N_JOINTS {
-        return Err(bad_friction(format!("friction_file '{friction_file}' has {} joints; the JK5 needs {N_JOINTS}", friction.n_joints())));
-    }
+    // '' for frictionless joints; on plant:=mujoco MuJoCo computes it (naic_sim::mujoco_plant).
+    let friction = if friction_file.is_empty() {
+        None
+    } else {
+        let f = FrictionParams::from_yaml_file(friction_file)
+            .and_then(|f| f.to_model())
+            .and_then(|m| m.with_smoothing(Smoothing::Tanh { v_s: p.f64("friction_smoothing") }))
+            .map_err(|e| bad_friction(format!("friction_file '{friction_file}': {e}")))?;
+        if f.n_joints() != N_JOINTS {
+            return Err(bad_friction(format!("friction_file '{friction_file}' has {} joints; the JK5 needs {N_JOINTS}", f.n_joints())));
+        }
+        Some(f)
+    };
     let (mass, com) = tool_from_urdf(std::path::Path::new(urdf)).map_err(|e| bad_urdf(e.to_string()))?;
     // The true tool may differ from the URDF's (tool_mass_error, tool_com_offset).
     let off = p.f64s("tool_com_offset");
@@ -116,8 +123,6 @@ pub fn make_jk5_plant(p: &naic_ros::ParamView) -> Result<SimPlant, ParamError> {
     let mut com = com;
     (com.x, com.y, com.z) = (com.x + ox, com.y + oy, com.z + oz);
     let tool = (mass * p.f64("tool_mass_error"), com);
-    // MuJoCo's joints have no friction (the MJCF has none).
-    let friction = if choice == PlantChoice::Own { Some(friction) } else { None };
     let mut params = scenario::plant_for(&scen, model, friction, tool)
         .map_err(|e| bad_urdf(format!("robot model '{urdf}' in scenario '{name}': {e}")))?;
     // The tool's inertial wrench on the sensor (issue 36 item 4), as `naic sim`.
