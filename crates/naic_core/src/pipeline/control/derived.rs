@@ -36,16 +36,25 @@ pub struct DerivedParams {
     /// the stiffest surface the estimate allows (`k̄`): near an expected surface the
     /// approach speed is at most `ε f_d / (k̄ (d + ½) T)` ([`impact_speed`]).
     pub impact_fraction: f64,
+    /// `δ` [m]: how far before the expected surface the real one may be (its uncertainty):
+    /// the braking approach reaches the impact-bounded speed `δ` before the expected
+    /// surface ([`braking_speed`]).
+    pub surface_uncertainty: f64,
 }
 
 /// Default [`DerivedParams::impact_fraction`]: the impact on the stiffest surface expected
 /// adds at most half of `f_d` (a peak of 1.5 `f_d`, below the force limit's usual 5 `f_d`).
 pub const IMPACT_FRACTION: f64 = 0.5;
 
+/// Default [`DerivedParams::surface_uncertainty`]: 1 mm, a surface located by a touch-off or
+/// a fixture's drawing (a user who knows it worse sets more; the approach then takes
+/// `δ / v_c` longer, never a harder impact).
+pub const SURFACE_UNCERTAINTY: f64 = 1.0e-3;
+
 impl Default for DerivedParams {
     fn default() -> Self {
         // 1.5 µm: the JK5's 20-bit encoders at its ~0.5 m reach; 1/16 N: the mini45's count.
-        Self { delay_cycles: 1.0, k_min: 100.0, x_resolution: 1.5e-6, force_noise: 0.0625, contact: ContactParams::default(), impact_fraction: IMPACT_FRACTION }
+        Self { delay_cycles: 1.0, k_min: 100.0, x_resolution: 1.5e-6, force_noise: 0.0625, contact: ContactParams::default(), impact_fraction: IMPACT_FRACTION, surface_uncertainty: SURFACE_UNCERTAINTY }
     }
 }
 
@@ -63,6 +72,38 @@ pub fn impact_speed(p: &DerivedParams, f_d: f64, k_upper: f64, period: f64) -> f
     let den = k_upper * reaction_time(p, period);
     let v = p.impact_fraction * f_d / den;
     if f_d > 0.0 && den > 0.0 && v.is_finite() { v } else { f64::INFINITY }
+}
+
+/// The braking approach toward an expected surface (group F of issue 42): the largest speed
+/// from which the approach servo still reaches the impact-bounded speed `v_c`
+/// ([`impact_speed`]) by the earliest position the surface may have, `δ` before the expected
+/// one:
+///
+/// ```text
+/// v(s) = max(v_c, √(2 a_b (s − δ − |ẋ| (τ_f + 2/w))))        a_b = w v_c / 2
+/// ```
+///
+/// `s` the distance to the expected surface along n [m], `ẋ` the tip's speed along n [m/s],
+/// `τ_f = (d + ½) T` the loop's reaction time ([`reaction_time`]), `w = b/m` the approach
+/// servo's velocity bandwidth (the free-space impedance on n, `scheduled::approach_accel`)
+/// [1/s]. The servo is a PI with both poles at `w/2`: it follows a constant deceleration `a`
+/// with no steady lag (type 2) and a transient speed excess `a t e^{−wt/2}`, at most
+/// `(2/e) a / w`, which `a_b = w v_c / 2` keeps under `v_c / e`; the distance the servo
+/// covers while it settles onto a new speed, about `|ẋ| · 2/w` (its time constant), is
+/// kept as margin with the reaction time's. On a surface anywhere from `δ` before the
+/// expected one the tool then arrives at `v_c` and the force rises by at most
+/// `k̄ v_c τ_f = ε f_d` before the loop reacts, while the time from the braking's start is
+/// about `2 (v₀ − v_c)/(w v_c) + δ / v_c` instead of the whole band at `v_c`.
+/// `+∞` where [`impact_speed`] is (no force target); the caller clamps it to its speed limit.
+pub fn braking_speed(p: &DerivedParams, f_d: f64, k_upper: f64, period: f64, s: f64, x_dot: f64, w: f64) -> f64 {
+    let v_c = impact_speed(p, f_d, k_upper, period);
+    if !v_c.is_finite() || !(w.is_finite() && w > 0.0) {
+        return v_c;
+    }
+    let a_b = 0.5 * w * v_c;
+    let room = s - p.surface_uncertainty - x_dot.abs() * (reaction_time(p, period) + 2.0 / w);
+    let v = (2.0 * a_b * room.max(0.0)).sqrt();
+    if v.is_finite() { v.max(v_c) } else { v_c }
 }
 
 /// The force rise before the loop reacts when the tool meets a surface of stiffness
@@ -88,6 +129,9 @@ impl DerivedParams {
         pos("derived.force_noise", self.force_noise, "must be > 0 N (the F/T sensor's noise, 1 sigma, e.g. 0.0625)")?;
         if !(self.impact_fraction.is_finite() && self.impact_fraction > 0.0 && self.impact_fraction <= 10.0) {
             return Err(ConfigError::invalid("derived.impact_fraction", self.impact_fraction, "must be in (0, 10] (the fraction of f_d the impact may add, e.g. 0.5)"));
+        }
+        if !(self.surface_uncertainty.is_finite() && (0.0..=0.5).contains(&self.surface_uncertainty)) {
+            return Err(ConfigError::invalid("derived.surface_uncertainty", self.surface_uncertainty, "must be in [0, 0.5] m (how far before expected_surface the real surface may be, e.g. 0.001)"));
         }
         self.contact.validate()
     }
