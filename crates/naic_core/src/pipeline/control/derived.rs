@@ -142,8 +142,12 @@ impl DerivedParams {
 pub struct DerivedState {
     /// `I` [N].
     pub integral: f64,
-    /// The reference response `f_r` [N].
+    /// The reference response `f_r` [N] with the best estimate `k̂`.
     pub f_ref: f64,
+    /// The reference responses with the estimate's bounds `k_low` and `k̄` [N]: the force
+    /// the model explains lies between them.
+    pub f_ref_low: f64,
+    pub f_ref_high: f64,
     /// The contact estimator's state.
     pub contact: ContactState,
     /// The push along n commanded last cycle, `D̂ V + f_m` [N] (the estimator's `u`).
@@ -156,12 +160,13 @@ pub struct DerivedState {
 
 impl DerivedState {
     pub fn new(_p: &DerivedParams) -> Self {
-        Self { integral: 0.0, f_ref: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0 }
+        Self { integral: 0.0, f_ref: 0.0, f_ref_low: 0.0, f_ref_high: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0 }
     }
 
-    /// A new contact with force `f`: `I = 0`, `f_r = f` (the estimator restarts in [`estimate`]).
+    /// A new contact with force `f`: `I = 0`, every reference response starts at `f` (the
+    /// estimator restarts in [`estimate`]).
     pub fn rearm(&self, f: f64) -> Self {
-        Self { integral: 0.0, f_ref: f, ..*self }
+        Self { integral: 0.0, f_ref: f, f_ref_low: f, f_ref_high: f, ..*self }
     }
 }
 
@@ -228,13 +233,24 @@ pub fn step(p: &DerivedParams, period: f64, integral_limit: f64, s: &DerivedStat
     let e_f = u.f_ext - u.f_d;
     let e_ddot = (e_f - g.b_d * u.e_dot - s.integral) / g.m_d;
     let lim = if integral_limit.is_finite() && integral_limit > 0.0 { integral_limit } else { f64::INFINITY };
-    next.integral = (s.integral + g.k_i * period * (s.f_ref - u.f_ext)).clamp(-lim, lim);
-    // The reference response with the best estimate k̂ (within the bounds): with the
-    // softest bound instead, f_r lags the force by (1/k_low − 1/k_e) b_d per newton of a
-    // step and the integral winds up against it by (1 − k_low/k_e)/(4 ζ_i²) of the step,
-    // which then decays at k_i alone (the slow tail of a loose k_low).
-    let k_ref = est.k_hat.clamp(k_lower, est.k_upper.max(k_lower));
-    next.f_ref = s.f_ref + (period * k_ref / g.b_d).min(1.0) * (u.f_d - s.f_ref);
+    // The integral acts on what no stiffness within the estimate's bounds explains: the
+    // force's distance from the band of reference responses `[f_r(k_low), f_r(k̄)]` (with
+    // `f_r(k̂)` inside it). A single reference with a stiffness the estimate does not yet
+    // know lags or leads the loop's own transient, and the integral winds up against that
+    // transient by `k_i ∫ (f_r − f)`, which it then unwinds at `k_i` alone: the slow
+    // settling after contact while the bounds are wide (`k̂` clamped to `k_low` before any
+    // evidence, `f_r` rising at `k_low / b_d` while the force rises at `k_e / b_d`). At
+    // rest every response reaches `f_d`, the band closes, and a steady error is integrated
+    // as before; with the bounds met (the oracle) the band is the one reference.
+    let (lo, hi) = (s.f_ref.min(s.f_ref_low).min(s.f_ref_high), s.f_ref.max(s.f_ref_low).max(s.f_ref_high));
+    let unexplained = if u.f_ext < lo { lo - u.f_ext } else if u.f_ext > hi { hi - u.f_ext } else { 0.0 };
+    next.integral = (s.integral + g.k_i * period * unexplained).clamp(-lim, lim);
+    let k_high = est.k_upper.max(k_lower);
+    let k_ref = est.k_hat.clamp(k_lower, k_high);
+    let toward = |f: f64, k: f64| f + (period * k / g.b_d).min(1.0) * (u.f_d - f);
+    next.f_ref = toward(s.f_ref, k_ref);
+    next.f_ref_low = toward(s.f_ref_low, k_lower);
+    next.f_ref_high = toward(s.f_ref_high, k_high);
     next.m_d = g.m_d;
     next.b_d = g.b_d;
     next.k_i = g.k_i;
@@ -295,6 +311,49 @@ mod tests {
             }
             assert!((f - f_d).abs() < 0.05, "k_e {k_e}: f {f}");
             assert!(k_up >= k_e && k_up < 2.0 * k_e, "k_e {k_e}: k̄ {k_up}");
+        }
+    }
+
+    /// Group D of issue 42: on a spring with no model error the first contact's transient is
+    /// the loop's own, which the model explains, so the integral stays inside the ±2 % band
+    /// (`|I| ≤ 0.02 f_d`). With a single reference response at `k̂` (clamped to `k_low`
+    /// before any evidence, and first order where the loop is second order with `m_d`) the
+    /// integral wound up against the transient and the force dipped to the band's edge.
+    /// Group D's stiffnesses, arriving at 37 mm/s (the scenarios' approach with no expected
+    /// surface); stiffer, that speed overshoots `f_d` by `k_e v (d + ½) T` (item 5's physics),
+    /// which no reference explains.
+    #[test]
+    fn the_first_contact_winds_up_no_integral() {
+        for k_e in [500.0, 1000.0, 2000.0, 5000.0] {
+            let p = DerivedParams { delay_cycles: 1.0, ..Default::default() };
+            let mut s = DerivedState::new(&p);
+            let (mut x, mut v) = (-0.001f64, 0.037f64);
+            let (t, f_d, mass) = (1e-3, 10.0, 3.19);
+            let mut contact = false;
+            let mut i_max = 0.0f64;
+            let mut prev = 0.0;
+            for _ in 0..3000 {
+                let f = k_e * x.max(0.0);
+                let entered = !contact && f > 0.5;
+                contact |= entered;
+                let (s1, e) = estimate(&p, &s, x, v, f, entered, contact, t);
+                s = if entered { s1.rearm(f) } else { s1 };
+                let xdd = if contact {
+                    let (n, o) = step(&p, t, 100.0, &s, &DerivedInputs { e_dot: -v, f_ext: f, f_d, mass, estimate: e, k_known: None });
+                    s = n;
+                    i_max = i_max.max(s.integral.abs());
+                    -o.e_ddot
+                } else {
+                    0.0
+                };
+                s = commanded(&s, mass, xdd, f);
+                // One period of delay: the arm realises last cycle's command.
+                v += prev * t;
+                x += v * t;
+                prev = xdd;
+            }
+            eprintln!("k_e {k_e}: max |I| {i_max:.4} N");
+            assert!(i_max <= 0.02 * f_d, "k_e {k_e}: |I| reached {i_max} N");
         }
     }
 
