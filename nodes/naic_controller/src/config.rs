@@ -57,9 +57,9 @@ pub fn specs<const N: usize>(base: &ControllerParams<N>) -> Vec<ParamSpec> {
             "Position reference: a paper task's trajectory (naic_core::task), or 'none' (start pose moved approach_depth along n)").read_only(),
         ParamSpec::double("approach_depth", 0.05, -0.5, 0.5, "With scenario 'none': free-space target = start tip position moved this far along n [m]"),
         ParamSpec::double("approach_speed", fl.scheduled.approach.max_speed, 1.0e-3, 0.5, "Modes 'scheduled' and 'derived': speed limit of the free-space approach along n [m/s] (a velocity servo toward the reference, robust to model error); the first contact adds k_e * approach_speed * (d + 1/2) * T before the loop reacts (50 000 N/m, 2 cycles of delay: 1.25 N per 10 mm/s)"),
-        ParamSpec::boolean("use_expected_surface", ap.expected_surface.is_some(), "Modes 'scheduled' and 'derived': slow within approach_band of the surface at expected_surface, to approach_band_speed ('scheduled') or to the impact-bounded speed of impact_fraction ('derived') (false: approach_speed all the way)"),
+        ParamSpec::boolean("use_expected_surface", ap.expected_surface.is_some(), "Modes 'scheduled' and 'derived': slow down toward the surface at expected_surface, to approach_band_speed within approach_band ('scheduled') or braking to the impact-bounded speed of impact_fraction by surface_uncertainty before it ('derived') (false: approach_speed all the way)"),
         ParamSpec::double("expected_surface", ap.expected_surface.unwrap_or(0.0), -2.0, 2.0, "Modes 'scheduled' and 'derived', with use_expected_surface: the surface's coordinate on the force axis's base-frame axis [m] (force_axis '-z': the table top's z in base_frame)"),
-        ParamSpec::double("approach_band", ap.band, 0.0, 0.5, "Modes 'scheduled' and 'derived', with use_expected_surface: distance before the expected surface where the approach slows [m]"),
+        ParamSpec::double("approach_band", ap.band, 0.0, 0.5, "Mode 'scheduled', with use_expected_surface: distance before the expected surface where the approach slows [m]"),
         ParamSpec::double("approach_band_speed", ap.speed, 1.0e-4, 0.5, "Mode 'scheduled', with use_expected_surface: approach speed along n inside approach_band [m/s]"),
         ParamSpec::double("force_observer", fl.scheduled.force_observer, 0.0, 2000.0, "Mode 'scheduled': bandwidth of the disturbance observer that reads the force on stiff surfaces [rad/s] (0: off, the velocity observer alone)"),
         ParamSpec::double("loop_delay_cycles", dp.delay_cycles, 0.0, naic_core::pipeline::control::contact::MAX_DELAY as f64, "Mode 'derived': the loop delay d its gains are designed for [control periods] (sensor sample to torque; measure it on the chain)"),
@@ -70,7 +70,8 @@ pub fn specs<const N: usize>(base: &ControllerParams<N>) -> Vec<ParamSpec> {
         ParamSpec::double("position_resolution", dp.x_resolution, 1.0e-9, 1.0e-2, "Mode 'derived': the tip's position resolution along n [m] (one encoder count through the Jacobian)"),
         ParamSpec::double("force_noise", dp.force_noise, 1.0e-4, 10.0, "Mode 'derived': the F/T sensor's noise along n, 1 sigma [N]"),
         ParamSpec::double("surface_speed", dp.contact.surface_speed, 0.0, 1.0, "Mode 'derived': 1 sigma of the surface's speed along n the contact estimator allows [m/s]"),
-        ParamSpec::double("impact_fraction", dp.impact_fraction, 1.0e-3, 10.0, "Mode 'derived', with use_expected_surface: within approach_band of the surface the approach speed is impact_fraction * f_d / (stiffness_max * (loop_delay_cycles + 1/2) * control_period), so the force a first contact adds before the loop reacts is at most this fraction of f_d"),
+        ParamSpec::double("impact_fraction", dp.impact_fraction, 1.0e-3, 10.0, "Mode 'derived', with use_expected_surface: the approach brakes toward the surface to impact_fraction * f_d / (stiffness_max * (loop_delay_cycles + 1/2) * control_period), so the force a first contact adds before the loop reacts is at most this fraction of f_d"),
+        ParamSpec::double("surface_uncertainty", dp.surface_uncertainty, 0.0, 0.5, "Mode 'derived', with use_expected_surface: how far before expected_surface the real surface may be [m]; the approach brakes (at w v_c / 2, w the approach servo's bandwidth) so that it is at the impact-bounded speed this far before expected_surface (more: a slower approach, never a harder impact)"),
         ParamSpec::string("base_frame", "base_link", "The URDF's root link: the frame of /naic/params and of the reference; with scenario 'none', /naic/target_pose and /naic/desired_wrench in any frame of the model (or '' for this one) are expressed in it"),
         ParamSpec::double("tf_rate", crate::tf::DEFAULT_TF_RATE, 0.0, 1000.0, "Rate of /tf [Hz]: the moving joints' transforms from the measured joint states, stamped with them (0: none; the fixed joints go to /tf_static once)"),
         ParamSpec::double("max_speed", rd.linear.max_speed, 1.0e-4, 2.0, "With scenario 'none': speed limit of the position reference [m/s]"),
@@ -168,6 +169,7 @@ pub fn controller_params<const N: usize>(p: &ParamView, base: &ControllerParams<
     der.force_noise = p.f64("force_noise");
     der.contact.surface_speed = p.f64("surface_speed");
     der.impact_fraction = p.f64("impact_fraction");
+    der.surface_uncertainty = p.f64("surface_uncertainty");
     c.control.contact = ContactDetect {
         enter_n: p.f64("contact_threshold"),
         scheduled_enter_n: p.f64("scheduled_contact_threshold"),

@@ -221,7 +221,7 @@ pub fn shape(
 /// What the law's approach bounds, for the operator's log (not in the 1 kHz path): the
 /// derived law's guarded approach at `approach_speed` and the force rise its first contact
 /// may add on the stiffest surface expected, `k̄ v (d + ½) T`, or with an expected surface
-/// the impact-bounded speed near it. `None`: the law states no bound.
+/// the impact-bounded speed the braking approach reaches near it. `None`: the law states no bound.
 pub fn approach_report(p: &ControlParams, f_d: f64) -> Option<String> {
     let fl = &p.force_law;
     match fl.mode {
@@ -236,9 +236,9 @@ pub fn approach_report(p: &ControlParams, f_d: f64) -> Option<String> {
             if ap.expected_surface.is_some() {
                 let v = derived::impact_speed(dp, f_d, k, t).min(ap.max_speed);
                 line += &format!(
-                    "; within approach_band = {} m of expected_surface the speed is eps f_d / (k (d + 1/2) T) = {:.4} m/s at f_d = {f_d} N (impact <= eps f_d = {:.2} N, eps = {})",
-                    ap.band,
+                    "; toward expected_surface it brakes (a_b = w v / 2, w the servo's b/m) to eps f_d / (k (d + 1/2) T) = {:.4} m/s by surface_uncertainty = {} m before it, at f_d = {f_d} N (impact <= eps f_d = {:.2} N, eps = {})",
                     v,
+                    dp.surface_uncertainty,
                     derived::impact_bound(dp, v, k, t),
                     dp.impact_fraction
                 );
@@ -321,11 +321,14 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
             out.report = ForceLawOutputs { e_ddot: r.e_ddot, e_f: r.e_f, k_e_hat: r.estimate.k_hat, k_e_confidence: derived::confidence(&r.estimate), ..Default::default() };
         }
         Regime::Free => {
-            // The scheduled law's PI approach servo at most `approach_speed`; within
-            // `approach_band` of an expected surface at the impact-bounded speed
-            // `ε f_d / (k̄ (d + ½) T)` (derived::impact_speed), not `approach_band_speed`.
+            // The scheduled law's PI approach servo at most `approach_speed`; toward an
+            // expected surface on the braking profile that reaches the impact-bounded speed
+            // `ε f_d / (k̄ (d + ½) T)` `δ` before it (derived::braking_speed): the profile
+            // is the servo's speed limit at every distance (`band` unbounded), not
+            // `approach_band_speed` within `approach_band`.
             let k_up = if est.k_upper.is_finite() && est.k_upper > 0.0 { est.k_upper } else { dp.contact.k_max };
-            let ap = &scheduled::ApproachParams { speed: derived::impact_speed(dp, u.f_d, k_up, fl.lambda).min(fl.scheduled.approach.max_speed), ..fl.scheduled.approach };
+            let v_b = derived::braking_speed(dp, u.f_d, k_up, fl.lambda, u.surface_n - u.x, u.x_dot, u.free_b / u.free_m);
+            let ap = &scheduled::ApproachParams { speed: v_b.min(fl.scheduled.approach.max_speed), band: f64::INFINITY, ..fl.scheduled.approach };
             let free = scheduled::ApproachAxis { m: u.free_m, b: u.free_b, k: u.free_k, e: u.e, v_d: u.v_d, a_d: u.a_d };
             let (a_n, e) = scheduled::approach_accel(ap, u.surface_n, u.x, u.x_dot, free, u.v_n, next_sched.approach_integral, fl.lambda);
             next_sched.approach_integral = e;
@@ -492,10 +495,12 @@ mod tests {
         out.v_ref.expect("the derived law names its approach speed")
     }
 
-    /// Item 5 of issue 42: within the band of an expected surface the derived law approaches
-    /// at `ε f_d / (k̄ (d + ½) T)`, so a first contact on the stiffest surface the estimate
-    /// allows adds at most `ε f_d` before the loop reacts; outside the band, and with no
-    /// expected surface, at the free-space servo's speed (at most `approach_speed`).
+    /// Item 5 of issue 42 with the braking profile (group F): within `δ` of an expected
+    /// surface the derived law approaches at `v_c = ε f_d / (k̄ (d + ½) T)`, so a first
+    /// contact on the stiffest surface the estimate allows adds at most `ε f_d` before the
+    /// loop reacts; farther out at `√(2 a_b (s − δ))` (at rest, `a_b = w v_c / 2`, `w = b/m`
+    /// = 40/s here); far from it, and with no expected surface, at the free-space servo's
+    /// speed (at most `approach_speed`).
     #[test]
     fn the_derived_approach_bounds_the_impact_near_an_expected_surface() {
         for (d, f_d) in [(1.0, 10.0), (2.0, 10.0), (2.0, 3.0), (0.0, 20.0)] {
@@ -503,13 +508,19 @@ mod tests {
             p.force_law.derived.delay_cycles = d;
             let dp = &p.force_law.derived;
             let k = dp.contact.k_max;
-            let v_band = target_speed(&p, -0.005, f_d);
-            let rise = derived::impact_bound(dp, v_band, k, 1e-3);
-            assert!((rise - dp.impact_fraction * f_d).abs() < 1e-9, "d {d}, f_d {f_d}: impact {rise} N at {v_band} m/s");
-            assert!((v_band - dp.impact_fraction * f_d / (k * (d + 0.5) * 1e-3)).abs() < 1e-12);
-            // Before the band: the impedance's own approach (50/40 × the 3.5 cm to the reference).
-            let v_far = target_speed(&p, -0.015, f_d);
-            assert!((v_far - 1.25 * 0.045).abs() < 1e-9 && v_far > v_band, "d {d}: {v_far} m/s");
+            let v_c = dp.impact_fraction * f_d / (k * (d + 0.5) * 1e-3);
+            let v_near = target_speed(&p, -0.0008, f_d);
+            let rise = derived::impact_bound(dp, v_near, k, 1e-3);
+            assert!(rise <= dp.impact_fraction * f_d + 1e-9, "d {d}, f_d {f_d}: impact {rise} N at {v_near} m/s");
+            assert!((v_near - v_c.min(1.25 * 0.0308)).abs() < 1e-12, "d {d}, f_d {f_d}: {v_near} m/s");
+            // Farther out: the braking profile or the impedance's own approach (50/40 × the
+            // distance to the reference 3 cm beyond the surface), the slower; above v_c.
+            let profile = |s: f64| (2.0 * 0.5 * 40.0 * v_c * (s - dp.surface_uncertainty)).sqrt();
+            for s in [0.005, 0.1] {
+                let v = target_speed(&p, -s, f_d);
+                let want = profile(s).min(1.25 * (0.03 + s));
+                assert!((v - want).abs() < 1e-12 && v > v_c, "d {d}, f_d {f_d}, {s} m out: {v} m/s, want {want}");
+            }
         }
         // No expected surface (scenario none): the guarded approach at the servo's speed,
         // its impact bound reported; the other laws report none.
@@ -518,9 +529,81 @@ mod tests {
         let line = approach_report(&p, 10.0).expect("derived reports its approach");
         let bound = derived::impact_bound(&p.force_law.derived, p.force_law.scheduled.approach.max_speed, p.force_law.derived.contact.k_max, 1e-3);
         assert!(line.contains("approach_speed") && line.contains(&format!("{bound:.2} N")), "{line}");
-        assert!(approach_report(&params(Mode::Derived, Some(0.0)), 10.0).unwrap().contains("within approach_band"));
+        assert!(approach_report(&params(Mode::Derived, Some(0.0)), 10.0).unwrap().contains("surface_uncertainty = 0.001 m"));
         for m in [Mode::Naic, Mode::Aic, Mode::Fixed, Mode::Scheduled] {
             assert_eq!(approach_report(&params(m, None), 10.0), None, "{m:?}");
+        }
+    }
+
+    /// The braking approach in closed loop (group F of issue 42): the law's free-space
+    /// command drives a double integrator through a loop delay of `d` periods (the arm
+    /// realises the commanded acceleration), from 37 mm/s (the scenarios' approach) toward a
+    /// surface of stiffness `k̄` at the expected position and at the earliest the
+    /// uncertainty allows (`δ` before it). The force that surface would reach in the loop's
+    /// reaction time `(d + ½) T` after contact, at the measured contact speed, is at most
+    /// `ε f_d` (item 5), over the whole `(d + 1)` periods at most `ε f_d (d + 1)/(d + ½)`;
+    /// and the time from 10 mm out to the surface is below the constant-speed band's
+    /// `10 mm / v_c` by the profile's saving. Without the profile the crossing took the band
+    /// at `v_c`: 5.0 s at 3 N, d = 1.
+    #[test]
+    fn the_braking_approach_arrives_at_the_impact_speed_and_saves_the_band() {
+        let t = 1e-3;
+        for (d, f_d) in [(0usize, 20.0), (1, 10.0), (1, 3.0), (2, 3.0), (3, 3.0)] {
+            let mut p = params(Mode::Derived, Some(0.0));
+            p.force_law.derived.delay_cycles = d as f64;
+            let dp = p.force_law.derived;
+            let k = dp.contact.k_max;
+            let v_c = dp.impact_fraction * f_d / (k * (d as f64 + 0.5) * t);
+            for wall in [0.0, -dp.surface_uncertainty] {
+                let mut s = super::super::ControlState::new(&p);
+                let (mut x, mut v) = (-0.03f64, 0.037f64);
+                let mut cmds = std::collections::VecDeque::from(vec![0.0; d]);
+                let (mut t_band, mut n) = (None, 0usize);
+                while x < wall && n < 60_000 {
+                    let u = AxisInputs {
+                        regime: Regime::Free,
+                        prev_phase: Phase::Free,
+                        entered: false,
+                        x,
+                        x_dot: v,
+                        e: 0.03 - x,
+                        e_dot: -v,
+                        v_d: 0.0,
+                        a_d: 0.0,
+                        f_ext: 0.0,
+                        f_d,
+                        v_n: 0.0,
+                        free_m: 1.0,
+                        free_b: 40.0,
+                        free_k: 50.0,
+                        surface_n: surface_along(&p),
+                        pre: Prepared::default(),
+                    };
+                    let (l, sc, de, out) = step(&p, &s.law, &s.sched, &s.derived, &u);
+                    (s.law, s.sched, s.derived) = (l, sc, de);
+                    cmds.push_back(out.xdd.unwrap());
+                    let a = cmds.pop_front().unwrap();
+                    v += a * t;
+                    x += v * t;
+                    n += 1;
+                    if t_band.is_none() && x >= -0.01 {
+                        t_band = Some(n);
+                    }
+                }
+                assert!(x >= wall, "d {d}, f_d {f_d}: never reached the surface at {wall} m (x = {x})");
+                let rise = k * v * (d as f64 + 0.5) * t;
+                assert!(rise <= dp.impact_fraction * f_d * 1.02, "d {d}, f_d {f_d}, wall {wall}: contact at {v} m/s (v_c {v_c}) adds {rise} N > eps f_d");
+                let worst = k * v * (d as f64 + 1.0) * t;
+                assert!(worst <= dp.impact_fraction * f_d * (d as f64 + 1.0) / (d as f64 + 0.5) * 1.02, "d {d}: {worst} N");
+                let band_time = (n - t_band.unwrap()) as f64 * t;
+                let flat = (0.01 + wall) / v_c;
+                // Where v_c is well below the approach's speed (every case but d 0 at 20 N,
+                // where v_c = 40 mm/s and nothing brakes).
+                if v_c < 0.25 * 0.037 {
+                    assert!(band_time < 0.5 * flat, "d {d}, f_d {f_d}, wall {wall}: {band_time} s in the last 10 mm (at v_c: {flat} s)");
+                }
+                eprintln!("d {d}, f_d {f_d}, wall {wall}: contact at {v:.5} m/s (v_c {v_c:.5}), rise {rise:.3} N, last 10 mm in {band_time:.3} s (at v_c {flat:.2} s)");
+            }
         }
     }
 
