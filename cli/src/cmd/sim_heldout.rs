@@ -175,8 +175,13 @@ fn run_case(ctx: &Ctx, c: &Case) -> Result<Scored, CliError> {
     let s = scenario_of(ctx, c)?;
     let mut plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool, &ctx.tool_inertia)?;
     ctx.sensor.apply(&mut plant);
-    let settings =
-        LoopSettings { delay_cycles: c.delay, model_mass_error: c.mass_error, tare_at_rest: ctx.sensor.tare_at_rest, ..LoopSettings::default() };
+    let settings = LoopSettings {
+        delay_cycles: c.delay,
+        model_mass_error: c.mass_error,
+        tare_at_rest: ctx.sensor.tare_at_rest,
+        tare_inertial: ctx.sensor.tare_inertial(&ctx.plant),
+        ..LoopSettings::default()
+    };
     let mut pc = PipelineController::by_name(c.controller, &s, &ctx.model, ctx.friction.clone(), ctx.tool, &settings).map_err(CliError::usage)?;
     let mut p = ctx.plant.build(&plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
     let r = runner::run_on(&s, &mut *p, &mut pc, &mut |_| {});

@@ -111,8 +111,13 @@ fn run_job(ctx: &Ctx, j: &Job) -> Result<RunResult, CliError> {
     let s = scenario_for(ctx, j)?;
     let mut plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool, &ctx.tool_inertia)?;
     ctx.sensor.apply(&mut plant);
-    let settings =
-        LoopSettings { delay_cycles: j.delay, model_mass_error: j.mass_error, tare_at_rest: ctx.sensor.tare_at_rest, ..LoopSettings::default() };
+    let settings = LoopSettings {
+        delay_cycles: j.delay,
+        model_mass_error: j.mass_error,
+        tare_at_rest: ctx.sensor.tare_at_rest,
+        tare_inertial: ctx.sensor.tare_inertial(&ctx.plant),
+        ..LoopSettings::default()
+    };
     let mut c = PipelineController::by_name(j.controller, &s, &ctx.model, ctx.friction.clone(), ctx.tool, &settings)
         .map_err(CliError::usage)?;
     let mut p = ctx.plant.build(&plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;

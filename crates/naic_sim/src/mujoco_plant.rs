@@ -19,6 +19,11 @@
 //!   [`MujocoPlant::table_contacts`] reads them back). MuJoCo's contact is
 //!   a soft constraint, not a spring: the static stiffness this gives is not k_e and is
 //!   measured by [`static_stiffness`] (`naic sim --plant mujoco --stiffness-report`);
+//! * the table meets the tip's geoms alone (naic's contact is at the tip): the table geoms
+//!   have `contype 0` and the `conaffinity` bit [`TIP_ONLY`], which only the body `tip`'s
+//!   geoms have in their `contype` (an MJCF whose `tip` has no geom is refused). MuJoCo's
+//!   contact sinks the tip sphere past its radius on flat and foam, where the authors' tool
+//!   stick (a cylinder ending at the sphere's centre) would otherwise reach the table;
 //! * the time step is the control period over the own plant's sub-step count.
 //!
 //! Torque enters through `qfrc_applied` (saturated at the URDF effort limits like the
@@ -55,7 +60,13 @@ pub const AUTHORS_SOLIMP: [f64; 5] = [0.1, 0.3, 0.001, 0.5, 2.0];
 pub const AUTHORS_DAMPING: f64 = 0.1;
 /// Half extent of a table box along its surface [m], and half thickness [m].
 const TABLE_HALF: f64 = 1.0;
-const TABLE_HALF_THICK: f64 = 0.05;
+/// Thick enough that a tip sphere pushed deep (15 N on foam sinks about 30 mm; an approach at
+/// 0.8 m/s sank 52 mm) never passes the box's middle, past which MuJoCo pushes it out through
+/// the bottom face.
+const TABLE_HALF_THICK: f64 = 0.5;
+/// The collision bit of the table: its `conaffinity` and its only `contype` partner, the
+/// tip body's geoms (the table geoms' own `contype` is 0).
+const TIP_ONLY: i32 = 1 << 30;
 
 /// MuJoCo's `solref` (direct form) for a naic material.
 pub fn solref_for(m: &Material) -> [f64; 2] {
@@ -260,7 +271,7 @@ fn table_xml(regions: &[Region], priority: i32) -> String {
         let sr = solref_for(&r.material);
         let si = AUTHORS_SOLIMP;
         s.push_str(&format!(
-            "<geom name=\"naic_table_{i}\" type=\"box\" size=\"{} {} {}\" pos=\"{} {} {}\" quat=\"{} {} {} {}\" condim=\"1\" priority=\"{priority}\" solref=\"{} {}\" solimp=\"{} {} {} {} {}\"/>",
+            "<geom name=\"naic_table_{i}\" type=\"box\" size=\"{} {} {}\" pos=\"{} {} {}\" quat=\"{} {} {} {}\" condim=\"1\" contype=\"0\" conaffinity=\"{TIP_ONLY}\" priority=\"{priority}\" solref=\"{} {}\" solimp=\"{} {} {} {} {}\"/>",
             r.half[0], r.half[1], r.half[2], r.center.x, r.center.y, r.center.z, q.w, q.i, q.j, q.k, sr[0], sr[1], si[0], si[1], si[2], si[3], si[4]
         ));
     }
@@ -293,7 +304,9 @@ impl MujocoPlant {
         let r_tip = (0..mf.ngeom as usize)
             .find(|&g| unsafe { *mf.geom_bodyid.add(g) } == tip_body)
             .map(|g| unsafe { *mf.geom_size.add(3 * g) })
-            .unwrap_or(0.0);
+            .ok_or_else(|| {
+                mjcf_err(mjcf, "its body 'tip' has no geom; the table meets the tip's geoms only (naic's contact is at the tip): give 'tip' a sphere geom")
+            })?;
         // the tip's start position in naic's model (same kinematics; checked below)
         let mut q0a = [0.0; N_JOINTS];
         q0a.copy_from_slice(q0);
@@ -335,6 +348,14 @@ impl MujocoPlant {
         let mut model = Box::new(model);
         unsafe {
             model.ffi_mut().opt.timestep = p.dt / p.substeps as f64;
+            // The table meets the tip's geoms only (module docs): the table's `conaffinity`
+            // bit is in the tip's geoms' `contype` and in no other geom's.
+            let tip_body = id(&model, ffi::mjtObj::mjOBJ_BODY, "tip").ok_or_else(|| mjcf_err(mjcf, "body 'tip' lost"))?;
+            let m = model.ffi_mut();
+            for g in 0..m.ngeom as usize {
+                let ct = &mut *m.geom_contype.add(g);
+                *ct = if *m.geom_bodyid.add(g) == tip_body { *ct | TIP_ONLY } else { *ct & !TIP_ONLY };
+            }
         }
         let data = MjData::new(model);
         let mut plant = Self {
@@ -614,30 +635,90 @@ impl MujocoPlant {
         };
     }
 
-    /// Hold the tip on the surface with a constant push `f_n` [N] along −n (a
-    /// Cartesian force law on MuJoCo's own Jacobian and bias forces, tangential
-    /// position and orientation held by springs), for `seconds`; returns the mean
-    /// contact normal force [N] and penetration [m] over the last 0.2 s.
-    fn push(&mut self, f_n: f64, seconds: f64) -> (f64, f64) {
-        self.push_along(f_n, None, seconds)
+    /// [`Self::push_to`]'s mean contact normal force [N] and penetration [m].
+    pub fn push_along(&mut self, f_n: f64, f_t: Option<Vector3<f64>>, seconds: f64) -> (f64, f64) {
+        let r = self.push_to(f_n, f_t, seconds);
+        (r.force, r.penetration)
     }
 
-    /// [`Self::push`] with, if `f_t` is given, that constant tangential force [N] on the
-    /// tip instead of the tangential position hold (`f_t`'s part along n is dropped).
-    pub fn push_along(&mut self, f_n: f64, f_t: Option<Vector3<f64>>, seconds: f64) -> (f64, f64) {
+    /// The push's damping rate [1/s], about critical for the tip on the contact under it.
+    /// MuJoCo's contact row moves about as `a = (1 − d)·a₀ + d·(−k·r − b·ṙ)` (impedance d, the
+    /// direct `solref` (−k, −b), a₀ the free acceleration under the push; MuJoCo weights the
+    /// two terms by its own estimate of the row's inertia), so a push that gives
+    /// `a₀ = −D·ṙ` leaves the row `r̈ + ((1 − d)·D + d·b)·ṙ + d·k·r = …`, critical at
+    /// `D = (2·sqrt(d·k) − d·b)/(1 − d)`; the pushed mass drops out, since the push damps
+    /// through the mass matrix. d is `solimp`'s d_max, reached within its width (1 mm).
+    /// MuJoCo's own damping is nearly none on flat (b 0.1). [`Push::settled`] is what the
+    /// stiffness report relies on, not this rate being exactly critical.
+    pub fn push_damping(&self) -> f64 {
+        let t = self.k as f64 * self.dt;
+        let sr = solref_for(&self.env.material.at(t, &self.site_pos()));
+        let (k, b, d) = (-sr[0], -sr[1], AUTHORS_SOLIMP[1]);
+        ((2.0 * (d * k).sqrt() - d * b) / (1.0 - d)).max(0.0)
+    }
+
+    /// Hold the tip on the surface with a push `f_n` [N] along −n for `seconds`, on MuJoCo's
+    /// own Jacobian J, mass matrix M and bias forces: `τ = bias + Jᵀ·F + M·J⁻¹·a_c`, F the push
+    /// (and `f_t`, if given, a constant tangential force [N] on the tip, its part along n
+    /// dropped). `a_c` holds the orientation and, without `f_t`, the tangential position at
+    /// their start as critically damped double poles at D/2 (`a_c = D²/4·e − D·ẋ`) and takes
+    /// out the acceleration the push gives them (`J M⁻¹ Jᵀ F`, so that they keep no offset);
+    /// along n it adds `−D·ẋ_n` alone, critical on the contact ([`Self::push_damping`]), so
+    /// that the push settles on flat's nearly undamped contact. Every rate comes from the
+    /// contact's k and impedance. [`Push`] has the means over the last 0.2 s and how settled
+    /// they are.
+    pub fn push_to(&mut self, f_n: f64, f_t: Option<Vector3<f64>>, seconds: f64) -> Push {
+        use nalgebra::{Matrix6, Vector6};
         let nv = N_JOINTS;
         let n = self.env.normal.into_inner();
         let p0 = self.site_pos();
         let r0 = self.site_rot();
-        let (k_t, d_t, d_n, k_r, d_r, d_q) = (3000.0, 150.0, 30.0, 60.0, 3.0, 0.3);
+        let rate = self.push_damping();
+        let stiff = rate * rate / 4.0;
         let steps = (seconds / self.dt).round() as usize;
         let tail = (0.2 / self.dt).round() as usize;
         let (mut f_sum, mut p_sum) = (0.0, 0.0);
+        let (mut f_lo, mut f_hi, mut speed) = (f64::INFINITY, f64::NEG_INFINITY, 0.0_f64);
         let mut jp = vec![0.0; 3 * nv];
         let mut jr = vec![0.0; 3 * nv];
+        let mut row = vec![0.0; nv];
+        let mut x = vec![0.0; nv];
+        let mut m_y = vec![0.0; nv];
+        let hold_t = f_t.is_none();
+        // projections of ẋ = (v, ω): the held directions and the damped ones
+        let pn = n * n.transpose();
+        let pt = Matrix3::identity() - pn;
+        let mut q_held = Matrix6::identity();
+        let mut p_damped = Matrix6::identity();
+        q_held.fixed_view_mut::<3, 3>(0, 0).copy_from(&if hold_t { pt } else { Matrix3::zeros() });
+        p_damped.fixed_view_mut::<3, 3>(0, 0).copy_from(&if hold_t { Matrix3::identity() } else { pn });
+        let f_tan = f_t.map(|f| f - n * n.dot(&f)).unwrap_or_else(Vector3::zeros);
+        let push = -n * f_n + f_tan;
+        let f6 = Vector6::new(push.x, push.y, push.z, 0.0, 0.0, 0.0);
         for k in 0..steps {
             unsafe {
                 ffi::mj_jacSite(self.data.model().ffi(), self.data.ffi(), jp.as_mut_ptr(), jr.as_mut_ptr(), self.site_ee);
+            }
+            let mut j6 = Matrix6::zeros();
+            for j in 0..nv {
+                for a in 0..3 {
+                    j6[(a, j)] = jp[a * nv + self.vadr[j]];
+                    j6[(a + 3, j)] = jr[a * nv + self.vadr[j]];
+                }
+            }
+            // A = J M⁻¹ Jᵀ
+            let mut a6 = Matrix6::zeros();
+            for c in 0..6 {
+                for j in 0..nv {
+                    row[self.vadr[j]] = j6[(c, j)];
+                }
+                unsafe {
+                    let m: *const ffi::mjModel = self.data.model().ffi();
+                    ffi::mj_solveM(m, self.data.ffi_mut(), x.as_mut_ptr(), row.as_ptr(), 1);
+                }
+                for r in 0..6 {
+                    a6[(r, c)] = (0..nv).map(|j| j6[(r, j)] * x[self.vadr[j]]).sum::<f64>();
+                }
             }
             let p = self.site_pos();
             let r = self.site_rot();
@@ -648,32 +729,69 @@ impl MujocoPlant {
             let v = Vector3::new(v6[3], v6[4], v6[5]);
             let w = Vector3::new(v6[0], v6[1], v6[2]);
             let dp = p0 - p;
-            let dp_t = dp - n * n.dot(&dp);
-            let v_t = v - n * n.dot(&v);
-            let tangential = match f_t {
-                Some(f_t) => f_t - n * n.dot(&f_t),
-                None => dp_t * k_t - v_t * d_t,
-            };
-            let f = -n * f_n + tangential - n * (d_n * n.dot(&v));
             let rot_err = Rotation3::from_matrix_unchecked(r0 * r.transpose()).scaled_axis();
-            let mm = rot_err * k_r - w * d_r;
-            let bias: Vec<f64> = self.data.qfrc_bias().to_vec();
-            let qv: Vec<f64> = self.data.qvel().to_vec();
+            let e6 = Vector6::new(dp.x, dp.y, dp.z, rot_err.x, rot_err.y, rot_err.z);
+            let xd6 = Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z);
+            let a_c = q_held * (e6 * stiff - a6 * f6) - p_damped * xd6 * rate;
+            let qdd = j6.lu().solve(&a_c).unwrap_or_else(Vector6::zeros);
+            for j in 0..nv {
+                x[self.vadr[j]] = qdd[j];
+            }
+            unsafe {
+                ffi::mj_mulM(self.data.model().ffi(), self.data.ffi(), m_y.as_mut_ptr(), x.as_ptr());
+            }
+            let jt_f = j6.transpose() * f6;
             let mut tau = [0.0; N_JOINTS];
             for j in 0..nv {
-                let mut s = bias[self.vadr[j]] - d_q * qv[self.vadr[j]];
-                for a in 0..3 {
-                    s += jp[a * nv + self.vadr[j]] * f[a] + jr[a * nv + self.vadr[j]] * mm[a];
-                }
-                tau[j] = s;
+                tau[j] = self.data.qfrc_bias()[self.vadr[j]] + jt_f[j] + m_y[self.vadr[j]];
             }
             crate::plants::Plant::step(self, &tau);
             if k + tail >= steps {
-                f_sum += self.obs.truth.contact.normal_force;
-                p_sum += self.obs.truth.contact.penetration;
+                let c = &self.obs.truth.contact;
+                f_sum += c.normal_force;
+                p_sum += c.penetration;
+                f_lo = f_lo.min(c.normal_force);
+                f_hi = f_hi.max(c.normal_force);
+                speed = speed.max(n.dot(&self.obs.truth.tip_velocity).abs());
             }
         }
-        (f_sum / tail as f64, p_sum / tail as f64)
+        Push { force: f_sum / tail as f64, penetration: p_sum / tail as f64, force_spread: f_hi - f_lo, speed, damping: rate }
+    }
+
+    /// Bring the tip onto the surface: [`Self::push_to`] `f_n` [N] in 0.1 s pieces until the
+    /// tip touches, then 1 s more. An error if it has not touched after 20 s.
+    pub fn approach(&mut self, f_n: f64) -> Result<Push, PlantError> {
+        for _ in 0..200 {
+            if self.obs.truth.contact.in_contact {
+                return Ok(self.push_to(f_n, None, 1.0));
+            }
+            self.push_to(f_n, None, 0.1);
+        }
+        Err(PlantError::Config(format!(
+            "pushing {f_n} N along the surface normal for 20 s, the tip did not reach the table ({:.1} mm away): the scenario's surface is not under the tip",
+            -self.obs.truth.contact.penetration * 1e3
+        )))
+    }
+}
+
+/// One push of [`MujocoPlant::push_to`]: over its last 0.2 s, the mean contact normal force
+/// [N] and penetration [m], the normal force's peak-to-peak [N] and the tip's fastest speed
+/// along n [m/s]; and the push's damping rate [1/s].
+#[derive(Clone, Copy, Debug)]
+pub struct Push {
+    pub force: f64,
+    pub penetration: f64,
+    pub force_spread: f64,
+    pub speed: f64,
+    pub damping: f64,
+}
+
+impl Push {
+    /// Settled on the push `f_n`: over the last 0.2 s the contact force stays within ±1 % of
+    /// `f_n` (its peak-to-peak and its mean's distance from `f_n`) and the tip moves along n
+    /// slower than 1 mm/s.
+    pub fn settled(&self, f_n: f64) -> bool {
+        self.force_spread <= 0.02 * f_n && (self.force - f_n).abs() <= 0.01 * f_n && self.speed < 1e-3
     }
 }
 
@@ -737,9 +855,10 @@ pub struct StaticStiffness {
     pub k_static: f64,
 }
 
-/// Measure the static stiffness of each material of `p.env` on MuJoCo: from `q0`,
-/// push the tip onto that material's surface (15 N for 1 s), then with each of `pushes` [N] (MuJoCo's own
-/// Jacobian and bias forces), 3 s each, and take the secant Δf/Δpenetration.
+/// Measure the static stiffness of each material of `p.env` on MuJoCo: from `q0`, bring
+/// the tip onto that material's surface at 15 N ([`MujocoPlant::approach`]), then push with
+/// each of `pushes` [N] for 3 s ([`MujocoPlant::push_to`]; an error if a push has not
+/// settled, [`Push::settled`]) and take the secant Δf/Δpenetration.
 pub fn static_stiffness(mjcf: &Path, p: &PlantParams, q0: &[f64], pushes: [f64; 2]) -> Result<Vec<StaticStiffness>, PlantError> {
     let mats: Vec<Material> = match &p.env.material {
         MaterialMap::Uniform(m) => vec![*m],
@@ -761,8 +880,16 @@ pub fn static_stiffness(mjcf: &Path, p: &PlantParams, q0: &[f64], pushes: [f64; 
         let mut fp = [(0.0, 0.0); 2];
         for (i, f) in pushes.iter().enumerate() {
             let mut plant = MujocoPlant::new(mjcf, &pp, q0, 0)?;
-            plant.push(15.0, 1.0); // onto the surface
-            fp[i] = plant.push(*f, 3.0);
+            plant.approach(15.0)?;
+            let r = plant.push_to(*f, None, 3.0);
+            if !r.settled(*f) {
+                return Err(PlantError::Config(format!(
+                    "the static stiffness push of {f} N on k_e {} N/m did not settle (last 0.2 s: mean {:.3} N, peak-to-peak {:.3} N, tip speed {:.2e} m/s; \
+                     settled: within ±1 % of the push, slower than 1 mm/s)",
+                    m.k_e, r.force, r.force_spread, r.speed
+                )));
+            }
+            fp[i] = (r.force, r.penetration);
         }
         let k_static = (fp[1].0 - fp[0].0) / (fp[1].1 - fp[0].1);
         out.push(StaticStiffness {

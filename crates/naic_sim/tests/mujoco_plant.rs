@@ -290,7 +290,7 @@ fn a_mujoco_contact_takes_the_scenarios_contact_parameters() {
     for name in ["flat", "foam", "acrylic", "slope"] {
         let (s, p) = setup(name, true);
         let mut mj = MujocoPlant::new(&mjcf(), &p, &s.task.q0, s.seed).unwrap();
-        mj.push_along(15.0, None, 1.0); // onto the surface (as the stiffness report)
+        mj.approach(15.0).unwrap(); // onto the surface (as the stiffness report)
         let (f, _) = mj.push_along(10.0, None, 1.0);
         let tip = mj.tip_position();
         let want = solref_for(&p.env.material.at(1.0, &tip));
@@ -304,6 +304,46 @@ fn a_mujoco_contact_takes_the_scenarios_contact_parameters() {
             assert_eq!(c.tangential_n, 0.0, "{name}: {c:?}");
         }
     }
+}
+
+/// The table meets the tip's sphere alone: pushed at 25 N on flat and foam (MuJoCo's
+/// contact sinks the sphere past its 10 mm radius there, so the tool's stick, a cylinder
+/// ending at the sphere's centre, would reach the table), the push settles on one contact,
+/// the sphere's, carrying the push.
+#[test]
+fn past_one_tip_radius_of_penetration_the_table_still_meets_the_tip_sphere_alone() {
+    use naic_sim::mujoco_plant::MujocoPlant;
+    for name in ["flat", "foam"] {
+        let (s, p) = setup(name, true);
+        let mut mj = MujocoPlant::new(&mjcf(), &p, &s.task.q0, s.seed).unwrap();
+        mj.approach(15.0).unwrap(); // onto the surface (as the stiffness report)
+        let r = mj.push_to(25.0, None, 3.0);
+        let cs = mj.table_contacts();
+        println!("{name}: {r:?}; contacts {cs:?}");
+        assert!(r.penetration > 10.5e-3, "{name}: the tip sank {:.2} mm, not past the sphere's radius: the test proves nothing", r.penetration * 1e3);
+        assert!(r.settled(25.0), "{name}: the push did not settle: {r:?}");
+        assert_eq!(cs.len(), 1, "{name}: the table met more than the tip sphere: {cs:?}");
+        assert!((cs[0].normal_n - 25.0).abs() < 0.5, "{name}: the sphere's contact carries the push: {cs:?}");
+    }
+}
+
+/// The table meets the tip's geoms only, so an MJCF whose body `tip` has none is refused
+/// with a message that names the body and the fix (the authors' JK5 with its tip sphere
+/// taken out).
+#[test]
+fn an_mjcf_whose_tip_has_no_geom_is_refused() {
+    use naic_sim::mujoco_plant::MujocoPlant;
+    let text = std::fs::read_to_string(mjcf()).unwrap();
+    let sphere = "<geom type=\"sphere\" pos=\"0 0 0\" group=\"1\" size=\"0.01 0.01 0.01\" />";
+    // the last one (the first is in a comment)
+    let at = text.rfind(sphere).expect("the authors' tip sphere is where the test expects it");
+    let path = std::env::temp_dir().join(format!("naic-no-tip-geom-{}.xml", std::process::id()));
+    std::fs::write(&path, format!("{}{}", &text[..at], &text[at + sphere.len()..])).unwrap();
+    let (s, p) = setup("flat", true);
+    let err = MujocoPlant::new(&path, &p, &s.task.q0, s.seed).err().map(|e| e.to_string());
+    std::fs::remove_file(&path).ok();
+    let err = err.expect("an MJCF whose tip has no geom was accepted");
+    assert!(err.contains("'tip' has no geom") && err.contains("sphere"), "{err}");
 }
 
 /// A tangential push on the flat table meets no friction: held on the table at 10 N, a
@@ -321,7 +361,7 @@ fn a_tangential_push_on_the_flat_table_meets_no_friction() {
     use naic_sim::mujoco_plant::MujocoPlant;
     let (s, p) = setup("flat", true);
     let mut mj = MujocoPlant::new(&mjcf(), &p, &s.task.q0, s.seed).unwrap();
-    mj.push_along(15.0, None, 1.0); // onto the surface (as the stiffness report)
+    mj.approach(15.0).unwrap(); // onto the surface (as the stiffness report)
     mj.push_along(10.0, None, 1.0);
     let x0 = mj.tip_position();
     let m = model();

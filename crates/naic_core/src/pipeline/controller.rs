@@ -53,6 +53,12 @@ pub struct ControllerParams<const N: usize = N_JOINTS> {
     /// controlled as usual with no force (the simulator's setting: its sensor has no tool
     /// inertia, so an accelerating arm leaves no bias there, and its goals were measured so).
     pub tare_at_rest: bool,
+    /// The sensor reads the tool's inertial force (a real one does; MuJoCo's does): the tare
+    /// takes the force the model predicts from the tool's motion out of each sample
+    /// ([`estimate::TareInertia`]), so that an arm moving while taring leaves no bias. Off:
+    /// the samples are weight and bias alone (the own simulator's sensor without
+    /// `--inertial-wrench`, which reads no inertia).
+    pub tare_inertial: bool,
     pub control: ControlParams,
     /// Joint damping of the safe hold [N·m·s/rad].
     pub hold_damping: JointVec<N>,
@@ -311,7 +317,13 @@ pub fn update<const N: usize>(
     let f_e = if tared {
         estimate::contact_wrench(&p.tool, &next.tare.bias(), &sensed.wrench, &r_ws)
     } else {
-        next.tare = estimate::tare_step(&p.tool, p.tare_samples, &next.tare, &sensed.wrench, &r_ws, rest);
+        let inertia = p.tare_inertial.then(|| {
+            // the tool's centre of mass moves with the sensor frame (world-aligned Jacobian)
+            let v6 = dynamics::frame_jacobian(&c.model, &mut ws.data, &q, c.sensor) * dq;
+            let (v, w) = (Vector3::new(v6[0], v6[1], v6[2]), Vector3::new(v6[3], v6[4], v6[5]));
+            estimate::TareInertia { t: m.t, v_com: v + w.cross(&(r_ws * p.tool.com)) }
+        });
+        next.tare = estimate::tare_step(&p.tool, p.tare_samples, &next.tare, &sensed.wrench, &r_ws, rest, inertia.as_ref());
         if p.tare_at_rest {
             return taring(c, next, &sensed.q, &sensed.dq, r, ws);
         }
@@ -605,6 +617,7 @@ impl<const N: usize> ControllerParams<N> {
             },
             tare_samples: 100,
             tare_at_rest: false,
+            tare_inertial: false,
             control: ControlParams {
                 impedance: PAPER_IMPEDANCE.params,
                 force_axis: ForceAxis::base(2, -1.0),

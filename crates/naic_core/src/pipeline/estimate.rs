@@ -18,8 +18,9 @@
 //! expected there; see [`TARE_REST_VELOCITY`], [`TARE_REST_ACCELERATION`]) and the
 //! tool weight at the current orientation, and returns `F_e = −F_c`, the
 //! wrench the robot applies to the environment at the tip, in the base frame
-//! (eq 3's `F_ext`). Tool inertial forces are neglected: at the speeds of
-//! force tracking (< 0.1 m/s, < 1 rad/s) they are below 0.05 N.
+//! (eq 3's `F_ext`). Tool inertial forces are neglected in `F_e`: at the speeds of
+//! force tracking (< 0.1 m/s, < 1 rad/s) they are below 0.05 N. A tare taken while the
+//! arm accelerates can take them out of its samples ([`TareInertia`]).
 //!
 //! The tool is a rod along the sensor z axis touching at its tip, on that axis:
 //! no contact force at the tip has a moment about the tool axis. So the moment
@@ -107,6 +108,22 @@ pub struct TareState<const N: usize = N_JOINTS> {
     /// Where the arm is held while taring: the joint position of the tare's first cycle
     /// (kept when a window starts again).
     pub q_hold: Option<JointVec<N>>,
+    /// The time [s] and the tool's centre-of-mass velocity [m/s, base frame] of the last
+    /// sample, with [`TareInertia`] given (the next sample's acceleration).
+    pub v_com_last: Option<(f64, [f64; 3])>,
+}
+
+/// The tool's motion at a tare sample, for a sensor that reads the tool's inertial force
+/// (a real one; MuJoCo's): the time [s] and the velocity of the tool's centre of mass [m/s,
+/// base frame]. The tare takes `m·a` out of each sample, `a` the change of that velocity
+/// since the last sample over the time between them (zero at the first): summed over the
+/// window the accelerations telescope to `(v_last − v_first)/Δt`, so the bias is free of the
+/// tool's mean inertial force however the arm moves, with no second derivative of the
+/// encoders. The tool's rotational inertia (`I α`, about 2·10⁻⁴ kg·m² on the JK5) is left out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TareInertia {
+    pub t: f64,
+    pub v_com: Vector3<f64>,
 }
 
 impl<const N: usize> Default for TareState<N> {
@@ -121,6 +138,7 @@ impl<const N: usize> Default for TareState<N> {
             not_at_rest: None,
             restarts: 0,
             q_hold: None,
+            v_com_last: None,
         }
     }
 }
@@ -141,9 +159,35 @@ impl<const N: usize> TareState<N> {
 /// The weight of the tool as the sensor sees it (force, moment about the
 /// sensor origin), in the sensor frame, at orientation `r_ws`.
 pub fn tool_weight_wrench(tool: &ToolParams, r_ws: &Matrix3<f64>) -> Vector6<f64> {
-    let w = r_ws.transpose() * (tool.mass * tool.gravity);
+    tool_wrench(tool, r_ws, &Vector3::zeros())
+}
+
+/// The wrench the tool exerts on the sensor with its centre of mass accelerating at `a`
+/// [m/s², base frame]: `m (g − a)` at the centre of mass, in the sensor frame (force,
+/// moment about the sensor origin); its rotational inertia left out.
+pub fn tool_wrench(tool: &ToolParams, r_ws: &Matrix3<f64>, a: &Vector3<f64>) -> Vector6<f64> {
+    let w = r_ws.transpose() * (tool.mass * (tool.gravity - a));
     let m = tool.com.cross(&w);
     Vector6::new(w.x, w.y, w.z, m.x, m.y, m.z)
+}
+
+/// What a tare sample expects the sensor to read besides its bias: the tool's weight and,
+/// with `inertia`, its inertial force ([`TareInertia`]); and the state's motion memory for
+/// the next sample.
+fn expected_tool_wrench<const N: usize>(
+    tool: &ToolParams,
+    s: &TareState<N>,
+    r_ws: &Matrix3<f64>,
+    inertia: Option<&TareInertia>,
+) -> (Vector6<f64>, Option<(f64, [f64; 3])>) {
+    let Some(i) = inertia else {
+        return (tool_weight_wrench(tool, r_ws), None);
+    };
+    let a = match s.v_com_last {
+        Some((t0, v0)) if i.t > t0 => (i.v_com - Vector3::from(v0)) / (i.t - t0),
+        _ => Vector3::zeros(),
+    };
+    (tool_wrench(tool, r_ws, &a), Some((i.t, [i.v_com.x, i.v_com.y, i.v_com.z])))
 }
 
 /// Adds one free-space reading to the tare (until `samples` are in). With `rest = Some((t,
@@ -151,7 +195,9 @@ pub fn tool_weight_wrench(tool: &ToolParams, r_ws: &Matrix3<f64>) -> Vector6<f64
 /// joint faster than [`TARE_REST_VELOCITY`], or a full window whose joints accelerated more
 /// than [`TARE_REST_ACCELERATION`], starts the window again (the reason in
 /// [`TareState::not_at_rest`]), so the bias is the mean of `samples` consecutive readings at
-/// rest. `None`: every reading counts.
+/// rest. `None`: every reading counts. With `inertia` each sample's expected reading also
+/// has the tool's inertial force ([`TareInertia`]); `None`: the sensor is taken to read the
+/// tool's weight alone.
 pub fn tare_step<const N: usize>(
     tool: &ToolParams,
     samples: u32,
@@ -159,17 +205,19 @@ pub fn tare_step<const N: usize>(
     raw: &[f64; 6],
     r_ws: &Matrix3<f64>,
     rest: Option<(f64, &JointVec<N>)>,
+    inertia: Option<&TareInertia>,
 ) -> TareState<N> {
     if s.done(samples) {
         return *s;
     }
     let Some((t, dq)) = rest else {
-        let expected = tool_weight_wrench(tool, r_ws);
+        let (expected, v_com_last) = expected_tool_wrench(tool, s, r_ws, inertia);
         let mut next = *s;
         for i in 0..6 {
             next.sum[i] += raw[i] - expected[i];
         }
         next.count += 1;
+        next.v_com_last = v_com_last;
         return next;
     };
     let restart =
@@ -177,8 +225,9 @@ pub fn tare_step<const N: usize>(
     if let Some((joint, speed)) = dq.iter().map(|v| v.abs()).enumerate().find(|(_, v)| !(*v <= TARE_REST_VELOCITY)) {
         return restart(NotAtRest::Moving { joint, speed });
     }
-    let expected = tool_weight_wrench(tool, r_ws);
+    let (expected, v_com_last) = expected_tool_wrench(tool, s, r_ws, inertia);
     let mut next = *s;
+    next.v_com_last = v_com_last;
     for i in 0..6 {
         next.sum[i] += raw[i] - expected[i];
     }
@@ -259,7 +308,7 @@ mod tests {
         let r0 = *Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI).matrix();
         let mut s: TareState = TareState::default();
         for _ in 0..50 {
-            s = tare_step(&t, 50, &s, &reading(&t, &r0, Vector3::zeros(), bias), &r0, None);
+            s = tare_step(&t, 50, &s, &reading(&t, &r0, Vector3::zeros(), bias), &r0, None, None);
         }
         assert!(s.done(50));
         for (k, b) in s.bias().iter().zip(bias) {
@@ -274,6 +323,39 @@ mod tests {
             assert!((fe[i] + f_c[i]).abs() < 1e-12, "F_e = −F_c");
             assert!(fe[3 + i].abs() < 1e-12, "a pure force at the tip has no moment about the tip");
         }
+    }
+
+    /// A tare taken while the arm accelerates the tool (the simulator's start: the approach
+    /// begins with the first cycle) keeps the tool's mean inertial force as bias on a sensor
+    /// that reads it, unless the samples' expected reading has it: the tool speeds up to
+    /// 0.3 m/s down and sideways over the 100 samples (a mean 3 m/s², 1.3 N on 0.424 kg).
+    #[test]
+    fn a_tare_while_the_tool_accelerates_keeps_no_inertial_bias_with_the_tools_motion() {
+        let t = tool();
+        let bias = [0.7, -0.3, 1.9, 0.02, -0.01, 0.005];
+        let r0 = *Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI).matrix();
+        let (n, dt) = (100usize, 1e-3);
+        let span = (n - 1) as f64 * dt;
+        let dir = Vector3::new(0.3, 0.1, -1.0).normalize();
+        // v(t) = 0.3 m/s · (1 − cos(π t / span)) / 2 along dir, the reading at its exact a(t)
+        let v = |tt: f64| dir * 0.3 * (1.0 - (std::f64::consts::PI * tt / span).cos()) / 2.0;
+        let a = |tt: f64| dir * 0.3 * std::f64::consts::PI / span * (std::f64::consts::PI * tt / span).sin() / 2.0;
+        let run = |with: bool| {
+            let mut s: TareState = TareState::default();
+            for k in 0..n {
+                let tt = k as f64 * dt;
+                let w = tool_wrench(&t, &r0, &a(tt));
+                let raw: [f64; 6] = std::array::from_fn(|i| w[i] + bias[i]);
+                let inertia = TareInertia { t: tt, v_com: v(tt) };
+                s = tare_step(&t, n as u32, &s, &raw, &r0, None, with.then_some(&inertia));
+            }
+            assert!(s.done(n as u32));
+            let b = s.bias();
+            (0..3).map(|i| (b[i] - bias[i]).powi(2)).sum::<f64>().sqrt()
+        };
+        let (with, without) = (run(true), run(false));
+        assert!(without > 1.0, "the test's motion leaves a bias to remove: {without} N");
+        assert!(with < 0.02, "force bias error with the tool's motion: {with} N (without: {without} N)");
     }
 
     #[test]
@@ -313,7 +395,7 @@ mod tests {
         let t = tool();
         let r0 = Matrix3::identity();
         let raw = reading(&t, &r0, Vector3::zeros(), [0.5, -0.3, 1.0, 0.01, 0.0, -0.02]);
-        let at = |s: &TareState, k: usize, dq: JointVec| tare_step(&t, 100, s, &raw, &r0, Some((k as f64 * 1e-3, &dq)));
+        let at = |s: &TareState, k: usize, dq: JointVec| tare_step(&t, 100, s, &raw, &r0, Some((k as f64 * 1e-3, &dq)), None);
         // 60 samples at rest, then joint 3 moves: the window starts again.
         let mut s: TareState = TareState::default();
         for k in 0..60 {
