@@ -48,8 +48,8 @@ def test_panda_default_window_is_chosen_from_the_data(naic_bin, root, shared, tm
     print("chosen", chosen, "extended", ext.round(3), "published", pub.round(3))
     beaten_fixed = set(np.flatnonzero(fixed <= pub_fixed))
     beaten = set(np.flatnonzero(ext <= pub))
-    # 5 of 7 since issue 38's bootstrap test (joints 1 and 6 keep the nominal; 6 with the fold rule)
-    assert len(beaten_fixed) >= 5 and beaten_fixed <= beaten, (ext, pub, fixed, pub_fixed)
+    # all 7 (5 while issue 38's bootstrap test decided inertial_parameters per joint, not pooled)
+    assert len(beaten_fixed) == 7 and beaten_fixed <= beaten, (ext, pub, fixed, pub_fixed)
 
 
 def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, root, shared, tmp_path):
