@@ -48,8 +48,8 @@ def test_panda_default_window_is_chosen_from_the_data(naic_bin, root, shared, tm
     print("chosen", chosen, "extended", ext.round(3), "published", pub.round(3))
     beaten_fixed = set(np.flatnonzero(fixed <= pub_fixed))
     beaten = set(np.flatnonzero(ext <= pub))
-    # 5 of 7 since issue 38's bootstrap test (joints 1 and 6 keep the nominal; 6 with the fold rule)
-    assert len(beaten_fixed) >= 5 and beaten_fixed <= beaten, (ext, pub, fixed, pub_fixed)
+    # all 7 (5 while issue 38's bootstrap test decided inertial_parameters per joint, not pooled)
+    assert len(beaten_fixed) == 7 and beaten_fixed <= beaten, (ext, pub, fixed, pub_fixed)
 
 
 def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, root, shared, tmp_path):
@@ -76,17 +76,17 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
     sig = [f for f in rep["findings"] if f["significant"]]
     assert sig[0]["effect"] == "inertial_parameters" and "joint2" in sig[0]["targets"], [(f["effect"], f["targets"]) for f in sig]
     assert rep["inertial_parameters"]["significant"] and rep["inertial_parameters"]["folds_won"] == 10
-    # below the published model on joints 2-5 and 7; joints 1 and 6 are not (issue 38's
-    # bootstrap test at a family-wise 5 % does not pass the steps that got them there on 21 s of
-    # data: test_panda_extended_below_published_on_every_joint, a strict xfail)
-    keep = [1, 2, 3, 4, 6]
-    assert np.all(ext[keep] < pub[keep]), (ext, pub)
+    # below the published model on every joint: joints 1 and 6 only since `inertial_parameters`
+    # is tested pooled over the joints (one correction of the whole arm; on its own 21 s a
+    # joint's ≈ 26 blocks did not pass at 1 − 0.05/85, and joints 1 and 6 kept the nominal,
+    # 0.281 / 0.111 N·m against the published 0.272 / 0.091)
+    assert np.all(ext < pub), (ext, pub)
     # joint 2, the worst: close to the classical baseline (0.63 → 0.200 N·m, baseline 0.191:
     # 4.6 % above it; 5.3 % while inertial_parameters was fitted beside the first pass's rotor
     # inertias, 4.7 % before that). A regression guard, not the issue's goal (ext < pub above).
     assert ext[1] < 1.1 * base[1], (ext, base)
-    # 0.80 with the fold rule; 0.66 with the bootstrap test (joints 1 and 6 keep the nominal)
-    assert rep["explained"]["all_joints"] > 0.6
+    # 0.80 with the fold rule; 0.66 with the per-joint bootstrap test; 0.79 with the pooled one
+    assert rep["explained"]["all_joints"] > 0.75
     # issue 38's wording: a finding below 5 % of every one of its joints' residual is "small",
     # with the share left; the others are not
     for f in sig:
@@ -98,15 +98,17 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
     assert rep["verdict"] == "findings"
     # issue 38's significance test: every significant target has a block-bootstrap interval of
     # its held-out gain at 1 − 2·0.05/comparisons whose low end (the one-sided 1 − 0.05/m
-    # bound) is above zero: that is what made it significant; the rigid-body correction on
-    # joint 2 (the largest error) is far from zero
+    # bound) is above zero: that is what made it significant; the rigid-body correction's (the
+    # pooled test over all seven joints, the same interval on each) is far from zero
     for f in sig:
         assert set(f["gain_interval"]) == set(f["targets"]), f
         assert f["comparisons"] >= 7 * 11 and abs(f["interval_level"] - (1 - 2 * 0.05 / f["comparisons"])) < 1e-12
         for lo, hi in f["gain_interval"].values():
             assert 0 < lo <= hi, f
+    assert sig[0]["pooled_test"] and len(sig[0]["targets"]) == 7, sig[0]
+    assert not any(f["pooled_test"] for f in sig[1:]), sig
     lo2 = sig[0]["gain_interval"]["joint2"][0]
-    assert lo2 > 0.5, sig[0]["gain_interval"]
+    assert lo2 > 0.3, sig[0]["gain_interval"]
 
 
 def test_panda_identified_friction_within_the_published_curve_and_its_scatter(naic_bin, root, shared, tmp_path):
@@ -136,9 +138,10 @@ class GoalNotMet(AssertionError):
 
 
 @pytest.mark.xfail(strict=True, raises=GoalNotMet, reason=(
-    "issue 38: with the block-bootstrap test at a family-wise 5 % (m = 84) the steps that took joints 1 and 6 "
-    "below the published model with the fold rule do not pass on 21 s of data: extended 0.281 / 0.111 N·m against "
-    "the published 0.272 / 0.091 (docs/explain.md, The significance test)"))
+    "issue 38: below the published model on every joint since inertial_parameters is tested pooled over the "
+    "joints, but joint 6 stays above its number under the fold rule: 0.055 against 0.032 N·m (its next step, "
+    "torque_scale or payload, 51 % of what is left but better in 7 of 10 folds, does not pass the block-bootstrap "
+    "test at 1 − 0.05/85; docs/explain.md, The significance test)"))
 def test_panda_extended_below_published_on_every_joint(naic_bin, root, shared, tmp_path):
     """Issue 38's Panda goal: the extended model's held-out RMSE below the published model's on
     every joint (and no joint worse than 0.182 / 0.200 / 0.183 / 0.159 / 0.062 / 0.032 / 0.032)."""

@@ -33,10 +33,13 @@ pub const MAX_BLOCKS: usize = 1000;
 pub const REPLICATES: usize = 20_000;
 
 /// The family of the test: every candidate the catalogue could try on every target (joint or
-/// sensor axis). `inertial_parameters` counts on every time-series joint: the all-joint stage
-/// tries it there whether or not it then becomes a per-joint candidate.
+/// sensor axis), and the pooled test of the one base-parameter correction the joints share
+/// ([`pooled_blocks`]) when two or more joints carry it. `inertial_parameters` counts on every
+/// time-series joint: the all-joint stage tries it there whether or not it then becomes a
+/// per-joint candidate.
 pub fn comparisons(joints: &[JointSamples]) -> usize {
-    joints
+    usize::from(pooled_targets(joints) >= 2)
+        + joints
         .iter()
         .map(|js| {
             ALL_EFFECTS
@@ -46,6 +49,11 @@ pub fn comparisons(joints: &[JointSamples]) -> usize {
         })
         .sum::<usize>()
         .max(1)
+}
+
+/// The joints of the pooled test of `inertial_parameters` (time series, not a sensor axis).
+pub fn pooled_targets(joints: &[JointSamples]) -> usize {
+    joints.iter().filter(|js| js.time_series && !js.contact).count()
 }
 
 /// The per-test level α/m of a family of `m` comparisons (one-sided: the gain is > 0).
@@ -99,6 +107,47 @@ pub fn blocks_of(js: &JointSamples, rb: &[f64], ra: &[f64]) -> Vec<(f64, f64)> {
     out
 }
 
+/// The time blocks of one effect shared by several joints of the same recording (the base
+/// parameters' correction `inertial_parameters`, one δβ for every joint), for the pooled test:
+/// per time block (the same time span on every joint: [`BLOCK_WINDOWS`] filter windows, never
+/// across a fold's time block), the sum over the joints of (SSR before, SSR after) of the
+/// out-of-fold residuals, each joint's divided by its own held-out SSR before, so the pooled
+/// gain is the mean of the joints' gains and a joint carrying large torques does not outweigh
+/// the others. Resampling the joints' time blocks together keeps what the joints share at one
+/// instant (the same motion, the same δβ) in one block.
+///
+/// `parts`: per joint, its samples and the residuals before and after the effect.
+pub fn pooled_blocks(parts: &[(&JointSamples, Vec<f64>, Vec<f64>)]) -> Vec<(f64, f64)> {
+    let Some(first) = parts.first() else { return Vec::new() };
+    let js0 = first.0;
+    // the analysis step from the first joint's time stamps (median of consecutive steps)
+    let mut steps: Vec<f64> = js0.t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
+    if steps.is_empty() {
+        return Vec::new();
+    }
+    steps.sort_by(f64::total_cmp);
+    let dt = steps[steps.len() / 2];
+    let t0 = parts.iter().filter_map(|(js, _, _)| js.t.first().copied()).fold(f64::INFINITY, f64::min);
+    let t1 = parts.iter().filter_map(|(js, _, _)| js.t.last().copied()).fold(f64::NEG_INFINITY, f64::max);
+    let len = (BLOCK_WINDOWS * js0.corr_len * dt).max((t1 - t0) / MAX_BLOCKS as f64).max(dt);
+    // key: (time block, fold), so a block never spans two folds' time blocks
+    let mut acc: std::collections::BTreeMap<(u64, u8), (f64, f64)> = std::collections::BTreeMap::new();
+    for (js, rb, ra) in parts {
+        let kept = (0..js.len()).filter(|&i| !js.is_validation(i));
+        let total: f64 = kept.clone().map(|i| rb[i] * rb[i]).sum();
+        if total <= 0.0 {
+            continue;
+        }
+        for i in kept {
+            let k = (((js.t[i] - t0) / len).floor().max(0.0) as u64, js.fold[i]);
+            let e = acc.entry(k).or_insert((0.0, 0.0));
+            e.0 += rb[i] * rb[i] / total;
+            e.1 += ra[i] * ra[i] / total;
+        }
+    }
+    acc.into_values().collect()
+}
+
 /// The (low, high) bootstrap interval of the gain at two-sided level 1 − `alpha`.
 pub fn gain_interval(blocks: &[(f64, f64)], alpha: f64, reps: usize, seed: u64) -> (f64, f64) {
     let n = blocks.len();
@@ -142,5 +191,60 @@ mod tests {
         assert!(lo < 0.0 && hi > 0.0, "{lo} {hi}");
         // too few blocks: no interval
         assert!(gain_interval(&same[..1], 0.05, 100, 1).0.is_nan());
+    }
+
+    /// `n` joints of 40 s at 100 Hz (10 folds of 2 s time blocks, one filter window = 9 samples:
+    /// blocks of 0.36 s): noise of the same size before and after everywhere, and on joint j
+    /// `strong` time blocks, at instants of its own, where the effect removes 15/16 of the residual
+    /// (the fast moves of that joint).
+    fn joints_with_sparse_gain(n: usize, strong: usize, effect: bool) -> Vec<(JointSamples, Vec<f64>, Vec<f64>)> {
+        let mut rng = Rng::seed(7);
+        (0..n)
+            .map(|j| {
+                let t: Vec<f64> = (0..4000).map(|i| i as f64 * 0.01).collect();
+                let fold: Vec<u8> = t.iter().map(|&x| ((x / 2.0).floor() as usize % 10) as u8).collect();
+                let js = JointSamples { joint: j + 1, y: vec![0.0; t.len()], t: t.clone(), fold, corr_len: 9.0, time_series: true, ..Default::default() };
+                let mut rb: Vec<f64> = (0..t.len()).map(|_| 0.03 * rng.gaussian()).collect();
+                let mut ra: Vec<f64> = rb.iter().map(|&r| r + 0.01 * rng.gaussian()).collect();
+                for k in 0..strong {
+                    // 20 samples inside one of a joint's own 0.36 s blocks (fold time blocks of
+                    // 200 samples, blocks from each fold block's start), a different instant per
+                    // joint and event
+                    let e = j * strong + k;
+                    let start = 200 * (e % 20) + 36 * (1 + e / 20) + 5;
+                    for i in start..start + 20 {
+                        rb[i] = 0.6 * (i as f64).sin();
+                        ra[i] = if effect { rb[i] / 4.0 } else { rb[i] };
+                    }
+                }
+                (js, rb, ra)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn pooled_blocks_join_the_joints_evidence_at_the_same_instants() {
+        let alpha = 2.0 * test_alpha(FAMILY_ALPHA, 85);
+        let joints = joints_with_sparse_gain(7, 4, true);
+        // one joint alone: 4 strong blocks of ≈ 111; a replicate draws none of them with
+        // probability ≈ e^−4 = 1.8 % > 0.06 %, so its bound is not above zero
+        for (js, rb, ra) in &joints {
+            let (lo, hi) = gain_interval(&blocks_of(js, rb, ra), alpha, REPLICATES, 3);
+            assert!(lo <= 0.0 && hi > 0.5, "joint {}: {lo} {hi}", js.joint);
+        }
+        // pooled: 28 strong events at different instants (some split over two blocks of the
+        // pooled grid): the bound is above zero
+        let parts: Vec<(&JointSamples, Vec<f64>, Vec<f64>)> = joints.iter().map(|(js, rb, ra)| (js, rb.clone(), ra.clone())).collect();
+        let pooled = pooled_blocks(&parts);
+        // the same time blocks on every joint: 112 of 0.36 s in 40 s, those the 19 fold-block
+        // boundaries cross cut in two (never across a fold's time block)
+        assert!((125..=131).contains(&pooled.len()), "{}", pooled.len());
+        let (lo, _) = gain_interval(&pooled, alpha, REPLICATES, 3);
+        assert!(lo > 0.0, "pooled {lo}");
+        // no effect (the strong blocks unchanged): the pooled bound is not above zero
+        let null = joints_with_sparse_gain(7, 4, false);
+        let parts: Vec<(&JointSamples, Vec<f64>, Vec<f64>)> = null.iter().map(|(js, rb, ra)| (js, rb.clone(), ra.clone())).collect();
+        let (lo, _) = gain_interval(&pooled_blocks(&parts), alpha, REPLICATES, 3);
+        assert!(lo <= 0.0, "null pooled {lo}");
     }
 }

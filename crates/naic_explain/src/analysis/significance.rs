@@ -24,11 +24,17 @@ pub struct AnalysisOptions {
     pub comparisons: usize,
     /// The family-wise error rate α of the test (default [`bootstrap::FAMILY_ALPHA`]).
     pub family_alpha: f64,
+    /// The interval of the pooled test of `inertial_parameters` over every joint's time blocks
+    /// ([`bootstrap::pooled_blocks`], `crate::pipeline::inertial_stage`), when its low end is
+    /// above zero: the base parameters are one correction of the whole arm, so on a joint
+    /// `inertial_parameters` is then decided by this test (with the joint's own effect-size and
+    /// parsimony gates) instead of by the joint's own interval.
+    pub inertial_pooled: Option<(f64, f64)>,
 }
 
 impl Default for AnalysisOptions {
     fn default() -> Self {
-        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: crate::catalogue::default_effects(), delay_fixed: None, comparisons: 0, family_alpha: bootstrap::FAMILY_ALPHA }
+        Self { folds: 10, min_gain: 0.02, min_fold_wins: 8, max_steps: 5, effects: crate::catalogue::default_effects(), delay_fixed: None, comparisons: 0, family_alpha: bootstrap::FAMILY_ALPHA, inertial_pooled: None }
     }
 }
 
@@ -59,6 +65,9 @@ pub struct Candidate {
     /// α of that level (family-wise).
     pub family_alpha: f64,
     pub significant: bool,
+    /// Decided by the pooled test of `inertial_parameters` ([`AnalysisOptions::inertial_pooled`]):
+    /// `gain_interval` is then that test's interval.
+    pub pooled: bool,
     /// Other significant candidates the data cannot tell from this one when it was taken:
     /// neither is better than the other by the test ([`super::selection`]).
     pub confounded: Vec<Effect>,
@@ -116,9 +125,19 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
     // candidates × targets tried (Bonferroni), must lie above zero. (Until issue 38 the decision was "better in ≥ 8 of 10
     // folds"; the fold count is still reported.)
     let gates = gain >= o.min_gain && delta_bic < 0.0 && plausible;
-    let gain_interval = gates.then(|| {
-        let blocks = bootstrap::block_ssr(js, cur, &ev, sh);
-        bootstrap::gain_interval(&blocks, 2.0 * o.test_alpha(js), bootstrap::REPLICATES, bootstrap::seed(js.joint, e))
+    // The base parameters are one correction of the whole arm: once the pooled test over every
+    // joint's time blocks has found it (`inertial_pooled`), a joint's `inertial_parameters` is
+    // decided by that test (with this joint's own gates), not by this joint's blocks alone.
+    let pooled = match o.inertial_pooled {
+        Some(iv) if e == Effect::InertialParameters && iv.0 > 0.0 => Some(iv),
+        _ => None,
+    };
+    let gain_interval = gates.then(|| match pooled {
+        Some(iv) => iv,
+        None => {
+            let blocks = bootstrap::block_ssr(js, cur, &ev, sh);
+            bootstrap::gain_interval(&blocks, 2.0 * o.test_alpha(js), bootstrap::REPLICATES, bootstrap::seed(js.joint, e))
+        }
     });
     let significant = gates && gain_interval.is_some_and(|(lo, _)| lo > 0.0);
     // Which of the significant candidates is taken: `inertial_parameters`' one column stands
@@ -141,6 +160,7 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
         comparisons: o.family(js),
         family_alpha: o.family_alpha,
         significant,
+        pooled: pooled.is_some() && significant,
         confounded: Vec::new(),
     }
 }

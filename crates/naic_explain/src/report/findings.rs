@@ -35,6 +35,9 @@ pub struct Finding {
     /// Per target: the other significant candidates the data could not tell from this one
     /// when it was taken (neither better than the other by the test).
     pub confounded: Vec<(usize, Vec<Effect>)>,
+    /// Decided by the pooled test over every joint's time blocks (`inertial_parameters`, one
+    /// correction of the whole arm; `gain_ci` is that test's interval on every target).
+    pub pooled: bool,
     pub evidence: String,
 }
 
@@ -210,6 +213,7 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             comparisons,
             family_alpha,
             confounded: vec![],
+            pooled: false,
             evidence: String::new(),
         };
         let mut ev_lines = Vec::new();
@@ -227,6 +231,7 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 f.left.push((r.joint, (r.final_eval.heldout_ssr / nom).clamp(0.0, 1.0)));
                 // the test's own interval (computed when the candidate was scored)
                 f.gain_ci.push((r.joint, c.gain_interval.unwrap_or((f64::NAN, f64::NAN))));
+                f.pooled |= c.pooled;
                 if !c.confounded.is_empty() {
                     f.confounded.push((r.joint, c.confounded.clone()));
                 }
@@ -288,9 +293,10 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 .map(|&(j, (lo, hi))| format!("{} [{lo:+.4}, {hi:+.4}]", if crate::contact::is_axis(j) { jkey(j) } else { format!("J{j}") }))
                 .collect();
             f.evidence = format!(
-                "{}. Held-out gain interval at {:.4} % (the test, its low end above zero: block bootstrap over time blocks, one-sided, Bonferroni over {} candidates × targets, family-wise {} %): {}",
+                "{}. Held-out gain interval at {:.4} % (the test, its low end above zero: block bootstrap over time blocks{}, one-sided, Bonferroni over {} candidates × targets, family-wise {} %): {}",
                 f.evidence.trim_end_matches('.'),
                 100.0 * level,
+                if f.pooled { " of every joint together (one correction of the whole arm: the pooled test, the mean of the joints' gains, the same interval on every joint)" } else { "" },
                 comparisons,
                 100.0 * family_alpha,
                 cis.join(", ")

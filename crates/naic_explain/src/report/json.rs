@@ -45,6 +45,8 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
                 "gain_interval": f.gain_ci.iter().map(|&(j, (lo, hi))| (jkey(j), json!([lo, hi]))).collect::<Map<_, _>>(),
                 "interval_level": super::bootstrap::interval_level(f.family_alpha, f.comparisons),
                 "comparisons": f.comparisons,
+                // decided by the pooled test over every joint's time blocks (gain_interval is its interval)
+                "pooled_test": f.pooled,
                 "family_wise_alpha": f.family_alpha,
                 // per target: the significant candidates the data could not tell from this one
                 "confounded_with": f.confounded.iter().map(|(j, es)| (jkey(*j), json!(es.iter().map(|e| e.name()).collect::<Vec<_>>()))).collect::<Map<_, _>>(),
