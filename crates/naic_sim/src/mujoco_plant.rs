@@ -424,7 +424,7 @@ impl MujocoPlant {
             ));
         }
         if let Some(f) = &p.friction {
-            plant.set_joint_friction(f).map_err(|e| mjcf_err(mjcf, e))?;
+            plant.set_joint_friction(f)?;
         }
         plant.observe(hold, false);
         Ok(plant)
@@ -435,9 +435,9 @@ impl MujocoPlant {
     /// MuJoCo's largest: a joint held by it creeps at about `1e-4·(τ/I)/(1000/s)`, against
     /// `0.1·(τ/I)/(100/s)` with MuJoCo's defaults) on the model, and the laws kept for
     /// [`Self::set_friction_at`]. At start-up only.
-    fn set_joint_friction(&mut self, f: &naic_core::friction::FrictionModel) -> Result<(), String> {
+    fn set_joint_friction(&mut self, f: &naic_core::friction::FrictionModel) -> Result<(), PlantError> {
         if f.n_joints() != N_JOINTS {
-            return Err(format!("the friction model has {} joints; the MJCF's arm has {N_JOINTS} (give the JK5's friction file, or --no-friction)", f.n_joints()));
+            return Err(PlantError::FrictionJoints { friction: f.n_joints(), arm: N_JOINTS });
         }
         let v_s = match f.smoothing() {
             naic_core::friction::Smoothing::Tanh { v_s } => v_s,

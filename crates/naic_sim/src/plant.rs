@@ -86,6 +86,9 @@ pub enum PlantError {
     /// MuJoCo could not load or use the MJCF file `path` (`problem`: what and the fix).
     #[error("MJCF {path}: {problem}")]
     Mjcf { path: String, problem: String },
+    /// The joint friction model has `friction` joints, the plant's arm `arm`.
+    #[error("the friction model has {friction} joints; the arm has {arm} (give the arm's friction file, or --no-friction)")]
+    FrictionJoints { friction: usize, arm: usize },
 }
 
 /// Immutable parameters of the simulated robot and its world.
