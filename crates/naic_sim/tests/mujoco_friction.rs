@@ -26,6 +26,28 @@ fn tool() -> (f64, Vector3<f64>) {
     naic_sim::sensor::tool_from_urdf(std::path::Path::new(&format!("{ROOT}/urdf/jk5.urdf"))).unwrap()
 }
 
+/// The JK5 with its Table 1 friction in free space (flat's start, the table off), the
+/// plant parameters, a dynamics workspace and the start joints.
+struct FreeSpace {
+    m: naic_core::model::Model,
+    f: naic_core::friction::FrictionModel,
+    s: scenario::Scenario,
+    p: naic_sim::plant::PlantParams,
+    data: Data6,
+    q0: Vector6<f64>,
+}
+
+fn free_space() -> FreeSpace {
+    let m = model();
+    let f = friction();
+    let mut s = scenario::preset("flat", &m).unwrap();
+    s.env.enabled = false;
+    let p = scenario::plant_for(&s, m.clone(), Some(f.clone()), tool()).unwrap();
+    let data = Data6::try_new(&m).unwrap();
+    let q0 = Vector6::from(s.task.q0);
+    FreeSpace { m, f, s, p, data, q0 }
+}
+
 /// Constant torque on one joint, free space: joint `j` gets naic's bias torques (gravity,
 /// Coriolis; the same arm as the MJCF, `open_loop_free_space_...` in mujoco_plant.rs) plus
 /// `tau_c` (the Table 1 model at 0.2 or 0.6 rad/s, both directions: Table 1 is per
@@ -38,13 +60,7 @@ fn tool() -> (f64, Vector3<f64>) {
 /// one step of lag).
 #[test]
 fn under_a_constant_torque_each_mujoco_joint_balances_the_table_1_friction_at_its_speed() {
-    let m = model();
-    let f = friction();
-    let mut s = scenario::preset("flat", &m).unwrap();
-    s.env.enabled = false;
-    let p = scenario::plant_for(&s, m.clone(), Some(f.clone()), tool()).unwrap();
-    let mut data = Data6::try_new(&m).unwrap();
-    let q0 = Vector6::from(s.task.q0);
+    let FreeSpace { m, f, s, p, mut data, q0 } = free_space();
     let mut worst = 0.0_f64;
     for j in 0..N_JOINTS {
         for v_star in [0.2, 0.6, -0.2, -0.6] {
@@ -101,13 +117,7 @@ fn under_a_constant_torque_each_mujoco_joint_balances_the_table_1_friction_at_it
 /// its bias torques plus half its smallest Coulomb level (Table 1: 1.86 N·m) barely moves.
 #[test]
 fn below_the_coulomb_level_the_mujoco_joint_stays_at_rest() {
-    let m = model();
-    let f = friction();
-    let mut s = scenario::preset("flat", &m).unwrap();
-    s.env.enabled = false;
-    let p = scenario::plant_for(&s, m.clone(), Some(f.clone()), tool()).unwrap();
-    let mut data = Data6::try_new(&m).unwrap();
-    let q0 = Vector6::from(s.task.q0);
+    let FreeSpace { m, f: _, s, p, mut data, q0 } = free_space();
     let mut plant = PlantChoice::Mujoco { mjcf: mjcf() }.build(&p, &s.task.q0, 1).unwrap();
     for _ in 0..1000 {
         let q = Vector6::from_row_slice(plant.q());
