@@ -27,10 +27,8 @@
 //! Writes `DIR/held_out.md` (per group the goals met, and every run's numbers) and
 //! `DIR/held_out.json`.
 
-use super::sim::scenario_plant;
 use super::sim_table::{par_map, Ctx};
 use super::{CliError, CliResult};
-use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::metrics::Honest;
 use naic_sim::plants::PlantChoice;
 use naic_sim::runner::{self, RunSummary};
@@ -173,18 +171,7 @@ pub struct Scored {
 
 fn run_case(ctx: &Ctx, c: &Case) -> Result<Scored, CliError> {
     let s = scenario_of(ctx, c)?;
-    let mut plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool, &ctx.tool_inertia)?;
-    ctx.sensor.apply(&mut plant);
-    let settings = LoopSettings {
-        delay_cycles: c.delay,
-        model_mass_error: c.mass_error,
-        tare_at_rest: ctx.sensor.tare_at_rest,
-        tare_inertial: ctx.sensor.tare_inertial(&ctx.plant),
-        ..LoopSettings::default()
-    };
-    let mut pc = PipelineController::by_name(c.controller, &s, &ctx.model, ctx.friction.clone(), ctx.tool, &settings).map_err(CliError::usage)?;
-    let mut p = ctx.plant.build(&plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
-    let r = runner::run_on(&s, &mut *p, &mut pc, &mut |_| {});
+    let r = ctx.run(&s, c.controller, c.delay, c.mass_error)?;
     let honest = runner::honest_of(&s, &r.records, &r.metrics, c.delay, runner::force_noise_sigma());
     Ok(Scored { case: c.clone(), summary: runner::summarize(&r), honest })
 }

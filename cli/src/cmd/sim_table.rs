@@ -108,20 +108,28 @@ fn scenario_for(ctx: &Ctx, j: &Job) -> Result<Scenario, CliError> {
 }
 
 fn run_job(ctx: &Ctx, j: &Job) -> Result<RunResult, CliError> {
-    let s = scenario_for(ctx, j)?;
-    let mut plant = scenario_plant(&s, ctx.model.clone(), ctx.friction.clone(), ctx.tool, &ctx.tool_inertia)?;
-    ctx.sensor.apply(&mut plant);
-    let settings = LoopSettings {
-        delay_cycles: j.delay,
-        model_mass_error: j.mass_error,
-        tare_at_rest: ctx.sensor.tare_at_rest,
-        tare_inertial: ctx.sensor.tare_inertial(&ctx.plant),
-        ..LoopSettings::default()
-    };
-    let mut c = PipelineController::by_name(j.controller, &s, &ctx.model, ctx.friction.clone(), ctx.tool, &settings)
-        .map_err(CliError::usage)?;
-    let mut p = ctx.plant.build(&plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
-    Ok(runner::run_on(&s, &mut *p, &mut c, &mut |_| {}))
+    ctx.run(&scenario_for(ctx, j)?, j.controller, j.delay, j.mass_error)
+}
+
+impl Ctx {
+    /// One closed-loop run of `controller` on scenario `s` with this context's plant, model,
+    /// friction, tool and sensor, at loop delay `delay` [cycles] and model mass error
+    /// `mass_error` (the table's and the held-out protocol's runs).
+    pub(super) fn run(&self, s: &Scenario, controller: &str, delay: usize, mass_error: f64) -> Result<RunResult, CliError> {
+        let mut plant = scenario_plant(s, self.model.clone(), self.friction.clone(), self.tool, &self.tool_inertia)?;
+        self.sensor.apply(&mut plant);
+        let settings = LoopSettings {
+            delay_cycles: delay,
+            model_mass_error: mass_error,
+            tare_at_rest: self.sensor.tare_at_rest,
+            tare_inertial: self.sensor.tare_inertial(&self.plant),
+            ..LoopSettings::default()
+        };
+        let mut c = PipelineController::by_name(controller, s, &self.model, self.friction.clone(), self.tool, &settings)
+            .map_err(CliError::usage)?;
+        let mut p = self.plant.build(&plant, &s.task.q0, s.seed).map_err(|e| CliError::usage(format!("--plant: {e}")))?;
+        Ok(runner::run_on(s, &mut *p, &mut c, &mut |_| {}))
+    }
 }
 
 /// Median of the values; `None` entries (never settled) count as +∞.

@@ -6,25 +6,13 @@
 
 mod common;
 
-use common::{friction, model, ROOT};
+use common::{friction, mjcf, model, tool, ROOT};
 use naic_core::model::Data6;
 use naic_core::{dynamics, N_JOINTS};
 use naic_sim::controllers::{LoopSettings, PipelineController};
 use naic_sim::plants::PlantChoice;
 use naic_sim::{runner, scenario};
-use nalgebra::{Vector3, Vector6};
-use std::path::PathBuf;
-
-fn mjcf() -> PathBuf {
-    let shared = std::env::var("NAIC_SHARED").unwrap_or_else(|_| format!("{ROOT}/../shared"));
-    let p = PathBuf::from(format!("{shared}/reference/jk5/jk5_table.nomesh.mjcf.xml"));
-    assert!(p.exists(), "the authors' MJCF is missing at {} (../shared from the repository, or set NAIC_SHARED)", p.display());
-    p
-}
-
-fn tool() -> (f64, Vector3<f64>) {
-    naic_sim::sensor::tool_from_urdf(std::path::Path::new(&format!("{ROOT}/urdf/jk5.urdf"))).unwrap()
-}
+use nalgebra::Vector6;
 
 /// The JK5 with its Table 1 friction in free space (flat's start, the table off), the
 /// plant parameters, a dynamics workspace and the start joints.

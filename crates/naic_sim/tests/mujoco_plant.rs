@@ -8,20 +8,10 @@ use naic_core::{dynamics, N_JOINTS};
 use naic_sim::plant::PlantParams;
 use naic_sim::plants::{Plant, PlantChoice};
 use naic_sim::scenario::{self, Scenario};
-use naic_sim::test_support::{model, ROOT};
+mod common;
+
+use common::{mjcf, model, tool};
 use nalgebra::{Vector3, Vector6};
-use std::path::PathBuf;
-
-fn mjcf() -> PathBuf {
-    let shared = std::env::var("NAIC_SHARED").unwrap_or_else(|_| format!("{ROOT}/../shared"));
-    let p = PathBuf::from(format!("{shared}/reference/jk5/jk5_table.nomesh.mjcf.xml"));
-    assert!(p.exists(), "the authors' MJCF is missing at {} (../shared from the repository, or set NAIC_SHARED)", p.display());
-    p
-}
-
-fn tool() -> (f64, Vector3<f64>) {
-    naic_sim::sensor::tool_from_urdf(std::path::Path::new(&format!("{ROOT}/urdf/jk5.urdf"))).unwrap()
-}
 
 /// Scenario `name` without joint friction; contact on or off.
 fn setup(name: &str, contact: bool) -> (Scenario, PlantParams) {
