@@ -468,18 +468,17 @@ mod tests {
         }
     }
 
-    /// The derived law's free-space target speed along n (`x` the tip along n, the reference
-    /// 3 cm beyond the surface at 0) and the approach's reported bound.
-    fn target_speed(p: &ControlParams, x: f64, f_d: f64) -> f64 {
-        let s = super::super::ControlState::new(p);
-        let u = AxisInputs {
+    /// The law's inputs in free space with the tip at `x` along n moving at `v`, the
+    /// reference 3 cm beyond the surface at 0.
+    fn free_inputs(p: &ControlParams, x: f64, v: f64, f_d: f64) -> AxisInputs {
+        AxisInputs {
             regime: Regime::Free,
             prev_phase: Phase::Free,
             entered: false,
             x,
-            x_dot: 0.0,
+            x_dot: v,
             e: 0.03 - x,
-            e_dot: 0.0,
+            e_dot: -v,
             v_d: 0.0,
             a_d: 0.0,
             f_ext: 0.0,
@@ -490,8 +489,14 @@ mod tests {
             free_k: 50.0,
             surface_n: surface_along(p),
             pre: Prepared::default(),
-        };
-        let (_, _, _, out) = step(p, &s.law, &s.sched, &s.derived, &u);
+        }
+    }
+
+    /// The derived law's free-space target speed along n (`x` the tip along n, at rest) and
+    /// the approach's reported bound.
+    fn target_speed(p: &ControlParams, x: f64, f_d: f64) -> f64 {
+        let s = super::super::ControlState::new(p);
+        let (_, _, _, out) = step(p, &s.law, &s.sched, &s.derived, &free_inputs(p, x, 0.0, f_d));
         out.v_ref.expect("the derived law names its approach speed")
     }
 
@@ -560,25 +565,7 @@ mod tests {
                 let mut cmds = std::collections::VecDeque::from(vec![0.0; d]);
                 let (mut t_band, mut n) = (None, 0usize);
                 while x < wall && n < 60_000 {
-                    let u = AxisInputs {
-                        regime: Regime::Free,
-                        prev_phase: Phase::Free,
-                        entered: false,
-                        x,
-                        x_dot: v,
-                        e: 0.03 - x,
-                        e_dot: -v,
-                        v_d: 0.0,
-                        a_d: 0.0,
-                        f_ext: 0.0,
-                        f_d,
-                        v_n: 0.0,
-                        free_m: 1.0,
-                        free_b: 40.0,
-                        free_k: 50.0,
-                        surface_n: surface_along(&p),
-                        pre: Prepared::default(),
-                    };
+                    let u = free_inputs(&p, x, v, f_d);
                     let (l, sc, de, out) = step(&p, &s.law, &s.sched, &s.derived, &u);
                     (s.law, s.sched, s.derived) = (l, sc, de);
                     cmds.push_back(out.xdd.unwrap());
