@@ -12,7 +12,10 @@ HISTORY = {
     "a numbered try": re.compile(r"\btry \d+", re.I),
     "a session": re.compile(r"\bsession \d+|\b(this|last|earlier|previous) session\b", re.I),
     "a CI story": re.compile(r"\bCI (run|runs|failed|failure|passed)\b|\bflak(y|e)\b", re.I),
-    "a branch of the team's work": re.compile(r"\bbranch `[a-z0-9]+`"),
+    "a branch of the team's work": re.compile(r"\bbranch `[a-z0-9]+`|\bthe `[a-z0-9]+` branch\b|\bbranch's `"),
+    "a numbered round by name": re.compile(r"\b(first|second|third|fourth|fifth|sixth|last|earlier|previous) (round|sweep)s?\b", re.I),
+    "a dated change": re.compile(r"\b(until|since|before|after) 20\d\d-\d\d-\d\d\b", re.I),
+    "the history of a rule": re.compile(r"\b(until|since|before) issue \d+\b", re.I),
 }
 # A commit hash: 7-40 hex digits with at least one letter and one digit, not inside a path or file name.
 # A source's version (an upstream repository's commit next to its github.com address) is provenance,
@@ -48,6 +51,9 @@ def test_the_check_sees_history_when_it_is_there():
     sample = "Tuned in round 13 on 0a0ad4b; the CI run failed, fixed in try 4 (session 7)."
     kinds = {k for _, k, _ in findings(sample)}
     assert kinds == {"a tuning round", "a numbered try", "a session", "a CI story", "a commit hash"}, kinds
+    sample = "The second round (the `inert14` branch) fixed it; until 2026-12-03 it failed, as it did until issue 38."
+    kinds = {k for _, k, _ in findings(sample)}
+    assert kinds == {"a numbered round by name", "a branch of the team's work", "a dated change", "the history of a rule"}, kinds
     # ... and not where there is none: a file name with a hash, a hex colour, a word with hex letters.
     assert findings("raw JSON `bench/chain/quiet_600s_6d79da4.json`, colour ffffff, a decade 2026") == []
     assert findings("`multihost.py --rounds 2`; github.com/yinzikang/torque-control at commit b77be752eb0a") == []
@@ -96,3 +102,12 @@ def test_readme_and_controller_page_stay_short(root):
     assert len(readme) <= 8 * 1024, f"README.md is {len(readme)} bytes (at most 8 KB): move detail to docs/"
     ctrl = (root / "docs" / "controller.md").read_text().splitlines()
     assert len(ctrl) <= 600, f"docs/controller.md has {len(ctrl)} lines (at most 600)"
+
+
+def test_every_note_is_in_the_docs_index(root):
+    """The lab notebook is kept apart but findable: each note is linked from docs/README.md."""
+    index = (root / "docs" / "README.md").read_text()
+    notes = sorted((root / "docs" / "notes").glob("*.md"))
+    assert notes, "docs/notes/ has no notes: the check has nothing to look at"
+    missing = [n.name for n in notes if f"notes/{n.name}" not in index]
+    assert not missing, "notes not linked from docs/README.md (add a row to its notes table): " + ", ".join(missing)
