@@ -24,6 +24,7 @@ use nalgebra::Vector3;
 
 use super::force_law::{self, ForceLawInputs, ForceLawOutputs, ForceLawState, Mode};
 use super::derived::{self, DerivedInputs, DerivedState};
+use super::stiction;
 use super::scheduled::{self, ScheduledInputs, ScheduledParams, ScheduledState, Shaper};
 use super::{ControlParams, ForceAxis, ImpedanceParams, Phase};
 use crate::pipeline::feedforward::{FastVelocity, ReferenceBlend};
@@ -297,7 +298,8 @@ pub fn update(p: &ControlParams, law: &mut ForceLawState, sched: &mut ScheduledS
 
 /// The derived law ([`super::derived`]): its step in contact, the scheduled law's approach
 /// servo in free space; the contact estimator every cycle (its history pairs the delayed
-/// force); no gravity factor, model gain or friction velocity of its own.
+/// force); no gravity factor or model gain; in contact the friction feedforward at the
+/// reference blend (the stiction-aware hold, [`super::stiction`]).
 fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, der: &DerivedState, u: &AxisInputs) -> (ForceLawState, ScheduledState, DerivedState, AxisOutputs) {
     let fl = &p.force_law;
     let dp = &fl.derived;
@@ -319,6 +321,9 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
             // instead of stepping the contact loop by ΔF at the first contact.
             out.xdd = Some(u.a_d - r.e_ddot + sched.approach_integral);
             out.report = ForceLawOutputs { e_ddot: r.e_ddot, e_f: r.e_f, k_e_hat: r.estimate.k_hat, k_e_confidence: derived::confidence(&r.estimate), ..Default::default() };
+            // The stiction-aware hold (super::stiction): a joint held by its static friction
+            // gets no friction feedforward from its velocity noise.
+            out.friction = stiction::friction_velocity(fl.scheduled.friction_reference, u.regime);
         }
         Regime::Free => {
             // The scheduled law's PI approach servo at most `approach_speed`; toward an

@@ -47,6 +47,7 @@ pub mod derived;
 pub mod force_law;
 pub mod law;
 pub mod scheduled;
+pub mod stiction;
 
 use force_law::{ForceLawOutputs, ForceLawParams, ForceLawState};
 use nalgebra::{Vector3, Vector6};
