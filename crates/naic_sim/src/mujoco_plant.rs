@@ -30,7 +30,7 @@
 //!   and converges to the same solution within its tolerance in about half the iterations
 //!   and a third of the line-search evaluations (the joint friction's six constraint rows
 //!   are in every step). [`MujocoPlant::solution_gap`] measures the difference against the
-//!   file's cold start (`tests/mujoco_plant.rs`).
+//!   file's cold start (`tests/mujoco_friction.rs`).
 //!
 //! Torque enters through `qfrc_applied` (saturated at the URDF effort limits like the
 //! own plant; the MJCF motors' ±100 N·m ctrlrange is not used), held over the period.
@@ -88,7 +88,7 @@ struct TableGeom {
 
 /// [`MujocoPlant::solution_gap`]: the largest differences between two constraint solutions of
 /// one state, joint accelerations [rad/s²], constraint torques [N·m], and the table's normal
-/// contact force on the tip [N].
+/// contact force on the tip [N]; NaN if MuJoCo could not allocate the copy.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SolutionGap {
     pub qacc: f64,
@@ -134,8 +134,8 @@ pub struct MujocoPlant {
     vadr: [usize; N_JOINTS],
     /// The robot's joint friction as MuJoCo computes it (`None`: frictionless joints).
     friction: Option<[MujocoJointFriction; N_JOINTS]>,
-    /// MuJoCo steps taken and the constraint solver's iterations and line-search cost
-    /// evaluations over them ([`Self::solver_work`]).
+    /// Constraint solves so far, with the solver's iterations and line-search cost evaluations
+    /// over them ([`Self::solver_work`]); counting allocates nothing.
     work: SolverWork,
 }
 
@@ -540,8 +540,8 @@ impl MujocoPlant {
         }
     }
 
-    /// The constraint solver's work since the plant was built (MuJoCo steps of the periods,
-    /// solver iterations, line-search evaluations).
+    /// The constraint solver's work since the plant was built ([`SolverWork`]); the solves of
+    /// the start-up `mj_forward`s are not counted.
     pub fn solver_work(&self) -> SolverWork {
         self.work
     }
@@ -551,17 +551,19 @@ impl MujocoPlant {
     /// data now (the observation's `mj_forward` under the plant's own options). For the
     /// solver settings' check (tests, reports; allocates).
     pub fn solution_gap(&mut self, set: impl FnOnce(&mut ffi::mjOption)) -> SolutionGap {
-        let saved = unsafe { std::ptr::read(&self.data.model().ffi().opt) };
+        let saved = self.data.model().ffi().opt.clone();
         unsafe {
             set(&mut self.data.model_mut().ffi_mut().opt);
         }
         let m: *const ffi::mjModel = self.data.model().ffi();
-        let mut gap = SolutionGap::default();
+        // MuJoCo could not allocate the copy: NaN, which no bound accepts.
+        let mut gap = SolutionGap { qacc: f64::NAN, qfrc_constraint: f64::NAN, contact_normal: f64::NAN };
         unsafe {
             let other = ffi::mj_makeData(m);
             if !other.is_null() {
                 ffi::mj_copyData(other, m, self.data.ffi());
                 ffi::mj_forward(m, other);
+                gap = SolutionGap::default();
                 let d = self.data.ffi();
                 let nv = (*m).nv as usize;
                 for i in 0..nv {
