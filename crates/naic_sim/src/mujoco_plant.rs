@@ -24,7 +24,13 @@
 //!   geoms have in their `contype` (an MJCF whose `tip` has no geom is refused). MuJoCo's
 //!   contact sinks the tip sphere past its radius on flat and foam, where the authors' tool
 //!   stick (a cylinder ending at the sphere's centre) would otherwise reach the table;
-//! * the time step is the control period over the own plant's sub-step count.
+//! * the time step is the control period over the own plant's sub-step count;
+//! * the constraint solver is warm-started (the file's `<flag warmstart="disable"/>` is
+//!   turned off): MuJoCo's Newton solver then starts from the previous step's accelerations
+//!   and converges to the same solution within its tolerance in about half the iterations
+//!   and a third of the line-search evaluations (the joint friction's six constraint rows
+//!   are in every step). [`MujocoPlant::solution_gap`] measures the difference against the
+//!   file's cold start (`tests/mujoco_friction.rs`).
 //!
 //! Torque enters through `qfrc_applied` (saturated at the URDF effort limits like the
 //! own plant; the MJCF motors' ±100 N·m ctrlrange is not used), held over the period.
@@ -80,6 +86,16 @@ struct TableGeom {
     solref: [f64; 2],
 }
 
+/// [`MujocoPlant::solution_gap`]: the largest differences between two constraint solutions of
+/// one state, joint accelerations [rad/s²], constraint torques [N·m], and the table's normal
+/// contact force on the tip [N]; NaN if MuJoCo could not allocate the copy.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolutionGap {
+    pub qacc: f64,
+    pub qfrc_constraint: f64,
+    pub contact_normal: f64,
+}
+
 /// The parameters MuJoCo used for one contact of the tip with the table (read from
 /// `mjData.contact` after collision detection).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -118,6 +134,19 @@ pub struct MujocoPlant {
     vadr: [usize; N_JOINTS],
     /// The robot's joint friction as MuJoCo computes it (`None`: frictionless joints).
     friction: Option<[MujocoJointFriction; N_JOINTS]>,
+    /// Constraint solves so far, with the solver's iterations and line-search cost evaluations
+    /// over them ([`Self::solver_work`]); counting allocates nothing.
+    work: SolverWork,
+}
+
+/// The constraint solver's work over a run: constraint solves (each MuJoCo step's and each
+/// observation's `mj_forward`), solver iterations, line-search cost evaluations
+/// (`mjData.solver_niter`, `mjSolverStat.neval`, summed over islands).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SolverWork {
+    pub solves: u64,
+    pub iterations: u64,
+    pub evaluations: u64,
 }
 
 /// One joint's friction law (eq 4 or 5) as MuJoCo computes it: `τ_f(q̇) = g(q̇)·sgn(q̇) + f_v·q̇`
@@ -348,6 +377,10 @@ impl MujocoPlant {
         let mut model = Box::new(model);
         unsafe {
             model.ffi_mut().opt.timestep = p.dt / p.substeps as f64;
+            // The solver starts from the previous step's accelerations (module docs: the
+            // authors' file disables warmstart; the solution is the same within MuJoCo's
+            // tolerance, [`Self::solution_gap`]).
+            model.ffi_mut().opt.disableflags &= !(ffi::mjtDisableBit::mjDSBL_WARMSTART as i32);
             // The table meets the tip's geoms only (module docs): the table's `conaffinity`
             // bit is in the tip's geoms' `contype` and in no other geom's.
             let tip_body = id(&model, ffi::mjtObj::mjOBJ_BODY, "tip").ok_or_else(|| mjcf_err(mjcf, "body 'tip' lost"))?;
@@ -392,6 +425,7 @@ impl MujocoPlant {
             qadr,
             vadr,
             friction: None,
+            work: SolverWork::default(),
         };
         {
             let qp = plant.data.qpos_mut();
@@ -460,6 +494,102 @@ impl MujocoPlant {
         self.friction = Some(laws);
         self.set_friction_at();
         Ok(())
+    }
+
+    /// One MuJoCo step as `mj_step` takes it (the state checks, `mj_forward`, the integrator)
+    /// but with `mj_forwardSkip(…, skipsensor = 1)`: the sensors (the F/T pair's
+    /// `mj_rnePostConstraint`) are evaluated once per period by the observation's `mj_forward`,
+    /// the only place they are read. The state it advances to is bit-identical to `mj_step`'s
+    /// (sensors feed nothing back). RK4 and `fwdinv` take `mj_step` itself.
+    fn step_without_sensors(&mut self) {
+        let m: *const ffi::mjModel = self.data.model().ffi();
+        let d = unsafe { self.data.ffi_mut() };
+        unsafe {
+            let integrator = (*m).opt.integrator;
+            let fwdinv = (*m).opt.enableflags & ffi::mjtEnableBit::mjENBL_FWDINV as i32 != 0;
+            let euler = integrator == ffi::mjtIntegrator::mjINT_EULER as i32;
+            let implicit =
+                integrator == ffi::mjtIntegrator::mjINT_IMPLICIT as i32 || integrator == ffi::mjtIntegrator::mjINT_IMPLICITFAST as i32;
+            if fwdinv || !(euler || implicit) {
+                ffi::mj_step(m, d);
+            } else {
+                ffi::mj_checkPos(m, d);
+                ffi::mj_checkVel(m, d);
+                ffi::mj_forwardSkip(m, d, ffi::mjtStage::mjSTAGE_NONE as i32, 1);
+                ffi::mj_checkAcc(m, d);
+                if euler {
+                    ffi::mj_Euler(m, d);
+                } else {
+                    ffi::mj_implicit(m, d);
+                }
+            }
+        }
+        self.count_solver_work();
+    }
+
+    fn count_solver_work(&mut self) {
+        let d = self.data.ffi();
+        self.work.solves += 1;
+        for island in 0..(d.nisland.max(1) as usize).min(d.solver_niter.len()) {
+            let n = d.solver_niter[island].max(0) as usize;
+            self.work.iterations += n as u64;
+            let base = island * ffi::mjNSOLVER as usize;
+            for it in 0..n.min(ffi::mjNSOLVER as usize) {
+                self.work.evaluations += d.solver[base + it].neval.max(0) as u64;
+            }
+        }
+    }
+
+    /// The constraint solver's work since the plant was built ([`SolverWork`]); the solves of
+    /// the start-up `mj_forward`s are not counted.
+    pub fn solver_work(&self) -> SolverWork {
+        self.work
+    }
+
+    /// The constraint solution at the state now under other solver options: `mj_forward` on a
+    /// copy of the data with the model's `opt` changed by `set` (restored after), against the
+    /// data now (the observation's `mj_forward` under the plant's own options). For the
+    /// solver settings' check (tests, reports; allocates).
+    pub fn solution_gap(&mut self, set: impl FnOnce(&mut ffi::mjOption)) -> SolutionGap {
+        let saved = self.data.model().ffi().opt.clone();
+        unsafe {
+            set(&mut self.data.model_mut().ffi_mut().opt);
+        }
+        let m: *const ffi::mjModel = self.data.model().ffi();
+        // MuJoCo could not allocate the copy: NaN, which no bound accepts.
+        let mut gap = SolutionGap { qacc: f64::NAN, qfrc_constraint: f64::NAN, contact_normal: f64::NAN };
+        unsafe {
+            let other = ffi::mj_makeData(m);
+            if !other.is_null() {
+                ffi::mj_copyData(other, m, self.data.ffi());
+                ffi::mj_forward(m, other);
+                gap = SolutionGap::default();
+                let d = self.data.ffi();
+                let nv = (*m).nv as usize;
+                for i in 0..nv {
+                    gap.qacc = gap.qacc.max((*d.qacc.add(i) - *(*other).qacc.add(i)).abs());
+                    gap.qfrc_constraint = gap.qfrc_constraint.max((*d.qfrc_constraint.add(i) - *(*other).qfrc_constraint.add(i)).abs());
+                }
+                let normal = |dd: *const ffi::mjData| {
+                    let mut sum = 0.0;
+                    for c in 0..(*dd).ncon as usize {
+                        let con = &*(*dd).contact.add(c);
+                        let t1 = self.table.iter().any(|g| g.id as i32 == con.geom1);
+                        let t2 = self.table.iter().any(|g| g.id as i32 == con.geom2);
+                        if t1 != t2 {
+                            let mut f = [0.0; 6];
+                            ffi::mj_contactForce(m, dd, c as i32, &mut f);
+                            sum += f[0];
+                        }
+                    }
+                    sum
+                };
+                gap.contact_normal = (normal(d) - normal(other)).abs();
+                ffi::mj_deleteData(other);
+            }
+            self.data.model_mut().ffi_mut().opt = saved;
+        }
+        gap
     }
 
     /// Each DOF's `frictionloss` and `damping` from its law at the velocity now.
@@ -824,11 +954,12 @@ impl crate::plants::Plant for MujocoPlant {
         for s in 0..self.substeps {
             self.update_materials(self.k as f64 * self.dt + s as f64 * h);
             self.set_friction_at();
-            self.data.step();
+            self.step_without_sensors();
         }
         self.k += 1;
         self.update_materials(self.k as f64 * self.dt);
         self.data.forward();
+        self.count_solver_work();
         self.observe(tau, sat);
     }
     fn observation(&self) -> &Observation {
