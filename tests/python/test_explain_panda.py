@@ -85,17 +85,8 @@ def test_panda_baseline_beats_the_published_model_on_the_same_samples(naic_bin, 
     # 4.6 % above it; 5.3 % while inertial_parameters was fitted beside the first pass's rotor
     # inertias, 4.7 % before that). A regression guard, not the issue's goal (ext < pub above).
     assert ext[1] < 1.1 * base[1], (ext, base)
-    # the all-joint fit of δβ has a constant per joint beside it: the joints' constant torques
-    # stay out of the shared correction, and the offsets named after it are the classical
-    # fit's f_o (without the constant, δβ took joint 2's −0.18 N·m into its gravity columns
-    # and `torque_offset` was named on joints 1 and 6 only)
-    offs = {k: v["offset_nm"] for f in sig if f["effect"] == "torque_offset" for k, v in f["params"].items()}
-    assert {"joint1", "joint2", "joint6"} <= set(offs), offs
-    for k, v in offs.items():
-        assert abs(v - rep["baseline"]["joints"][k]["f_o"]) < 0.035, (k, v, rep["baseline"]["joints"][k]["f_o"])
-    # 0.80 with the fold rule; 0.66 with the per-joint bootstrap test; 0.79 with the pooled one;
-    # 0.81 with a constant per joint beside δβ
-    assert rep["explained"]["all_joints"] > 0.78
+    # 0.80 with the fold rule; 0.66 with the per-joint bootstrap test; 0.79 with the pooled one
+    assert rep["explained"]["all_joints"] > 0.75
     # issue 38's wording: a finding below 5 % of every one of its joints' residual is "small",
     # with the share left; the others are not
     for f in sig:
@@ -147,10 +138,10 @@ class GoalNotMet(AssertionError):
 
 
 @pytest.mark.xfail(strict=True, raises=GoalNotMet, reason=(
-    "issue 38: below the published model on every joint, and joints 1-5 and 7 at or below their numbers under the "
-    "fold rule, but joint 6 stays above its: 0.035 against 0.032 N·m (after inertial_parameters, torque_offset and "
-    "torque_scale its next step, rotor_inertia, 0.035 -> 0.033, does not pass the block-bootstrap test at "
-    "1 − 0.05/85; docs/explain.md, The significance test)"))
+    "issue 38: below the published model on every joint since inertial_parameters is tested pooled over the "
+    "joints, but joint 6 stays above its number under the fold rule: 0.055 against 0.032 N·m (its next step, "
+    "torque_scale or payload, 51 % of what is left but better in 7 of 10 folds, does not pass the block-bootstrap "
+    "test at 1 − 0.05/85; docs/explain.md, The significance test)"))
 def test_panda_extended_below_published_on_every_joint(naic_bin, root, shared, tmp_path):
     """Issue 38's Panda goal: the extended model's held-out RMSE below the published model's on
     every joint (and no joint worse than 0.182 / 0.200 / 0.183 / 0.159 / 0.062 / 0.032 / 0.032)."""
