@@ -6,11 +6,7 @@
 //! an all-joint stage after the per-joint catalogue has run:
 //!
 //! 1. One least-squares fit on all joints together: the shared `Y_B δβ` plus, per joint,
-//!    that joint's nominal friction columns (Coulomb with its calibrated width, viscous), a
-//!    constant (the classical identification's f_o: without it δβ fitted a joint's constant
-//!    torque through its gravity columns, on the real Panda joints 1, 2 and 6, and the other
-//!    joints paid for it; the constant is not handed to the joints, `torque_offset` still has
-//!    to pass its own test there) and
+//!    that joint's nominal friction columns (Coulomb with its calibrated width, viscous) and
 //!    the first pass's `rotor_inertia` / `payload` columns when it found them (specific
 //!    rigid-body-like effects, kept first where they suffice), against the same per-joint
 //!    columns without `Y_B`. (Each joint's whole first-pass model was used before: effects such
@@ -151,12 +147,12 @@ pub fn fit(
     let mut rd = RegressorData::new(model);
     // local layout per joint: [base (r), own columns (p_j), y]
     use crate::analysis::{Dir, Structure};
-    let nominal_cols = vec![Col::Coul(Dir::Both), Col::Visc(Dir::Both), Col::Offset];
+    let nominal_cols = vec![Col::Coul(Dir::Both), Col::Visc(Dir::Both)];
     let own: Vec<Vec<Col>> = results
         .iter()
         .map(|res| {
             if nominal_only {
-                // the nominal friction and a constant, and the first pass's own rigid-body-like findings
+                // the nominal friction, and the first pass's own rigid-body-like findings
                 // (a rotor inertia, a payload: specific, and kept first where they suffice)
                 let mut c = nominal_cols.clone();
                 c.extend(res.final_eval.columns.iter().copied().filter(|c| matches!(c, Col::Rotor | Col::Payload)));

@@ -157,7 +157,7 @@ pub(super) fn inertial_json(ex: &Explained) -> Value {
     };
     json!({
         "method": "all joints together: Y_B δβ (base parameters of the robot model's regressor) + each joint's nominal friction \
-                   (Coulomb, viscous, a constant) and first-pass rotor_inertia / payload, held out on the same folds, against the same columns \
+                   (Coulomb, viscous) and first-pass rotor_inertia / payload, held out on the same folds, against the same columns \
                    without Y_B; BIC counts every base parameter. When significant, a first-pass rotor_inertia that no longer passes \
                    the per-joint rule beside Y_B is set aside and δβ refitted without it. Corrected base \
                    parameters = K π_URDF + δβ. Links: the completion of δβ closest to the URDF (weighted minimum norm), one of many — \
