@@ -36,6 +36,34 @@ fn free_space() -> FreeSpace {
     FreeSpace { m, f, s, p, data, q0 }
 }
 
+/// A closed loop on MuJoCo with the JK5's Table 1 friction at loop delay 1: scenario `name`,
+/// seed 1, ended at `duration` if given, its plant parameters, with the tool's inertial
+/// wrench in the sensor's reading when `inertial`.
+struct ClosedLoop {
+    m: naic_core::model::Model,
+    f: naic_core::friction::FrictionModel,
+    s: scenario::Scenario,
+    t: (f64, nalgebra::Vector3<f64>),
+    p: naic_sim::plant::PlantParams,
+    settings: LoopSettings,
+}
+
+fn closed_loop(name: &str, duration: Option<f64>, inertial: bool) -> ClosedLoop {
+    let m = model();
+    let f = friction();
+    let mut s = scenario::preset(name, &m).unwrap();
+    s.seed = 1;
+    if let Some(d) = duration {
+        s.task.duration = d;
+    }
+    let t = tool();
+    let mut p = scenario::plant_for(&s, m.clone(), Some(f.clone()), t).unwrap();
+    if inertial {
+        p.ft = p.ft.with_tool_inertia(naic_sim::sensor::tool_inertia_from_urdf(std::path::Path::new(&format!("{ROOT}/urdf/jk5.urdf"))).unwrap());
+    }
+    ClosedLoop { m, f, s, t, p, settings: LoopSettings { delay_cycles: 1, ..LoopSettings::default() } }
+}
+
 /// Constant torque on one joint, free space: joint `j` gets naic's bias torques (gravity,
 /// Coriolis; the same arm as the MJCF, `open_loop_free_space_...` in mujoco_plant.rs) plus
 /// `tau_c` (the Table 1 model at 0.2 or 0.6 rad/s, both directions: Table 1 is per
@@ -130,15 +158,7 @@ fn below_the_coulomb_level_the_mujoco_joint_stays_at_rest() {
 /// never reaches the force limit (no retract).
 #[test]
 fn the_papers_aic_at_delay_1_on_mujoco_flat_keeps_every_joint_below_2_rad_s_without_a_retract() {
-    let m = model();
-    let f = friction();
-    let mut s = scenario::preset("flat", &m).unwrap();
-    s.seed = 1;
-    s.task.duration = 2.9;
-    let t = tool();
-    let mut p = scenario::plant_for(&s, m.clone(), Some(f.clone()), t).unwrap();
-    p.ft = p.ft.with_tool_inertia(naic_sim::sensor::tool_inertia_from_urdf(std::path::Path::new(&format!("{ROOT}/urdf/jk5.urdf"))).unwrap());
-    let settings = LoopSettings { delay_cycles: 1, ..LoopSettings::default() };
+    let ClosedLoop { m, f, s, t, p, settings } = closed_loop("flat", Some(2.9), true);
     let mut c = PipelineController::by_name("aic", &s, &m, Some(f), t, &settings).unwrap();
     let mut plant = PlantChoice::Mujoco { mjcf: mjcf() }.build(&p, &s.task.q0, s.seed).unwrap();
     let r = runner::run_on(&s, plant.as_mut(), &mut c, &mut |_| {});
@@ -157,14 +177,7 @@ fn the_papers_aic_at_delay_1_on_mujoco_flat_keeps_every_joint_below_2_rad_s_with
 /// blend: the feedforward at the stuck joints' velocity noise) the same run hunts beyond it.
 #[test]
 fn the_derived_laws_stiction_hold_keeps_foam_on_mujoco_from_hunting() {
-    let m = model();
-    let f = friction();
-    let mut s = scenario::preset("foam", &m).unwrap();
-    s.seed = 1;
-    let t = tool();
-    let mut p = scenario::plant_for(&s, m.clone(), Some(f.clone()), t).unwrap();
-    p.ft = p.ft.with_tool_inertia(naic_sim::sensor::tool_inertia_from_urdf(std::path::Path::new(&format!("{ROOT}/urdf/jk5.urdf"))).unwrap());
-    let settings = LoopSettings { delay_cycles: 1, ..LoopSettings::default() };
+    let ClosedLoop { m, f, s, t, p, settings } = closed_loop("foam", None, true);
     let late_p2p = |hold: bool| {
         let mut c = PipelineController::by_name("derived", &s, &m, Some(f.clone()), t, &settings).unwrap();
         if !hold {
@@ -233,14 +246,7 @@ fn the_warm_started_solver_gives_the_cold_starts_constraint_forces() {
             self.p.dq()
         }
     }
-    let m = model();
-    let f = friction();
-    let mut s = scenario::preset("flat", &m).unwrap();
-    s.seed = 1;
-    s.task.duration = 2.9;
-    let t = tool();
-    let p = scenario::plant_for(&s, m.clone(), Some(f.clone()), t).unwrap();
-    let settings = LoopSettings { delay_cycles: 1, ..LoopSettings::default() };
+    let ClosedLoop { m, f, s, t, p, settings } = closed_loop("flat", Some(2.9), false);
     let mut c = PipelineController::by_name("aic", &s, &m, Some(f), t, &settings).unwrap();
     let mut plant = Gap { p: MujocoPlant::new(&mjcf(), &p, &s.task.q0, s.seed).unwrap(), normal: 0.0, torques: Vec::new() };
     let r = runner::run_on(&s, &mut plant, &mut c, &mut |_| {});
