@@ -159,13 +159,11 @@ pub const SCHEDULED_CONTACT_ENTER_N: f64 = 0.5;
 pub struct ContactDetect {
     /// Enter contact when `f_ext` exceeds this [N] (the paper's laws: `naic`, `aic`, `fixed`).
     pub enter_n: f64,
-    /// Enter contact when `f_ext` exceeds this [N] in `Mode::Scheduled`
-    /// ([`SCHEDULED_CONTACT_ENTER_N`] by default). The paper's 1 N is 16 σ of the F/T noise;
-    /// on `flat` the force rises at 74 N/s (37 mm/s onto 2000 N/m), so the law took over
-    /// 15–20 ms after the force started to rise, and that wait was most of its RMS error
-    /// over the contact (68 % of the squared error is in the first 0.1 s, seed 1, d = 1).
-    /// Entering at 0.5 N: RMS 0.965 → 0.893 N (medians of 5 seeds, d = 1, docs/controller.md).
-    /// The largest free-space reading in flat's approach was 0.25 N (seeds 1–5).
+    /// Enter contact when `f_ext` exceeds this [N] in `Mode::Scheduled` and `Mode::Derived`
+    /// ([`SCHEDULED_CONTACT_ENTER_N`] by default): 8 σ of the F/T noise (one count of the mini45)
+    /// and the level from which the estimators take a force as evidence. The paper's 1 N (16 σ)
+    /// would leave the law out for the time the force takes to rise from 0.5 to 1 N, an error the
+    /// approach's impedance does not correct.
     pub scheduled_enter_n: f64,
     /// Leave contact when `f_ext` stays below this [N] ...
     pub exit_n: f64,

@@ -39,12 +39,10 @@
 //! A jump detected with a *negative* innovation (the force fell at the same depth) says
 //! the new surface is softer than the one the estimate had, so the re-opened estimator's
 //! stiff side is capped at the stiff side before the jump (`k_cap`), not at the prior's
-//! `k̂ + 2σ_k` (5000 + 2 × 50 000 N/m, the schedule's `k_max`). Why: on `two-material`
-//! (acrylic → foam, 50 000 → 1000 N/m) the force falls to ≈ 0.1 N at the switch, below
-//! `f_min_n`, so the estimator gets no data until the tool has sunk 0.5 mm into the foam;
-//! scheduled for `k_max` (b_d = 857 N·s/m) the tool sank at `e_f / b_d` ≈ 3.4 mm/s and the
-//! force stayed below 0.5 N for 110 ms (seed 1, d = 1); capped at the acrylic's upper value
-//! (≈ 34 000 N/m, b_d ≈ 290 N·s/m) for 30 ms. A jump with a positive innovation (stiffer),
+//! `k̂ + 2σ_k` (the schedule's `k_max`). Why: at a switch to a much softer surface the
+//! force falls below `f_min_n`, so the estimator gets no data until the tool has sunk in, and
+//! scheduled for `k_max` the large damping lets it sink at `e_f / b_d` with the force near
+//! zero; the surface before the jump bounds the new one from above. A jump with a positive innovation (stiffer),
 //! an estimate `k̂` above the cap, or a new contact removes the cap.
 
 /// Estimator settings.

@@ -41,7 +41,7 @@
 //! updated only where the commands excite it, `|φ_0| ≥ min_excitation` (a velocity change the
 //! commands explain well above the encoders' noise), where the arm moves fast
 //! (`|v| ≥ min_speed` at the three velocities: the approach's start, where joints break away
-//! from static friction at different times, read as +8…+30 % of gain in seed 1), and only
+//! from static friction at different times, which reads as a gain error), and only
 //! while the owner allows it (free space: no contact force in `w`); without excitation
 //! neither `h` nor `P` moves (no wind-up). `ĝ` starts at 1 (the model is exact).
 //!
@@ -52,10 +52,9 @@
 //! predictor's history in realised units (`ĝ a` of the free-space commands; the approach
 //! servo's integral primes `w̄ = −ĝ a_I`), so the observers integrate what the arm does.
 //! By default `g_max = 1`: only a light model (`ĝ < 1`, a loop slower than designed) is
-//! corrected. Measured on the table's approaches the estimate is within −12…+8 % of `F`
-//! (medians of the seeds −4…+4 %), and at d = 2 it reads `F` = 1 as 1.00–1.08: scaled
-//! down by that, two-material's first contact at d = 2 (seed 1 4.8 → 10.9 %) lost the goal;
-//! a heavy model's extra loop gain the schedule covers (`prediction` = 0.75).
+//! corrected: the loop's delay biases the estimate by several per cent, which would otherwise
+//! correct an exact model, and a heavy model's extra loop gain the schedule covers
+//! (`prediction` = 0.75).
 //! `g = 1` exactly (as without the estimate) leaves the law bit for bit as before.
 
 /// The longest window [cycles].
@@ -101,26 +100,19 @@ pub struct GainParams {
 ///
 /// With every mass of the model scaled by `F` its gravity torque is `F G(q)`: a light model
 /// (`F` < 1) leaves `(1 − F) G(q)` on every joint uncompensated. Along n the law's
-/// disturbance estimate feeds it forward; on the other axes the tangential stiffness and the
-/// joints' static friction hold it, so a slide that starts breaks a different load on each
-/// joint and they break away tens of ms apart (two-material at F = 0.8). The
-/// correction adds
+/// disturbance estimate feeds it forward; on the other axes only the tangential stiffness and
+/// the joints' static friction hold it, so a slide that starts breaks a different load on each
+/// joint. The correction adds
 ///
 /// ```text
 /// τ_g = r(t) (1/ĝ_frozen − 1) G_model(q)      where ĝ_frozen < threshold (0 elsewhere)
 /// ```
 ///
-/// (`= (1 − F) G` for `ĝ_frozen = F`) with `ĝ_frozen` the estimate taken once
-/// when it has not updated for `quiet` (the approach's start is over: the correction never
-/// moves with an estimate that is learning), ramped in by `r(t)` from 0 to 1
-/// over `ramp` (in free space the approach servo's integral takes up the change, and at
-/// contact primes the observers with it). `threshold`: at F = 1 the estimate reads
-/// 0.93–1.00 (d = 1, seeds 1–10 of the table's scenarios), and divided by that the gravity
-/// was over-compensated by up to 7 % (two-material's seed 3 at ĝ = 0.975:
-/// 8.0 → 13.1 % first-contact overshoot), at F = 0.8 0.78–0.92. A partial
-/// correction (`ĝ + 0.05` as the divisor) did not hold over ten seeds, so the
-/// correction is whole where it applies, and off where the estimate cannot tell the model from
-/// an exact one.
+/// (`= (1 − F) G` for `ĝ_frozen = F`) with `ĝ_frozen` the estimate taken once it has not
+/// updated for `quiet` (the correction never moves with an estimate that is learning), ramped
+/// in by `r(t)` from 0 to 1 over `ramp`. `threshold` keeps the correction off where the
+/// estimate cannot tell the model from an exact one (its spread at `F = 1`); where it applies
+/// it is whole.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GravityCorrection {
     /// Time without an update after which `ĝ` is frozen for the correction [s], > 0.
@@ -129,33 +121,26 @@ pub struct GravityCorrection {
     pub ramp: f64,
     /// The correction applies where `ĝ_frozen < threshold`, in (0, 1].
     pub threshold: f64,
-    /// The heavy side: the model's mass factor read from **statics** in the
-    /// approach and the gravity corrected where it is above `heavy_threshold`, > 1
-    /// (`f64::INFINITY`: off). In free space at a steady approach the servo's integral `a_I`
-    /// along n holds the acceleration the model's gravity error leaves there: with every mass
-    /// of the model scaled by `F` the arm realises `ẍ = F a + (F − 1) J M⁻¹ G`, so at rest
-    /// along n `a_I = −w/F = (1 − 1/F) a_free` with `a_free = n·J q̈_free` the acceleration
-    /// along n of the arm falling freely from the pose (`q̈_free = −M⁻¹ G`, the same for the
-    /// model and the arm: both scale by `F`). Hence `F̂_s = 1 / (1 − a_I / a_free)` and the
-    /// correction `(1/F̂_s − 1) G_model = −(a_I / a_free) G_model`. A static reading: the
-    /// loop's delay does not bias it (the dynamic `ĝ` reads an exact model at d = 2 as
-    /// 1.00–1.55), and the friction feedforward on the reference leaves little of
-    /// the joints' friction at a constant speed (F = 1 reads `a_I` −0.19…+0.13 m/s² against
-    /// `a_free` ≈ 9 m/s², F̂_s 0.98–1.02; F = 1.25 1.5–1.9 m/s², F̂_s 1.20–1.27, d = 1 and 2).
+    /// The heavy side: the model's mass factor read from **statics** in the approach and the
+    /// gravity corrected where it is above `heavy_threshold`, > 1 (`f64::INFINITY`: off). At a
+    /// steady approach the servo's integral `a_I` along n holds the acceleration the model's
+    /// gravity error leaves: with every mass of the model scaled by `F` the arm realises
+    /// `ẍ = F a + (F − 1) J M⁻¹ G`, so at rest along n `a_I = (1 − 1/F) a_free` with
+    /// `a_free = n·J q̈_free` the acceleration along n of the arm falling freely from the pose
+    /// (`q̈_free = −M⁻¹ G`, the same for the model and the arm). Hence `F̂_s = 1 / (1 − a_I / a_free)`
+    /// and the correction `(1/F̂_s − 1) G_model = −(a_I / a_free) G_model`. A static reading: the
+    /// loop's delay does not bias it, as it does the dynamic `ĝ`.
     pub heavy_threshold: f64,
     /// When the static reading is taken [s], > 0: this long after `ĝ` is frozen (the
     /// approach's start is over and its servo's integral has had time to settle), in free
     /// space only (never in contact); ramped in over `ramp` as the light side.
     pub heavy_settle: f64,
-    /// The light side's gate by statics: the light correction (`ĝ_frozen <
-    /// threshold`) applies only where the static reading `F̂_s` ([`Self::heavy_threshold`]) is
-    /// also below `light_static`, in (0, 1) (`f64::INFINITY`: no gate, the light side
-    /// from the moment `ĝ` froze). The dynamic `ĝ` reads an exact model as low as 0.9125 on the
-    /// lockstep DDS chain (0.93–1.00 in process), so `threshold` alone corrected an exact model
-    /// by +9.6 %; `F̂_s` reads an exact model 0.984–0.985 and F = 0.95 0.935–0.936, F = 0.8
-    /// ≈ 0.79, the delay does not bias it. With the gate the light correction waits
-    /// for the reading (taken `heavy_settle` after `ĝ` froze, before any correction moves the
-    /// servo's `a_I`) and ramps in over `ramp` from it; its size stays `1/ĝ_frozen − 1`.
+    /// The light side's gate by statics: the light correction (`ĝ_frozen < threshold`) applies
+    /// only where the static reading `F̂_s` ([`Self::heavy_threshold`]) is also below
+    /// `light_static`, in (0, 1) (`f64::INFINITY`: no gate, the light side from the moment `ĝ`
+    /// froze). Why: the loop's delay biases the dynamic `ĝ` by several per cent (an exact model
+    /// reads low on the lockstep DDS chain); the static reading is not biased. With the gate the light correction waits for the reading (taken
+    /// `heavy_settle` after `ĝ` froze) and ramps in over `ramp`; its size stays `1/ĝ_frozen − 1`.
     pub light_static: f64,
 }
 

@@ -110,86 +110,66 @@ pub struct ScheduledParams {
     /// After a contact starts, the observer's *velocity* gain `L₁` comes from a bandwidth that
     /// begins at `observer_max` and decays to the noise budget's,
     /// `ω_v(t) = max(ω_o, observer_max · e^{−t/observer_settle})` [s]; `w̄` keeps the slow gain
-    /// `L₂(ω_o)` throughout ([`predictor::Observer::step_fast`]). Why: at the impact the surface
-    /// stops the arm by a force the commands do not know, and with `ω_o` alone `v̄` keeps part of
-    /// the pre-impact speed for ≈ 1/ω_o (0.3 s at acrylic's 3 rad/s): the damping turns it into
-    /// a force error (seed 1, d = 2, no joint friction, 50 000 N/m after a 37 mm/s impact: a
-    /// stall at 8.3 N, ±2 % after 0.33 s; 0.039 s with this). Both gains fast (w̄ too) was
-    /// worse: w̄ learns the impact's deceleration and keeps it (20–30 % overshoot). 0: off.
+    /// `L₂(ω_o)` throughout ([`predictor::Observer::step_fast`]). Why: the impact stops the arm by a
+    /// force the commands do not know; with `ω_o` alone `v̄` keeps part of the pre-impact speed for
+    /// ≈ 1/ω_o, which the damping turns into a force error. A fast `w̄` would learn the impact's
+    /// deceleration and keep it. 0: off.
     pub observer_settle: f64,
     /// Fraction in [0, 1] of the observer's disturbance estimate `w̄` fed forward in contact
     /// (the commanded acceleration along n gets `− disturbance_feedforward · w̄`).
     pub disturbance_feedforward: f64,
     /// Fraction in [0, 1] of the held disturbance estimate used as `w̄` where the velocity
-    /// observer is off (soft surfaces: [`Self::observer_bandwidth`] is 0, `v̄` is the measured
-    /// velocity and nothing observes `w̄`): `w̄ = disturbance_hold · w̄_held`, fed forward and
-    /// predicted with as where it is observed. `w̄_held` ([`ScheduledState::held_disturbance`])
-    /// is 0 at every contact's start and then the observers' `w̄` of every cycle where they
-    /// run with a confident stiffness (the estimator's confidence at least
-    /// `force_observer_confidence`, or a known stiffness): not the transient after a
-    /// stiffness jump, when the observer runs on the schedule's stiff side for a few cycles
-    /// and reads the jump itself as a disturbance (stiffness-step, d = 1: 8.7 m/s² for one
-    /// cycle, held: ±2 % after the first jump 0.035 → 0.313 s), and not the approach's prior
-    /// `−ĝ a_I` (held from the contact on soft surfaces it moved every soft scenario's runs
-    /// and, by one seed's noise, stiffness-step d = 2's settling against `oracle`). So only
-    /// where a stiff surface was observed (two-material's acrylic) and the tip then moves
-    /// onto a soft one. 0: `w̄ = 0` there. Why: the disturbance is the arm's (the
-    /// gravity compensation off by the model's mass error, and friction), not the surface's;
-    /// dropped when the tip slides from acrylic onto the foam, it fell to the integral, which
-    /// is frozen through the switch (the jump, then `integral_release` outside its band) at
-    /// its acrylic value: at F = 0.8 `w̄` = 1.78 m/s² was dropped, the integral stayed at
-    /// +0.22 N against the foam's −0.34 N, and the recovery overshot by 13 % (two-material
-    /// seed 1, d = 1).
+    /// observer is off (soft surfaces: [`Self::observer_bandwidth`] is 0): `w̄ = disturbance_hold ·
+    /// w̄_held`, fed forward and predicted with as where it is observed. `w̄_held`
+    /// ([`ScheduledState::held_disturbance`]) is 0 at every contact's start and then the observers'
+    /// `w̄` of every cycle where they run with a confident stiffness (the estimator's confidence at
+    /// least `force_observer_confidence`, or a known stiffness; not a stiffness jump's transient,
+    /// not the approach's prior), so it acts only where a stiff surface was observed and the tip
+    /// then moves onto a soft one. Why: the disturbance is the arm's (gravity error, friction), not
+    /// the surface's; dropped at the switch it would fall to the integral, which is frozen there.
+    /// 0: `w̄ = 0` there.
     pub disturbance_hold: f64,
     /// Time outside the integral band after which the integral integrates the error clipped
-    /// to the band's edge ([`integral_step`]) [s]: longer than the transients the
-    /// proportional path settles (≤ 0.15 s), so it never shapes a step or a contact. A model mass error 0.8 carries
-    /// a real disturbance in `I`; leaking it at once overshot flat's 10 → 20 N step by 6.9 %
-    /// (2.3 % without).
+    /// to the band's edge ([`integral_step`]) [s]: longer than the transients the proportional
+    /// path settles (≤ 0.15 s), so it never shapes a step or a contact, where a real disturbance
+    /// held in `I` must not leak at once.
     pub integral_release: f64,
     /// Disturbance observed through the force on stiff surfaces ([`predictor::ForceObserver`]):
     /// its bandwidth [rad/s] (0: off). Once the contact is `force_observer_age` [s] old, the
     /// stiffness (the estimate, or the known one) is at least `force_observer_k_min` [N/m] and
     /// the estimator's confidence at least `force_observer_confidence`, its `w̄` replaces the
     /// velocity observer's (in the feedforward, the prediction and the velocity observer's own
-    /// prediction). Why: the velocity observer's `w̄` (≈ 7 rad/s on acrylic, bounded by the
-    /// encoders' noise times `b_d`) let the step disturbance at a slide start (the joints break
-    /// away, +1.8 N in 20 ms on two-material) decay over ≈ 0.1 s; the force measures the same
-    /// motion with delay `d` and 1.25 µm per count. Not before `force_observer_age`: engaged at
-    /// 0.05 s it doubled acrylic's ±2 % settling (0.038 → 0.081 s, d = 1).
+    /// prediction). Why: on a stiff surface the velocity observer's bandwidth is bounded by the
+    /// encoders' noise times `b_d`, while the force measures the same motion with delay `d` at a
+    /// resolution of about a micrometre; before `force_observer_age` it would read the contact's
+    /// own transient as a disturbance.
     pub force_observer: f64,
     pub force_observer_k_min: f64,
     pub force_observer_confidence: f64,
     pub force_observer_age: f64,
     /// Joint friction feedforward on the reference velocity
-    /// ([`crate::pipeline::feedforward::blend`]): the controller reports
-    /// `J⁻¹ Ẋ_ref` blended with the measured joint velocity as the velocity the friction
-    /// law is evaluated at; `Ẋ_ref` is the reference's twist with, along n, the approach
-    /// servo's target speed out of contact and the law's velocity observer `v̄` in contact
-    /// where the observer runs (the reference's velocity where it is off and `v̄` would be the
-    /// raw encoder velocity: [`ScheduledOutputs::v_bar`]). Why: at the measured velocity the feedforward turns the encoders' noise at
-    /// rest into ±f_b of torque chatter (joint 1: ±12 N·m), which moved the tool by tens of
-    /// µm on acrylic (two-material's wander at rest, 1.5–3.7 N against f_d = 3 N); through the
-    /// raw velocity along n the same noise flipped the feedforward of joint 4, which creeps
-    /// at ≈ 2 mrad/s while the tool slides on the foam (±3.3 N·m, force dips of up to
-    /// 0.09 N against f_d = 3 N). `None`: the measured velocity,
-    /// as for the paper's laws.
+    /// ([`crate::pipeline::feedforward::blend`]): the controller reports `J⁻¹ Ẋ_ref` blended with
+    /// the measured joint velocity as the velocity the friction law is evaluated at; `Ẋ_ref` is the
+    /// reference's twist with, along n, the approach servo's target speed out of contact and the
+    /// law's velocity observer `v̄` in contact where the observer runs (the reference's velocity
+    /// where it is off: [`ScheduledOutputs::v_bar`]). Why: at the measured velocity the feedforward
+    /// turns the encoders' noise at rest into ±f_b of torque chatter, which moves the tool on a stiff
+    /// surface. `None`: the measured velocity, as for the paper's laws.
     pub friction_reference: Option<ReferenceBlend>,
     /// Where the friction feedforward's measured velocity is the unfiltered one instead of
-    /// the median ([`crate::pipeline::feedforward::FastVelocity`]): in contact, in a joint's Stribeck drop. Its drop bands come from
-    /// the friction model, which these parameters do not know: `None` (the default) is the
-    /// median everywhere; the simulator sets
+    /// the median ([`crate::pipeline::feedforward::FastVelocity`]): in contact, in a joint's
+    /// Stribeck drop. Its drop bands come from the friction model, which these parameters do not
+    /// know: `None` (the default) is the median everywhere; the simulator sets
     /// [`FastVelocity::for_model`] of its feedforward model, the controller node that of its
-    /// `friction_file`. Only with `friction_reference`. Why: the sweep on flat at 20 000 / 50 000 N/m,
-    /// d = 1, settled in 1.2 s (joint 4's 46 Hz oscillation in its drop); with it 0.03–0.08 s.
+    /// `friction_file`. Only with `friction_reference`. Why: inside the drop the friction is a
+    /// negative damping, and the median's delay lets a joint oscillate there on stiff surfaces.
     pub friction_fast: Option<FastVelocity>,
     /// Bandwidth ω [rad/s] of the shaping of the tangential reference in contact (0: off;
     /// [`shape_reference`], applied by [`crate::pipeline::controller::step`] for this law
     /// only): on the translation axes other than the force axis the reference velocity passes
     /// a critically damped second-order filter, so a step of it (a slide that starts) becomes
     /// a smooth start with finite jerk; at a constant velocity, and out of contact, the
-    /// reference passes unchanged. Two-material at d = 2: first contact 13.4 → 8.2 % (medians
-    /// of seeds 1–5).
+    /// reference passes unchanged.
     pub reference_shaping: f64,
     /// The model's acceleration gain along n estimated online ([`gain`]): `ẍ = ĝ a + w` from
     /// the free-space approach; with `scale_commands` the contact command along n is divided
@@ -521,14 +501,10 @@ pub fn step(
 
 /// One step of the integral: `I − σ·clamp(e_f, ±band)`, clamped to `±limit` (inside the
 /// band `I − σ e_f`). Outside the band (after `integral_release`) at most the band edge's
-/// step per cycle, always in the direction that reduces the error, so
-/// - a stale `I` that itself holds the force outside the band is released (two-material,
-///   seed 2, d = 1: `I` = −2.03 N left by the stick-slip wander on acrylic held the force at
-///   0.97 N on the foam against f_d = 3 N until the end, the band never re-entered);
-/// - a stall outside the band is pushed through (slope at model mass error 1.25, `oracle`:
-///   joints 1, 5 and 6 stuck in static friction held the force at 9.27 N against 10 N in 3
-///   of 5 seeds while the integral only leaked towards zero; with this 0.005 N).
-/// It can wind up where the error cannot be removed, up to `limit` (the contact-force limit).
+/// step per cycle, always in the direction that reduces the error, so a stale `I` that itself
+/// holds the force outside the band is released, and a stall outside the band (joints held by
+/// static friction) is pushed through instead of leaking. It can wind up where the error
+/// cannot be removed, up to `limit` (the contact-force limit).
 fn integral_step(integral: f64, sigma: f64, e_f: f64, band: f64, limit: f64) -> f64 {
     (integral - sigma * e_f.clamp(-band, band)).clamp(-limit, limit)
 }
