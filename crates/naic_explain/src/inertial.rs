@@ -17,7 +17,7 @@
 //!    and BIC with one noise level per joint, `Σ_j n_eff,j ln(SSR_j'/SSR_j) + r ln(Σ n_eff)`,
 //!    counts every one of the r base parameters.
 //! 2. When significant, the first pass's `rotor_inertia` columns are tested again beside
-//!    `Y_B` (backward elimination by the per-joint rule, [`specific_beside_base`]): one that
+//!    `Y_B` (backward elimination by the per-joint rule, [`backward_beside_base`]): one that
 //!    no longer earns its place was a stand-in for a link's inertia (on joint 1 it is the
 //!    column of `link1.Izz`; on joint 2 it is the `q̈₂` part of what a heavier link 2 adds)
 //!    and is left to δβ, which is refitted without it. A payload stays (see there).
@@ -74,8 +74,12 @@ pub struct InertialFit {
     pub significant: bool,
     /// The first pass's findings (1-based joint, `rotor_inertia`) that the correction was
     /// fitted without: beside `Y_B` they no longer passed the per-joint rule
-    /// ([`specific_beside_base`]).
+    /// ([`backward_beside_base`]).
     pub set_aside: Vec<(usize, Effect)>,
+    /// The joints (1-based) whose constant torque was fitted beside `Y_B δβ`: there it passed
+    /// the per-joint rule beside the base columns ([`backward_beside_base`]). Not handed to
+    /// the joints (`torque_offset` still has to pass its own test there).
+    pub constants: Vec<usize>,
     /// Per joint, per sample (JointSamples order): `Y_B,j δβ` of the fit without the sample's fold.
     pub corrections: Vec<Vec<f64>>,
 }
@@ -152,9 +156,11 @@ pub fn fit(
         .iter()
         .map(|res| {
             if nominal_only {
-                // the nominal friction, and the first pass's own rigid-body-like findings
-                // (a rotor inertia, a payload: specific, and kept first where they suffice)
+                // the nominal friction, a constant (kept only where it earns its place beside
+                // Y_B: [`constants_beside_base`]), and the first pass's own rigid-body-like
+                // findings (a rotor inertia, a payload: specific, and kept first where they suffice)
                 let mut c = nominal_cols.clone();
+                c.push(Col::Offset);
                 c.extend(res.final_eval.columns.iter().copied().filter(|c| matches!(c, Col::Rotor | Col::Payload)));
                 c
             } else {
@@ -203,19 +209,24 @@ pub fn fit(
             }
         }
     }
-    // every own column of every joint (the stage's significance is decided with all of them)
+    let n_eff: Vec<f64> = (0..nj).map(|j| (results[j].final_eval.n as f64 / joints[j].corr_len.max(1.0)).max(2.0)).collect();
+    // every own column of every joint (the stage's significance is decided with all of them),
+    // but a joint's constant only where it earns its place beside Y_B
     let all_own: Vec<Vec<usize>> = own.iter().map(|c| (0..c.len()).collect()).collect();
     let with = joint_fit(&grams, r, &all_own, kf);
-    // without the base columns: each joint alone on its own columns
+    let (with, all_own, _) =
+        if nominal_only { backward_beside_base(&grams, r, &own, all_own, &n_eff, o, with, Col::Offset) } else { (with, all_own, vec![]) };
+    let constants: Vec<usize> = (0..nj).filter(|&j| all_own[j].iter().any(|&a| own[j][a] == Col::Offset)).map(|j| joints[j].joint).collect();
+    // without the base columns: each joint alone on its own (active) columns
     let sub = |g: &DMatrix<f64>, j: usize| -> DMatrix<f64> {
-        let ix: Vec<usize> = (r..r + own[j].len() + 1).collect();
+        let ix: Vec<usize> = all_own[j].iter().map(|&a| r + a).chain([r + own[j].len()]).collect();
         g.select_rows(&ix).select_columns(&ix)
     };
     let totals: Vec<DMatrix<f64>> = grams.iter().map(|g| fold_sum(&g[..kf])).collect();
     let mut ho_without = vec![vec![0.0; kf]; nj];
     for f in 0..kf {
         for j in 0..nj {
-            let (tw, _) = solve(&sub(&(&totals[j] - &grams[j][f]), j), own[j].len());
+            let (tw, _) = solve(&sub(&(&totals[j] - &grams[j][f]), j), all_own[j].len());
             ho_without[j][f] = heldout(&sub(&grams[j][f], j), &tw);
         }
     }
@@ -229,10 +240,9 @@ pub fn fit(
             norm(&with.heldout) < norm(&ho_without)
         })
         .count();
-    let n_eff: Vec<f64> = (0..nj).map(|j| (results[j].final_eval.n as f64 / joints[j].corr_len.max(1.0)).max(2.0)).collect();
     let mut bic = 0.0;
     for j in 0..nj {
-        let (_, without) = solve(&sub(&totals[j], j), own[j].len());
+        let (_, without) = solve(&sub(&totals[j], j), all_own[j].len());
         if with.whole[j] > 0.0 && without > 0.0 {
             bic += n_eff[j] * (with.whole[j] / without).ln();
         }
@@ -243,7 +253,7 @@ pub fn fit(
     // inertias that still earn their place beside Y_B: one that the first pass took as a
     // stand-in for a link's inertia is left to δβ.
     let (used, set_aside) = if significant && nominal_only {
-        let (fit, _, set_aside) = specific_beside_base(&grams, r, &own, &n_eff, o, with);
+        let (fit, _, set_aside) = backward_beside_base(&grams, r, &own, all_own, &n_eff, o, with, Col::Rotor);
         (fit, set_aside)
     } else {
         (with, vec![])
@@ -274,6 +284,7 @@ pub fn fit(
         delta_bic: bic,
         significant,
         set_aside,
+        constants,
         corrections,
     }
 }
@@ -351,11 +362,22 @@ fn joint_fit(grams: &[Vec<DMatrix<f64>>], r: usize, active: &[Vec<usize>], kf: u
     JointFit { heldout: heldout_ssr, whole, fold_delta, delta: th_all[..r].to_vec() }
 }
 
-/// Backward elimination of the first pass's `rotor_inertia` columns beside `Y_B`: each is
-/// tested by the per-joint rule (held-out gain ≥ `min_gain` on its joint, better in ≥
-/// `min_fold_wins` folds, BIC lower with its one parameter) against the all-joint fit
-/// without it; the weakest that fails is dropped and the rest tested again. Returns each
-/// joint's kept own columns and the dropped (joint index, column).
+/// Backward elimination of the `tested` columns beside `Y_B` (among each joint's `active`
+/// own columns): each is tested by the per-joint rule (held-out gain ≥ `min_gain` on its
+/// joint, better in ≥ `min_fold_wins` folds, BIC lower with its one parameter) against the
+/// all-joint fit without it; the weakest that fails is dropped and the rest tested again.
+/// Returns each joint's kept own columns and the dropped (joint index, column). Used for two
+/// columns:
+///
+/// A constant per joint (`Col::Offset`, the classical identification's f_o), before the
+/// stage's verdict. Without it the all-joint least squares took a joint's real constant
+/// torque into gravity columns (on the real Panda joints 1, 2 and 6: f_o −0.16, −0.18,
+/// +0.08 N·m), and every joint's correction carried that compromise. Fitted on every joint
+/// unconditionally, it took what is δβ's where a joint's rigid-body error is itself constant
+/// for long stretches (a holding joint's gravity error while another joint moves, the
+/// trapezoid generator): δβ then left that joint's part of the link change out. Beside `Y_B`
+/// such a constant does not earn its place (δβ explains the same samples, and on held-out
+/// blocks where the joint moved better), a sensor offset does.
 ///
 /// A rotor inertia is a per-joint column, and on its own joint a link's inertia looks like
 /// one (on joint 1 it is the column of `link1.Izz`; on joint 2 it is the `q̈₂` of what a
@@ -367,18 +389,21 @@ fn joint_fit(grams: &[Vec<DMatrix<f64>>], r: usize, active: &[Vec<usize>], kf: u
 /// is not tested: one point mass at the tool is itself a rigid-body change (a direction of
 /// δβ on every joint), so it could never earn a place beside `Y_B`; found first (one
 /// parameter, agreed by ≥ 2 joints), it stays, and δβ takes what is beyond it.
-/// `all` is the fit with every column of `own` active; returns the fit with the columns that
+/// `all` is the fit with the `active` columns; returns the fit with the columns that
 /// are left, those columns (indices into `own`) and the ones set aside.
-fn specific_beside_base(
+#[allow(clippy::too_many_arguments)]
+fn backward_beside_base(
     grams: &[Vec<DMatrix<f64>>],
     r: usize,
     own: &[Vec<Col>],
+    active: Vec<Vec<usize>>,
     n_eff: &[f64],
     o: &AnalysisOptions,
     all: JointFit,
+    tested: Col,
 ) -> (JointFit, Vec<Vec<usize>>, Vec<(usize, Col)>) {
     let kf = o.folds;
-    let mut active: Vec<Vec<usize>> = own.iter().map(|c| (0..c.len()).collect()).collect();
+    let mut active = active;
     let mut dropped = Vec::new();
     let mut cur = all;
     loop {
@@ -386,7 +411,7 @@ fn specific_beside_base(
         let mut weakest: Option<(f64, usize, usize)> = None;
         for j in 0..active.len() {
             for (pos, &a) in active[j].iter().enumerate() {
-                if own[j][a] != Col::Rotor {
+                if own[j][a] != tested {
                     continue;
                 }
                 let mut less = active.clone();
@@ -631,6 +656,7 @@ mod tests {
             delta_bic: 0.0,
             significant: true,
             set_aside: vec![],
+            constants: vec![],
             corrections: vec![],
         }
     }
@@ -677,7 +703,8 @@ mod tests {
                 .collect();
             let grams = grams_of(&[2, 1], |j, i| rows[j][i].clone());
             let all = joint_fit(&grams, 2, &[vec![0, 1], vec![0]], AnalysisOptions::default().folds);
-            let (_, active, dropped) = specific_beside_base(&grams, 2, &own, &[200.0, 200.0], &AnalysisOptions::default(), all);
+            let (_, active, dropped) =
+                backward_beside_base(&grams, 2, &own, vec![vec![0, 1], vec![0]], &[200.0, 200.0], &AnalysisOptions::default(), all, Col::Rotor);
             (active, dropped)
         };
         // the rotor column is base column 1 on joint 1: nothing beside Y_B, set aside

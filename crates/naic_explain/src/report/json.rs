@@ -157,8 +157,9 @@ pub(super) fn inertial_json(ex: &Explained) -> Value {
     };
     json!({
         "method": "all joints together: Y_B δβ (base parameters of the robot model's regressor) + each joint's nominal friction \
-                   (Coulomb, viscous) and first-pass rotor_inertia / payload, held out on the same folds, against the same columns \
-                   without Y_B; BIC counts every base parameter. When significant, a first-pass rotor_inertia that no longer passes \
+                   (Coulomb, viscous), a constant where it passes the per-joint rule beside Y_B, and first-pass rotor_inertia / \
+                   payload, held out on the same folds, against the same columns without Y_B; BIC counts every base parameter. \
+                   When significant, a first-pass rotor_inertia that no longer passes \
                    the per-joint rule beside Y_B is set aside and δβ refitted without it. Corrected base \
                    parameters = K π_URDF + δβ. Links: the completion of δβ closest to the URDF (weighted minimum norm), one of many — \
                    base parameters do not fix the link inertials one by one",
@@ -168,6 +169,7 @@ pub(super) fn inertial_json(ex: &Explained) -> Value {
         "folds_won": fit.fold_wins,
         "folds": fit.folds,
         "delta_bic": fit.delta_bic,
+        "constant_beside_base": fit.constants.iter().map(|j| jkey(*j)).collect::<Vec<_>>(),
         "first_pass_effects_set_aside": fit.set_aside.iter().map(|(j, e)| json!({"target": jkey(*j), "effect": e.name()})).collect::<Vec<_>>(),
         "base_parameters": Value::Object(base),
         "links": links,
