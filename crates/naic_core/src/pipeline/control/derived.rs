@@ -118,6 +118,20 @@ pub fn contact_force(s: &DerivedState, f_m: f64, tool_mass: f64) -> f64 {
     f_m - m * a
 }
 
+/// Whether the law's contact regime runs the approach instead of the force loop: no contact
+/// in evidence. With hysteresis between the contact thresholds: it starts when the contact
+/// force `f_c` ([`contact_force`]) falls below `f_exit` (the level at which contact counts as
+/// left) and ends when `f_c` exceeds `f_enter` (the level at which contact is entered), so a
+/// force rising through the thresholds after a touch does not switch the law back and forth.
+/// Only where the target itself is in evidence, `f_d > f_enter`: below that a force under
+/// the thresholds is what the law is asked to hold, not a lost contact.
+pub fn contact_lost(was: bool, f_c: f64, f_d: f64, f_enter: f64, f_exit: f64) -> bool {
+    if !(f_d > f_enter) || f_c.is_nan() {
+        return false;
+    }
+    if was { f_c <= f_enter } else { f_c < f_exit }
+}
+
 /// The force rise before the loop reacts when the tool meets a surface of stiffness
 /// `k_upper` at speed `v`: `k̄ v (d + ½) T` [N] (the reported bound of a guarded approach).
 pub fn impact_bound(p: &DerivedParams, v: f64, k_upper: f64, period: f64) -> f64 {
@@ -171,11 +185,16 @@ pub struct DerivedState {
     /// The acceleration along n commanded last cycle [m/s²] (the tool's inertial force in
     /// [`contact_force`]).
     pub a_cmd: f64,
+    /// The contact regime runs the approach: no contact in evidence ([`contact_lost`]).
+    pub approaching: bool,
+    /// The tip's position along n [m] at the last cycle of this contact with contact in
+    /// evidence (the contact force above the entry level); NaN before any.
+    pub x_touch: f64,
 }
 
 impl DerivedState {
     pub fn new(_p: &DerivedParams) -> Self {
-        Self { integral: 0.0, f_ref: 0.0, f_ref_low: 0.0, f_ref_high: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0, a_cmd: 0.0 }
+        Self { integral: 0.0, f_ref: 0.0, f_ref_low: 0.0, f_ref_high: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0, a_cmd: 0.0, approaching: false, x_touch: f64::NAN }
     }
 
     /// A new contact with force `f`: `I = 0`, every reference response starts at `f` (the
@@ -370,6 +389,22 @@ mod tests {
             eprintln!("k_e {k_e}: max |I| {i_max:.4} N");
             assert!(i_max <= 0.02 * f_d, "k_e {k_e}: |I| reached {i_max} N");
         }
+    }
+
+    #[test]
+    fn contact_is_lost_with_hysteresis_and_only_for_a_target_in_evidence() {
+        let (enter, exit) = (0.5, 0.2);
+        // In the force loop: a force between the thresholds keeps it; below the exit level it is lost.
+        assert!(!contact_lost(false, 0.3, 10.0, enter, exit));
+        assert!(contact_lost(false, 0.1, 10.0, enter, exit));
+        // Approaching: it stays until the force exceeds the entry level.
+        assert!(contact_lost(true, 0.3, 10.0, enter, exit));
+        assert!(contact_lost(true, 0.5, 10.0, enter, exit));
+        assert!(!contact_lost(true, 0.6, 10.0, enter, exit));
+        // A target at or below the entry level (a release to 0 N): never an approach.
+        assert!(!contact_lost(false, 0.0, 0.5, enter, exit));
+        assert!(!contact_lost(true, 0.0, 0.0, enter, exit));
+        assert!(!contact_lost(false, f64::NAN, 10.0, enter, exit));
     }
 
     #[test]

@@ -335,15 +335,29 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
             let inputs = DerivedInputs { e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, mass: u.pre.mass_n, estimate: est, k_known: sched.k_known };
             let (s, r) = derived::step(dp, fl.lambda, fl.integral_limit_n, &next_der, &inputs);
             // No contact in evidence (the force less the tool's inertial force below the
-            // contact threshold, [`derived::contact_force`]): the tip may be in the air (a
-            // contact entered on the tool's inertial wrench, or left), and its next touch is
+            // contact exit level, until it exceeds the entry level again:
+            // [`derived::contact_force`], [`derived::contact_lost`]): the tip may be in the air
+            // (a contact entered on the tool's inertial wrench, or left), and its next touch is
             // an impact. The law then runs its free-space approach ([`derived_approach`]), so
             // that touch is no harder than a first contact; the integral is held and the
             // reference responses restart from the measured force (no wind-up against a force
-            // the approach withholds). With force in evidence the law is as designed.
+            // the approach withholds). With force in evidence the law is as designed. A tip at
+            // or beyond the position where contact was last in evidence (a force above the
+            // entry level, and a surface the estimator has located: `k_lower > 0`) has not left
+            // the surface: a force that falls there says the surface is softer (a switch of
+            // material), which is the force loop's to follow, not an impact to come.
             let f_c = derived::contact_force(der, u.f_ext, u.pre.tool_mass);
-            let approach = (f_c < contact_threshold(p)).then(|| derived_approach(p, &est, u, sched.approach_integral));
-            next_der = if approach.is_some() { DerivedState { integral: next_der.integral, ..s.rearm(u.f_ext) } } else { s };
+            let in_evidence = f_c > contact_threshold(p) && est.k_lower > 0.0;
+            let x_touch = if in_evidence { u.x } else if u.entered { f64::NAN } else { der.x_touch };
+            // (within one count of the tip's position resolution)
+            let beyond_touch = x_touch.is_finite() && u.x >= x_touch - dp.x_resolution;
+            let lost = !beyond_touch && derived::contact_lost(der.approaching && !u.entered, f_c, u.f_d, contact_threshold(p), p.contact.exit_n);
+            let approach = lost.then(|| derived_approach(p, &est, u, sched.approach_integral));
+            next_der = if lost {
+                DerivedState { integral: next_der.integral, approaching: true, x_touch, ..s.rearm(u.f_ext) }
+            } else {
+                DerivedState { approaching: false, x_touch, ..s }
+            };
             // The shared law state reports the gains (Status, /naic/params).
             next_law = ForceLawState { m_d: s.m_d, b_d: s.b_d, sigma: s.k_i * fl.lambda, phi: s.integral / s.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
             // The approach servo's integral `a_i` is the free-space estimate of the constant
@@ -690,6 +704,54 @@ mod tests {
                 assert!(rise <= dp.impact_fraction * f_d * 1.02, "d {d}: with the surface expected the touch adds {rise} N");
             }
         }
+    }
+
+    /// A surface that turns soft under the tool (acrylic → foam: the force falls to almost 0
+    /// at the same depth) has not been left: the tip is beyond the position where contact
+    /// was in evidence (a force, and a surface the estimator has located), so the force loop
+    /// follows it down and no approach runs.
+    #[test]
+    fn a_surface_that_softens_under_the_tool_is_not_a_lost_contact() {
+        let (t, m_t, d, f_d) = (1e-3, 0.424, 1usize, 3.0);
+        let mut p = params(Mode::Derived, None);
+        p.force_law.derived.delay_cycles = d as f64;
+        let mut s = super::super::ControlState::new(&p);
+        // The tool comes down onto the stiff surface from 0.5 mm above, holds f_d, and at
+        // `n_soft` the surface under it turns soft at the depth it is pressed to.
+        let (k_stiff, k_soft, n_soft) = (50_000.0f64, 1_000.0f64, 3_000usize);
+        let (mut x, mut v, mut a) = (-0.5e-3f64, 0.0f64, 0.0f64);
+        let mut cmds = std::collections::VecDeque::from(vec![0.0; d]);
+        let (mut approached, mut f_last, mut x_e) = (0usize, 0.0, 0.0);
+        for n in 0..n_soft + 5_000 {
+            if n == n_soft {
+                // the soft surface's own rest position: 0.06 N at the depth the tool is at
+                x_e = x - 0.06 / k_soft;
+            }
+            let k_e = if n < n_soft { k_stiff } else { k_soft };
+            let f = k_e * (x - x_e).max(0.0) + m_t * a;
+            let mut u = free_inputs(&p, x, v, f_d);
+            u.regime = Regime::Contact;
+            u.prev_phase = Phase::Contact;
+            u.entered = n == 0;
+            u.f_ext = f;
+            u.pre = Prepared { mass_n: 3.19, tool_mass: m_t, ..Prepared::default() };
+            let (l, sc, de, out) = step(&p, &s.law, &s.sched, &s.derived, &u);
+            (s.law, s.sched, s.derived) = (l, sc, de);
+            if n == n_soft - 1 {
+                assert!(s.derived.x_touch.is_finite(), "no contact in evidence after {n} cycles on the stiff surface: the test's precondition");
+                assert!((f - f_d).abs() < 0.1 * f_d, "not holding f_d on the stiff surface before the switch: {f} N");
+            }
+            if n >= n_soft && s.derived.approaching {
+                approached += 1;
+            }
+            cmds.push_back(out.xdd.unwrap());
+            a = cmds.pop_front().unwrap();
+            v += a * t;
+            x += v * t;
+            f_last = k_e * (x - x_e).max(0.0);
+        }
+        assert_eq!(approached, 0, "the law ran its approach for {approached} cycles on a surface it never left");
+        assert!((f_last - f_d).abs() < 0.1 * f_d, "the force loop did not follow the soft surface: {f_last} N against {f_d} N");
     }
 
     /// With no force target (`f_d ≤ 0`) nothing bounds the speed but `approach_speed`.
