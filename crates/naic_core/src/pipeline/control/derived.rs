@@ -188,13 +188,13 @@ pub struct DerivedState {
     /// The contact regime runs the approach: no contact in evidence ([`contact_lost`]).
     pub approaching: bool,
     /// The tip's position along n [m] at the last cycle of this contact with contact in
-    /// evidence (the contact force above the entry level); NaN before any.
-    pub x_touch: f64,
+    /// evidence (the contact force above the entry level, a located surface); `None` before any.
+    pub x_touch: Option<f64>,
 }
 
 impl DerivedState {
     pub fn new(_p: &DerivedParams) -> Self {
-        Self { integral: 0.0, f_ref: 0.0, f_ref_low: 0.0, f_ref_high: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0, a_cmd: 0.0, approaching: false, x_touch: f64::NAN }
+        Self { integral: 0.0, f_ref: 0.0, f_ref_low: 0.0, f_ref_high: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0, a_cmd: 0.0, approaching: false, x_touch: None }
     }
 
     /// A new contact with force `f`: `I = 0`, every reference response starts at `f` (the

@@ -348,9 +348,9 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
             // material), which is the force loop's to follow, not an impact to come.
             let f_c = derived::contact_force(der, u.f_ext, u.pre.tool_mass);
             let in_evidence = f_c > contact_threshold(p) && est.k_lower > 0.0;
-            let x_touch = if in_evidence { u.x } else if u.entered { f64::NAN } else { der.x_touch };
+            let x_touch = if in_evidence && u.x.is_finite() { Some(u.x) } else if u.entered { None } else { der.x_touch };
             // (within one count of the tip's position resolution)
-            let beyond_touch = x_touch.is_finite() && u.x >= x_touch - dp.x_resolution;
+            let beyond_touch = x_touch.is_some_and(|x_t| u.x >= x_t - dp.x_resolution);
             let lost = !beyond_touch && derived::contact_lost(der.approaching && !u.entered, f_c, u.f_d, contact_threshold(p), p.contact.exit_n);
             let approach = lost.then(|| derived_approach(p, &est, u, sched.approach_integral));
             next_der = if lost {
@@ -738,7 +738,7 @@ mod tests {
             let (l, sc, de, out) = step(&p, &s.law, &s.sched, &s.derived, &u);
             (s.law, s.sched, s.derived) = (l, sc, de);
             if n == n_soft - 1 {
-                assert!(s.derived.x_touch.is_finite(), "no contact in evidence after {n} cycles on the stiff surface: the test's precondition");
+                assert!(s.derived.x_touch.is_some(), "no contact in evidence after {n} cycles on the stiff surface: the test's precondition");
                 assert!((f - f_d).abs() < 0.1 * f_d, "not holding f_d on the stiff surface before the switch: {f} N");
             }
             if n >= n_soft && s.derived.approaching {
