@@ -366,7 +366,7 @@ pub fn update<const N: usize>(
         a_d: r.a_d,
         f_e,
         f_d: r.f_d,
-        pre: control::law::Prepared { shaper, a_free, mass_n },
+        pre: control::law::Prepared { shaper, a_free, mass_n, tool_mass: p.tool.mass },
     };
     let out = control::update(&p.control, &mut next.control, &task);
 

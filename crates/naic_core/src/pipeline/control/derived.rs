@@ -106,6 +106,32 @@ pub fn braking_speed(p: &DerivedParams, f_d: f64, k_upper: f64, period: f64, s: 
     if v.is_finite() { v.max(v_c) } else { v_c }
 }
 
+/// The force read for the law's contact decisions: the measured `f_m` less the tool's
+/// inertial force along n, `m_t ẍ`, with `ẍ` the acceleration the law commanded last cycle
+/// ([`DerivedState::a_cmd`]) and `m_t` the tool's mass beyond the sensor [kg]. The sensor
+/// reads the tool's `m_t (g − a)`; the tare and the weight take out `m_t g`, the rest reads
+/// as a push when the tool accelerates toward the surface: 0.42 kg × 6 m/s² = 2.5 N on the
+/// JK5, five times the contact threshold, with the tip 3 mm in the air.
+pub fn contact_force(s: &DerivedState, f_m: f64, tool_mass: f64) -> f64 {
+    let m = if tool_mass.is_finite() && tool_mass > 0.0 { tool_mass } else { 0.0 };
+    let a = if s.a_cmd.is_finite() { s.a_cmd } else { 0.0 };
+    f_m - m * a
+}
+
+/// Whether the law's contact regime runs the approach instead of the force loop: no contact
+/// in evidence. With hysteresis between the contact thresholds: it starts when the contact
+/// force `f_c` ([`contact_force`]) falls below `f_exit` (the level at which contact counts as
+/// left) and ends when `f_c` exceeds `f_enter` (the level at which contact is entered), so a
+/// force rising through the thresholds after a touch does not switch the law back and forth.
+/// Only where the target itself is in evidence, `f_d > f_enter`: below that a force under
+/// the thresholds is what the law is asked to hold, not a lost contact.
+pub fn contact_lost(was: bool, f_c: f64, f_d: f64, f_enter: f64, f_exit: f64) -> bool {
+    if !(f_d > f_enter) || f_c.is_nan() {
+        return false;
+    }
+    if was { f_c <= f_enter } else { f_c < f_exit }
+}
+
 /// The force rise before the loop reacts when the tool meets a surface of stiffness
 /// `k_upper` at speed `v`: `k̄ v (d + ½) T` [N] (the reported bound of a guarded approach).
 pub fn impact_bound(p: &DerivedParams, v: f64, k_upper: f64, period: f64) -> f64 {
@@ -156,11 +182,19 @@ pub struct DerivedState {
     pub m_d: f64,
     pub b_d: f64,
     pub k_i: f64,
+    /// The acceleration along n commanded last cycle [m/s²] (the tool's inertial force in
+    /// [`contact_force`]).
+    pub a_cmd: f64,
+    /// The contact regime runs the approach: no contact in evidence ([`contact_lost`]).
+    pub approaching: bool,
+    /// The tip's position along n [m] at the last cycle of this contact with contact in
+    /// evidence (the contact force above the entry level, a located surface); `None` before any.
+    pub x_touch: Option<f64>,
 }
 
 impl DerivedState {
     pub fn new(_p: &DerivedParams) -> Self {
-        Self { integral: 0.0, f_ref: 0.0, f_ref_low: 0.0, f_ref_high: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0 }
+        Self { integral: 0.0, f_ref: 0.0, f_ref_low: 0.0, f_ref_high: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0, a_cmd: 0.0, approaching: false, x_touch: None }
     }
 
     /// A new contact with force `f`: `I = 0`, every reference response starts at `f` (the
@@ -268,7 +302,7 @@ pub fn confidence(e: &ContactEstimate) -> f64 {
 /// cycle).
 pub fn commanded(s: &DerivedState, mass: f64, xdd_n: f64, f_ext: f64) -> DerivedState {
     let u = if mass.is_finite() { mass * xdd_n + f_ext } else { f_ext };
-    DerivedState { u_prev: if u.is_finite() { u } else { 0.0 }, ..*s }
+    DerivedState { u_prev: if u.is_finite() { u } else { 0.0 }, a_cmd: if xdd_n.is_finite() { xdd_n } else { 0.0 }, ..*s }
 }
 
 #[cfg(test)]
@@ -355,6 +389,22 @@ mod tests {
             eprintln!("k_e {k_e}: max |I| {i_max:.4} N");
             assert!(i_max <= 0.02 * f_d, "k_e {k_e}: |I| reached {i_max} N");
         }
+    }
+
+    #[test]
+    fn contact_is_lost_with_hysteresis_and_only_for_a_target_in_evidence() {
+        let (enter, exit) = (0.5, 0.2);
+        // In the force loop: a force between the thresholds keeps it; below the exit level it is lost.
+        assert!(!contact_lost(false, 0.3, 10.0, enter, exit));
+        assert!(contact_lost(false, 0.1, 10.0, enter, exit));
+        // Approaching: it stays until the force exceeds the entry level.
+        assert!(contact_lost(true, 0.3, 10.0, enter, exit));
+        assert!(contact_lost(true, 0.5, 10.0, enter, exit));
+        assert!(!contact_lost(true, 0.6, 10.0, enter, exit));
+        // A target at or below the entry level (a release to 0 N): never an approach.
+        assert!(!contact_lost(false, 0.0, 0.5, enter, exit));
+        assert!(!contact_lost(true, 0.0, 0.0, enter, exit));
+        assert!(!contact_lost(false, f64::NAN, 10.0, enter, exit));
     }
 
     #[test]

@@ -23,6 +23,7 @@
 use nalgebra::Vector3;
 
 use super::force_law::{self, ForceLawInputs, ForceLawOutputs, ForceLawState, Mode};
+use super::contact::ContactEstimate;
 use super::derived::{self, DerivedInputs, DerivedState};
 use super::stiction;
 use super::scheduled::{self, ScheduledInputs, ScheduledParams, ScheduledState, Shaper};
@@ -52,11 +53,15 @@ pub struct Prepared {
     /// The model's apparent mass along `n` at this pose, `D̂ = 1 / (nᵀ J M⁻¹ Jᵀ n)` [kg]
     /// (NaN: not computed; [`needs_apparent_mass`]).
     pub mass_n: f64,
+    /// `m_t`: the mass of the tool beyond the F/T sensor [kg] (the robot file's tool, the
+    /// URDF's `ft_sensor` link), whose inertial force `m_t ẍ` the sensor reads with the
+    /// contact force (0: none known).
+    pub tool_mass: f64,
 }
 
 impl Default for Prepared {
     fn default() -> Self {
-        Self { shaper: None, a_free: f64::NAN, mass_n: f64::NAN }
+        Self { shaper: None, a_free: f64::NAN, mass_n: f64::NAN, tool_mass: 0.0 }
     }
 }
 
@@ -296,6 +301,23 @@ pub fn update(p: &ControlParams, law: &mut ForceLawState, sched: &mut ScheduledS
     update_scheduled_or_paper(p, law, sched, u)
 }
 
+/// The derived law's approach along n: the scheduled law's PI approach servo at most
+/// `approach_speed`; toward an expected surface on the braking profile that reaches the
+/// impact-bounded speed `ε f_d / (k̄ (d + ½) T)` `δ` before it (derived::braking_speed): the
+/// profile is the servo's speed limit at every distance (`band` unbounded), not
+/// `approach_band_speed` within `approach_band`. Returns `(ẍ_n, a_i, v_t)`: the command, the
+/// servo's integral and its target speed.
+fn derived_approach(p: &ControlParams, est: &ContactEstimate, u: &AxisInputs, integral: f64) -> (f64, f64, f64) {
+    let fl = &p.force_law;
+    let dp = &fl.derived;
+    let k_up = if est.k_upper.is_finite() && est.k_upper > 0.0 { est.k_upper } else { dp.contact.k_max };
+    let v_b = derived::braking_speed(dp, u.f_d, k_up, fl.lambda, u.surface_n - u.x, u.x_dot, u.free_b / u.free_m);
+    let ap = &scheduled::ApproachParams { speed: v_b.min(fl.scheduled.approach.max_speed), band: f64::INFINITY, ..fl.scheduled.approach };
+    let free = scheduled::ApproachAxis { m: u.free_m, b: u.free_b, k: u.free_k, e: u.e, v_d: u.v_d, a_d: u.a_d };
+    let (a_n, e) = scheduled::approach_accel(ap, u.surface_n, u.x, u.x_dot, free, u.v_n, integral, fl.lambda);
+    (a_n, e, scheduled::approach_target(ap, u.surface_n, u.x, &free))
+}
+
 /// The derived law ([`super::derived`]): its step in contact, the scheduled law's approach
 /// servo in free space; the contact estimator every cycle (its history pairs the delayed
 /// force); no gravity factor or model gain; in contact the friction feedforward at the
@@ -312,33 +334,53 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
         Regime::Contact => {
             let inputs = DerivedInputs { e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, mass: u.pre.mass_n, estimate: est, k_known: sched.k_known };
             let (s, r) = derived::step(dp, fl.lambda, fl.integral_limit_n, &next_der, &inputs);
-            next_der = s;
+            // No contact in evidence (the force less the tool's inertial force below the
+            // contact exit level, until it exceeds the entry level again:
+            // [`derived::contact_force`], [`derived::contact_lost`]): the tip may be in the air
+            // (a contact entered on the tool's inertial wrench, or left), and its next touch is
+            // an impact. The law then runs its free-space approach ([`derived_approach`]), so
+            // that touch is no harder than a first contact; the integral is held and the
+            // reference responses restart from the measured force (no wind-up against a force
+            // the approach withholds). With force in evidence the law is as designed. A tip at
+            // or beyond the position where contact was last in evidence (a force above the
+            // entry level, and a surface the estimator has located: `k_lower > 0`) has not left
+            // the surface: a force that falls there says the surface is softer (a switch of
+            // material), which is the force loop's to follow, not an impact to come.
+            let f_c = derived::contact_force(der, u.f_ext, u.pre.tool_mass);
+            let in_evidence = f_c > contact_threshold(p) && est.k_lower > 0.0;
+            let x_touch = if in_evidence && u.x.is_finite() { Some(u.x) } else if u.entered { None } else { der.x_touch };
+            // (within one count of the tip's position resolution)
+            let beyond_touch = x_touch.is_some_and(|x_t| u.x >= x_t - dp.x_resolution);
+            let lost = !beyond_touch && derived::contact_lost(der.approaching && !u.entered, f_c, u.f_d, contact_threshold(p), p.contact.exit_n);
+            let approach = lost.then(|| derived_approach(p, &est, u, sched.approach_integral));
+            next_der = if lost {
+                DerivedState { integral: next_der.integral, approaching: true, x_touch, ..s.rearm(u.f_ext) }
+            } else {
+                DerivedState { approaching: false, x_touch, ..s }
+            };
             // The shared law state reports the gains (Status, /naic/params).
             next_law = ForceLawState { m_d: s.m_d, b_d: s.b_d, sigma: s.k_i * fl.lambda, phi: s.integral / s.b_d, e_f_prev: r.e_f, edd_prev: r.e_ddot };
             // The approach servo's integral `a_i` is the free-space estimate of the constant
             // acceleration disturbance along n (the model's gravity error, b⁻¹ΔF at rest):
             // it persists in contact, so it stays as a feedforward there (held, not updated)
             // instead of stepping the contact loop by ΔF at the first contact.
-            out.xdd = Some(u.a_d - r.e_ddot + sched.approach_integral);
             out.report = ForceLawOutputs { e_ddot: r.e_ddot, e_f: r.e_f, k_e_hat: r.estimate.k_hat, k_e_confidence: derived::confidence(&r.estimate), ..Default::default() };
-            // The stiction-aware hold (super::stiction): a joint held by its static friction
-            // gets no friction feedforward from its velocity noise.
-            out.friction = stiction::friction_velocity(fl.scheduled.friction_reference, u.regime);
+            if let Some((a_n, e, v_t)) = approach {
+                next_sched.approach_integral = e;
+                out.xdd = Some(a_n);
+                out.v_ref = Some(v_t);
+            } else {
+                out.xdd = Some(u.a_d - r.e_ddot + sched.approach_integral);
+                // The stiction-aware hold (super::stiction): a joint held by its static
+                // friction gets no friction feedforward from its velocity noise.
+                out.friction = stiction::friction_velocity(fl.scheduled.friction_reference, u.regime);
+            }
         }
         Regime::Free => {
-            // The scheduled law's PI approach servo at most `approach_speed`; toward an
-            // expected surface on the braking profile that reaches the impact-bounded speed
-            // `ε f_d / (k̄ (d + ½) T)` `δ` before it (derived::braking_speed): the profile
-            // is the servo's speed limit at every distance (`band` unbounded), not
-            // `approach_band_speed` within `approach_band`.
-            let k_up = if est.k_upper.is_finite() && est.k_upper > 0.0 { est.k_upper } else { dp.contact.k_max };
-            let v_b = derived::braking_speed(dp, u.f_d, k_up, fl.lambda, u.surface_n - u.x, u.x_dot, u.free_b / u.free_m);
-            let ap = &scheduled::ApproachParams { speed: v_b.min(fl.scheduled.approach.max_speed), band: f64::INFINITY, ..fl.scheduled.approach };
-            let free = scheduled::ApproachAxis { m: u.free_m, b: u.free_b, k: u.free_k, e: u.e, v_d: u.v_d, a_d: u.a_d };
-            let (a_n, e) = scheduled::approach_accel(ap, u.surface_n, u.x, u.x_dot, free, u.v_n, next_sched.approach_integral, fl.lambda);
+            let (a_n, e, v_t) = derived_approach(p, &est, u, sched.approach_integral);
             next_sched.approach_integral = e;
             out.xdd = Some(a_n);
-            out.v_ref = Some(scheduled::approach_target(ap, u.surface_n, u.x, &free));
+            out.v_ref = Some(v_t);
             out.report.k_e_hat = est.k_hat;
             out.report.k_e_confidence = derived::confidence(&est);
         }
@@ -597,6 +639,119 @@ mod tests {
                 eprintln!("d {d}, f_d {f_d}, wall {wall}: contact at {v:.5} m/s (v_c {v_c:.5}), rise {rise:.3} N, last 10 mm in {band_time:.3} s (at v_c {flat:.2} s)");
             }
         }
+    }
+
+    /// Issue 42, contact lost (MuJoCo two-material and acrylic runs): the derived law in its
+    /// contact regime with the tip in the air. A point mass realises the command `d` periods
+    /// late; the sensor reads the spring's force plus the tool's inertial force `m_t ẍ`
+    /// (0.424 kg, the JK5's tool) as MuJoCo's and a real one do. The tip starts 20 mm above
+    /// a stiff surface (50 000 N/m) in the contact regime, as after a contact entered on the
+    /// inertial wrench or a bounce. While no force is in evidence the law commands what its
+    /// free approach does (checked cycle by cycle), so it comes back at the approach's speed
+    /// (the impedance's `k/b e`, at most 1.25 × 0.05 m/s here, the servo's 25 % overshoot)
+    /// and the force rises by at most `k v (d + 2) T` (+ 3 σ_f) before the loop answers (the
+    /// touch falls within a period, the answer lands `d` periods later and moves the tip one
+    /// period after): the impact bound of a first contact, in this discrete model. Where the expected surface is known, the braking
+    /// profile brings that touch to `v_c`.
+    #[test]
+    fn a_contact_lost_comes_back_at_the_approach_speed() {
+        let (t, m_t, k_e, f_d) = (1e-3, 0.424, 50_000.0, 3.0);
+        for (d, surface) in [(1usize, None), (2, None), (2, Some(0.0))] {
+            let mut p = params(Mode::Derived, surface);
+            p.force_law.derived.delay_cycles = d as f64;
+            let mut s = super::super::ControlState::new(&p);
+            let (mut x, mut v, mut a) = (-0.02f64, 0.0f64, 0.0f64);
+            let mut cmds = std::collections::VecDeque::from(vec![0.0; d]);
+            let (mut v_touch, mut f_peak, mut n_touch) = (None, 0.0f64, 0usize);
+            for n in 0..20_000 {
+                let f = k_e * x.max(0.0) + m_t * a;
+                let mut u = free_inputs(&p, x, v, f_d);
+                u.regime = Regime::Contact;
+                u.prev_phase = Phase::Contact;
+                u.f_ext = f;
+                u.pre = Prepared { mass_n: 3.19, tool_mass: m_t, ..Prepared::default() };
+                let (l, sc, de, out) = step(&p, &s.law, &s.sched, &s.derived, &u);
+                let xdd = out.xdd.unwrap();
+                if derived::contact_force(&s.derived, f, m_t) < contact_threshold(&p) {
+                    let est = derived::estimate(&p.force_law.derived, &s.derived, x, v, f, false, true, t).1;
+                    let (free, _, _) = derived_approach(&p, &est, &u, s.sched.approach_integral);
+                    assert!((xdd - free).abs() < 1e-9, "d {d}: in the air the law commands {xdd}, its approach {free}");
+                }
+                (s.law, s.sched, s.derived) = (l, sc, de);
+                cmds.push_back(xdd);
+                a = cmds.pop_front().unwrap();
+                v += a * t;
+                x += v * t;
+                if x >= 0.0 && v_touch.is_none() {
+                    v_touch = Some(v);
+                    n_touch = n;
+                }
+                if v_touch.is_some() && n <= n_touch + d + 1 {
+                    f_peak = f_peak.max(k_e * x.max(0.0));
+                }
+                if v_touch.is_some() && n > n_touch + 50 {
+                    break;
+                }
+            }
+            let v_touch = v_touch.unwrap_or_else(|| panic!("d {d}: never came back (x = {x})"));
+            let bound = k_e * v_touch * (d as f64 + 2.0) * t + 3.0 * 0.0625;
+            eprintln!("d {d}, surface {surface:?}: touch at {v_touch:.4} m/s, force {f_peak:.2} N in (d + 2) T (bound {bound:.2} N)");
+            assert!(v_touch <= 1.25 * 0.05, "d {d}: came back at {v_touch} m/s");
+            assert!(f_peak <= bound, "d {d}: {f_peak} N > {bound} N");
+            if surface.is_some() {
+                let dp = &p.force_law.derived;
+                let rise = derived::impact_bound(dp, v_touch, dp.contact.k_max, t);
+                assert!(rise <= dp.impact_fraction * f_d * 1.02, "d {d}: with the surface expected the touch adds {rise} N");
+            }
+        }
+    }
+
+    /// A surface that turns soft under the tool (acrylic → foam: the force falls to almost 0
+    /// at the same depth) has not been left: the tip is beyond the position where contact
+    /// was in evidence (a force, and a surface the estimator has located), so the force loop
+    /// follows it down and no approach runs.
+    #[test]
+    fn a_surface_that_softens_under_the_tool_is_not_a_lost_contact() {
+        let (t, m_t, d, f_d) = (1e-3, 0.424, 1usize, 3.0);
+        let mut p = params(Mode::Derived, None);
+        p.force_law.derived.delay_cycles = d as f64;
+        let mut s = super::super::ControlState::new(&p);
+        // The tool comes down onto the stiff surface from 0.5 mm above, holds f_d, and at
+        // `n_soft` the surface under it turns soft at the depth it is pressed to.
+        let (k_stiff, k_soft, n_soft) = (50_000.0f64, 1_000.0f64, 3_000usize);
+        let (mut x, mut v, mut a) = (-0.5e-3f64, 0.0f64, 0.0f64);
+        let mut cmds = std::collections::VecDeque::from(vec![0.0; d]);
+        let (mut approached, mut f_last, mut x_e) = (0usize, 0.0, 0.0);
+        for n in 0..n_soft + 5_000 {
+            if n == n_soft {
+                // the soft surface's own rest position: 0.06 N at the depth the tool is at
+                x_e = x - 0.06 / k_soft;
+            }
+            let k_e = if n < n_soft { k_stiff } else { k_soft };
+            let f = k_e * (x - x_e).max(0.0) + m_t * a;
+            let mut u = free_inputs(&p, x, v, f_d);
+            u.regime = Regime::Contact;
+            u.prev_phase = Phase::Contact;
+            u.entered = n == 0;
+            u.f_ext = f;
+            u.pre = Prepared { mass_n: 3.19, tool_mass: m_t, ..Prepared::default() };
+            let (l, sc, de, out) = step(&p, &s.law, &s.sched, &s.derived, &u);
+            (s.law, s.sched, s.derived) = (l, sc, de);
+            if n == n_soft - 1 {
+                assert!(s.derived.x_touch.is_some(), "no contact in evidence after {n} cycles on the stiff surface: the test's precondition");
+                assert!((f - f_d).abs() < 0.1 * f_d, "not holding f_d on the stiff surface before the switch: {f} N");
+            }
+            if n >= n_soft && s.derived.approaching {
+                approached += 1;
+            }
+            cmds.push_back(out.xdd.unwrap());
+            a = cmds.pop_front().unwrap();
+            v += a * t;
+            x += v * t;
+            f_last = k_e * (x - x_e).max(0.0);
+        }
+        assert_eq!(approached, 0, "the law ran its approach for {approached} cycles on a surface it never left");
+        assert!((f_last - f_d).abs() < 0.1 * f_d, "the force loop did not follow the soft surface: {f_last} N against {f_d} N");
     }
 
     /// With no force target (`f_d ≤ 0`) nothing bounds the speed but `approach_speed`.

@@ -537,7 +537,7 @@ mod tests {
 
     /// What the controller computes for a law on the unit point mass below: its apparent
     /// mass along any n is 1 kg (the derived law's `D̂`).
-    const POINT_MASS: law::Prepared = law::Prepared { shaper: None, a_free: f64::NAN, mass_n: 1.0 };
+    const POINT_MASS: law::Prepared = law::Prepared { shaper: None, a_free: f64::NAN, mass_n: 1.0, tool_mass: 0.0 };
 
     fn params(mode: Mode) -> ControlParams {
         ControlParams {
