@@ -17,6 +17,7 @@ use naic_sim::metrics::MetricsFile;
 use naic_sim::plant::{self, Integrator, PlantParams};
 use naic_sim::plants::{PlantChoice, DEFAULT_MJCF};
 use naic_sim::rng::Rng;
+use naic_core::pipeline::control::derived::DerivedParts;
 use naic_sim::runner::{self, RunResult};
 use naic_sim::scenario::{self, Scenario, SCENARIOS};
 use naic_sim::sensor::{Encoders, Mini45};
@@ -150,6 +151,25 @@ pub struct SimArgs {
     /// docs/simulation.md for what at-rest does on a sensor that reads the tool's inertia].
     #[arg(long, value_name = "at-rest|moving")]
     pub tare: Option<String>,
+    /// Ablation study of the derived law (and derived_oracle): run it with these parts off,
+    /// comma-separated: disturbance-feedforward, stiction-hold, contact-loss, reference-band,
+    /// tool-inertia (docs/controller.md) [default: none; every part on].
+    #[arg(long, value_name = "PART[,PART]")]
+    pub ablate: Option<String>,
+}
+
+/// The derived law's parts with those `--ablate` names off.
+pub fn derived_parts(ablate: Option<&str>) -> Result<DerivedParts, CliError> {
+    let mut parts = DerivedParts::ALL;
+    for name in ablate.unwrap_or("").split(',').map(str::trim).filter(|n| !n.is_empty()) {
+        parts = parts
+            .without(name)
+            .ok_or_else(|| CliError::usage(format!("--ablate '{name}': use one or more of {}, comma-separated", DerivedParts::NAMES.join(", "))))?;
+    }
+    if ablate.is_some() && parts == DerivedParts::ALL {
+        return Err(CliError::usage(format!("--ablate: give a part to turn off ({})", DerivedParts::NAMES.join(", "))));
+    }
+    Ok(parts)
 }
 
 /// The F/T sensor and tare of a `naic sim` run (`--inertial-wrench`, `--tare`).
@@ -557,12 +577,17 @@ pub fn run(a: SimArgs) -> CliResult {
             let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-held-out", utc_stamp())));
             let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
             let sensor = SensorOpts::from_args(a.inertial_wrench, a.tare.as_deref())?;
-            return super::sim_heldout::run(&out, a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice, sensor, a.controller.as_deref());
+            let parts = derived_parts(a.ablate.as_deref())?;
+            if parts != DerivedParts::ALL && !matches!(a.controller.as_deref(), Some("derived")) {
+                return Err(CliError::usage("--held-out --ablate changes the derived law only: add --controller derived"));
+            }
+            return super::sim_heldout::run(&out, a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice, sensor, a.controller.as_deref(), parts);
         }
         let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-table", utc_stamp())));
         let choice = plant_choice(a.plant.as_deref(), a.mjcf.clone())?;
         let sensor = SensorOpts::from_args(a.inertial_wrench, a.tare.as_deref())?;
-        return super::sim_table::run(&out, a.seeds.unwrap_or(5), a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice, sensor);
+        let parts = derived_parts(a.ablate.as_deref())?;
+        return super::sim_table::run(&out, a.seeds.unwrap_or(5), a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice, sensor, parts);
     }
     let name = a.scenario.clone().unwrap_or_else(|| "flat".into());
     if !SCENARIOS.contains(&name.as_str()) {
@@ -612,7 +637,11 @@ pub fn run(a: SimArgs) -> CliResult {
         }
     }
     let sensor = SensorOpts::from_args(a.inertial_wrench, a.tare.as_deref())?;
-    let mut settings = LoopSettings { tare_at_rest: sensor.tare_at_rest, tare_inertial: sensor.tare_inertial(&choice), ..LoopSettings::default() };
+    let derived_parts = derived_parts(a.ablate.as_deref())?;
+    if derived_parts != DerivedParts::ALL && !modes.iter().all(|m| m.starts_with("derived")) {
+        return Err(CliError::usage("--ablate changes the derived law only: give --controller derived or derived_oracle"));
+    }
+    let mut settings = LoopSettings { tare_at_rest: sensor.tare_at_rest, tare_inertial: sensor.tare_inertial(&choice), derived_parts, ..LoopSettings::default() };
     if let Some(g) = a.gamma {
         if !(g >= 0.0 && g.is_finite()) {
             return Err(CliError::usage(format!("--gamma {g}: must be a finite number >= 0")));
@@ -920,4 +949,22 @@ pub fn bench(a: SimBenchArgs) -> CliResult {
 /// The 1-minute load average (`/proc/loadavg`), to say how busy the machine was.
 fn load_average() -> Option<f64> {
     std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--ablate` turns off the parts it names and refuses a name that is not a part, or
+    /// none, naming the parts there are.
+    #[test]
+    fn ablate_names_the_derived_laws_parts() {
+        assert_eq!(derived_parts(None).unwrap(), DerivedParts::ALL);
+        let p = derived_parts(Some("stiction-hold, contact-loss")).unwrap();
+        assert_eq!(p.off(), vec!["stiction-hold", "contact-loss"]);
+        for bad in ["gravity", "", ","] {
+            let e = derived_parts(Some(bad)).unwrap_err().to_string();
+            assert!(e.contains("--ablate") && e.contains("reference-band"), "{bad}: {e}");
+        }
+    }
 }

@@ -19,6 +19,7 @@ use naic_sim::runner::{self, RunResult, RunSummary};
 use naic_sim::scenario::{self, Scenario};
 use naic_plot::{Figure, Panel, Series};
 use nalgebra::Vector3;
+use naic_core::pipeline::control::derived::DerivedParts;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -77,6 +78,8 @@ pub(super) struct Ctx {
     pub(super) tool_inertia: nalgebra::Matrix3<f64>,
     /// The sensor's inertial wrench and the tare (`--inertial-wrench`, `--tare`).
     pub(super) sensor: super::sim::SensorOpts,
+    /// The derived law's parts (`--ablate`: all on unless an ablation turns one off).
+    pub(super) parts: DerivedParts,
 }
 
 impl Ctx {
@@ -94,7 +97,7 @@ impl Ctx {
         let urdf_path = urdf.map(Path::to_path_buf).unwrap_or_else(|| super::sim::default_path("urdf/jk5.urdf"));
         let tool = naic_sim::sensor::tool_from_urdf(&urdf_path).map_err(|e| CliError::usage(format!("--urdf: {e}")))?;
         let tool_inertia = super::sim::tool_inertia(&urdf_path)?;
-        Ok(Ctx { plant: plant.clone(), model, friction, tool, tool_inertia, sensor })
+        Ok(Ctx { plant: plant.clone(), model, friction, tool, tool_inertia, sensor, parts: DerivedParts::ALL })
     }
 }
 
@@ -123,6 +126,7 @@ impl Ctx {
             model_mass_error: mass_error,
             tare_at_rest: self.sensor.tare_at_rest,
             tare_inertial: self.sensor.tare_inertial(&self.plant),
+            derived_parts: self.parts,
             ..LoopSettings::default()
         };
         let mut c = PipelineController::by_name(controller, s, &self.model, self.friction.clone(), self.tool, &settings)
@@ -380,12 +384,13 @@ pub fn run(
     no_friction: bool,
     plant: &PlantChoice,
     sensor: super::sim::SensorOpts,
+    parts: DerivedParts,
 ) -> CliResult {
     if seeds == 0 {
         return Err(CliError::usage("--seeds 0: give at least 1"));
     }
     let t0 = std::time::Instant::now();
-    let ctx = Ctx::load(urdf, friction_file, no_friction, plant, sensor)?;
+    let ctx = Ctx { parts, ..Ctx::load(urdf, friction_file, no_friction, plant, sensor)? };
     let mut jobs = Vec::new();
     for seed in 1..=u64::from(seeds) {
         for sc in TABLE_SCENARIOS {
@@ -409,7 +414,7 @@ pub fn run(
         }
     }
     std::fs::create_dir_all(out).map_err(|e| CliError::failure(format!("--out {}: {e}", out.display())))?;
-    eprintln!("naic sim --table: {} runs ({} seeds) -> {}", jobs.len(), seeds, out.display());
+    eprintln!("naic sim --table: {} runs ({} seeds){} -> {}", jobs.len(), seeds, super::sim_heldout::ablation_label(&parts), out.display());
     let done = par_map(
         &jobs,
         |j| {
@@ -431,6 +436,9 @@ pub fn run(
     let get = |sc: &str, c: &str, d: usize| cell_of(sc, c, d).median;
     let mut md = String::new();
     let _ = writeln!(md, "Medians of {seeds} seed(s); d = loop delay [control periods]; settling is \"never\" when the force is outside the band at the end of the phase (median: never if more than half never settle). Overshoot: at first contact and f_d steps beyond the new f_d in % of the step; at a stiffness jump the peak |f − f_d| in % of f_d (the instantaneous jump is physics). Recovery overshoot: after a step or jump, the excursion beyond f_d on the far side once the force has first crossed f_d, in % of f_d. Step / jump columns: flat the 10 → 20 N step at 3 s, stiffness-step the jumps at 2 s and 4 s, two-material the move onto the foam. late p-p: peak-to-peak force over the last 0.5 s.\n");
+    if !parts.off().is_empty() {
+        let _ = writeln!(md, "Ablation: the derived law (and its oracle){}.\n", super::sim_heldout::ablation_label(&parts));
+    }
     md.push_str(HEADER);
     for sc in TABLE_SCENARIOS {
         for d in DELAYS {
@@ -548,7 +556,7 @@ mod tests {
     #[test]
     fn the_table_meets_every_goal_of_issue_12() {
         let out = std::env::temp_dir().join(format!("naic-table-test-{}", std::process::id()));
-        let r = run(&out, 5, None, None, false, &PlantChoice::Own, super::super::sim::SensorOpts { inertial_wrench: false, tare_at_rest: false });
+        let r = run(&out, 5, None, None, false, &PlantChoice::Own, super::super::sim::SensorOpts { inertial_wrench: false, tare_at_rest: false }, DerivedParts::ALL);
         let md = std::fs::read_to_string(out.join("table.md"));
         let _ = std::fs::remove_dir_all(&out);
         r.unwrap_or_else(|e| panic!("naic sim --table: {e}"));

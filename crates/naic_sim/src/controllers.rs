@@ -50,6 +50,9 @@ pub struct LoopSettings {
     /// predicts from the tool's motion out of its samples (`ControllerParams::tare_inertial`):
     /// on MuJoCo and with `--inertial-wrench`. Off: the own plant's sensor, which reads none.
     pub tare_inertial: bool,
+    /// The derived law's parts (`naic sim --ablate`: all on but the ones an ablation study
+    /// turns off).
+    pub derived_parts: naic_core::pipeline::control::derived::DerivedParts,
 }
 
 /// The largest `delay_cycles` the simulated loop supports.
@@ -84,6 +87,7 @@ impl Default for LoopSettings {
             model_mass_error: 1.0,
             tare_at_rest: false,
             tare_inertial: false,
+            derived_parts: naic_core::pipeline::control::derived::DerivedParts::ALL,
         }
     }
 }
@@ -148,6 +152,7 @@ impl<const N: usize> PipelineController<N> {
             // The task's expected surface, and the loop delay the gains are designed for.
             c.force_law.scheduled.approach.expected_surface = scenario.task.expected_surface;
             c.force_law.derived.delay_cycles = settings.delay_cycles as f64;
+            c.force_law.derived.parts = settings.derived_parts;
         }
         if mode == Mode::Scheduled {
             // The task's expected surface (acrylic, two-material): the approach slows down near it.

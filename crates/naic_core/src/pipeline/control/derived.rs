@@ -40,6 +40,63 @@ pub struct DerivedParams {
     /// the braking approach reaches the impact-bounded speed `δ` before the expected
     /// surface ([`braking_speed`]).
     pub surface_uncertainty: f64,
+    /// The law's parts, all on except in an ablation study ([`DerivedParts`]).
+    pub parts: DerivedParts,
+}
+
+/// The parts of the law beyond the designed loop (the gains of the rule, the estimator and
+/// the approach), each of which an ablation (`naic sim --ablate NAME`) can turn off to
+/// measure what it pays on held-out cases (issue 42 item 7). Not parameters: the nodes run
+/// every part; only the simulator's ablation study turns one off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DerivedParts {
+    /// The approach servo's integral `a_i` (the constant acceleration disturbance along n)
+    /// kept as a feedforward in contact (off: the contact command starts without it).
+    pub disturbance_feedforward: bool,
+    /// The stiction-aware hold: in contact the friction feedforward at the reference blend
+    /// ([`crate::pipeline::control::stiction`]; off: at the measured velocity).
+    pub stiction_hold: bool,
+    /// The contact-loss rule ([`contact_lost`]; off: the force loop runs throughout contact).
+    pub contact_loss: bool,
+    /// The integral on the force's distance from the band of reference responses (off: on
+    /// the force error `f_d − f_m`, the classical integral).
+    pub reference_band: bool,
+    /// The tool's inertial force `m_t ẍ_cmd` out of the contact decisions' force
+    /// ([`contact_force`]; off: the measured force).
+    pub tool_inertia: bool,
+}
+
+impl DerivedParts {
+    /// Every part on (the law as designed).
+    pub const ALL: Self = Self { disturbance_feedforward: true, stiction_hold: true, contact_loss: true, reference_band: true, tool_inertia: true };
+    /// The parts' names (`naic sim --ablate`).
+    pub const NAMES: [&'static str; 5] = ["disturbance-feedforward", "stiction-hold", "contact-loss", "reference-band", "tool-inertia"];
+
+    /// These parts with the one named `name` off (`None`: no part of that name).
+    pub fn without(self, name: &str) -> Option<Self> {
+        let mut p = self;
+        match name {
+            "disturbance-feedforward" => p.disturbance_feedforward = false,
+            "stiction-hold" => p.stiction_hold = false,
+            "contact-loss" => p.contact_loss = false,
+            "reference-band" => p.reference_band = false,
+            "tool-inertia" => p.tool_inertia = false,
+            _ => return None,
+        }
+        Some(p)
+    }
+
+    /// The names of the parts that are off, in [`Self::NAMES`]' order.
+    pub fn off(&self) -> Vec<&'static str> {
+        let on = [self.disturbance_feedforward, self.stiction_hold, self.contact_loss, self.reference_band, self.tool_inertia];
+        Self::NAMES.iter().zip(on).filter(|(_, on)| !on).map(|(n, _)| *n).collect()
+    }
+}
+
+impl Default for DerivedParts {
+    fn default() -> Self {
+        Self::ALL
+    }
 }
 
 /// Default [`DerivedParams::impact_fraction`]: the impact on the stiffest surface expected
@@ -54,7 +111,7 @@ pub const SURFACE_UNCERTAINTY: f64 = 1.0e-3;
 impl Default for DerivedParams {
     fn default() -> Self {
         // 1.5 µm: the JK5's 20-bit encoders at its ~0.5 m reach; 1/16 N: the mini45's count.
-        Self { delay_cycles: 1.0, k_min: 100.0, x_resolution: 1.5e-6, force_noise: 0.0625, contact: ContactParams::default(), impact_fraction: IMPACT_FRACTION, surface_uncertainty: SURFACE_UNCERTAINTY }
+        Self { delay_cycles: 1.0, k_min: 100.0, x_resolution: 1.5e-6, force_noise: 0.0625, contact: ContactParams::default(), impact_fraction: IMPACT_FRACTION, surface_uncertainty: SURFACE_UNCERTAINTY, parts: DerivedParts::ALL }
     }
 }
 
@@ -277,7 +334,15 @@ pub fn step(p: &DerivedParams, period: f64, integral_limit: f64, s: &DerivedStat
     // rest every response reaches `f_d`, the band closes, and a steady error is integrated
     // as before; with the bounds met (the oracle) the band is the one reference.
     let (lo, hi) = (s.f_ref.min(s.f_ref_low).min(s.f_ref_high), s.f_ref.max(s.f_ref_low).max(s.f_ref_high));
-    let unexplained = if u.f_ext < lo { lo - u.f_ext } else if u.f_ext > hi { hi - u.f_ext } else { 0.0 };
+    let unexplained = if !p.parts.reference_band {
+        -e_f
+    } else if u.f_ext < lo {
+        lo - u.f_ext
+    } else if u.f_ext > hi {
+        hi - u.f_ext
+    } else {
+        0.0
+    };
     next.integral = (s.integral + g.k_i * period * unexplained).clamp(-lim, lim);
     let k_high = est.k_upper.max(k_lower);
     let k_ref = est.k_hat.clamp(k_lower, k_high);

@@ -346,12 +346,12 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
             // entry level, and a surface the estimator has located: `k_lower > 0`) has not left
             // the surface: a force that falls there says the surface is softer (a switch of
             // material), which is the force loop's to follow, not an impact to come.
-            let f_c = derived::contact_force(der, u.f_ext, u.pre.tool_mass);
+            let f_c = derived::contact_force(der, u.f_ext, if dp.parts.tool_inertia { u.pre.tool_mass } else { 0.0 });
             let in_evidence = f_c > contact_threshold(p) && est.k_lower > 0.0;
             let x_touch = if in_evidence && u.x.is_finite() { Some(u.x) } else if u.entered { None } else { der.x_touch };
             // (within one count of the tip's position resolution)
             let beyond_touch = x_touch.is_some_and(|x_t| u.x >= x_t - dp.x_resolution);
-            let lost = !beyond_touch && derived::contact_lost(der.approaching && !u.entered, f_c, u.f_d, contact_threshold(p), p.contact.exit_n);
+            let lost = dp.parts.contact_loss && !beyond_touch && derived::contact_lost(der.approaching && !u.entered, f_c, u.f_d, contact_threshold(p), p.contact.exit_n);
             let approach = lost.then(|| derived_approach(p, &est, u, sched.approach_integral));
             next_der = if lost {
                 DerivedState { integral: next_der.integral, approaching: true, x_touch, ..s.rearm(u.f_ext) }
@@ -370,10 +370,13 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
                 out.xdd = Some(a_n);
                 out.v_ref = Some(v_t);
             } else {
-                out.xdd = Some(u.a_d - r.e_ddot + sched.approach_integral);
+                let a_i = if dp.parts.disturbance_feedforward { sched.approach_integral } else { 0.0 };
+                out.xdd = Some(u.a_d - r.e_ddot + a_i);
                 // The stiction-aware hold (super::stiction): a joint held by its static
                 // friction gets no friction feedforward from its velocity noise.
-                out.friction = stiction::friction_velocity(fl.scheduled.friction_reference, u.regime);
+                if dp.parts.stiction_hold {
+                    out.friction = stiction::friction_velocity(fl.scheduled.friction_reference, u.regime);
+                }
             }
         }
         Regime::Free => {
@@ -752,6 +755,62 @@ mod tests {
         }
         assert_eq!(approached, 0, "the law ran its approach for {approached} cycles on a surface it never left");
         assert!((f_last - f_d).abs() < 0.1 * f_d, "the force loop did not follow the soft surface: {f_last} N against {f_d} N");
+    }
+
+    /// Every part of the derived law an ablation can turn off (`DerivedParts`, `naic sim
+    /// --ablate`) changes what the law does in a cycle where that part acts, and nothing
+    /// where it is on: the switch reaches the part it names.
+    #[test]
+    fn each_part_of_the_derived_law_can_be_ablated() {
+        use derived::DerivedParts;
+        let (m_t, f_d) = (0.424, 10.0);
+        // One contact cycle from the state `s0` with the measured force `f`; `parts` as given.
+        let cycle = |parts: DerivedParts, f: f64, a_i: f64, a_cmd: f64| {
+            let mut p = params(Mode::Derived, None);
+            p.force_law.derived.parts = parts;
+            let mut s = super::super::ControlState::new(&p);
+            s.sched.approach_integral = a_i;
+            s.derived.a_cmd = a_cmd;
+            let mut u = free_inputs(&p, 0.0, 0.0, f_d);
+            u.regime = Regime::Contact;
+            u.prev_phase = Phase::Contact;
+            u.f_ext = f;
+            u.pre = Prepared { mass_n: 3.19, tool_mass: m_t, ..Prepared::default() };
+            let (_, _, de, out) = step(&p, &s.law, &s.sched, &s.derived, &u);
+            (de, out)
+        };
+        let all = DerivedParts::ALL;
+        let off = |name: &str| all.without(name).expect("a part's name");
+        // The disturbance feedforward: the approach integral `a_i` in the contact command.
+        let (_, with) = cycle(all, f_d, 0.7, 0.0);
+        let (_, without) = cycle(off("disturbance-feedforward"), f_d, 0.7, 0.0);
+        assert!((with.xdd.unwrap() - without.xdd.unwrap() - 0.7).abs() < 1e-12, "{with:?} / {without:?}");
+        // The stiction-aware hold: the friction feedforward at the reference blend.
+        assert!(with.friction.is_some() && cycle(off("stiction-hold"), f_d, 0.0, 0.0).1.friction.is_none());
+        // The contact-loss rule: no force in evidence runs the approach.
+        assert!(cycle(all, 0.0, 0.0, 0.0).0.approaching);
+        assert!(!cycle(off("contact-loss"), 0.0, 0.0, 0.0).0.approaching);
+        // The tool's inertia: 4.34 N read while the tool accelerates at 10 m/s² is 0.1 N of
+        // contact (lost), or 4.34 N without the part (kept).
+        assert!(cycle(all, m_t * 10.0 + 0.1, 0.0, 10.0).0.approaching);
+        assert!(!cycle(off("tool-inertia"), m_t * 10.0 + 0.1, 0.0, 10.0).0.approaching);
+        // The reference band: a force inside the band of reference responses winds up no
+        // integral; the classical integral winds up on the force error.
+        let dp = derived::DerivedParams::default();
+        let band = |parts: DerivedParts| {
+            let p = derived::DerivedParams { parts, ..dp };
+            let s = derived::DerivedState { f_ref: 5.0, f_ref_low: 4.0, f_ref_high: 6.0, ..derived::DerivedState::new(&p) };
+            let est = crate::pipeline::control::contact::ContactEstimate { k_hat: 2000.0, k_upper: 4000.0, k_lower: 1000.0, ..Default::default() };
+            let u = derived::DerivedInputs { e_dot: 0.0, f_ext: 5.0, f_d, mass: 3.19, estimate: est, k_known: None };
+            derived::step(&p, 1e-3, 50.0, &s, &u).0.integral
+        };
+        assert_eq!(band(all), 0.0);
+        assert!(band(off("reference-band")) > 0.0);
+        // Unknown names are refused; the names listed are the parts.
+        assert_eq!(all.without("gravity-correction"), None);
+        for n in DerivedParts::NAMES {
+            assert_eq!(off(n).off(), vec![n]);
+        }
     }
 
     /// With no force target (`f_d ≤ 0`) nothing bounds the speed but `approach_speed`.
