@@ -156,6 +156,10 @@ pub struct SimArgs {
     /// tool-inertia (docs/controller.md) [default: none; every part on].
     #[arg(long, value_name = "PART[,PART]")]
     pub ablate: Option<String>,
+    /// The joint encoders' velocity noise, 1 σ per joint [rad/s] (single runs)
+    /// [default: 0.002, naic_sim::sensor::Encoders].
+    #[arg(long, value_name = "RAD_PER_S", allow_hyphen_values = true)]
+    pub velocity_noise: Option<f64>,
 }
 
 /// The derived law's parts with those `--ablate` names off.
@@ -563,6 +567,7 @@ pub fn run(a: SimArgs) -> CliResult {
             ("--tool-mass-error", a.tool_mass_error.is_some()),
             ("--tool-com-offset", a.tool_com_offset.is_some()),
             ("--tool-file", a.tool_file.is_some()),
+            ("--velocity-noise", a.velocity_noise.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
             return Err(CliError::usage(format!("{what} runs its own scenarios, controllers and delays with the default settings: drop {flag}")));
@@ -779,6 +784,12 @@ fn run_seeds<const N: usize>(
         scenario::apply_sensor_spec(&mut plant, &robot.sensor);
         if a.inertial_wrench {
             plant.ft.inertial = true;
+        }
+        if let Some(v) = a.velocity_noise {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(CliError::usage(format!("--velocity-noise {v}: must be a finite number >= 0 rad/s (the encoders' velocity noise, 1 sigma; default 0.002)")));
+            }
+            plant.encoders.velocity_noise_sigma = v;
         }
         eprintln!(
             "naic sim: {} plant, {}, scenario '{}' seed {} ({:.1} s, {} sub-step(s) of {:.2} ms) -> {}",
