@@ -72,24 +72,23 @@ impl DerivedParts {
     /// The parts' names (`naic sim --ablate`).
     pub const NAMES: [&'static str; 5] = ["disturbance-feedforward", "stiction-hold", "contact-loss", "reference-band", "tool-inertia"];
 
+    /// The parts' switches in [`Self::NAMES`]' order.
+    fn switches(&mut self) -> [&mut bool; 5] {
+        [&mut self.disturbance_feedforward, &mut self.stiction_hold, &mut self.contact_loss, &mut self.reference_band, &mut self.tool_inertia]
+    }
+
     /// These parts with the one named `name` off (`None`: no part of that name).
     pub fn without(self, name: &str) -> Option<Self> {
+        let i = Self::NAMES.iter().position(|n| *n == name)?;
         let mut p = self;
-        match name {
-            "disturbance-feedforward" => p.disturbance_feedforward = false,
-            "stiction-hold" => p.stiction_hold = false,
-            "contact-loss" => p.contact_loss = false,
-            "reference-band" => p.reference_band = false,
-            "tool-inertia" => p.tool_inertia = false,
-            _ => return None,
-        }
+        *p.switches()[i] = false;
         Some(p)
     }
 
     /// The names of the parts that are off, in [`Self::NAMES`]' order.
     pub fn off(&self) -> Vec<&'static str> {
-        let on = [self.disturbance_feedforward, self.stiction_hold, self.contact_loss, self.reference_band, self.tool_inertia];
-        Self::NAMES.iter().zip(on).filter(|(_, on)| !on).map(|(n, _)| *n).collect()
+        let mut p = *self;
+        Self::NAMES.iter().zip(p.switches()).filter(|(_, on)| !**on).map(|(n, _)| *n).collect()
     }
 }
 
