@@ -122,7 +122,7 @@ impl Ctx {
             delay_cycles: delay,
             model_mass_error: mass_error,
             tare_at_rest: self.sensor.tare_at_rest,
-            tare_inertial: self.sensor.tare_inertial(&self.plant),
+            sensor_reads_tool_inertia: self.sensor.sensor_reads_tool_inertia(&self.plant),
             ..LoopSettings::default()
         };
         let mut c = PipelineController::by_name(controller, s, &self.model, self.friction.clone(), self.tool, &settings)
