@@ -18,9 +18,11 @@
 //! expected there; see [`TARE_REST_VELOCITY`], [`TARE_REST_ACCELERATION`]) and the
 //! tool weight at the current orientation, and returns `F_e = −F_c`, the
 //! wrench the robot applies to the environment at the tip, in the base frame
-//! (eq 3's `F_ext`). Tool inertial forces are neglected in `F_e`: at the speeds of
-//! force tracking (< 0.1 m/s, < 1 rad/s) they are below 0.05 N. A tare taken while the
-//! arm accelerates can take them out of its samples ([`TareInertia`]).
+//! (eq 3's `F_ext`). Tool inertial forces are left in `F_e`: in steady force tracking they
+//! are below 0.05 N, but while the arm accelerates in free space or bounces on a stiff
+//! surface a sensor that reads them (MuJoCo's, a real one) reads 1.5–6 N on the JK5. A tare
+//! taken while the arm accelerates can take them out of its samples ([`TareInertia`]), and
+//! the contact decisions read a contact force without them ([`ToolMotion`]).
 //!
 //! The tool is a rod along the sensor z axis touching at its tip, on that axis:
 //! no contact force at the tip has a moment about the tool axis. So the moment
