@@ -197,9 +197,9 @@ impl SensorOpts {
         Ok(Self { inertial_wrench, tare_at_rest })
     }
 
-    /// `LoopSettings::tare_inertial`: the plant's sensor reads the tool's inertial force
+    /// `LoopSettings::sensor_reads_tool_inertia`: the plant's sensor reads the tool's inertial force
     /// (MuJoCo's always; the own plant's with `--inertial-wrench`).
-    pub fn tare_inertial(&self, plant: &PlantChoice) -> bool {
+    pub fn sensor_reads_tool_inertia(&self, plant: &PlantChoice) -> bool {
         self.inertial_wrench || matches!(plant, PlantChoice::Mujoco { .. })
     }
 
@@ -646,7 +646,7 @@ pub fn run(a: SimArgs) -> CliResult {
     if derived_parts != DerivedParts::ALL && !modes.iter().all(|m| m.starts_with("derived")) {
         return Err(CliError::usage("--ablate changes the derived law only: give --controller derived or derived_oracle"));
     }
-    let mut settings = LoopSettings { tare_at_rest: sensor.tare_at_rest, tare_inertial: sensor.tare_inertial(&choice), derived_parts, ..LoopSettings::default() };
+    let mut settings = LoopSettings { tare_at_rest: sensor.tare_at_rest, sensor_reads_tool_inertia: sensor.sensor_reads_tool_inertia(&choice), derived_parts, ..LoopSettings::default() };
     if let Some(g) = a.gamma {
         if !(g >= 0.0 && g.is_finite()) {
             return Err(CliError::usage(format!("--gamma {g}: must be a finite number >= 0")));

@@ -125,7 +125,7 @@ impl Ctx {
             delay_cycles: delay,
             model_mass_error: mass_error,
             tare_at_rest: self.sensor.tare_at_rest,
-            tare_inertial: self.sensor.tare_inertial(&self.plant),
+            sensor_reads_tool_inertia: self.sensor.sensor_reads_tool_inertia(&self.plant),
             derived_parts: self.parts,
             ..LoopSettings::default()
         };

@@ -325,3 +325,81 @@ fn the_in_place_update_is_the_step_bit_for_bit() {
     assert!(held, "cycle 40 was rejected and held");
     assert!(contact, "contact was reached");
 }
+
+/// The first cycle in contact phase and the first with the tip on the surface, of a run of
+/// the fixed law from rest towards a target 10 cm below the start (5 m/s² at the start of
+/// the approach: 2.1 N of inertial force), on a 2000 N/m surface 20 mm below the tip, with a sensor that reads the tool's inertial force `m (g − a)`
+/// (`a` the tool's centre-of-mass acceleration over the step into the reading), a perfect
+/// plant (the model, ABA) and the tare at rest.
+fn entry_with_an_inertial_sensor(inertial: bool) -> (Option<f64>, Option<f64>) {
+    let model = model();
+    let mut p = params(Mode::Fixed);
+    (p.tare_at_rest, p.sensor_reads_tool_inertia) = (true, inertial);
+    let ctl = Controller::new(model.clone(), p).unwrap();
+    let mut ws = ctl.workspace();
+    let mut plant = Data6::try_new(&model).unwrap();
+    let (tip, sensor) = (model.frame_id("tip").unwrap(), model.frame_id("ft_sensor").unwrap());
+    let tool = ctl.params().tool;
+    let (mut q, mut dq) = (q0(), [0.0; 6]);
+    dynamics::forward_kinematics(&model, &mut plant, &Vector6::from(q));
+    let start = *plant.frame_se3(tip);
+    let z_surface = start.trans.z - 0.020;
+    let r_d = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(start.rot));
+    let reference = Reference { p_d: start.trans - Vector3::new(0.0, 0.0, 0.1), r_d, v_d: Vector6::zeros(), a_d: Vector6::zeros(), f_d: 10.0 };
+    let com_velocity = |plant: &mut Data6, q: &JointVec, dq: &JointVec| {
+        let j = *dynamics::frame_jacobian(&model, plant, &Vector6::from(*q), sensor);
+        let v6 = j * Vector6::from(*dq);
+        let r = plant.frame_se3(sensor).rot;
+        Vector3::new(v6[0], v6[1], v6[2]) + Vector3::new(v6[3], v6[4], v6[5]).cross(&(r * tool.com))
+    };
+    let dt = 1e-3;
+    let mut s = ctl.initial_state();
+    let mut a = Vector3::zeros();
+    let (mut entered, mut touched) = (None, None);
+    for k in 0..600 {
+        let t = k as f64 * dt;
+        dynamics::forward_kinematics(&model, &mut plant, &Vector6::from(q));
+        let (x, r) = (*plant.frame_se3(tip), plant.frame_se3(sensor).rot);
+        let f_c = Vector3::new(0.0, 0.0, 2000.0 * (z_surface - x.trans.z).max(0.0)); // the surface on the tip
+        if f_c.z > 0.0 && touched.is_none() {
+            touched = Some(t);
+        }
+        let w = estimate::tool_wrench(&tool, &r, &a);
+        let f_s = r.transpose() * f_c;
+        let m_s = tool.tip.cross(&f_s);
+        let wrench = [f_s.x + w[0], f_s.y + w[1], f_s.z + w[2], m_s.x + w[3], m_s.y + w[4], m_s.z + w[5]];
+        let meas = RawMeasurements { t, q, dq, joints_stamp: t, wrench, wrench_stamp: t };
+        let (n, out) = controller::step(&ctl, &s, &meas, &reference, &mut ws);
+        s = n;
+        if out.status.phase == Phase::Contact && entered.is_none() {
+            entered = Some(t);
+        }
+        let v0 = com_velocity(&mut plant, &q, &dq);
+        let j = *dynamics::frame_jacobian(&model, &mut plant, &Vector6::from(q), tip);
+        let tau = Vector6::from(out.tau) + j.fixed_rows::<3>(0).transpose() * f_c;
+        let qdd = *dynamics::aba(&model, &mut plant, &Vector6::from(q), &Vector6::from(dq), &tau);
+        for i in 0..6 {
+            dq[i] += qdd[i] * dt;
+            q[i] += dq[i] * dt;
+        }
+        dynamics::forward_kinematics(&model, &mut plant, &Vector6::from(q));
+        a = (com_velocity(&mut plant, &q, &dq) - v0) / dt;
+    }
+    (entered, touched)
+}
+
+/// A tool accelerating towards the surface in free space reads its inertial force as a push
+/// (here 2.1 N at the start of the approach, over the fixed law's 1 N entry level): with
+/// `sensor_reads_tool_inertia` the contact decisions read the contact force without it and enter
+/// contact only on the touch; without, in the air.
+#[test]
+fn a_tool_accelerating_in_free_space_does_not_enter_contact_and_a_touch_does() {
+    let (entered, touched) = entry_with_an_inertial_sensor(true);
+    let (entered, touched) = (entered.expect("contact entered"), touched.expect("the tip touched"));
+    // after the touch, within the time the force takes to reach the 1 N entry level and the
+    // window's 16 cycles
+    assert!(entered >= touched && entered < touched + 0.05, "entered {entered} s, touched {touched} s");
+    let (entered_raw, touched_raw) = entry_with_an_inertial_sensor(false);
+    let entered_raw = entered_raw.expect("contact entered");
+    assert!(entered_raw < touched_raw.unwrap_or(f64::INFINITY) - 0.01, "the reading alone enters in the air: {entered_raw} s, touched {touched_raw:?}");
+}

@@ -44,12 +44,13 @@ pub struct LoopSettings {
     /// The F/T tare takes readings at rest only and holds the arm meanwhile
     /// (`ControllerParams::tare_at_rest`, the node's default; `naic sim --tare at-rest`).
     /// Off: the first samples while the arm starts moving (on a sensor that reads the tool's
-    /// inertial wrench, with [`Self::tare_inertial`] so that its inertial force is no bias).
+    /// inertial wrench, with [`Self::sensor_reads_tool_inertia`] so that its inertial force is no bias).
     pub tare_at_rest: bool,
     /// The sensor reads the tool's inertial force, and the tare takes the force the model
-    /// predicts from the tool's motion out of its samples (`ControllerParams::tare_inertial`):
-    /// on MuJoCo and with `--inertial-wrench`. Off: the own plant's sensor, which reads none.
-    pub tare_inertial: bool,
+    /// predicts from the tool's motion out of its samples, and the contact decisions take it
+    /// out of the contact force (`ControllerParams::sensor_reads_tool_inertia`): on MuJoCo and
+    /// with `--inertial-wrench`. Off: the own plant's sensor, which reads none.
+    pub sensor_reads_tool_inertia: bool,
     /// The derived law's parts (`naic sim --ablate`: all on but the ones an ablation study
     /// turns off).
     pub derived_parts: naic_core::pipeline::control::derived::DerivedParts,
@@ -86,7 +87,7 @@ impl Default for LoopSettings {
             delay_cycles: 0,
             model_mass_error: 1.0,
             tare_at_rest: false,
-            tare_inertial: false,
+            sensor_reads_tool_inertia: false,
             derived_parts: naic_core::pipeline::control::derived::DerivedParts::ALL,
         }
     }
@@ -135,7 +136,7 @@ impl<const N: usize> PipelineController<N> {
         params.tool = ToolParams { mass: tool_mass, com: tool_com, gravity: model.gravity, ..params.tool };
         params.tare_samples = settings.tare_samples;
         params.tare_at_rest = settings.tare_at_rest;
-        params.tare_inertial = settings.tare_inertial;
+        params.sensor_reads_tool_inertia = settings.sensor_reads_tool_inertia;
         let imp = &scenario.task.impedance;
         let c = &mut params.control;
         c.impedance = imp.params;

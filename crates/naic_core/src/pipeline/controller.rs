@@ -55,10 +55,14 @@ pub struct ControllerParams<const N: usize = N_JOINTS> {
     pub tare_at_rest: bool,
     /// The sensor reads the tool's inertial force (a real one does; MuJoCo's does): the tare
     /// takes the force the model predicts from the tool's motion out of each sample
-    /// ([`estimate::TareInertia`]), so that an arm moving while taring leaves no bias. Off:
-    /// the samples are weight and bias alone (the own simulator's sensor without
-    /// `--inertial-wrench`, which reads no inertia).
-    pub tare_inertial: bool,
+    /// ([`estimate::TareInertia`]), so that an arm moving while taring leaves no bias; and the
+    /// contact decisions (the free-space → contact entry of every law, the `derived` law's
+    /// contact in evidence) read the contact force with the tool's inertial force taken out
+    /// over [`estimate::CONTACT_FORCE_WINDOW`] cycles ([`estimate::ToolMotion`]). The force
+    /// the laws act on (`F_e`, eq 6's feedforward, the force errors) is the reading as before.
+    /// Off: the samples are weight and bias alone (the own simulator's sensor without
+    /// `--inertial-wrench`, which reads no inertia). Formerly `tare_inertial`.
+    pub sensor_reads_tool_inertia: bool,
     pub control: ControlParams,
     /// Joint damping of the safe hold [N·m·s/rad].
     pub hold_damping: JointVec<N>,
@@ -154,6 +158,7 @@ impl<const N: usize> Controller<N> {
             fault_count: 0,
             last_q: None,
             q_posture: None,
+            tool_motion: estimate::ToolMotion::default(),
         }
     }
 
@@ -183,6 +188,8 @@ pub struct ControllerState<const N: usize = N_JOINTS> {
     pub last_q: Option<JointVec<N>>,
     /// The null-space posture `q_n` in use (an arm of N > 6 joints; [`NullSpace::q`]).
     pub q_posture: Option<JointVec<N>>,
+    /// The tool's recent motion and contact force (with [`ControllerParams::sensor_reads_tool_inertia`]).
+    pub tool_motion: estimate::ToolMotion,
 }
 
 /// The reference of one cycle: where the tip should be and what force it should apply.
@@ -283,6 +290,14 @@ pub fn step<const N: usize>(
     (next, out)
 }
 
+/// The tool's centre-of-mass velocity in the world frame at joint velocities `dq`: it moves
+/// with the sensor frame (world-aligned Jacobian), `v + ω × (R_ws c)`.
+fn tool_com_velocity<const N: usize>(c: &Controller<N>, ws: &mut Workspace<N>, q: &SVector<f64, N>, dq: &SVector<f64, N>, r_ws: &Matrix3<f64>) -> Vector3<f64> {
+    let v6 = dynamics::frame_jacobian(&c.model, &mut ws.data, q, c.sensor) * dq;
+    let (v, w) = (Vector3::new(v6[0], v6[1], v6[2]), Vector3::new(v6[3], v6[4], v6[5]));
+    v + w.cross(&(r_ws * c.params.tool.com))
+}
+
 /// [`step`] on a state the caller keeps: `next` holds this cycle's state on entry and the
 /// next cycle's on return, the same numbers as [`step`] returns, without copying the state
 /// in and out (3.7 kB on 7 joints, a fifth of the Panda's cycle). Each stage reads its
@@ -314,15 +329,22 @@ pub fn update<const N: usize>(
     // rest (estimate::tare_step); force control starts with the cycle after it.
     let tared = next.tare.done(p.tare_samples);
     let rest = p.tare_at_rest.then_some((m.t, &sensed.dq));
+    // The contact force for the contact decisions, free of the tool's inertial force
+    // (estimate::ToolMotion), on a sensor that reads it; its window fills while taring.
+    let f_contact = if p.sensor_reads_tool_inertia {
+        let v_com = tool_com_velocity(c, ws, &q, &SVector::<f64, N>::from(sensed.dq_raw), &r_ws);
+        let f0 = estimate::contact_wrench(&p.tool, &[0.0; 6], &sensed.wrench, &r_ws);
+        next.tool_motion.push(m.t, &v_com, &Vector3::new(f0[0], f0[1], f0[2]));
+        let b = next.tare.bias();
+        let offset = r_ws * Vector3::new(b[0], b[1], b[2]);
+        if tared { next.tool_motion.contact_force(p.tool.mass, estimate::CONTACT_FORCE_WINDOW, &offset).map(|f| p.control.force_axis.dot(&f)) } else { None }
+    } else {
+        None
+    };
     let f_e = if tared {
         estimate::contact_wrench(&p.tool, &next.tare.bias(), &sensed.wrench, &r_ws)
     } else {
-        let inertia = p.tare_inertial.then(|| {
-            // the tool's centre of mass moves with the sensor frame (world-aligned Jacobian)
-            let v6 = dynamics::frame_jacobian(&c.model, &mut ws.data, &q, c.sensor) * dq;
-            let (v, w) = (Vector3::new(v6[0], v6[1], v6[2]), Vector3::new(v6[3], v6[4], v6[5]));
-            estimate::TareInertia { t: m.t, v_com: v + w.cross(&(r_ws * p.tool.com)) }
-        });
+        let inertia = p.sensor_reads_tool_inertia.then(|| estimate::TareInertia { t: m.t, v_com: tool_com_velocity(c, ws, &q, &dq, &r_ws) });
         next.tare = estimate::tare_step(&p.tool, p.tare_samples, &next.tare, &sensed.wrench, &r_ws, rest, inertia.as_ref());
         if p.tare_at_rest {
             return taring(c, next, &sensed.q, &sensed.dq, r, ws);
@@ -366,7 +388,7 @@ pub fn update<const N: usize>(
         a_d: r.a_d,
         f_e,
         f_d: r.f_d,
-        pre: control::law::Prepared { shaper, a_free, mass_n, tool_mass: p.tool.mass },
+        pre: control::law::Prepared { shaper, a_free, mass_n, tool_mass: p.tool.mass, f_contact },
     };
     let out = control::update(&p.control, &mut next.control, &task);
 
@@ -617,7 +639,7 @@ impl<const N: usize> ControllerParams<N> {
             },
             tare_samples: 100,
             tare_at_rest: false,
-            tare_inertial: false,
+            sensor_reads_tool_inertia: false,
             control: ControlParams {
                 impedance: PAPER_IMPEDANCE.params,
                 force_axis: ForceAxis::base(2, -1.0),

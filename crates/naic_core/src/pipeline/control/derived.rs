@@ -170,7 +170,9 @@ pub fn braking_speed(p: &DerivedParams, f_d: f64, k_upper: f64, period: f64, s: 
 /// ([`DerivedState::a_cmd`]) and `m_t` the tool's mass beyond the sensor [kg]. The sensor
 /// reads the tool's `m_t (g − a)`; the tare and the weight take out `m_t g`, the rest reads
 /// as a push when the tool accelerates toward the surface: 0.42 kg × 6 m/s² = 2.5 N on the
-/// JK5, five times the contact threshold, with the tip 3 mm in the air.
+/// JK5, five times the contact threshold, with the tip 3 mm in the air. Where the controller
+/// has the contact force with the tool's measured inertial force taken out (a sensor that
+/// reads it: `law::Prepared::f_contact`, `estimate::ToolMotion`), the law reads that instead.
 pub fn contact_force(s: &DerivedState, f_m: f64, tool_mass: f64) -> f64 {
     let m = if tool_mass.is_finite() && tool_mass > 0.0 { tool_mass } else { 0.0 };
     let a = if s.a_cmd.is_finite() { s.a_cmd } else { 0.0 };

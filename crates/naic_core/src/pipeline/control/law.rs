@@ -57,11 +57,15 @@ pub struct Prepared {
     /// URDF's `ft_sensor` link), whose inertial force `m_t ẍ` the sensor reads with the
     /// contact force (0: none known).
     pub tool_mass: f64,
+    /// The contact force along `n` [N] free of the tool's inertial force, on a sensor that
+    /// reads it (`estimate::ToolMotion`): what the contact decisions read instead of `f_ext`
+    /// (`None`: `f_ext`).
+    pub f_contact: Option<f64>,
 }
 
 impl Default for Prepared {
     fn default() -> Self {
-        Self { shaper: None, a_free: f64::NAN, mass_n: f64::NAN, tool_mass: 0.0 }
+        Self { shaper: None, a_free: f64::NAN, mass_n: f64::NAN, tool_mass: 0.0, f_contact: None }
     }
 }
 
@@ -352,7 +356,7 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
             // entry level, and a surface the estimator has located: `k_lower > 0`) has not left
             // the surface: a force that falls there says the surface is softer (a switch of
             // material), which is the force loop's to follow, not an impact to come.
-            let f_c = derived::contact_force(der, u.f_ext, if dp.parts.tool_inertia { u.pre.tool_mass } else { 0.0 });
+            let f_c = if dp.parts.tool_inertia { u.pre.f_contact.unwrap_or_else(|| derived::contact_force(der, u.f_ext, u.pre.tool_mass)) } else { u.f_ext };
             let in_evidence = f_c > contact_threshold(p) && est.k_lower > 0.0;
             let x_touch = if in_evidence && u.x.is_finite() { Some(u.x) } else if u.entered { None } else { der.x_touch };
             // (within one count of the tip's position resolution)

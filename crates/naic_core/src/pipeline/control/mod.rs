@@ -490,7 +490,7 @@ pub fn update(p: &ControlParams, next: &mut ControlState, u: &TaskInputs) -> Tas
     match prev_phase {
         Phase::Free | Phase::Hold => {
             next.phase = Phase::Free;
-            if f_ext > law::contact_threshold(p) {
+            if u.pre.f_contact.unwrap_or(f_ext) > law::contact_threshold(p) {
                 next.phase = Phase::Contact;
                 next.below_exit = 0;
                 entered = true;
@@ -537,7 +537,7 @@ mod tests {
 
     /// What the controller computes for a law on the unit point mass below: its apparent
     /// mass along any n is 1 kg (the derived law's `D̂`).
-    const POINT_MASS: law::Prepared = law::Prepared { shaper: None, a_free: f64::NAN, mass_n: 1.0, tool_mass: 0.0 };
+    const POINT_MASS: law::Prepared = law::Prepared { shaper: None, a_free: f64::NAN, mass_n: 1.0, tool_mass: 0.0, f_contact: None };
 
     fn params(mode: Mode) -> ControlParams {
         ControlParams {
