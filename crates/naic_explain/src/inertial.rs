@@ -15,7 +15,10 @@
 //!    time-block folds. The stage is significant when the mean over joints of the held-out
 //!    gain is ≥ `min_gain`, the normalised held-out sum is lower in ≥ `min_fold_wins` folds,
 //!    and BIC with one noise level per joint, `Σ_j n_eff,j ln(SSR_j'/SSR_j) + r ln(Σ n_eff)`,
-//!    counts every one of the r base parameters.
+//!    counts every one of the r base parameters. The per-joint columns include a constant
+//!    where it earns its place beside `Y_B`, and `Y_B` must also pass the same rule against
+//!    a constant on every joint ([`decide`]): where the data cannot tell the two apart, the
+//!    constants have fewer parameters.
 //! 2. When significant, the first pass's `rotor_inertia` columns are tested again beside
 //!    `Y_B` (backward elimination by the per-joint rule, [`backward_beside_base`]): one that
 //!    no longer earns its place was a stand-in for a link's inertia (on joint 1 it is the
@@ -441,7 +444,10 @@ fn joint_fit(grams: &[Vec<DMatrix<f64>>], r: usize, active: &[Vec<usize>], kf: u
 /// for long stretches (a holding joint's gravity error while another joint moves, the
 /// trapezoid generator): δβ then left that joint's part of the link change out. Beside `Y_B`
 /// such a constant does not earn its place (δβ explains the same samples, and on held-out
-/// blocks where the joint moved better), a sensor offset does.
+/// blocks where the joint moved better), a sensor offset does — unless that joint's gravity
+/// columns make a constant too over the range it visits; then neither earns its place beside
+/// the other, and [`decide`] keeps the constant by testing `Y_B` against a constant on every
+/// joint first.
 ///
 /// A rotor inertia is a per-joint column, and on its own joint a link's inertia looks like
 /// one (on joint 1 it is the column of `link1.Izz`; on joint 2 it is the `q̈₂` of what a
