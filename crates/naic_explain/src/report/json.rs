@@ -159,6 +159,8 @@ pub(super) fn inertial_json(ex: &Explained) -> Value {
         "method": "all joints together: Y_B δβ (base parameters of the robot model's regressor) + each joint's nominal friction \
                    (Coulomb, viscous), a constant where it passes the per-joint rule beside Y_B, and first-pass rotor_inertia / \
                    payload, held out on the same folds, against the same columns without Y_B; BIC counts every base parameter. \
+                   Significant only when Y_B also beats a constant on every joint by the same rule (versus_a_constant_on_every_joint: \
+                   where the data cannot tell the base parameters from per-joint constants, the constants have fewer parameters). \
                    When significant, a first-pass rotor_inertia that no longer passes \
                    the per-joint rule beside Y_B is set aside and δβ refitted without it. Corrected base \
                    parameters = K π_URDF + δβ. Links: the completion of δβ closest to the URDF (weighted minimum norm), one of many — \
@@ -169,6 +171,12 @@ pub(super) fn inertial_json(ex: &Explained) -> Value {
         "folds_won": fit.fold_wins,
         "folds": fit.folds,
         "delta_bic": fit.delta_bic,
+        "versus_a_constant_on_every_joint": fit.versus_constants.as_ref().map(|t| json!({
+            "mean_heldout_gain": t.gain,
+            "heldout_gain_per_joint": t.joint_gain.iter().enumerate().map(|(j, g)| (jkey(j + 1), json!(g))).collect::<Map<_, _>>(),
+            "folds_won": t.fold_wins,
+            "delta_bic": t.delta_bic,
+        })),
         "constant_beside_base": fit.constants.iter().map(|j| jkey(*j)).collect::<Vec<_>>(),
         "first_pass_effects_set_aside": fit.set_aside.iter().map(|(j, e)| json!({"target": jkey(*j), "effect": e.name()})).collect::<Vec<_>>(),
         "base_parameters": Value::Object(base),

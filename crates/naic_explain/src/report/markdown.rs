@@ -192,6 +192,18 @@ pub(super) fn inertial_md(v: &Value, s: &mut String) {
         f("delta_bic"),
         if ip["significant"].as_bool() == Some(true) { "significant" } else { "not significant" }
     );
+    let vc = &ip["versus_a_constant_on_every_joint"];
+    if !vc.is_null() {
+        let _ = writeln!(
+            s,
+            "Against a constant torque on every joint (fewer parameters; the base parameters must beat them as well): mean held-out \
+             gain {:.3}, better in {}/{} folds, ΔBIC {:.1}.\n",
+            vc["mean_heldout_gain"].as_f64().unwrap_or(f64::NAN),
+            vc["folds_won"],
+            ip["folds"],
+            vc["delta_bic"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
     if ip["significant"].as_bool() != Some(true) {
         return;
     }
