@@ -153,7 +153,7 @@ pub struct SimArgs {
     pub tare: Option<String>,
     /// Ablation study of the derived law (and derived_oracle): run it with these parts off,
     /// comma-separated: disturbance-feedforward, stiction-hold, contact-loss, reference-band,
-    /// tool-inertia (docs/controller.md) [default: none; every part on].
+    /// tool-inertia, velocity-observer (docs/controller.md) [default: none; every part on].
     #[arg(long, value_name = "PART[,PART]")]
     pub ablate: Option<String>,
     /// The joint encoders' velocity noise, 1 σ per joint [rad/s] (single runs)

@@ -172,17 +172,20 @@ fn the_papers_aic_at_delay_1_on_mujoco_flat_keeps_every_joint_below_2_rad_s_with
 }
 
 /// The derived law's stiction-aware hold (issue 42 item 6, naic_core::pipeline::control::stiction)
-/// on MuJoCo's foam with the JK5's joint friction, d = 1, seed 1: with the hold the late force
-/// (the last 0.5 s) stays within 0.4 N peak-to-peak; with the hold off (no friction reference
-/// blend: the feedforward at the stuck joints' velocity noise) the same run hunts beyond it.
+/// on MuJoCo's foam with the JK5's joint friction, d = 1, seeds 1–5: with the hold the late
+/// force (the last 0.5 s) stays within 0.4 N peak-to-peak; with the hold off (its ablation
+/// switch, `naic sim --ablate stiction-hold`: the feedforward at the stuck joints' velocity
+/// noise) every run moves more, and the stick-slip hunting, intermittent, goes beyond 0.4 N
+/// in at least one of them.
 #[test]
 fn the_derived_laws_stiction_hold_keeps_foam_on_mujoco_from_hunting() {
     let ClosedLoop { m, f, s, t, p, settings } = closed_loop("foam", None, true);
-    let late_p2p = |hold: bool| {
+    let late_p2p = |hold: bool, seed: u64| {
+        let s = scenario::Scenario { seed, ..s.clone() };
         let mut c = PipelineController::by_name("derived", &s, &m, Some(f.clone()), t, &settings).unwrap();
         if !hold {
             let mut q = *c.params();
-            q.control.force_law.scheduled.friction_reference = None;
+            q.control.force_law.derived.parts.stiction_hold = false;
             c.set_params(q).unwrap();
         }
         let mut plant = PlantChoice::Mujoco { mjcf: mjcf() }.build(&p, &s.task.q0, s.seed).unwrap();
@@ -192,10 +195,15 @@ fn the_derived_laws_stiction_hold_keeps_foam_on_mujoco_from_hunting() {
         let (lo, hi) = late.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), f| (lo.min(f), hi.max(f)));
         hi - lo
     };
-    let (with, without) = (late_p2p(true), late_p2p(false));
-    println!("derived, foam, d = 1, seed 1 on MuJoCo with joint friction: late peak-to-peak {with:.3} N with the hold, {without:.3} N without");
-    assert!(with <= 0.4, "with the hold: {with} N");
-    assert!(without > 0.4, "without the hold: {without} N (the test no longer shows the hunting)");
+    let mut worst_without = 0.0_f64;
+    for seed in 1..=5 {
+        let (with, without) = (late_p2p(true, seed), late_p2p(false, seed));
+        println!("derived, foam, d = 1, seed {seed} on MuJoCo with joint friction: late peak-to-peak {with:.3} N with the hold, {without:.3} N without");
+        assert!(with <= 0.4, "seed {seed}, with the hold: {with} N");
+        assert!(without > with, "seed {seed}: {without} N without the hold, {with} N with it");
+        worst_without = worst_without.max(without);
+    }
+    assert!(worst_without > 0.4, "without the hold at most {worst_without} N (the test no longer shows the hunting)");
 }
 
 /// The MuJoCo plant warm-starts the constraint solver (the authors' file disables it): at every

@@ -18,6 +18,7 @@
 //! This is design-time code: it allocates, and is not called in the 1 kHz path.
 
 use nalgebra::{Complex, DMatrix, DVector, Matrix3};
+use crate::pipeline::control::derived::observer_gains;
 
 /// Which force the push carries besides `D̂ V` (eq 6's `+ Jᵀ F_e` term).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,6 +38,10 @@ pub struct LoopModel {
     pub delay: u32,
     /// The velocity's extra lag `d_v` [periods] (the paper's 5-sample median: 2).
     pub velocity_lag: u32,
+    /// The velocity the law damps with from a state observer on the measured position
+    /// instead (`derived::observe`): the three poles of its error dynamics at this `z` in [0, 1)
+    /// (`velocity_lag` then unused). `None`: the measured velocity, `d + d_v` periods old.
+    pub observer: Option<f64>,
     /// `D̂`, the controller model's apparent mass along n [kg].
     pub model_mass: f64,
     /// `F = D̂ / D`, the model's mass error (1: exact).
@@ -157,16 +162,21 @@ fn discretise(t: f64, d: f64, c: &Contact) -> ([[f64; 2]; 2], [f64; 2]) {
 
 impl Loop {
     /// State layout: `x, v, u_{k−1}`, the integral `I` (only with `k_i > 0`), the forces
-    /// `f_{k−1} … f_{k−d}`, the velocities `v_{k−1} … v_{k−d−d_v}`.
+    /// `f_{k−1} … f_{k−d}`, the velocities `v_{k−1} … v_{k−d−d_v}`; with an observer instead of
+    /// the velocities: the positions `x_{k−1} … x_{k−d}`, the commands `w_{k−1} … w_{k−1−d}`
+    /// and the observer's `x̂_{k−1}`, `v̂_{k−1}`, `ŵ_{k−1}`.
     pub(crate) fn new(m: &LoopModel, c: &Contact, g: &Gains) -> Self {
         let d = m.delay as usize;
-        let dv = (m.delay + m.velocity_lag) as usize;
+        let dv = if m.observer.is_some() { 0 } else { (m.delay + m.velocity_lag) as usize };
         let with_i = g.k_i > 0.0;
         let (ix, iv, iu) = (0, 1, 2);
         let ii = 3;
         let f0 = if with_i { 4 } else { 3 };
         let v0 = f0 + d;
-        let n = v0 + dv;
+        // observer states: positions, commands, x̂, v̂, ŵ
+        let (p0, w0) = (v0 + dv, v0 + dv + d);
+        let (ixh, ivh, iwh) = (w0 + d + 1, w0 + d + 2, w0 + d + 3);
+        let n = if m.observer.is_some() { iwh + 1 } else { v0 + dv };
         let true_mass = m.model_mass / m.mass_error;
         let (phi, gamma) = discretise(m.period, true_mass, c);
 
@@ -182,9 +192,34 @@ impl Loop {
             r[f0 + d - 1] = 1.0;
             r
         };
-        // The measured velocity v_{k−d−d_v}.
+        // The velocity the law damps with: the measured v_{k−d−d_v}, or the observer's v̂_k
+        // (predicted with the command of d + 1 cycles before, corrected by the measured
+        // position x_{k−d}: derived::observe).
         let mut v_m = DVector::zeros(n);
-        v_m[if dv == 0 { iv } else { v0 + dv - 1 }] = 1.0;
+        let mut x_hat = DVector::zeros(n);
+        let mut w_hat = DVector::zeros(n);
+        if let Some(p) = m.observer {
+            let t = m.period;
+            let [l1, l2, l3] = observer_gains(p);
+            let mut x_pred = DVector::zeros(n);
+            let mut v_pred = DVector::zeros(n);
+            x_pred[ixh] = 1.0;
+            x_pred[ivh] = t;
+            x_pred[w0 + d] = 0.5 * t * t;
+            x_pred[iwh] = 0.5 * t * t;
+            v_pred[ivh] = 1.0;
+            v_pred[w0 + d] = t;
+            v_pred[iwh] = t;
+            w_hat[iwh] = 1.0;
+            let mut x_meas = DVector::zeros(n);
+            x_meas[if d == 0 { ix } else { p0 + d - 1 }] = 1.0;
+            let r = &x_meas - &x_pred;
+            v_m = &v_pred + &r * (l2 / t);
+            x_hat = &x_pred + &r * l1;
+            w_hat += &r * (l3 / (t * t));
+        } else {
+            v_m[if dv == 0 { iv } else { v0 + dv - 1 }] = 1.0;
+        }
 
         // The law's V = (−f_m + I − b_d v_m) / m_d (f_d = 0: the loop's own dynamics).
         let mut v_law = (-&f_m - g.b_d * &v_m) / g.m_d;
@@ -227,6 +262,22 @@ impl Loop {
             for j in 1..dv {
                 a[(v0 + j, v0 + j - 1)] = 1.0;
             }
+        }
+        if m.observer.is_some() {
+            if d > 0 {
+                a[(p0, ix)] = 1.0;
+                for j in 1..d {
+                    a[(p0 + j, p0 + j - 1)] = 1.0;
+                }
+            }
+            // w_k is the loop's input; the older commands shift.
+            b[w0] = 1.0;
+            for j in 1..=d {
+                a[(w0 + j, w0 + j - 1)] = 1.0;
+            }
+            a.row_mut(ixh).copy_from(&x_hat.transpose());
+            a.row_mut(ivh).copy_from(&v_m.transpose());
+            a.row_mut(iwh).copy_from(&w_hat.transpose());
         }
         Loop { a, b, c: v_law }
     }

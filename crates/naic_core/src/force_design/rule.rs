@@ -42,7 +42,8 @@ pub const ZETA_I: f64 = 0.9;
 pub const ALPHA_V: f64 = 0.35;
 /// `c_μ`: `m_d ≥ c_μ μ_eff D̂` (R1).
 pub const C_MU: f64 = 2.0;
-/// `d_v` [periods]: the velocity's lag beyond the loop delay (the 5-sample median: 2).
+/// `d_v` [periods]: the velocity's lag beyond the loop delay (the 5-sample median: 2; the derived
+/// law's velocity observer is placed to lag as much, `derived::OBSERVER_POLE_T`).
 pub const VELOCITY_LAG: u32 = 2;
 
 /// What the rule is given (every cycle in the law).

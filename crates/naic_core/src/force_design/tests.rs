@@ -9,6 +9,7 @@ fn model(d: u32, f: f64) -> LoopModel {
         period: 1e-3,
         delay: d,
         velocity_lag: 2,
+        observer: None,
         model_mass: D_JK5,
         mass_error: f,
         feedforward: Feedforward::Measured,
@@ -22,6 +23,7 @@ fn the_free_arm_is_a_double_integrator_under_the_hold() {
         period: 1e-3,
         delay: 0,
         velocity_lag: 0,
+        observer: None,
         model_mass: 2.0,
         mass_error: 1.0,
         feedforward: Feedforward::Measured,
@@ -54,6 +56,7 @@ fn a_spring_contact_with_no_delay_has_the_target_impedance_poles() {
         period: t,
         delay: 0,
         velocity_lag: 0,
+        observer: None,
         model_mass: D_JK5,
         mass_error: 1.0,
         feedforward: Feedforward::Measured,
@@ -273,6 +276,18 @@ fn physical_contacts(k_bar: f64, mass: f64) -> Vec<(&'static str, Contact)> {
 /// `τ_f = (d + ½) T` at `ω̄_c τ_f` > [`STIFF_DELAY_BOUND`].
 #[test]
 fn the_gain_rule_meets_its_margins_on_every_physical_contact() {
+    check_grid(None);
+}
+
+/// The same grid with the derived law's velocity observer (`derived::observe`, poles at
+/// `e^{−2/d_v}`) in place of the delayed measured velocity: the loop model with the observer's
+/// states, the measured position `d` periods old and the command `d + 1` periods old.
+#[test]
+fn the_gain_rule_meets_its_margins_with_the_velocity_observer() {
+    check_grid(Some((-crate::pipeline::control::derived::OBSERVER_POLE_T).exp()));
+}
+
+fn check_grid(observer: Option<f64>) {
     let mut checked = 0;
     let mut worst = (f64::INFINITY, f64::INFINITY);
     for mass in [1.0, D_JK5, 10.0] {
@@ -286,7 +301,7 @@ fn the_gain_rule_meets_its_margins_on_every_physical_contact() {
                   for mu_upper in [c.feedthrough, 0.95] {
                     let g = gains(&RuleInputs { k_upper: k_bar, k_lower: 100.0, mu_upper, b_e_max: 50.0, mass, delay: d as f64, period: 1e-3 });
                     for f in [0.7, 1.0, 1.4] {
-                        let m = LoopModel { model_mass: mass, ..model(d, f) };
+                        let m = LoopModel { model_mass: mass, observer, ..model(d, f) };
                         let r = margins(&m, &c, &g).unwrap();
                         let case = format!("{class} k_e {:.0} b_e {:.0} μ {} μ̄ {mu_upper} | k̄ {k_bar} D̂ {mass} d {d} F {f} | {g:?}", c.k_e, c.b_e, c.feedthrough);
                         assert!(r.spectral_radius < 1.0, "unstable: {case}: radius {}", r.spectral_radius);
@@ -303,7 +318,7 @@ fn the_gain_rule_meets_its_margins_on_every_physical_contact() {
         }
     }
     assert!(checked > 1000, "{checked} cases");
-    eprintln!("{checked} cases; worst phase margin {:.1}°, worst dominant ζ {:.3}", worst.0, worst.1);
+    eprintln!("observer {observer:?}: {checked} cases; worst phase margin {:.1}°, worst dominant ζ {:.3}", worst.0, worst.1);
 }
 
 /// The rule by hand: below the velocity-loop bound `m_d = 2 μ_eff D̂` (`2 D̂` at `μ̄ = 1`); above it `m_d` grows with

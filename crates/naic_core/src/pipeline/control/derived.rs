@@ -64,17 +64,20 @@ pub struct DerivedParts {
     /// The tool's inertial force `m_t ẍ_cmd` out of the contact decisions' force
     /// ([`contact_force`]; off: the measured force).
     pub tool_inertia: bool,
+    /// The velocity along n from the encoders' position and the law's commands
+    /// ([`observe`]; off: the measured joint velocities, with their noise).
+    pub velocity_observer: bool,
 }
 
 impl DerivedParts {
     /// Every part on (the law as designed).
-    pub const ALL: Self = Self { disturbance_feedforward: true, stiction_hold: true, contact_loss: true, reference_band: true, tool_inertia: true };
+    pub const ALL: Self = Self { disturbance_feedforward: true, stiction_hold: true, contact_loss: true, reference_band: true, tool_inertia: true, velocity_observer: true };
     /// The parts' names (`naic sim --ablate`).
-    pub const NAMES: [&'static str; 5] = ["disturbance-feedforward", "stiction-hold", "contact-loss", "reference-band", "tool-inertia"];
+    pub const NAMES: [&'static str; 6] = ["disturbance-feedforward", "stiction-hold", "contact-loss", "reference-band", "tool-inertia", "velocity-observer"];
 
     /// The parts' switches in [`Self::NAMES`]' order.
-    fn switches(&mut self) -> [&mut bool; 5] {
-        [&mut self.disturbance_feedforward, &mut self.stiction_hold, &mut self.contact_loss, &mut self.reference_band, &mut self.tool_inertia]
+    fn switches(&mut self) -> [&mut bool; 6] {
+        [&mut self.disturbance_feedforward, &mut self.stiction_hold, &mut self.contact_loss, &mut self.reference_band, &mut self.tool_inertia, &mut self.velocity_observer]
     }
 
     /// These parts with the one named `name` off (`None`: no part of that name).
@@ -243,6 +246,11 @@ pub struct DerivedState {
     /// The acceleration along n commanded last cycle [m/s²] (the tool's inertial force in
     /// [`contact_force`]).
     pub a_cmd: f64,
+    /// The accelerations commanded 2, 3, … `MAX_DELAY + 1` cycles ago [m/s²] (the observer's
+    /// input under a loop delay, [`observe`]).
+    pub a_older: [f64; contact::MAX_DELAY],
+    /// The velocity observer's state ([`observe`]; `None` before the first position).
+    pub observer: Option<Observer>,
     /// The contact regime runs the approach: no contact in evidence ([`contact_lost`]).
     pub approaching: bool,
     /// The tip's position along n [m] at the last cycle of this contact with contact in
@@ -252,7 +260,7 @@ pub struct DerivedState {
 
 impl DerivedState {
     pub fn new(_p: &DerivedParams) -> Self {
-        Self { integral: 0.0, f_ref: 0.0, f_ref_low: 0.0, f_ref_high: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0, a_cmd: 0.0, approaching: false, x_touch: None }
+        Self { integral: 0.0, f_ref: 0.0, f_ref_low: 0.0, f_ref_high: 0.0, contact: ContactState::default(), u_prev: 0.0, m_d: 1.0, b_d: 1.0, k_i: 0.0, a_cmd: 0.0, a_older: [0.0; contact::MAX_DELAY], observer: None, approaching: false, x_touch: None }
     }
 
     /// A new contact with force `f`: `I = 0`, every reference response starts at `f` (the
@@ -368,12 +376,163 @@ pub fn confidence(e: &ContactEstimate) -> f64 {
 /// cycle).
 pub fn commanded(s: &DerivedState, mass: f64, xdd_n: f64, f_ext: f64) -> DerivedState {
     let u = if mass.is_finite() { mass * xdd_n + f_ext } else { f_ext };
-    DerivedState { u_prev: if u.is_finite() { u } else { 0.0 }, a_cmd: if xdd_n.is_finite() { xdd_n } else { 0.0 }, ..*s }
+    let mut a_older = s.a_older;
+    a_older.rotate_right(1);
+    a_older[0] = s.a_cmd;
+    DerivedState { u_prev: if u.is_finite() { u } else { 0.0 }, a_cmd: if xdd_n.is_finite() { xdd_n } else { 0.0 }, a_older, ..*s }
+}
+
+/// `ω_o T` of the velocity observer: its three poles at `z = e^{−ω_o T}` with
+/// `ω_o = 2 / (d_v T)`, the time constant of the velocity lag `d_v` periods that the gain rule
+/// budgets for ([`rule::VELOCITY_LAG`], (R3)); the loop model checks the margins with the
+/// observer in the loop (`force_design::LoopModel::observer`).
+pub const OBSERVER_POLE_T: f64 = 2.0 / rule::VELOCITY_LAG as f64;
+
+/// The velocity observer's state along n at the time of the latest measurement: the tip's
+/// position `x̂` [m], velocity `v̂` [m/s], and the acceleration `ŵ` [m/s²] the arm adds to the
+/// commanded one (the model's gravity and mass errors, the approach integral's share: what
+/// the command does not say).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Observer {
+    pub x: f64,
+    pub v: f64,
+    pub w: f64,
+}
+
+/// The observer's correction gains `(l₁, l₂, l₃)` for the error dynamics' three poles at `p`:
+/// with the state scaled to `(x, T v, T² w)` the predict–correct error matrix is
+/// `(I − l cᵀ) A`, `A = [[1, 1, ½], [0, 1, 1], [0, 0, 1]]`, `c = (1, 0, 0)`, and
+/// `det(z I − (I − l cᵀ) A) = (z − p)³` gives `l₁ = 1 − p³`, `l₂ = 3/2 (1 − p)² (1 + p)`,
+/// `l₃ = (1 − p)³`.
+pub fn observer_gains(p: f64) -> [f64; 3] {
+    let q = 1.0 - p;
+    [1.0 - p * p * p, 1.5 * q * q * (1.0 + p), q * q * q]
+}
+
+/// The tip's velocity along n from the encoders' position `x` and the law's own commands: a
+/// state observer of `ẍ = a + w` with `w` constant between corrections. The encoders resolve
+/// the tip to about 1.5 µm, while the measured joint velocities carry their noise (2 mrad/s
+/// per joint on the simulated JK5), which the damping `b_d` turns into a force ripple that
+/// grows with the stiffness (docs/controller.md). `w` takes what the command does not say
+/// (a constant gravity error, the approach integral's feedforward, a mass error's share), so
+/// that no constant acceleration the command misstates biases `v̂`. Predict with the command
+/// that acted between the last two measurements (the one `d + 1` cycles ago: a measurement is
+/// `d` periods old, a command acts over the period after it), correct by the position
+/// residual `r` with [`observer_gains`] at `p = e^{−ω_o T}` ([`OBSERVER_POLE_T`]):
+///
+/// ```text
+/// x⁻ = x̂ + T v̂ + ½ T² (a + ŵ),  v⁻ = v̂ + T (a + ŵ),  r = x − x⁻,
+/// x̂ ← x⁻ + l₁ r,  v̂ ← v⁻ + l₂ r / T,  ŵ ← ŵ + l₃ r / T²
+/// ```
+///
+/// Starts from the measurement (`x`, `ẋ`, `ŵ = 0`); `None` where `x` is not finite.
+pub fn observe(s: &DerivedState, delay_cycles: f64, x: f64, x_dot: f64, period: f64) -> Option<Observer> {
+    if !x.is_finite() {
+        return None;
+    }
+    let start = Observer { x, v: if x_dot.is_finite() { x_dot } else { 0.0 }, w: 0.0 };
+    let Some(o) = s.observer else { return Some(start) };
+    if !(period > 0.0) {
+        return Some(start);
+    }
+    let d = (delay_cycles.round().max(0.0) as usize).min(contact::MAX_DELAY);
+    let a = if d == 0 { s.a_cmd } else { s.a_older[d - 1] } + o.w;
+    let (x_p, v_p) = (o.x + period * o.v + 0.5 * period * period * a, o.v + period * a);
+    let r = x - x_p;
+    let [l1, l2, l3] = observer_gains((-OBSERVER_POLE_T).exp());
+    let next = Observer { x: x_p + l1 * r, v: v_p + l2 * r / period, w: o.w + l3 * r / (period * period) };
+    Some(if next.x.is_finite() && next.v.is_finite() && next.w.is_finite() { next } else { start })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The observer's gains put the three poles of its error dynamics at `p`: the
+    /// characteristic polynomial of `(I − l cᵀ) A` is `(z − p)³` (trace `3p`, principal
+    /// minors `3p²`, determinant `p³`).
+    #[test]
+    fn the_observer_gains_place_every_pole_at_p() {
+        for p in [0.0, (-OBSERVER_POLE_T).exp(), 0.9] {
+            let [l1, l2, l3] = observer_gains(p);
+            let a = [[1.0, 1.0, 0.5], [0.0, 1.0, 1.0], [0.0, 0.0, 1.0]];
+            let l = [l1, l2, l3];
+            // (I − l cᵀ) A: row i is A's row i less l_i times A's first row
+            let m: Vec<[f64; 3]> = (0..3).map(|i| std::array::from_fn(|j| a[i][j] - l[i] * a[0][j])).collect();
+            let trace = m[0][0] + m[1][1] + m[2][2];
+            let minors = m[0][0] * m[1][1] - m[0][1] * m[1][0] + m[0][0] * m[2][2] - m[0][2] * m[2][0] + m[1][1] * m[2][2] - m[1][2] * m[2][1];
+            let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+            for (got, want, what) in [(trace, 3.0 * p, "trace"), (minors, 3.0 * p * p, "minors"), (det, p * p * p, "det")] {
+                assert!((got - want).abs() < 1e-12, "p {p}: {what} {got}, want {want}");
+            }
+        }
+    }
+
+    /// The velocity observer: on a tip that accelerates under a loop delay of `d` periods, its
+    /// position quantised to 1.5 µm and its measured velocity carrying 1.5 mm/s of noise, the
+    /// observer's velocity follows the true one with an error that is the quantisation's
+    /// through its gains (below half the measurement's noise) and no steady bias, both where the arm realises the command exactly and where it
+    /// realises `0.8 a + 0.3 m/s²` (a model mass error and a constant gravity error, which
+    /// `ŵ` takes); and it starts from the measurement.
+    #[test]
+    fn the_velocity_observer_reads_the_encoders_position_through_the_delay() {
+        let (t, q) = (1e-3, 1.5e-6);
+        let mut rng = 12345u64;
+        let mut noise = || {
+            // a uniform in [-1, 1) from a xorshift, scaled to σ = 1.5 mm/s
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            ((rng >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * 1.5e-3 * 3f64.sqrt()
+        };
+        // What the observer makes of the position's quantisation (uniform, σ = q/√12, white
+        // on a moving tip): σ_v = σ_q / T · √Σ h_k², h the response of `T v̂` to a unit
+        // position error, run through the error dynamics `(I − l cᵀ) A`.
+        let l = observer_gains((-OBSERVER_POLE_T).exp());
+        let (mut e, mut h2) = (l, 0.0);
+        for _ in 0..400 {
+            h2 += e[1] * e[1];
+            e = [(1.0 - l[0]) * (e[0] + e[1] + 0.5 * e[2]), e[1] + e[2] - l[1] * (e[0] + e[1] + 0.5 * e[2]), e[2] - l[2] * (e[0] + e[1] + 0.5 * e[2])];
+        }
+        let sigma_q = q / 12f64.sqrt() / t * h2.sqrt();
+        for (gain, bias) in [(1.0, 0.0), (0.8, 0.3)] {
+            for d in [0usize, 1, 3] {
+                let p = DerivedParams { delay_cycles: d as f64, ..Default::default() };
+                let mut s = DerivedState::new(&p);
+                let (mut x, mut v) = (0.0f64, 0.01f64);
+                let mut hist = std::collections::VecDeque::from(vec![(x, v); d + 1]);
+                let (mut err, mut err2, mut meas2, mut n) = (0.0, 0.0, 0.0, 0);
+                for k in 0..4000 {
+                    // measurement d periods old
+                    let (xm, vm) = *hist.front().unwrap();
+                    let (x_meas, v_meas) = ((xm / q).round() * q, vm + noise());
+                    s.observer = observe(&s, p.delay_cycles, x_meas, v_meas, t);
+                    if k == 0 {
+                        assert_eq!(s.observer.unwrap().v, v_meas, "starts from the measurement");
+                    }
+                    if k > 500 {
+                        err += s.observer.unwrap().v - vm;
+                        err2 += (s.observer.unwrap().v - vm).powi(2);
+                        meas2 += (v_meas - vm).powi(2);
+                        n += 1;
+                    }
+                    // a commanded 5 Hz sine of 0.5 m/s², realised as gain · a + bias
+                    let a = 0.5 * (2.0 * std::f64::consts::PI * 5.0 * k as f64 * t).sin();
+                    s = commanded(&s, 3.19, a, 0.0);
+                    let a_true = gain * a + bias;
+                    x += v * t + 0.5 * a_true * t * t;
+                    v += a_true * t;
+                    hist.push_back((x, v));
+                    hist.pop_front();
+                }
+                let (mean, rms, rms_meas) = (err / n as f64, (err2 / n as f64).sqrt(), (meas2 / n as f64).sqrt());
+                let case = format!("realised {gain} a + {bias}, d {d}");
+                assert!(rms < 1.25 * sigma_q, "{case}: observer error {rms} m/s against the quantisation's {sigma_q} m/s");
+                assert!(rms < 0.5 * rms_meas, "{case}: observer error {rms} m/s against the measurement's {rms_meas} m/s");
+                assert!(mean.abs() < 0.05 * rms_meas, "{case}: observer bias {mean} m/s (measurement noise {rms_meas} m/s)");
+            }
+        }
+    }
 
     /// On a mass–spring with the measured force fed forward (the arm realises `ẍ = V`),
     /// the law with the contact estimator settles on the target force with no steady error

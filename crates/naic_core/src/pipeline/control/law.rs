@@ -334,9 +334,15 @@ fn step_derived(p: &ControlParams, law: &ForceLawState, sched: &ScheduledState, 
     let mut out = AxisOutputs::generic(u.f_ext - u.f_d);
     let (d, est) = derived::estimate(dp, der, u.x, u.x_dot, u.f_ext, u.entered, u.regime == Regime::Contact, fl.lambda);
     let mut next_der = if u.entered { d.rearm(u.f_ext) } else { d };
+    // The velocity along n from the encoders' position (derived::observe), every cycle.
+    next_der.observer = derived::observe(der, dp.delay_cycles, u.x, u.x_dot, fl.lambda);
+    let e_dot = match next_der.observer {
+        Some(o) if dp.parts.velocity_observer => u.e_dot + (u.x_dot - o.v),
+        _ => u.e_dot,
+    };
     match u.regime {
         Regime::Contact => {
-            let inputs = DerivedInputs { e_dot: u.e_dot, f_ext: u.f_ext, f_d: u.f_d, mass: u.pre.mass_n, estimate: est, k_known: sched.k_known };
+            let inputs = DerivedInputs { e_dot, f_ext: u.f_ext, f_d: u.f_d, mass: u.pre.mass_n, estimate: est, k_known: sched.k_known };
             let (s, r) = derived::step(dp, fl.lambda, fl.integral_limit_n, &next_der, &inputs);
             // No contact in evidence (the force less the tool's inertial force below the
             // contact exit level, until it exceeds the entry level again:
@@ -810,6 +816,21 @@ mod tests {
         };
         assert_eq!(band(all), 0.0);
         assert!(band(off("reference-band")) > 0.0);
+        // The velocity observer: with the observer's velocity (0) away from the measured one
+        // (0.01 m/s) the damping acts on the observer's; off, on the measurement.
+        let observed = |parts: DerivedParts| {
+            let mut p = params(Mode::Derived, None);
+            p.force_law.derived.parts = parts;
+            let mut s = super::super::ControlState::new(&p);
+            s.derived.observer = Some(derived::Observer { x: 0.0, v: 0.0, w: 0.0 });
+            let mut u = free_inputs(&p, 0.0, 0.01, f_d);
+            u.regime = Regime::Contact;
+            u.prev_phase = Phase::Contact;
+            u.f_ext = f_d;
+            u.pre = Prepared { mass_n: 3.19, tool_mass: m_t, ..Prepared::default() };
+            step(&p, &s.law, &s.sched, &s.derived, &u).3.xdd.unwrap()
+        };
+        assert!((observed(all) - observed(off("velocity-observer"))).abs() > 1e-3);
         // Unknown names are refused; the names listed are the parts.
         assert_eq!(all.without("gravity-correction"), None);
         for n in DerivedParts::NAMES {
