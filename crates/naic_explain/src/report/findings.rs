@@ -126,7 +126,14 @@ pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(Strin
             }
         }
         Effect::RotorInertia => push("inertia_kgm2", c(Col::Rotor)),
-        Effect::ViscousNonlinearity => push("f_v2", c(Col::Visc2)),
+        Effect::ViscousNonlinearity => {
+            if ev.columns.contains(&Col::Visc2(Dir::Pos)) {
+                push("f_v2_pos", c(Col::Visc2(Dir::Pos)));
+                push("f_v2_neg", c(Col::Visc2(Dir::Neg)));
+            } else {
+                push("f_v2", c(Col::Visc2(Dir::Both)));
+            }
+        }
         // measured = k·model: the rigid-body column's coefficient is k − 1
         Effect::TorqueScale => push("scale", 1.0 + c(Col::Scale)),
         // the shared correction is in report.json `inertial_parameters`; per joint, the scale
