@@ -19,7 +19,7 @@
 //! | `delay` | none: the model is evaluated at the motion of t − d (scanned with τ_rb(t − d) ≈ τ_rb − d·τ̇_rb + d²/2·τ̈_rb; once found, re-estimated and fixed with τ_rb(t − d) exact on a 1 ms lattice, every other column at q̇(t − d), q(t − d), q̈(t − d)); d scanned on ±30 ms, then refined; found on one joint, it is fixed at the joints' median on all | delay [s] (torque lags motion when > 0) |
 //! | `drift` | `s·(t − t_mid)/T` | change of the Coulomb level over the session [N·m] |
 //! | `rotor_inertia` | `q̈_j` (engineer's check: unmodelled motor/gear inertia) | I_a [kg·m²] |
-//! | `viscous_nonlinearity` | `s·q̇²` (engineer's check: non-Newtonian lubricant) | f_v2 [N·m·s²/rad²] |
+//! | `viscous_nonlinearity` | `s·q̇²` (engineer's check: non-Newtonian lubricant; per direction on friction points with `friction_asymmetry`) | f_v2 [N·m·s²/rad²] |
 //! | `torque_scale` | `τ_rb,j` (the rigid-body torque: measured = k·(τ_rb + friction), so y = (k − 1)·τ_rb + k·friction, the friction columns absorbing k) | k = 1 + coefficient |
 //! | `inertial_parameters` | `Y_B,j(q, q̇, q̈) δβ`: the joint's share of a base-parameter correction δβ fitted on **all joints together** and cross-fitted per fold (see [`crate::inertial`]) | δβ (shared); per joint the column's scale (≈ 1) |
 //!

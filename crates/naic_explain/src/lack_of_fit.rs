@@ -23,7 +23,8 @@
 //! truth, white noise, the JK5 speed grids of 41 and 72 points, eq. 5 refitted per fold:
 //! 99.5 % quantile of the ratio 1.7–1.85). Through the whole tool (`tests/lack_of_fit.rs`,
 //! where the model is selected and q_s scanned per fold) the measured false-alarm rate is
-//! 1–4 % per direction (3 of 240 and 9 of 220 noise-only directions, largest ratio 2.75),
+//! 1–4 % per direction (5 of 240 and 2 of 220 noise-only directions, largest ratio 2.47;
+//! with the block bootstrap deciding on points, 3 of 240 and 9 of 220, largest 2.75),
 //! so with 12 directions about one file in six shows one flag from noise alone; a ratio
 //! above 3 was not reached by noise in those 460 directions. The ratio is reported so a
 //! reader can weigh it.

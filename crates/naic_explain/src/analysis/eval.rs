@@ -57,7 +57,7 @@ pub fn friction_part(ev: &Eval, sh: &NominalShape, v: f64) -> f64 {
     ev.columns
         .iter()
         .zip(&ev.full_theta)
-        .filter(|(c, _)| matches!(c, Col::Coul(_) | Col::Visc(_) | Col::Strib(_) | Col::Visc2))
+        .filter(|(c, _)| matches!(c, Col::Coul(_) | Col::Visc(_) | Col::Strib(_) | Col::Visc2(_)))
         .map(|(c, th)| th * js.col(*c, &ev.full_structure, sh, 0))
         .sum()
 }

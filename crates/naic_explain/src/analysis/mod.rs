@@ -23,7 +23,10 @@
 //!    samples are not independent), = points for friction points;
 //! 3. the test, which decides: the block-bootstrap interval of `g` over held-out time blocks
 //!    at two-sided level 1 − α/m lies above zero, α = 5 % family-wise, m = candidates ×
-//!    targets (Bonferroni; [`bootstrap`]).
+//!    targets (Bonferroni; [`bootstrap`]). Friction points (independent segment means): the
+//!    likelihood ratio of the whole-data fits, per direction, has a bootstrap p-value ≤ α/m
+//!    ([`points_test`]), and where two significant candidates compete, the richer is better
+//!    than the simpler when it is significant in the model holding both.
 //!
 //! Forward selection: of the significant candidates the one with the lowest held-out BIC
 //! (n_eff·ln of the held-out SSR ratio + ln(n_eff) per parameter) is added to the joint's
@@ -40,7 +43,8 @@
 //! `solve.rs` (least squares on them), `scan.rs` (the grid scan of shape parameters),
 //! `evaluate.rs` (the cross-validated fit: whole data, fold split, per-fold solve, held-out
 //! score), `eval.rs` (the fit's result and residuals), `coulomb.rs` (the nominal's Coulomb
-//! smoothing), `significance.rs` (the rule above), `selection.rs` (forward selection).
+//! smoothing), `significance.rs` (the rule above), `points_test.rs` (the test on friction
+//! points), `selection.rs` (forward selection).
 
 pub mod bootstrap;
 mod coulomb;
@@ -53,6 +57,7 @@ mod selection;
 mod significance;
 mod solve;
 mod structure;
+pub mod points_test;
 
 pub use coulomb::{calibrate_coulomb_width, COULOMB_WIDTH_MAX};
 pub use eval::{friction_part, residuals, Eval};

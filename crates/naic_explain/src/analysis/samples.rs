@@ -151,7 +151,7 @@ impl JointSamples {
             Col::Payload => self.payload[i],
             Col::Drift => s * self.tn[i],
             Col::Rotor => a,
-            Col::Visc2 => s * v * v,
+            Col::Visc2(d) => ind(d) * s * v * v,
             Col::Scale => self.tau_rb[i] - self.target(st, i) + self.y[i],
             Col::Inertial => self.inertial[i],
             Col::Spring => {

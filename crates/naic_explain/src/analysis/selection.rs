@@ -3,7 +3,7 @@
 //! only when it is better than it by the test, and candidates the data cannot tell apart are
 //! named as confounded.
 
-use super::{bootstrap, evaluate, residuals, score, AnalysisOptions, Candidate, Eval, JointSamples, NominalShape, Structure};
+use super::{bootstrap, evaluate, residuals, score, points_test, AnalysisOptions, Candidate, Eval, JointSamples, NominalShape, Structure};
 use crate::catalogue::Effect;
 
 /// `a` is better than `b` by the significance test: held-out gain of `a` over `b` ≥
@@ -40,7 +40,24 @@ fn pick(js: &JointSamples, sh: &NominalShape, cands: &[Candidate], o: &AnalysisO
     let res: Vec<Vec<f64>> = cands.iter().map(|c| if c.significant { residuals(js, &c.eval, sh).0 } else { Vec::new() }).collect();
     let ssr = |i: usize| cands[i].eval.heldout_ssr;
     let seed = |a: usize, b: usize| bootstrap::seed(js.joint, cands[a].effect) ^ (bootstrap::seed(js.joint, cands[b].effect) << 20);
-    let beats = |a: usize, b: usize| better(js, &res[a], &res[b], ssr(a), ssr(b), alpha, o, seed(a, b));
+    // Friction points: a is better than b when its held-out gain over b reaches the effect
+    // size and, in the model that has both (b's model with a's effect added), a's effect is
+    // significant by the points' test ([`super::points_test`]): the artificial nesting of two
+    // non-nested models (Davidson & MacKinnon 1981), since the likelihood ratio of nested
+    // fits cannot compare them directly. Time series: the block bootstrap of the held-out
+    // residuals ([`better`]).
+    let points = !js.time_series && !js.contact;
+    let beats = |a: usize, b: usize| {
+        if !points {
+            return better(js, &res[a], &res[b], ssr(a), ssr(b), alpha, o, seed(a, b));
+        }
+        let gain = if ssr(b) > 0.0 { 1.0 - ssr(a) / ssr(b) } else { 0.0 };
+        if gain < o.min_gain {
+            return false;
+        }
+        let (st, scan) = cands[b].eval.full_structure.with(cands[a].effect);
+        points_test::lr_test(js, &cands[b].eval, &st, &scan, sh, o.folds, seed(a, b)).p_value <= alpha
+    };
     let mut chosen = sig[0];
     for &c in &sig[1..] {
         if cands[c].pick_params < cands[chosen].pick_params && !beats(chosen, c) {

@@ -3,8 +3,11 @@
 //! and the test that decides, a block bootstrap of the held-out gain at a family-wise level
 //! ([`super::bootstrap`]).
 
-use super::{bootstrap, evaluate, Col, Eval, JointSamples, NominalShape};
+use super::{bootstrap, evaluate, points_test, Col, Eval, JointSamples, NominalShape};
 use crate::catalogue::Effect;
+
+/// Mixed into the seed of the friction points' test, so its draws are not the block bootstrap's.
+const LR_SEED: u64 = 0x5749_4c44;
 
 /// Analysis settings.
 #[derive(Clone, Debug)]
@@ -71,6 +74,10 @@ pub struct Candidate {
     /// Other significant candidates the data cannot tell from this one when it was taken:
     /// neither is better than the other by the test ([`super::selection`]).
     pub confounded: Vec<Effect>,
+    /// Friction points: the test, the likelihood ratio against the current model with its law
+    /// from a residual bootstrap per direction ([`super::points_test`]; `None` when a gate
+    /// already failed, and for time series).
+    pub lr_test: Option<points_test::LrTest>,
 }
 
 impl AnalysisOptions {
@@ -139,7 +146,17 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
             bootstrap::gain_interval(&blocks, 2.0 * o.test_alpha(js), bootstrap::REPLICATES, bootstrap::seed(js.joint, e))
         }
     });
-    let significant = gates && gain_interval.is_some_and(|(lo, _)| lo > 0.0);
+    // Friction points (independent segment means, no time blocks): the test is the likelihood
+    // ratio of the whole-data fits, per direction, with its law from a residual bootstrap
+    // ([`super::points_test`]); the block interval above is still reported, as the held-out
+    // gain's uncertainty, but does not decide there.
+    let points = !js.time_series && !js.contact;
+    let lr = (gates && points).then(|| points_test::lr_test(js, cur, &st, &scan, sh, o.folds, bootstrap::seed(js.joint, e) ^ LR_SEED));
+    let significant = gates
+        && match lr {
+            Some(t) => t.p_value <= o.test_alpha(js),
+            None => gain_interval.is_some_and(|(lo, _)| lo > 0.0),
+        };
     // Which of the significant candidates is taken: `inertial_parameters`' one column stands
     // for the joint's share of the base parameters the joints share (already counted in the
     // all-joint stage's BIC, so not in `delta_bic` again); counted as 1 here, a 36-parameter
@@ -162,5 +179,6 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
         significant,
         pooled: pooled.is_some() && significant,
         confounded: Vec::new(),
+        lr_test: lr,
     }
 }

@@ -28,7 +28,9 @@ pub enum Col {
     Payload,
     Drift,
     Rotor,
-    Visc2,
+    /// `viscous_nonlinearity`: `s·q̇²`, split by direction on friction points with the asymmetry
+    /// ([`Structure::points`]).
+    Visc2(Dir),
     /// The rigid-body torque (`torque_scale`).
     Scale,
     /// The joint's share of the cross-fitted base-parameter correction (`inertial_parameters`).
@@ -92,6 +94,10 @@ pub struct Structure {
     pub delay: f64,
     /// The delay was found on other joints and is fixed here (no parameter of this joint).
     pub delay_fixed: bool,
+    /// Friction points: with `friction_asymmetry`, `viscous_nonlinearity`'s column is split by
+    /// direction like every other friction column (each direction is its own curve there).
+    /// Time series keep the one shared column.
+    pub points: bool,
 }
 
 impl Structure {
@@ -108,6 +114,7 @@ impl Structure {
             n_exp: 1.0,
             delay: 0.0,
             delay_fixed: false,
+            points: false,
         }
     }
     /// The nominal structure of a target and the shape parameters its calibration scans
@@ -118,7 +125,7 @@ impl Structure {
             let scan = if js.coupled { vec![ScanParam::H] } else { vec![] };
             (Self { contact: true, coupled: js.coupled, h, ..Self::nominal() }, scan)
         } else {
-            (Self::nominal(), vec![])
+            (Self { points: !js.time_series, ..Self::nominal() }, vec![])
         }
     }
     /// Number of shape (non-linear, scanned) parameters of the structure, for the information criterion.
@@ -171,7 +178,14 @@ impl Structure {
                 Effect::Payload => c.push(Col::Payload),
                 Effect::Drift => c.push(Col::Drift),
                 Effect::RotorInertia => c.push(Col::Rotor),
-                Effect::ViscousNonlinearity => c.push(Col::Visc2),
+                Effect::ViscousNonlinearity => {
+                    if self.points && asym {
+                        c.push(Col::Visc2(Dir::Pos));
+                        c.push(Col::Visc2(Dir::Neg))
+                    } else {
+                        c.push(Col::Visc2(Dir::Both))
+                    }
+                }
                 Effect::TorqueScale => c.push(Col::Scale),
                 Effect::PositionTorque => {
                     c.push(Col::PosSin);

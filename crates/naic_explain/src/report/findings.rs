@@ -28,6 +28,10 @@ pub struct Finding {
     /// 1 − [`super::bootstrap::FAMILY_ALPHA`]/`comparisons`: the significance test
     /// (significant findings; [`super::bootstrap`]).
     pub gain_ci: Vec<(usize, (f64, f64))>,
+    /// Friction points, per target: the test that decided, (T, p) of the likelihood ratio
+    /// against the model before ([`crate::analysis::points_test`]); `gain_ci` is then reported
+    /// but did not decide.
+    pub lr_test: Vec<(usize, (f64, f64))>,
     /// Candidates × joints tried (the Bonferroni count of the intervals).
     pub comparisons: usize,
     /// The family-wise error rate of the test.
@@ -122,7 +126,14 @@ pub fn effect_params(effect: Effect, ev: &Eval, js: &JointSamples) -> Vec<(Strin
             }
         }
         Effect::RotorInertia => push("inertia_kgm2", c(Col::Rotor)),
-        Effect::ViscousNonlinearity => push("f_v2", c(Col::Visc2)),
+        Effect::ViscousNonlinearity => {
+            if ev.columns.contains(&Col::Visc2(Dir::Pos)) {
+                push("f_v2_pos", c(Col::Visc2(Dir::Pos)));
+                push("f_v2_neg", c(Col::Visc2(Dir::Neg)));
+            } else {
+                push("f_v2", c(Col::Visc2(Dir::Both)));
+            }
+        }
         // measured = k·model: the rigid-body column's coefficient is k − 1
         Effect::TorqueScale => push("scale", 1.0 + c(Col::Scale)),
         // the shared correction is in report.json `inertial_parameters`; per joint, the scale
@@ -210,6 +221,7 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             share: vec![],
             left: vec![],
             gain_ci: vec![],
+            lr_test: vec![],
             comparisons,
             family_alpha,
             confounded: vec![],
@@ -231,6 +243,9 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 f.left.push((r.joint, (r.final_eval.heldout_ssr / nom).clamp(0.0, 1.0)));
                 // the test's own interval (computed when the candidate was scored)
                 f.gain_ci.push((r.joint, c.gain_interval.unwrap_or((f64::NAN, f64::NAN))));
+                if let Some(t) = c.lr_test {
+                    f.lr_test.push((r.joint, (t.statistic, t.p_value)));
+                }
                 f.pooled |= c.pooled;
                 if !c.confounded.is_empty() {
                     f.confounded.push((r.joint, c.confounded.clone()));
@@ -286,7 +301,21 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 cs.join(", ")
             );
         }
-        if !f.gain_ci.is_empty() {
+        if !f.lr_test.is_empty() {
+            // friction points: the likelihood-ratio test decided; the block interval is reported
+            let ps: Vec<String> = f.lr_test.iter().map(|&(j, (t, p))| format!("J{j} T {t:.3}, p {p:.4}")).collect();
+            let cis: Vec<String> = f.gain_ci.iter().map(|&(j, (lo, hi))| format!("J{j} [{lo:+.4}, {hi:+.4}]")).collect();
+            f.evidence = format!(
+                "{}. The test (friction points): likelihood ratio of the whole-data fits against the model before, the larger of the two directions' ln(SSR before / SSR after), its law from {} residual-bootstrap replicates within each direction; significant at p ≤ {} %/{} (Bonferroni over candidates × targets): {}. Held-out gain interval at {:.4} % (block bootstrap, reported, not the test here): {}",
+                f.evidence.trim_end_matches('.'),
+                crate::analysis::points_test::REPLICATES,
+                100.0 * family_alpha,
+                comparisons,
+                ps.join(", "),
+                100.0 * level,
+                cis.join(", ")
+            );
+        } else if !f.gain_ci.is_empty() {
             let cis: Vec<String> = f
                 .gain_ci
                 .iter()

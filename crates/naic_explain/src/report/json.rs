@@ -44,6 +44,10 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
                 // the significance test (significant when its low end, a one-sided bound, is above zero)
                 "gain_interval": f.gain_ci.iter().map(|&(j, (lo, hi))| (jkey(j), json!([lo, hi]))).collect::<Map<_, _>>(),
                 "interval_level": super::bootstrap::interval_level(f.family_alpha, f.comparisons),
+                // friction points: the test that decided, per target the likelihood ratio T and its
+                // bootstrap p-value (significant at p ≤ family_wise_alpha / comparisons); empty for
+                // time series, where gain_interval is the test
+                "lr_test": f.lr_test.iter().map(|&(j, (t, p))| (jkey(j), json!({"statistic": t, "p_value": p}))).collect::<Map<_, _>>(),
                 "comparisons": f.comparisons,
                 // decided by the pooled test over every joint's time blocks (gain_interval is its interval)
                 "pooled_test": f.pooled,

@@ -30,10 +30,19 @@ pub(super) fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(Str
     for (k, m) in &ex.method {
         let _ = writeln!(s, "- {k}: {m}");
     }
-    let _ = writeln!(
-        s,
-        "- significance: held-out gain ≥ 2 % of the joint's mean-square residual, better in ≥ 8 of 10 folds, and BIC (effective sample count) lower; candidates added greedily per joint\n"
-    );
+    if ex.kind == crate::input::Kind::FrictionPoints {
+        let alpha = fs.first().map_or(crate::analysis::bootstrap::FAMILY_ALPHA, |f| f.family_alpha);
+        let _ = writeln!(
+            s,
+            "- significance: held-out gain ≥ 2 % of the joint's mean-square residual, BIC lower, and the test: the likelihood ratio of the whole-data fits (the larger of the two directions') with a bootstrap p-value ≤ {} %/(candidates × joints); candidates added greedily per joint\n",
+            100.0 * alpha
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "- significance: held-out gain ≥ 2 % of the joint's mean-square residual, better in ≥ 8 of 10 folds, and BIC (effective sample count) lower; candidates added greedily per joint\n"
+        );
+    }
     for n in &ex.notes {
         let _ = writeln!(s, "> {n}\n");
     }
