@@ -163,6 +163,34 @@ def test_sim_bad_robot_file_is_named_with_exit_code_2(naic_bin, root, tmp_path, 
     assert "panicked" not in r.stderr
 
 
+def test_held_out_on_the_panda_runs_every_group_without_two_material(naic_bin, root, tmp_path):
+    """`naic sim --held-out --controller derived --robot params/robots/panda.yaml`: the held-out
+    protocol on a 7-joint arm writes its goal counts for every group, scores every run, and
+    leaves out two-material (placed for the JK5 only)."""
+    out = tmp_path / "panda-held-out"
+    r = run(naic_bin, "sim", "--held-out", "--controller", "derived", "--robot", "params/robots/panda.yaml", "--out", out, cwd=root)
+    assert r.returncode == 0, r.stderr
+    rows = json.loads((out / "held_out.json").read_text())
+    groups = {x["group"] for x in rows}
+    assert groups == {"seeds", "stiffness", "delay", "mass error", "60 s", "moving surface"}
+    assert {x["controller"] for x in rows} == {"derived", "derived_oracle"}
+    assert all(x["scenario"] != "two-material" for x in rows)
+    # every run made contact and was scored: one honest entry per phase at least
+    assert all(x["honest"] for x in rows), [x["scenario"] for x in rows if not x["honest"]]
+    md = (out / "held_out.md").read_text()
+    assert "panda.yaml" in md.split("\n")[0]
+    for g in groups:
+        assert f"| {g} | derived |" in md
+
+
+def test_held_out_on_another_arm_refuses_the_mujoco_plant(naic_bin, root, tmp_path):
+    r = run(naic_bin, "sim", "--held-out", "--robot", "params/robots/panda.yaml", "--plant", "mujoco", "--out", tmp_path / "x", cwd=root)
+    assert r.returncode == 2, r.stderr
+    # a build with MuJoCo names the robot file; one without refuses --plant mujoco at once
+    assert "--plant" in r.stderr
+    assert "panicked" not in r.stderr
+
+
 def test_sim_robot_and_urdf_together_are_refused(naic_bin, root, tmp_path):
     r = run(naic_bin, "sim", "--robot", "params/robots/panda.yaml", "--urdf", "urdf/jk5.urdf", "--out", tmp_path / "x", cwd=root)
     assert r.returncode == 2 and "--urdf and --robot" in r.stderr

@@ -127,7 +127,8 @@ pub struct SimArgs {
     /// with its oracle (`--controller LAW`: that law alone with its oracle), on cases
     /// outside the tuned table (seeds 6–10, stiffness 300–200 000 N/m, delay 0 and 3, model
     /// mass error 0.7 / 1.4, 60 s runs, a surface receding at 5–20 mm/s), scored with the
-    /// honest metrics (docs/controller.md); on --plant.
+    /// honest metrics (docs/controller.md); on --plant, or with --robot FILE on that arm
+    /// (own plant, without two-material).
     #[arg(long)]
     pub held_out: bool,
     /// The plant: own (naic's simulator) or mujoco (MuJoCo on --mjcf; needs a build with
@@ -562,8 +563,9 @@ pub fn run(a: SimArgs) -> CliResult {
             ("--sigma-margin", a.sigma_margin.is_some()),
             ("--median-window", a.median_window.is_some()),
             ("--scheduled-contact-threshold", a.scheduled_contact_threshold.is_some()),
-            // The table is the JK5's (docs/controller.md); other arms: naic sim --robot FILE --seeds 5.
-            ("--robot", a.robot.is_some()),
+            // The table is the JK5's (docs/controller.md); other arms: naic sim --robot FILE --seeds 5,
+            // or --held-out --robot FILE.
+            ("--robot", a.robot.is_some() && !a.held_out),
             ("--tool-mass-error", a.tool_mass_error.is_some()),
             ("--tool-com-offset", a.tool_com_offset.is_some()),
             ("--tool-file", a.tool_file.is_some()),
@@ -585,6 +587,16 @@ pub fn run(a: SimArgs) -> CliResult {
             let parts = derived_parts(a.ablate.as_deref())?;
             if parts != DerivedParts::ALL && !matches!(a.controller.as_deref(), Some("derived")) {
                 return Err(CliError::usage("--held-out --ablate changes the derived law only: add --controller derived"));
+            }
+            if a.robot.is_some() {
+                let robot = load_robot(a.robot.as_deref())?;
+                if !robot.is_paper_jk5() {
+                    let other = [("--plant", a.plant.is_some() && !matches!(choice, PlantChoice::Own)), ("--urdf", a.urdf.is_some()), ("--friction", a.friction.is_some()), ("--no-friction", a.no_friction), ("--inertial-wrench", a.inertial_wrench), ("--tare", a.tare.is_some())];
+                    if let Some((flag, _)) = other.iter().find(|(_, g)| *g) {
+                        return Err(CliError::usage(format!("--held-out --robot {}: runs on the own plant with the robot file's friction, tool and sensor: drop {flag}", robot.file.display())));
+                    }
+                    return super::sim_heldout::run_robot(&out, &robot, a.controller.as_deref(), parts);
+                }
             }
             return super::sim_heldout::run(&out, a.urdf.as_deref(), a.friction.as_deref(), a.no_friction, &choice, sensor, a.controller.as_deref(), parts);
         }
