@@ -1,6 +1,8 @@
 //! Trace of the derived law's first contact (docs/controller.md, "The derived law"): the
-//! force, the contact estimate's bounds and the rule's gains every `EVERY_MS` from contact
-//! to `WINDOW_S` after it, one seed.
+//! force, the tip's true penetration, the contact estimator's state (surface speed, damping,
+//! whether the sample updated it and `k_e`, the tip along n as the controller read it, the
+//! regressor's origin `x₀` and the surface `x̂_e − x₀`), the estimate's bounds and the
+//! rule's gains every `EVERY_MS` from contact to `WINDOW_S` after it, one seed.
 //!
 //! ```text
 //! cargo run --release -p naic_sim --example derived_trace -- SCENARIO CONTROLLER D SEED [WINDOW_S] [EVERY_MS] [STIFFNESS]
@@ -55,8 +57,19 @@ fn main() {
                 let d = &c.state().controller.control.derived;
                 let e = naic_core::pipeline::control::contact::estimate(&p.contact, &d.contact, 0.0);
                 rows.push(format!(
-                    "{:8.3} {:8.0} {:8.0} {:8.0} {:7.3} {:7.3} {:8.3} {:8.1} {:8.4} {:6.2} {:7.3} {:7.3}",
-                    st.f_ext, e.k_hat, e.k_upper, e.k_lower, e.mu_hat, e.mu_upper, d.m_d, d.b_d, d.k_i, d.integral, d.f_ref, d.u_prev
+                    "{:7.2} {:6.1} {:4} {:10.2} {:10.2} {:8.2} {:8.3} {:8.0} {:8.0} {:8.0} {:7.3} {:7.3} {:8.3} {:8.1} {:8.4} {:6.2} {:7.3} {:7.3}",
+                    d.contact.theta[2] * 1e3,
+                    d.contact.theta[4],
+                    match (d.contact.used, d.contact.excited[0]) {
+                        (true, true) => "k",
+                        (true, false) => "u",
+                        _ => "-",
+                    },
+                    st.tip_position.dot(&c.params().control.force_axis.n) * 1e6,
+                    d.contact.x0 * 1e6,
+                    d.contact.theta[1] / d.contact.theta[0].max(1.0) * 1e6,
+                    st.f_ext,
+                    e.k_hat, e.k_upper, e.k_lower, e.mu_hat, e.mu_upper, d.m_d, d.b_d, d.k_i, d.integral, d.f_ref, d.u_prev
                 ));
             },
         };
@@ -68,14 +81,16 @@ fn main() {
         let t0 = r.records[i0].t;
         let settle = r.metrics.phases.first().and_then(|p| p.settling_time_2pct_s);
         println!("contact at {t0:.3} s; ±2 % settling {settle:?}");
-        println!("  t_ms   f_true   f_meas    k_hat  k_upper  k_lower  mu_hat mu_upper    m_d      b_d      k_i     I     f_ref  u_prev");
+        // pen: the true penetration [µm]; w: ẋ̂_e [mm/s]; b: b̂_e [N·s/m]; upd: the sample
+        // updated k_e (k), the other states only (u), nothing (-); x_n, x0, xe-x0 [µm] along n
+        println!("  t_ms   f_true      pen       w      b  upd        x_n         x0    xe-x0   f_meas    k_hat  k_upper  k_lower  mu_hat mu_upper    m_d      b_d      k_i     I     f_ref  u_prev");
         let step = (every * 1e-3 / s.task.dt).round().max(1.0) as usize;
         for (k, (x, row)) in r.records.iter().zip(rows.iter()).enumerate().skip(i0.saturating_sub(3 * step)).step_by(step) {
             if x.t > t0 + window {
                 break;
             }
             let _ = k;
-            println!("{:6.0} {:8.3} {row}", (x.t - t0) * 1e3, x.f_ext);
+            println!("{:6.0} {:8.3} {:8.2} {row}", (x.t - t0) * 1e3, x.f_ext, x.penetration * 1e6);
         }
         Ok(())
     };
