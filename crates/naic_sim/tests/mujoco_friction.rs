@@ -171,6 +171,28 @@ fn the_papers_aic_at_delay_1_on_mujoco_flat_keeps_every_joint_below_2_rad_s_with
     assert!(peak_est < settings.force_limit_n, "the force estimate reached {peak_est} N (limit {} N): a retract", settings.force_limit_n);
 }
 
+/// The start-up tare at rest (the node's default, `naic sim --tare at-rest`) on MuJoCo with
+/// the JK5's joint friction, flat to 2.9 s, the derived and the paper's NAIC law, the tool's
+/// inertial wrench in the reading: the tare's hold evaluates the friction feedforward at the
+/// blend of the measured velocity and its own (zero), the joints come to rest, the tare
+/// completes and the law reaches the table. With the feedforward at the measured velocity the
+/// encoders' noise put ±f_b on every joint, the wrist stuck and slipped at up to 0.18 rad/s
+/// and no law made contact in 5 s.
+#[test]
+fn the_tare_at_rest_completes_on_mujoco_with_the_joint_friction() {
+    let ClosedLoop { m, f, s, t, p, mut settings } = closed_loop("flat", Some(2.9), true);
+    settings.tare_at_rest = true;
+    settings.sensor_reads_tool_inertia = true;
+    for law in ["derived", "naic"] {
+        let mut c = PipelineController::by_name(law, &s, &m, Some(f.clone()), t, &settings).unwrap();
+        let mut plant = PlantChoice::Mujoco { mjcf: mjcf() }.build(&p, &s.task.q0, s.seed).unwrap();
+        let r = runner::run_on(&s, plant.as_mut(), &mut c, &mut |_| {});
+        let touch = r.records.iter().find(|x| x.in_contact).map(|x| x.t);
+        println!("{law}: tare at rest on MuJoCo with friction, first contact at {touch:?} s");
+        assert!(touch.is_some_and(|t| t < 2.5), "{law}: no contact by 2.5 s ({touch:?}): the tare did not complete");
+    }
+}
+
 /// The derived law's stiction-aware hold (issue 42 item 6, naic_core::pipeline::control::stiction)
 /// on MuJoCo's foam with the JK5's joint friction, d = 1, seeds 1–5: with the hold the late
 /// force (the last 0.5 s) stays within 0.4 N peak-to-peak; with the hold off (its ablation

@@ -498,7 +498,13 @@ fn taring<const N: usize>(
         (g + m * a).into()
     };
     let status = status_without_force(p, next, r, next.control.phase, 0.0, None, tip, next.control.retracting());
-    ControlOutputs { tau, dq: *dq, dq_ff: None, status }
+    // The hold commands rest: with the controller's friction reference blend the friction
+    // feedforward is evaluated at the blend of the measured velocity and the hold's, zero, so
+    // that the encoders' velocity noise at rest is not turned into ±f_b of torque on every
+    // joint (the wrist joints then stick and slip and the tare never sees rest); a joint that
+    // slips above the blend's v_hi still gets it at its own velocity.
+    let dq_ff = p.control.force_law.scheduled.friction_reference.map(|b| feedforward::blend(&b, dq, &[0.0; N]));
+    ControlOutputs { tau, dq: *dq, dq_ff, status }
 }
 
 /// Solves eq 6's `J q̈ = b` for the joint acceleration (module docs), with whether the
