@@ -85,11 +85,10 @@ fn main() {
         // updated k_e (k), the other states only (u), nothing (-); x_n, x0, xe-x0 [µm] along n
         println!("  t_ms   f_true      pen       w      b  upd        x_n         x0    xe-x0   f_meas    k_hat  k_upper  k_lower  mu_hat mu_upper    m_d      b_d      k_i     I     f_ref  u_prev");
         let step = (every * 1e-3 / s.task.dt).round().max(1.0) as usize;
-        for (k, (x, row)) in r.records.iter().zip(rows.iter()).enumerate().skip(i0.saturating_sub(3 * step)).step_by(step) {
+        for (x, row) in r.records.iter().zip(rows.iter()).skip(i0.saturating_sub(3 * step)).step_by(step) {
             if x.t > t0 + window {
                 break;
             }
-            let _ = k;
             println!("{:6.0} {:8.3} {:8.2} {row}", (x.t - t0) * 1e3, x.f_ext, x.penetration * 1e6);
         }
         Ok(())
