@@ -11,7 +11,13 @@ surface, a foreign rclpy node (not friction_compensation) publishes the issue's 
   node is logged once, by name, on /rosout; the force sensor keeps reading what it read in
   steady contact before the attack (the chain keeps tracking force).
 * The control (`command_source:=*`, every writer accepted, as before issue 41): the same
-  attack moves joint 1, so the first test's assertion is one the attack can fail.
+  attack reaches the arm: periods whose applied torque (`/joint_states` effort) is the
+  attack's, so the first test's check that no period applied it is one the attack can fail.
+  How many periods it wins depends on the race with friction_compensation's command of the
+  same period (the driver applies the newest): joint 1 reached 0.15 rad/s where the attack won
+  most of them, 0.024–0.029 rad/s where it won 140 of about 1200 (a clean-clone run, and
+  again on the same machine), so the control counts applied periods, not the motion they
+  cause.
 """
 import json
 import os
@@ -55,7 +61,7 @@ def _attack(bins, tmp_path, driver_source=None):
     r = ru.RclpyDomain(domain, FOREIGN)
     js, fz, logs = [], [], []
     stamp = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec  # noqa: E731
-    r.node.create_subscription(JointState, "/joint_states", lambda m: js.append((stamp(m), list(m.velocity))), 2000)
+    r.node.create_subscription(JointState, "/joint_states", lambda m: js.append((stamp(m), list(m.velocity), list(m.effort))), 2000)
     r.node.create_subscription(WrenchStamped, "/wrench", lambda m: fz.append((stamp(m), m.wrench.force.z)), 2000)
     r.node.create_subscription(Log, "/rosout", lambda m: logs.append((m.name, m.msg)), 100)
     pub = r.node.create_publisher(Float64MultiArray, "/joint_effort_cmd", 10)
@@ -92,14 +98,18 @@ def _attack(bins, tmp_path, driver_source=None):
         launch.stop(timeout=20)
         r.close()
     rep = json.loads(report.read_text())
-    before = [v for s, v in js if t0 - 1.0 <= s < t0]
-    during = [v for s, v in js if t0 <= s < t1 + 0.2]
+    before = [v for s, v, _ in js if t0 - 1.0 <= s < t0]
+    during = [v for s, v, _ in js if t0 <= s < t1 + 0.2]
+    # Periods whose applied torque is the attack's: one joint at 30 N m, the others at 0
+    # (friction_compensation's command is never that).
+    applied = sum(1 for s, _, e in js if t0 <= s < t1 + 0.2 and len(e) == len(ATTACK)
+                  and sorted(abs(x) for x in e) == sorted(abs(x) for x in ATTACK))
     f_before = [f for s, f in fz if t0 - 1.0 <= s < t0]
     f_during = [f for s, f in fz if t0 <= s < t1 + 0.2]
     assert len(before) > 200 and len(during) > 200, (len(before), len(during))
     peak = lambda vs: [max(abs(v[j]) for v in vs) for j in range(6)]  # noqa: E731
     mean = lambda xs: sum(xs) / len(xs)  # noqa: E731
-    return dict(report=rep, qd_before=peak(before), qd_during=peak(during), f_before=mean(f_before),
+    return dict(report=rep, qd_before=peak(before), qd_during=peak(during), applied=applied, f_before=mean(f_before),
                 f_during=mean(f_during), f_during_worst=max(abs(f - mean(f_before)) for f in f_during),
                 attack_s=t1 - t0, logs=logs, output=launch.output())
 
@@ -110,6 +120,7 @@ def test_ros_a_foreign_commander_moves_no_joint_and_is_counted_and_named(bins, t
           f"during {[round(x, 4) for x in a['qd_during']]}; f_z mean before {a['f_before']:.2f} N, during "
           f"{a['f_during']:.2f} N (worst deviation from before {a['f_during_worst']:.2f} N); "
           f"foreign_commands {a['report'].get('foreign_commands')}")
+    assert a["applied"] == 0, f"{a['applied']} periods applied the foreign command's torque"
     for j in range(6):
         assert a["qd_during"][j] <= a["qd_before"][j] + REST_MARGIN, (
             f"joint {j + 1} moved under the foreign commands: |qdot| up to {a['qd_during'][j]:.4f} rad/s, "
@@ -133,9 +144,9 @@ def test_ros_the_same_attack_moves_the_arm_when_every_writer_is_accepted(bins, t
     """The control: with `command_source:=*` (what the driver did before issue 41) the attack
     reaches the arm."""
     a = _attack(bins, tmp_path, driver_source="*")
-    print(f"control: |qdot_1| peak before {a['qd_before'][0]:.4f}, during {a['qd_during'][0]:.4f} rad/s; "
+    print(f"control: {a['applied']} periods applied the attack's torque; |qdot_1| peak before "
+          f"{a['qd_before'][0]:.4f}, during {a['qd_during'][0]:.4f} rad/s; "
           f"foreign_commands {a['report'].get('foreign_commands')}")
-    assert a["qd_during"][0] > a["qd_before"][0] + 5 * REST_MARGIN, (
-        f"the attack did not move joint 1 even with every writer accepted ({a['qd_during'][0]:.4f} rad/s): "
-        "the test above could not fail")
+    assert a["applied"] > 0, (
+        "no period applied the attack's torque even with every writer accepted: the test above could not fail")
     assert a["report"]["foreign_commands"] == 0
