@@ -364,3 +364,47 @@ fn a_hold_restarts_the_force_law_and_keeps_a_force_limit_latch() {
     let (s, out) = controller::step(&rig.ctl, &held, &rig.good(), &rig.reference, &mut rig.ws);
     assert!(out.status.fault.is_none() && out.status.force_limited && s.control.retracting(), "still latched after the hold");
 }
+
+/// While the force limit retracts, the contact wrench is not fed forward (eq 6's `Jᵀ F_e`):
+/// the surface's push lifts the tool. Fed forward, it cancelled that push, and only the
+/// retract's velocity servo lifted the tool; under a model 20 % light (its gravity deficit)
+/// the tool sank on into the foam at the force limit (`naic sim --scenario two-material
+/// --controller derived_oracle --model-mass-error 0.8`: 112 N and rising). Two retracting
+/// cycles that differ only by the measured push command the same torque; two contact cycles
+/// below the limit do not (the control: there the push is fed forward).
+#[test]
+fn a_retract_does_not_feed_the_contact_force_forward() {
+    let rig = Rig::new();
+    let ctl = &rig.ctl;
+    let limit = ctl.params().control.force_limit.limit_n;
+    // the sensor's z reading that makes f_ext = `f` (its sign from the controller's answer)
+    let run = |push: f64| -> (f64, bool, [f64; 6]) {
+        let mut ws = ctl.workspace();
+        let (mut s, mut t) = (rig.s, rig.t);
+        let mut last = None;
+        for _ in 0..12 {
+            let mut w = rig.good_wrench;
+            w[2] += push;
+            let m = RawMeasurements { t, q: q0(), dq: [0.0; 6], joints_stamp: t, wrench: w, wrench_stamp: t };
+            let (n, out) = controller::step(ctl, &s, &m, &rig.reference, &mut ws);
+            assert!(out.status.fault.is_none(), "{:?}", out.status.fault);
+            last = Some(out);
+            s = n;
+            t += DT;
+        }
+        let out = last.unwrap();
+        (out.status.f_ext, out.status.force_limited, out.tau)
+    };
+    let sign = if run(1.2 * limit).0 > 0.0 { 1.0 } else { -1.0 };
+    let (f_a, lim_a, tau_a) = run(sign * 1.2 * limit);
+    let (f_b, lim_b, tau_b) = run(sign * 1.6 * limit);
+    assert!(lim_a && lim_b && f_a > limit && f_b > f_a + 0.3 * limit, "precondition: both retracting at different pushes ({f_a}, {f_b} N)");
+    let diff: f64 = tau_a.iter().zip(&tau_b).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(diff < 1e-9, "retracting: the torque changed by {diff} N·m with the push ({tau_a:?} vs {tau_b:?})");
+    // the control: in contact below the limit the push is fed forward
+    let (f_c, lim_c, tau_c) = run(sign * 0.3 * limit);
+    let (f_d, lim_d, tau_d) = run(sign * 0.5 * limit);
+    assert!(!lim_c && !lim_d && f_d > f_c + 0.1 * limit, "precondition: both below the limit ({f_c}, {f_d} N)");
+    let diff: f64 = tau_c.iter().zip(&tau_d).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(diff > 0.5, "in contact the torque must answer the push: it changed by {diff} N·m");
+}

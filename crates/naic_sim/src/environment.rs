@@ -7,7 +7,9 @@
 //! penetration `d = n·(p0 − p_tip) > 0` and penetration rate `ḋ = −n·v_tip`,
 //! the normal force on the robot is `F_n = max(0, k_e d + b_e ḋ)` along `n`;
 //! the environment never pulls. Optional tangential friction opposes the
-//! sliding velocity with magnitude `mu F_n tanh(|v_t| / v_slip)`.
+//! sliding velocity with magnitude `mu F_n tanh(|v_t| / v_slip)`. Two materials
+//! side by side are two blocks: the stiffer one's side face pushes a tip that
+//! meets it below its top out along x ([`Environment::contact`]).
 //!
 //! The tip is a point: the authors' MJCF tip sphere has radius 0.01 m and
 //! their table top is at z = 0.07 m, so the tip *centre* touches at 0.08 m —
@@ -99,6 +101,9 @@ pub struct Contact {
     /// Stiffness in effect [N/m].
     pub k_e: f64,
     pub in_contact: bool,
+    /// The contact is with the stiffer block's side face (two materials,
+    /// [`Environment::contact`]), not with a top.
+    pub on_side: bool,
 }
 
 impl Environment {
@@ -124,6 +129,15 @@ impl Environment {
     }
 
     /// Contact force on the tip at time `t` (allocation-free).
+    ///
+    /// On two materials ([`MaterialMap::SplitX`]) the stiffer one is a block whose side face
+    /// (the plane `x = x_boundary`) stands above the softer one's surface wherever the softer
+    /// one is pressed down: a tip inside the stiffer block that is nearer its side face than
+    /// its top ([`Environment::side_face`]) is pushed out through the side, along x, as a box
+    /// contact pushes out through its nearest face (MuJoCo's two table boxes do the same). Without
+    /// it a tip pressed into the foam that moved back across the boundary would be read as
+    /// that depth below the acrylic's top: a vertical spring force of `k_acrylic` times the
+    /// foam's depth (50 000 N/m × 2 mm = 100 N) that no real edge gives.
     pub fn contact(&self, t: f64, p_tip: &Vector3<f64>, v_tip: &Vector3<f64>) -> Contact {
         let n = self.normal.as_ref();
         let penetration = n.dot(&(self.point - p_tip));
@@ -131,8 +145,19 @@ impl Environment {
         if !self.enabled || penetration <= 0.0 {
             return Contact { penetration, k_e: mat.k_e, ..Default::default() };
         }
+        if let Some((side, depth)) = self.side_face(p_tip, penetration) {
+            let force = self.face_force(&side, depth, &mat, v_tip);
+            return Contact { penetration: depth, normal_force: n.dot(&force).max(0.0), force, k_e: mat.k_e, in_contact: true, on_side: true };
+        }
+        let force = self.face_force(n, penetration, &mat, v_tip);
+        Contact { penetration, normal_force: n.dot(&force).max(0.0), force, k_e: mat.k_e, in_contact: true, on_side: false }
+    }
+
+    /// The force of one face (outward unit normal `n`, penetration `depth` > 0) of `mat` on
+    /// the tip: `max(0, k_e d + b_e ḋ)` along `n`, and Coulomb friction against the sliding.
+    fn face_force(&self, n: &Vector3<f64>, depth: f64, mat: &Material, v_tip: &Vector3<f64>) -> Vector3<f64> {
         let rate = -n.dot(v_tip);
-        let normal_force = (mat.k_e * penetration + mat.b_e * rate).max(0.0);
+        let normal_force = (mat.k_e * depth + mat.b_e * rate).max(0.0);
         let mut force = n * normal_force;
         if mat.mu > 0.0 && normal_force > 0.0 {
             let v_t = v_tip - n * n.dot(v_tip);
@@ -141,7 +166,24 @@ impl Environment {
                 force -= v_t * (mat.mu * normal_force * (speed / self.v_slip).tanh() / speed);
             }
         }
-        Contact { penetration, normal_force, force, k_e: mat.k_e, in_contact: true }
+        force
+    }
+
+    /// On two materials: the stiffer block's side face when the tip (`penetration` > 0 below
+    /// the top) is inside that block and nearer its side than its top — `(outward normal of
+    /// the side, depth through it)`; else `None`. Equal stiffnesses have no exposed side.
+    fn side_face(&self, p_tip: &Vector3<f64>, penetration: f64) -> Option<(Vector3<f64>, f64)> {
+        let MaterialMap::SplitX { x_boundary, high_x, low_x } = &self.material else { return None };
+        let (inside, outward) = if high_x.k_e > low_x.k_e {
+            (p_tip.x - x_boundary, -1.0)
+        } else if low_x.k_e > high_x.k_e {
+            (x_boundary - p_tip.x, 1.0)
+        } else {
+            return None;
+        };
+        // `inside` ≥ 0: the tip is in the stiffer block (the map gives x = boundary to high_x)
+        let in_block = if outward < 0.0 { inside >= 0.0 } else { inside > 0.0 };
+        (in_block && inside < penetration).then(|| (Vector3::new(outward, 0.0, 0.0), inside))
     }
 }
 
@@ -219,5 +261,29 @@ mod tests {
         assert_eq!(map.at(0.0, &Vector3::new(-0.40, 0.0, 0.0)), acrylic);
         assert_eq!(map.at(0.0, &Vector3::new(-0.50, 0.0, 0.0)), foam);
         assert_eq!(map.max_stiffness(), 50_000.0);
+    }
+
+    /// A tip pressed 2 mm into the foam that moves 0.1 mm back across the boundary meets the
+    /// acrylic's side face: 5 N along x, none along the surface normal (it was read as 2 mm
+    /// below the acrylic's top: 100 N up). On the acrylic's top, away from the edge, the
+    /// contact is the top's; the foam has no exposed side.
+    #[test]
+    fn the_stiffer_block_pushes_out_through_its_side_face() {
+        let acrylic = Material { k_e: 50_000.0, b_e: 0.0, mu: 0.0 };
+        let foam = Material { k_e: 1000.0, b_e: 0.0, mu: 0.0 };
+        let env = Environment::horizontal(0.0, MaterialMap::SplitX { x_boundary: -0.45, high_x: acrylic, low_x: foam });
+        let still = Vector3::zeros();
+        let side = env.contact(0.0, &Vector3::new(-0.4499, 0.0, -2e-3), &still);
+        assert!((side.force - Vector3::new(-5.0, 0.0, 0.0)).norm() < 1e-6, "{:?}", side.force);
+        assert_eq!(side.normal_force, 0.0);
+        assert!((side.penetration - 1e-4).abs() < 1e-12 && side.in_contact && side.on_side);
+        let top = env.contact(0.0, &Vector3::new(-0.44, 0.0, -6e-5), &still);
+        assert!((top.force - Vector3::new(0.0, 0.0, 3.0)).norm() < 1e-6 && !top.on_side, "{:?}", top.force);
+        let in_foam = env.contact(0.0, &Vector3::new(-0.4501, 0.0, -2e-3), &still);
+        assert!((in_foam.force - Vector3::new(0.0, 0.0, 2.0)).norm() < 1e-6, "{:?}", in_foam.force);
+        // the other way round (the stiffer block on the low-x side): its side faces +x
+        let env = Environment::horizontal(0.0, MaterialMap::SplitX { x_boundary: -0.45, high_x: foam, low_x: acrylic });
+        let side = env.contact(0.0, &Vector3::new(-0.4501, 0.0, -2e-3), &still);
+        assert!((side.force - Vector3::new(5.0, 0.0, 0.0)).norm() < 1e-6, "{:?}", side.force);
     }
 }

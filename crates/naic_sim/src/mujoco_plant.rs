@@ -721,7 +721,7 @@ impl MujocoPlant {
             let pen = n_env.dot(&(self.env.point - tip));
             return Contact { penetration: pen, k_e, ..Default::default() };
         }
-        Contact { penetration: pen, normal_force: n_env.dot(&force).max(0.0), force, k_e, in_contact: true }
+        Contact { penetration: pen, normal_force: n_env.dot(&force).max(0.0), force, k_e, in_contact: true, on_side: false }
     }
 
     fn observe(&mut self, tau_applied: JointVec, saturated: bool) {

@@ -44,6 +44,8 @@ pub struct Record<const N: usize = N_JOINTS> {
     pub penetration: f64,
     pub in_contact: bool,
     pub k_e: f64,
+    /// The contact is with a block's side face, not a top ([`crate::environment::Contact::on_side`]).
+    pub on_side: bool,
     /// Raw F/T reading (sensor frame).
     pub wrench: [f64; 6],
     pub m_d: f64,
@@ -78,6 +80,7 @@ impl<const N: usize> Default for Record<N> {
             penetration: 0.0,
             in_contact: false,
             k_e: 0.0,
+            on_side: false,
             wrench: [0.0; 6],
             m_d: 0.0,
             b_d: 0.0,
@@ -127,6 +130,7 @@ fn record<const N: usize>(s: &Scenario<N>, k: usize, obs: &Observation<N>, rep: 
         penetration: tr.contact.penetration,
         in_contact: tr.contact.in_contact,
         k_e: tr.contact.k_e,
+        on_side: tr.contact.on_side,
         wrench: obs.meas.wrench,
         m_d: rep.m_d,
         b_d: rep.b_d,
@@ -179,17 +183,36 @@ pub fn run_on<const N: usize>(s: &Scenario<N>, plant: &mut dyn Plant<N>, control
     RunResult { controller: controller.name().to_string(), records, metrics, limit_violation, saturated }
 }
 
+/// The changes of the material under the tip in contact (two-material surface), each a
+/// phase start like a scheduled stiffness step: `(t, f_d)` at the first period off the old
+/// material's top — on the stiffer block's side face ([`Record::on_side`]) or on the new
+/// top. A tip that leaves a top for a side face and comes back to the same top starts no phase.
+fn top_changes<const N: usize>(records: &[Record<N>]) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let (mut prev_k, mut left): (Option<f64>, Option<(f64, f64)>) = (None, None);
+    for r in records {
+        if r.on_side && r.in_contact {
+            left = left.or(Some((r.t, r.f_d)));
+            continue;
+        }
+        if prev_k.is_some_and(|k| k != r.k_e) && r.in_contact {
+            out.push(left.unwrap_or((r.t, r.f_d)));
+        }
+        prev_k = Some(r.k_e);
+        left = None;
+    }
+    out
+}
+
 /// Contact time and phase metrics of a recorded run.
 pub fn metrics_of<const N: usize>(s: &Scenario<N>, records: &[Record<N>]) -> ControllerMetrics {
     let t: Vec<f64> = records.iter().map(|r| r.t).collect();
     let f: Vec<f64> = records.iter().map(|r| r.f_ext).collect();
     let c: Vec<bool> = records.iter().map(|r| r.in_contact).collect();
     let mut events = s.events();
-    // A change of the material under the tip (two-material surface) starts a
-    // phase too, like a scheduled stiffness step.
-    for w in records.windows(2) {
-        if w[1].k_e != w[0].k_e && w[1].in_contact && !events.iter().any(|e| (e.t_start - w[1].t).abs() < 1.5 * s.task.dt) {
-            events.push(PhaseSpec { t_start: w[1].t, desired_force: w[1].f_d, start: PhaseStart::Disturbance });
+    for (t_start, f_d) in top_changes(records) {
+        if !events.iter().any(|e| (e.t_start - t_start).abs() < 1.5 * s.task.dt) {
+            events.push(PhaseSpec { t_start, desired_force: f_d, start: PhaseStart::Disturbance });
         }
     }
     events.sort_by(|a, b| a.t_start.total_cmp(&b.t_start));
@@ -405,4 +428,29 @@ pub fn summarize<const N: usize>(r: &RunResult<N>) -> RunSummary {
     let (lo, hi) = late.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), f| (lo.min(f), hi.max(f)));
     n.late_p2p_n = if hi >= lo { hi - lo } else { f64::NAN };
     n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(t: f64, k_e: f64, on_side: bool, in_contact: bool) -> Record {
+        Record { t, k_e, on_side, in_contact, f_d: 3.0, ..Default::default() }
+    }
+
+    /// Acrylic's top → its side face → the foam's top starts one phase, when the tip left
+    /// the acrylic's top; foam → the acrylic's side → foam starts none; a change of material
+    /// out of contact starts none (as a scheduled stiffness step would not either).
+    #[test]
+    fn a_phase_starts_where_the_tip_leaves_a_top_for_another_material() {
+        let (a, f) = (50_000.0, 1000.0);
+        let over = [rec(0.0, a, false, true), rec(0.001, a, true, true), rec(0.002, a, true, true), rec(0.003, f, false, true), rec(0.004, f, false, true)];
+        assert_eq!(top_changes(&over), vec![(0.001, 3.0)]);
+        let back = [rec(0.0, f, false, true), rec(0.001, a, true, true), rec(0.002, f, false, true)];
+        assert!(top_changes(&back).is_empty());
+        let plain = [rec(0.0, a, false, true), rec(0.001, f, false, true)];
+        assert_eq!(top_changes(&plain), vec![(0.001, 3.0)]);
+        let airborne = [rec(0.0, a, false, true), rec(0.001, f, false, false), rec(0.002, f, false, true)];
+        assert!(top_changes(&airborne).is_empty());
+    }
 }

@@ -397,7 +397,12 @@ pub fn update<const N: usize>(
     next.q_posture = posture;
     let (qdd, damped) = solve_eq6(c, ws, &q, &dq, &j, &(out.v - jdot_qdot), posture.as_ref());
     let tau_id = *dynamics::rnea(&c.model, &mut ws.data, &q, &dq, &qdd);
-    let mut tau = tau_id + j.transpose() * f_e;
+    // The contact wrench is fed forward (eq 6) except while the force limit retracts: there
+    // cancelling it would hold the tool against the surface that pushes it off, and only the
+    // retract's velocity servo would lift it (under a light model's gravity deficit, not at
+    // all: the tool sank on at the force limit). Without it the surface's push lifts the tool.
+    let f_ff = if out.retracting { Vector6::zeros() } else { f_e };
+    let mut tau = tau_id + j.transpose() * f_ff;
     // A factor on the model's gravity torque, where the law asks for one.
     if out.gravity_factor != 0.0 {
         tau += *dynamics::gravity_torques(&c.model, &mut ws.data, &q) * out.gravity_factor;
