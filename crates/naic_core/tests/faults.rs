@@ -377,7 +377,7 @@ fn a_retract_does_not_feed_the_contact_force_forward() {
     let rig = Rig::new();
     let ctl = &rig.ctl;
     let limit = ctl.params().control.force_limit.limit_n;
-    // the sensor's z reading that makes f_ext = `f` (its sign from the controller's answer)
+    // `push` added to the sensor's z reading for 12 cycles: (f_ext, force-limited, torque) of the last
     let run = |push: f64| -> (f64, bool, [f64; 6]) {
         let mut ws = ctl.workspace();
         let (mut s, mut t) = (rig.s, rig.t);
@@ -395,6 +395,7 @@ fn a_retract_does_not_feed_the_contact_force_forward() {
         let out = last.unwrap();
         (out.status.f_ext, out.status.force_limited, out.tau)
     };
+    // the push's sign that reads as the robot pushing on the surface (f_ext > 0)
     let sign = if run(1.2 * limit).0 > 0.0 { 1.0 } else { -1.0 };
     let (f_a, lim_a, tau_a) = run(sign * 1.2 * limit);
     let (f_b, lim_b, tau_b) = run(sign * 1.6 * limit);
