@@ -68,7 +68,10 @@ def test_significance_is_the_bootstrap_test(naic_bin):
     for f in sig:
         m = f["comparisons"]
         assert m >= 66 and f["family_wise_alpha"] == 0.05
-        assert abs(f["interval_level"] - (1 - 2 * 0.05 / m)) < 1e-12
-        assert set(f["gain_interval"]) == set(f["targets"])
+        # per target: at or below Bonferroni's level, at or above the joint's share of the family
+        assert abs(f["bonferroni_interval_level"] - (1 - 2 * 0.05 / m)) < 1e-12
+        assert set(f["gain_interval"]) == set(f["targets"]) == set(f["interval_level"])
+        for lv in f["interval_level"].values():
+            assert 1 - 2 * 0.05 * 13 / m <= lv <= 1 - 2 * 0.05 / m + 1e-12, f
         for lo, hi in f["gain_interval"].values():
             assert 0 < lo <= hi, f

@@ -52,8 +52,8 @@ pub struct ExplainArgs {
     #[arg(long, value_name = "S")]
     window: Option<f64>,
     /// Family-wise error rate of the significance test: the chance, on data where no candidate
-    /// helps, that any candidate on any joint is found (block bootstrap, Bonferroni over
-    /// candidates × joints).
+    /// helps, that any candidate on any joint is found (block bootstrap over candidates ×
+    /// joints: each joint's share of α, balanced over its candidates; never less than α/m each).
     #[arg(long, default_value_t = 0.05)]
     alpha: f64,
     /// Write the URDF with the link inertials corrected by an `inertial_parameters` finding

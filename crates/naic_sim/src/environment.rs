@@ -145,7 +145,7 @@ impl Environment {
         if !self.enabled || penetration <= 0.0 {
             return Contact { penetration, k_e: mat.k_e, ..Default::default() };
         }
-        if let Some((side, depth)) = self.side_face(p_tip, penetration) {
+        if let Some((side, depth)) = self.side_face(&mat, p_tip, penetration) {
             let force = self.face_force(&side, depth, &mat, v_tip);
             return Contact { penetration: depth, normal_force: n.dot(&force).max(0.0), force, k_e: mat.k_e, in_contact: true, on_side: true };
         }
@@ -172,18 +172,18 @@ impl Environment {
     /// On two materials: the stiffer block's side face when the tip (`penetration` > 0 below
     /// the top) is inside that block and nearer its side than its top — `(outward normal of
     /// the side, depth through it)`; else `None`. Equal stiffnesses have no exposed side.
-    fn side_face(&self, p_tip: &Vector3<f64>, penetration: f64) -> Option<(Vector3<f64>, f64)> {
+    /// `mat`: the material the map gives at the tip ([`MaterialMap::at`]); the tip is inside the
+    /// stiffer block exactly when that is the stiffer material (the map's boundary convention,
+    /// kept in one place).
+    fn side_face(&self, mat: &Material, p_tip: &Vector3<f64>, penetration: f64) -> Option<(Vector3<f64>, f64)> {
         let MaterialMap::SplitX { x_boundary, high_x, low_x } = &self.material else { return None };
-        let (inside, outward) = if high_x.k_e > low_x.k_e {
-            (p_tip.x - x_boundary, -1.0)
-        } else if low_x.k_e > high_x.k_e {
-            (x_boundary - p_tip.x, 1.0)
-        } else {
+        if high_x.k_e == low_x.k_e || mat.k_e != high_x.k_e.max(low_x.k_e) {
             return None;
-        };
-        // `inside` ≥ 0: the tip is in the stiffer block (the map gives x = boundary to high_x)
-        let in_block = if outward < 0.0 { inside >= 0.0 } else { inside > 0.0 };
-        (in_block && inside < penetration).then(|| (Vector3::new(outward, 0.0, 0.0), inside))
+        }
+        // outward from the stiffer block: −x when it is the high-x one
+        let outward = if high_x.k_e > low_x.k_e { -1.0 } else { 1.0 };
+        let inside = outward * (x_boundary - p_tip.x);
+        (inside < penetration).then(|| (Vector3::new(outward, 0.0, 0.0), inside))
     }
 }
 

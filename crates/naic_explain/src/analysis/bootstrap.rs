@@ -1,17 +1,18 @@
 //! The significance test of a candidate: a block bootstrap of its held-out gain over time
-//! blocks, at a level corrected for every candidate tried on every joint (Bonferroni). A
-//! candidate is significant only when this interval lies above zero (with the effect-size and
-//! parsimony gates of [`super::significance`]); the same interval is the one reported.
+//! blocks, at a level corrected for every candidate tried on every joint. A candidate is
+//! significant only when this interval lies above zero (with the effect-size and parsimony
+//! gates of [`super::significance`]); the same interval is the one reported.
 //!
 //! For one finding on one joint the out-of-fold residuals of the model before and after the
 //! effect was added are summed per time block: consecutive analysis samples of one fold's
 //! held-out time block, at most [`BLOCK_WINDOWS`] filter windows long (the autocorrelation of
 //! the filtered torque, one window, stays inside a block). A bootstrap replicate draws as many blocks with replacement and computes
 //! the gain 1 − Σ SSR_after / Σ SSR_before over them; the interval is the replicates'
-//! a and 1 − a quantiles with a = 0.05 / m, m = the candidates tried × the joints: its low end
-//! is a one-sided 1 − 0.05/m lower bound, and a candidate passes the test when it is above zero
-//! (Bonferroni: the chance that any of the m tests passes on data where no candidate helps is
-//! ≤ 5 %).
+//! a and 1 − a quantiles: its low end is a one-sided 1 − a lower bound, and a candidate passes
+//! the test when it is above zero. The level a keeps the chance that any of the m = candidates ×
+//! joints tests passes on data where no candidate helps ≤ α (5 %): a = α/m (Bonferroni,
+//! [`test_alpha`]), or, over one joint's candidates drawn together, the balanced level of
+//! [`balanced_intervals`] at that joint's share of α, which is never below α/m.
 
 use super::{residuals, Eval, JointSamples, NominalShape};
 use crate::catalogue::{Effect, ALL_EFFECTS};
@@ -175,6 +176,80 @@ pub fn gain_interval(blocks: &[(f64, f64)], alpha: f64, reps: usize, seed: u64) 
     (q(0.5 * alpha), q(1.0 - 0.5 * alpha))
 }
 
+/// Balanced simultaneous intervals of the gains of a family of candidates on one joint (Beran
+/// 1988, "Balanced simultaneous confidence sets"): the same replicates (the same blocks drawn)
+/// for every candidate, and one per-test level a* for all of them, the largest at which the
+/// chance over the replicates that any candidate falls below its own a*-quantile is ≤ `share`.
+/// The percentile interval of candidate i is then (its a*-quantile, its (1 − a*)-quantile), and
+/// every low end holds jointly at 1 − `share`: a test of "gain ≤ 0" that passes when its low
+/// end is above zero keeps the family's error rate at `share` (Westfall & Young 1993, the max
+/// statistic over the family, here the min of the candidates' replicate ranks).
+///
+/// Independent candidates give a* ≈ `share`/m (Šidák, a little above Bonferroni's); candidates
+/// that move together (on one joint, a constant, a slow position torque and the gravity
+/// columns explain much of the same residual, so their replicates rise and fall with the same
+/// blocks) give a larger a*, up to `share` for identical ones. a* is never below
+/// ⌊`share`·reps/m⌋/reps, Bonferroni's order statistic (the union bound over the replicates).
+///
+/// `before`: the blocks' SSR of the model before (shared by the candidates); `after[i]`: the
+/// blocks' SSR with candidate i (the same blocks). Returns (a*, each candidate's interval); a
+/// candidate whose replicates are all equal (it changes nothing) never falls below its bound.
+pub fn balanced_intervals(before: &[f64], after: &[Vec<f64>], share: f64, reps: usize, seed: u64) -> (f64, Vec<(f64, f64)>) {
+    let n = before.len();
+    let m = after.len();
+    if n < 2 || reps == 0 || m == 0 || after.iter().any(|a| a.len() != n) {
+        return (share / m.max(1) as f64, vec![(f64::NAN, f64::NAN); m]);
+    }
+    let mut rng = Rng::seed(seed);
+    // g[i][r]: candidate i's gain in replicate r
+    let mut g = vec![vec![0.0; reps]; m];
+    let mut acc = vec![0.0; m];
+    for r in 0..reps {
+        let mut b = 0.0;
+        acc.iter_mut().for_each(|a| *a = 0.0);
+        for _ in 0..n {
+            let k = ((rng.uniform() * n as f64) as usize).min(n - 1);
+            b += before[k];
+            for (a, ai) in acc.iter_mut().zip(after) {
+                *a += ai[k];
+            }
+        }
+        for (gi, a) in g.iter_mut().zip(&acc) {
+            gi[r] = if b > 0.0 { 1.0 - a / b } else { 0.0 };
+        }
+    }
+    // c[r]: the smallest over the candidates of "how many of its replicates are ≤ this one's":
+    // replicate r falls below candidate i's j-th order statistic exactly when j ≥ that count
+    let mut c = vec![reps; reps];
+    let mut order: Vec<usize> = (0..reps).collect();
+    let mut sorted: Vec<Vec<f64>> = Vec::with_capacity(m);
+    for gi in &g {
+        order.sort_by(|&x, &y| gi[x].total_cmp(&gi[y]));
+        let mut p = reps;
+        while p > 0 {
+            // the tie group ending at p − 1: every member counts p replicates ≤ it
+            let v = gi[order[p - 1]];
+            let mut q = p;
+            while q > 0 && gi[order[q - 1]] == v {
+                c[order[q - 1]] = c[order[q - 1]].min(p);
+                q -= 1;
+            }
+            p = q;
+        }
+        sorted.push(order.iter().map(|&r| gi[r]).collect());
+    }
+    // j*: the largest order statistic with #{r : c[r] ≤ j*} ≤ share·reps
+    c.sort_unstable();
+    let allowed = (share * reps as f64).floor() as usize;
+    let mut j = 0usize;
+    while j + 1 < reps && c.partition_point(|&x| x <= j + 1) <= allowed {
+        j += 1;
+    }
+    let level = j as f64 / reps as f64;
+    let iv = sorted.iter().map(|s| (s[j], s[(reps - j).min(reps - 1)])).collect();
+    (level, iv)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,6 +266,61 @@ mod tests {
         assert!(lo < 0.0 && hi > 0.0, "{lo} {hi}");
         // too few blocks: no interval
         assert!(gain_interval(&same[..1], 0.05, 100, 1).0.is_nan());
+    }
+
+    /// `m` candidates over 200 blocks: before 1 + noise; each candidate removes 10 % of each
+    /// block ± its own noise (`common`: the same noise for every candidate).
+    fn family(m: usize, common: bool) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let mut rng = Rng::seed(11);
+        let before: Vec<f64> = (0..200).map(|_| 1.0 + 0.3 * rng.uniform()).collect();
+        let shared: Vec<f64> = (0..200).map(|_| rng.gaussian()).collect();
+        let after = (0..m)
+            .map(|_| before.iter().zip(&shared).map(|(b, s)| b * (0.9 + 0.2 * if common { *s } else { rng.gaussian() })).collect())
+            .collect();
+        (before, after)
+    }
+
+    #[test]
+    fn balanced_level_is_bonferroni_for_one_candidate_and_the_share_for_identical_ones() {
+        let share = 0.01;
+        // one candidate: the same replicates and the same order statistic as its own interval
+        let (before, after) = family(1, false);
+        let (level, iv) = balanced_intervals(&before, &after, share, REPLICATES, 5);
+        assert_eq!(level, (share * REPLICATES as f64).floor() / REPLICATES as f64);
+        let blocks: Vec<(f64, f64)> = before.iter().copied().zip(after[0].iter().copied()).collect();
+        assert_eq!(iv[0], gain_interval(&blocks, 2.0 * share, REPLICATES, 5));
+        assert!(iv[0].0 > 0.0, "{iv:?}");
+        // six identical candidates: one test, so the share is the per-test level
+        let (before, after) = family(6, true);
+        let (level6, iv6) = balanced_intervals(&before, &after, share, REPLICATES, 5);
+        assert_eq!(level6, level);
+        assert!(iv6.iter().all(|v| *v == iv6[0]));
+    }
+
+    #[test]
+    fn balanced_level_of_independent_candidates_is_near_bonferroni_and_never_below_it() {
+        let share = 0.05;
+        let m = 8;
+        let (before, after) = family(m, false);
+        let (level, iv) = balanced_intervals(&before, &after, share, REPLICATES, 9);
+        let bonferroni = (share / m as f64 * REPLICATES as f64).floor() / REPLICATES as f64;
+        // Šidák: 1 − (1 − share)^(1/m) = 0.00639 against 0.00625; the replicates' own
+        // dependence (the shared draw of `before`) may raise it a little
+        assert!(level >= bonferroni && level < 1.4 * bonferroni, "{level} vs {bonferroni}");
+        // each interval is its own candidate's at that level
+        for (a, v) in after.iter().zip(&iv) {
+            assert!(v.0 < 0.1 && v.1 > 0.1 && v.0 > 0.0, "{v:?}");
+            let blocks: Vec<(f64, f64)> = before.iter().copied().zip(a.iter().copied()).collect();
+            let own = gain_interval(&blocks, 2.0 * level, REPLICATES, 9);
+            assert!((own.0 - v.0).abs() < 0.01, "{own:?} {v:?}");
+        }
+        // a candidate that changes nothing (all its replicates 0) never falls below its bound:
+        // it leaves the level of the others unchanged
+        let mut with_null = after.clone();
+        with_null.push(before.clone());
+        let (level_null, iv_null) = balanced_intervals(&before, &with_null, share, REPLICATES, 9);
+        assert_eq!(level_null, level);
+        assert_eq!(iv_null[m], (0.0, 0.0));
     }
 
     /// `n` joints of 40 s at 100 Hz (10 folds of 2 s time blocks, one filter window = 9 samples:

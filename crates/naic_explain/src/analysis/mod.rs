@@ -22,8 +22,9 @@
 //!    with `n_eff` = samples / (filter window in analysis samples) for time series (filtered
 //!    samples are not independent), = points for friction points;
 //! 3. the test, which decides: the block-bootstrap interval of `g` over held-out time blocks
-//!    at two-sided level 1 − α/m lies above zero, α = 5 % family-wise, m = candidates ×
-//!    targets (Bonferroni; [`bootstrap`]). Friction points (independent segment means): the
+//!    at one-sided level a lies above zero, α = 5 % family-wise over m = candidates × targets:
+//!    a = each target's share of α balanced over its candidates, never below α/m
+//!    ([`family_test`], [`bootstrap`]). Friction points (independent segment means): the
 //!    likelihood ratio of the whole-data fits, per direction, has a bootstrap p-value ≤ α/m
 //!    ([`points_test`]), and where two significant candidates compete, the richer is better
 //!    than the simpler when it is significant in the model holding both.
@@ -64,6 +65,6 @@ pub use eval::{friction_part, residuals, Eval};
 pub use evaluate::evaluate;
 pub use samples::{JointSamples, VALIDATION_FOLD};
 pub use selection::{analyse_joint, JointResult};
-pub use significance::{score, AnalysisOptions, Candidate, TORQUE_SCALE_MAX_ERROR};
+pub use significance::{assess, decide, family_test, score, AnalysisOptions, Candidate, TORQUE_SCALE_MAX_ERROR};
 pub(crate) use solve::{heldout, solve};
 pub use structure::{Col, Dir, NominalShape, ScanParam, Structure};

@@ -3,7 +3,7 @@
 //! only when it is better than it by the test, and candidates the data cannot tell apart are
 //! named as confounded.
 
-use super::{bootstrap, evaluate, residuals, score, points_test, AnalysisOptions, Candidate, Eval, JointSamples, NominalShape, Structure};
+use super::{assess, bootstrap, decide, evaluate, family_test, residuals, points_test, AnalysisOptions, Candidate, Eval, JointSamples, NominalShape, Structure};
 use crate::catalogue::Effect;
 
 /// `a` is better than `b` by the significance test: held-out gain of `a` over `b` ≥
@@ -17,7 +17,8 @@ fn better(js: &JointSamples, ra: &[f64], rb: &[f64], ssr_a: f64, ssr_b: f64, alp
     bootstrap::gain_interval(&blocks, 2.0 * alpha, bootstrap::REPLICATES, seed).0 > 0.0
 }
 
-/// Which significant candidate to add (index into `cands`), and the ones confounded with it.
+/// Which significant candidate to add (index into `cands`), and the ones confounded with it;
+/// `alpha`: the per-test level of the step's test ([`family_test`]).
 ///
 /// The lowest held-out BIC first; then a candidate counting fewer parameters replaces it when
 /// the richer one is not better than it by the test (a constant offset on the JK5's joint 2,
@@ -27,7 +28,7 @@ fn better(js: &JointSamples, ra: &[f64], rb: &[f64], ssr_a: f64, ssr_b: f64, alp
 /// left: the held-out BIC then preferred it). Every other significant candidate that is not
 /// better than the one taken, and than which the one taken is not better, is named
 /// confounded with it.
-fn pick(js: &JointSamples, sh: &NominalShape, cands: &[Candidate], o: &AnalysisOptions) -> Option<(usize, Vec<Effect>)> {
+fn pick(js: &JointSamples, sh: &NominalShape, cands: &[Candidate], o: &AnalysisOptions, alpha: f64) -> Option<(usize, Vec<Effect>)> {
     let mut sig: Vec<usize> = (0..cands.len()).filter(|&i| cands[i].significant).collect();
     if sig.is_empty() {
         return None;
@@ -36,7 +37,6 @@ fn pick(js: &JointSamples, sh: &NominalShape, cands: &[Candidate], o: &AnalysisO
     if sig.len() == 1 {
         return Some((sig[0], Vec::new()));
     }
-    let alpha = o.test_alpha(js);
     let res: Vec<Vec<f64>> = cands.iter().map(|c| if c.significant { residuals(js, &c.eval, sh).0 } else { Vec::new() }).collect();
     let ssr = |i: usize| cands[i].eval.heldout_ssr;
     let seed = |a: usize, b: usize| bootstrap::seed(js.joint, cands[a].effect) ^ (bootstrap::seed(js.joint, cands[b].effect) << 20);
@@ -95,8 +95,13 @@ pub fn analyse_joint(js: &JointSamples, sh: &NominalShape, o: &AnalysisOptions) 
             .iter()
             .copied()
             .filter(|e| js.applicable(*e) && !cur.full_structure.has(*e))
-            .map(|e| score(js, &cur, e, sh, o))
+            .map(|e| assess(js, &cur, e, sh, o))
             .collect();
+        // the test of this step, calibrated over the candidates still outside the model
+        let (level, ivs) = family_test(js, &cur, &cands, sh, o);
+        for (c, iv) in cands.iter_mut().zip(ivs) {
+            decide(js, &cur, c, sh, o, level, iv);
+        }
         cands.sort_by(|a, b| b.gain.total_cmp(&a.gain));
         // Of the significant candidates the one with the lowest held-out BIC is added (held-out
         // gain, with ln(n_eff) per parameter): where two explain the same residual about
@@ -104,7 +109,7 @@ pub fn analyse_joint(js: &JointSamples, sh: &NominalShape, o: &AnalysisOptions) 
         // sin(k'q + φ) over a joint's range mimics an offset; a delay found on the other joints
         // is a negative rotor inertia on a wrist joint), the one with fewer parameters is
         // taken, not the one whose extra freedom fits the noise a little better held out.
-        match pick(js, sh, &cands, o) {
+        match pick(js, sh, &cands, o, level) {
             Some((i, confounded)) if steps.len() < o.max_steps => {
                 let mut c = cands.swap_remove(i);
                 c.confounded = confounded;

@@ -63,10 +63,15 @@ pub struct Candidate {
     /// one-sided 1 − α/m bound (the test; `None`
     /// when the effect-size or parsimony gate already failed).
     pub gain_interval: Option<(f64, f64)>,
-    /// m of that level.
+    /// The effect-size, parsimony and plausibility gates passed (the test is run only then).
+    pub gated: bool,
+    /// m of the family (candidates × targets, [`bootstrap::comparisons`]).
     pub comparisons: usize,
     /// α of that level (family-wise).
     pub family_alpha: f64,
+    /// The one-sided per-test level of the test: α/m (Bonferroni), or the level calibrated over
+    /// the joint's candidates at its step ([`family_test`]); the interval is at 1 − 2·it.
+    pub test_level: f64,
     pub significant: bool,
     /// Decided by the pooled test of `inertial_parameters` ([`AnalysisOptions::inertial_pooled`]):
     /// `gain_interval` is then that test's interval.
@@ -99,14 +104,36 @@ impl AnalysisOptions {
 /// Largest |k − 1| a `torque_scale` finding may have (a gain error, not a missing torque).
 pub const TORQUE_SCALE_MAX_ERROR: f64 = 0.5;
 
-/// Scores one candidate against the current model.
+/// Scores one candidate against the current model, its test at the Bonferroni level α/m
+/// ([`AnalysisOptions::test_alpha`]) with its own replicates (the forward selection calibrates
+/// the level over the joint's candidates instead: [`assess`], [`family_test`], [`decide`]).
 pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &AnalysisOptions) -> Candidate {
+    let mut c = assess(js, cur, e, sh, o);
+    let level = o.test_alpha(js);
+    let iv = (c.gated && c.pooled_interval(o).is_none()).then(|| {
+        let blocks = bootstrap::block_ssr(js, cur, &c.eval, sh);
+        bootstrap::gain_interval(&blocks, 2.0 * level, bootstrap::REPLICATES, bootstrap::seed(js.joint, e))
+    });
+    decide(js, cur, &mut c, sh, o, level, iv);
+    c
+}
+
+/// The structure and scan of `cur` with effect `e` added (`delay` at [`AnalysisOptions::delay_fixed`]
+/// when set).
+fn structure_with(cur: &Eval, e: Effect, o: &AnalysisOptions) -> (super::Structure, Vec<super::ScanParam>) {
     let (mut st, mut scan) = cur.full_structure.with(e);
     if let (Effect::Delay, Some(d)) = (e, o.delay_fixed) {
         st.delay = d;
         st.delay_fixed = true;
         scan.clear();
     }
+    (st, scan)
+}
+
+/// A candidate's fit, effect size and parsimony against the current model, without its test
+/// (`gain_interval` `None`, `significant` false until [`decide`]).
+pub fn assess(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &AnalysisOptions) -> Candidate {
+    let (st, scan) = structure_with(cur, e, o);
     let ev = evaluate(js, &st, &scan, sh, o.folds);
     let gain = if cur.heldout_ssr > 0.0 { 1.0 - ev.heldout_ssr / cur.heldout_ssr } else { 0.0 };
     let fold_wins = ev.fold_ssr.iter().zip(&cur.fold_ssr).filter(|(a, b)| a < b).count();
@@ -127,36 +154,9 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
         _ => true,
     };
     // The effect size (≥ min_gain of the held-out mean square) and parsimony (BIC) gate the
-    // test; the test decides: the block-bootstrap interval of the held-out gain over time
-    // blocks, its one-sided 1 − α/m lower bound with α the family-wise rate and m the
-    // candidates × targets tried (Bonferroni), must lie above zero. (Until issue 38 the decision was "better in ≥ 8 of 10
-    // folds"; the fold count is still reported.)
+    // test ([`decide`]). (Until issue 38 the decision was "better in ≥ 8 of 10 folds"; the fold
+    // count is still reported.)
     let gates = gain >= o.min_gain && delta_bic < 0.0 && plausible;
-    // The base parameters are one correction of the whole arm: once the pooled test over every
-    // joint's time blocks has found it (`inertial_pooled`), a joint's `inertial_parameters` is
-    // decided by that test (with this joint's own gates), not by this joint's blocks alone.
-    let pooled = match o.inertial_pooled {
-        Some(iv) if e == Effect::InertialParameters && iv.0 > 0.0 => Some(iv),
-        _ => None,
-    };
-    let gain_interval = gates.then(|| match pooled {
-        Some(iv) => iv,
-        None => {
-            let blocks = bootstrap::block_ssr(js, cur, &ev, sh);
-            bootstrap::gain_interval(&blocks, 2.0 * o.test_alpha(js), bootstrap::REPLICATES, bootstrap::seed(js.joint, e))
-        }
-    });
-    // Friction points (independent segment means, no time blocks): the test is the likelihood
-    // ratio of the whole-data fits, per direction, with its law from a residual bootstrap
-    // ([`super::points_test`]); the block interval above is still reported, as the held-out
-    // gain's uncertainty, but does not decide there.
-    let points = !js.time_series && !js.contact;
-    let lr = (gates && points).then(|| points_test::lr_test(js, cur, &st, &scan, sh, o.folds, bootstrap::seed(js.joint, e) ^ LR_SEED));
-    let significant = gates
-        && match lr {
-            Some(t) => t.p_value <= o.test_alpha(js),
-            None => gain_interval.is_some_and(|(lo, _)| lo > 0.0),
-        };
     // Which of the significant candidates is taken: `inertial_parameters`' one column stands
     // for the joint's share of the base parameters the joints share (already counted in the
     // all-joint stage's BIC, so not in `delta_bic` again); counted as 1 here, a 36-parameter
@@ -173,12 +173,81 @@ pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &An
         delta_bic,
         heldout_bic,
         pick_params: dp_pick,
-        gain_interval,
+        gated: gates,
+        gain_interval: None,
         comparisons: o.family(js),
         family_alpha: o.family_alpha,
-        significant,
-        pooled: pooled.is_some() && significant,
+        test_level: o.test_alpha(js),
+        significant: false,
+        pooled: false,
         confounded: Vec::new(),
-        lr_test: lr,
+        lr_test: None,
     }
+}
+
+impl Candidate {
+    /// The pooled test's interval when it decides this candidate: `inertial_parameters` once the
+    /// pooled test over every joint's time blocks has found it ([`AnalysisOptions::inertial_pooled`]).
+    /// The base parameters are one correction of the whole arm, so a joint's `inertial_parameters`
+    /// is then decided by that test (with this joint's own gates), not by this joint's blocks alone.
+    pub fn pooled_interval(&self, o: &AnalysisOptions) -> Option<(f64, f64)> {
+        match o.inertial_pooled {
+            Some(iv) if self.effect == Effect::InertialParameters && iv.0 > 0.0 => Some(iv),
+            _ => None,
+        }
+    }
+}
+
+/// The test of the candidates of one joint at one step of the forward selection, calibrated
+/// over them: the joint's share of the family-wise α (α·m_j/m, m_j its candidates of
+/// [`bootstrap::comparisons`], m the whole family: the shares and the pooled test's α/m sum to
+/// α, a weighted Bonferroni over the joints) and, inside the joint, the balanced simultaneous
+/// intervals of [`bootstrap::balanced_intervals`] over the candidates still outside the model
+/// (the same blocks drawn for all). Returns the per-test level and each candidate's interval
+/// (`None` where its gates failed or the pooled test decides). Friction points (no time blocks)
+/// and a step where no candidate passes its gates: the Bonferroni level α/m.
+pub fn family_test(js: &JointSamples, cur: &Eval, cands: &[Candidate], sh: &NominalShape, o: &AnalysisOptions) -> (f64, Vec<Option<(f64, f64)>>) {
+    let tested = |c: &Candidate| c.gated && c.pooled_interval(o).is_none();
+    if !js.time_series || !cands.iter().any(tested) {
+        return (o.test_alpha(js), vec![None; cands.len()]);
+    }
+    let rb = super::residuals(js, cur, sh).0;
+    let blocks: Vec<Vec<(f64, f64)>> = cands.iter().map(|c| bootstrap::blocks_of(js, &rb, &super::residuals(js, &c.eval, sh).0)).collect();
+    let before: Vec<f64> = blocks[0].iter().map(|b| b.0).collect();
+    let after: Vec<Vec<f64>> = blocks.iter().map(|bl| bl.iter().map(|b| b.1).collect()).collect();
+    let m_j = bootstrap::comparisons(std::slice::from_ref(js)) as f64;
+    let share = o.family_alpha * (m_j / o.family(js) as f64).min(1.0);
+    // the seed: the joint and the step (the candidates left), so a step's draws are its own
+    let seed = bootstrap::seed(js.joint, Effect::Delay) ^ ((cands.len() as u64) << 24) ^ 0xBA1A_4CED;
+    // (the level is never below α/m: the union bound over the replicates,
+    // [`bootstrap::balanced_intervals`])
+    let (level, iv) = bootstrap::balanced_intervals(&before, &after, share, bootstrap::REPLICATES, seed);
+    (level, cands.iter().zip(iv).map(|(c, v)| tested(c).then_some(v)).collect())
+}
+
+/// The test of one assessed candidate at per-test level `level` (one-sided), with its block
+/// interval `iv` at that level (`None` where its gates failed or the pooled test decides).
+pub fn decide(js: &JointSamples, cur: &Eval, c: &mut Candidate, sh: &NominalShape, o: &AnalysisOptions, level: f64, iv: Option<(f64, f64)>) {
+    let pooled = c.pooled_interval(o);
+    let gain_interval = if c.gated { pooled.or(iv) } else { None };
+    // Friction points (independent segment means, no time blocks): the test is the likelihood
+    // ratio of the whole-data fits, per direction, with its law from a residual bootstrap
+    // ([`super::points_test`]); the block interval is still reported, as the held-out gain's
+    // uncertainty, but does not decide there.
+    let points = !js.time_series && !js.contact;
+    let lr = (c.gated && points).then(|| {
+        let (st, scan) = structure_with(cur, c.effect, o);
+        points_test::lr_test(js, cur, &st, &scan, sh, o.folds, bootstrap::seed(js.joint, c.effect) ^ LR_SEED)
+    });
+    // The effect size and parsimony gate the test; the test decides: the held-out gain's
+    // one-sided lower bound at `level` must lie above zero.
+    c.significant = c.gated
+        && match lr {
+            Some(t) => t.p_value <= level,
+            None => gain_interval.is_some_and(|(lo, _)| lo > 0.0),
+        };
+    c.gain_interval = gain_interval;
+    c.test_level = if pooled.is_some() { o.test_alpha(js) } else { level };
+    c.pooled = pooled.is_some() && c.significant;
+    c.lr_test = lr;
 }

@@ -24,15 +24,16 @@ pub struct Finding {
     pub share: Vec<(usize, f64)>,
     /// Per target: the share of that joint's nominal held-out mean square the final model leaves.
     pub left: Vec<(usize, f64)>,
-    /// Per target: the block-bootstrap interval of the step's held-out gain at level
-    /// 1 − [`super::bootstrap::FAMILY_ALPHA`]/`comparisons`: the significance test
-    /// (significant findings; [`super::bootstrap`]).
-    pub gain_ci: Vec<(usize, (f64, f64))>,
+    /// Per target: the block-bootstrap interval of the step's held-out gain and its two-sided
+    /// level 1 − 2a (a: the one-sided per-test level of the step's test, α/m or above it where
+    /// the joint's candidates move together, [`crate::analysis::family_test`]): the
+    /// significance test (significant findings; [`super::bootstrap`]).
+    pub gain_ci: Vec<(usize, (f64, f64), f64)>,
     /// Friction points, per target: the test that decided, (T, p) of the likelihood ratio
     /// against the model before ([`crate::analysis::points_test`]); `gain_ci` is then reported
     /// but did not decide.
     pub lr_test: Vec<(usize, (f64, f64))>,
-    /// Candidates × joints tried (the Bonferroni count of the intervals).
+    /// Candidates × joints tried (m of the family of the test).
     pub comparisons: usize,
     /// The family-wise error rate of the test.
     pub family_alpha: f64,
@@ -242,7 +243,7 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
                 f.share.push((r.joint, ((c.before_ssr - c.eval.heldout_ssr) / nom).clamp(0.0, 1.0)));
                 f.left.push((r.joint, (r.final_eval.heldout_ssr / nom).clamp(0.0, 1.0)));
                 // the test's own interval (computed when the candidate was scored)
-                f.gain_ci.push((r.joint, c.gain_interval.unwrap_or((f64::NAN, f64::NAN))));
+                f.gain_ci.push((r.joint, c.gain_interval.unwrap_or((f64::NAN, f64::NAN)), 1.0 - 2.0 * c.test_level));
                 if let Some(t) = c.lr_test {
                     f.lr_test.push((r.joint, (t.statistic, t.p_value)));
                 }
@@ -304,7 +305,7 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
         if !f.lr_test.is_empty() {
             // friction points: the likelihood-ratio test decided; the block interval is reported
             let ps: Vec<String> = f.lr_test.iter().map(|&(j, (t, p))| format!("J{j} T {t:.3}, p {p:.4}")).collect();
-            let cis: Vec<String> = f.gain_ci.iter().map(|&(j, (lo, hi))| format!("J{j} [{lo:+.4}, {hi:+.4}]")).collect();
+            let cis: Vec<String> = f.gain_ci.iter().map(|&(j, (lo, hi), _)| format!("J{j} [{lo:+.4}, {hi:+.4}]")).collect();
             f.evidence = format!(
                 "{}. The test (friction points): likelihood ratio of the whole-data fits against the model before, the larger of the two directions' ln(SSR before / SSR after), its law from {} residual-bootstrap replicates within each direction; significant at p ≤ {} %/{} (Bonferroni over candidates × targets): {}. Held-out gain interval at {:.4} % (block bootstrap, reported, not the test here): {}",
                 f.evidence.trim_end_matches('.'),
@@ -319,15 +320,15 @@ pub fn findings(ex: &Explained) -> Vec<Finding> {
             let cis: Vec<String> = f
                 .gain_ci
                 .iter()
-                .map(|&(j, (lo, hi))| format!("{} [{lo:+.4}, {hi:+.4}]", if crate::contact::is_axis(j) { jkey(j) } else { format!("J{j}") }))
+                .map(|&(j, (lo, hi), lv)| format!("{} [{lo:+.4}, {hi:+.4}] at {:.4} %", if crate::contact::is_axis(j) { jkey(j) } else { format!("J{j}") }, 100.0 * lv))
                 .collect();
             f.evidence = format!(
-                "{}. Held-out gain interval at {:.4} % (the test, its low end above zero: block bootstrap over time blocks{}, one-sided, Bonferroni over {} candidates × targets, family-wise {} %): {}",
+                "{}. Held-out gain interval (the test, its low end above zero: block bootstrap over time blocks{}, one-sided, family-wise {} % over {} candidates × targets: {}): {}",
                 f.evidence.trim_end_matches('.'),
-                100.0 * level,
                 if f.pooled { " of every joint together (one correction of the whole arm: the pooled test, the mean of the joints' gains, the same interval on every joint)" } else { "" },
-                comparisons,
                 100.0 * family_alpha,
+                comparisons,
+                if f.pooled { "its level α/m" } else { "each joint's share α·m_j/m, its level balanced over the joint's candidates, never below α/m" },
                 cis.join(", ")
             );
         }

@@ -40,10 +40,13 @@ pub fn report_json(ex: &Explained, fs: &[Finding], params_file: &str) -> Value {
                 "share_left": map_of(&f.left),
                 "small": f.is_small(),
                 "sub_sample_delay": super::findings::sub_sample_delay(f, ex).is_some(),
-                // the step's held-out gain per target, block-bootstrap interval at 1 − 2·0.05/comparisons:
-                // the significance test (significant when its low end, a one-sided bound, is above zero)
-                "gain_interval": f.gain_ci.iter().map(|&(j, (lo, hi))| (jkey(j), json!([lo, hi]))).collect::<Map<_, _>>(),
-                "interval_level": super::bootstrap::interval_level(f.family_alpha, f.comparisons),
+                // the step's held-out gain per target, block-bootstrap interval: the significance
+                // test (significant when its low end, a one-sided bound, is above zero), and per
+                // target its two-sided level (≤ the Bonferroni level 1 − 2·α/comparisons: the
+                // level balanced over the joint's candidates, analysis::family_test)
+                "gain_interval": f.gain_ci.iter().map(|&(j, (lo, hi), _)| (jkey(j), json!([lo, hi]))).collect::<Map<_, _>>(),
+                "interval_level": f.gain_ci.iter().map(|&(j, _, lv)| (jkey(j), json!(lv))).collect::<Map<_, _>>(),
+                "bonferroni_interval_level": super::bootstrap::interval_level(f.family_alpha, f.comparisons),
                 // friction points: the test that decided, per target the likelihood ratio T and its
                 // bootstrap p-value (significant at p ≤ family_wise_alpha / comparisons); empty for
                 // time series, where gain_interval is the test

@@ -38,9 +38,11 @@ pub(super) fn report_md(ex: &Explained, fs: &[Finding], v: &Value, plots: &[(Str
             100.0 * alpha
         );
     } else {
+        let alpha = fs.first().map_or(crate::analysis::bootstrap::FAMILY_ALPHA, |f| f.family_alpha);
         let _ = writeln!(
             s,
-            "- significance: held-out gain ≥ 2 % of the joint's mean-square residual, better in ≥ 8 of 10 folds, and BIC (effective sample count) lower; candidates added greedily per joint\n"
+            "- significance: held-out gain ≥ 2 % of the joint's mean-square residual, BIC (effective sample count) lower, and the test: the block-bootstrap interval of the held-out gain above zero at a family-wise {} % over candidates × targets (each target's share, balanced over its candidates); candidates added greedily per joint\n",
+            100.0 * alpha
         );
     }
     for n in &ex.notes {
