@@ -177,6 +177,14 @@ fn a_quadratic_viscous_term_in_one_direction_is_read_per_direction() {
         let data = FrictionData::from_points(&format!("generated seed {seed}"), &pts).expect("valid points");
         let ex = explain_points("generated", &data, &opts(), &|_, _| {}).expect("analysis");
         let fs = naic_explain::report::findings(&ex);
+        // on points the likelihood ratio decides, and every significant target still reports
+        // the held-out gain's block-bootstrap interval beside it
+        for f in fs.iter().filter(|f| f.significant) {
+            assert_eq!(f.gain_ci.len(), f.targets.len(), "{:?}", f.effect);
+            for (j, (lo, hi), _) in &f.gain_ci {
+                assert!(lo.is_finite() && hi.is_finite() && lo <= hi, "{:?} joint {j}: [{lo}, {hi}]", f.effect);
+            }
+        }
         let v2 = fs.iter().find(|f| f.significant && f.effect == Effect::ViscousNonlinearity && f.targets.contains(&joint));
         let got = v2.and_then(|f| f.params.iter().find(|(j, _)| *j == joint)).map(|(_, p)| p.clone()).unwrap_or_default();
         let get = |k: &str| got.iter().find(|(n, _)| n == k).map(|(_, x)| *x);

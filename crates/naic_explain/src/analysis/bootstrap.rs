@@ -222,8 +222,7 @@ pub fn balanced_intervals(before: &[f64], after: &[Vec<f64>], share: f64, reps: 
     // replicate r falls below candidate i's j-th order statistic exactly when j ≥ that count
     let mut c = vec![reps; reps];
     let mut order: Vec<usize> = (0..reps).collect();
-    let mut sorted: Vec<Vec<f64>> = Vec::with_capacity(m);
-    for gi in &g {
+    for gi in g.iter_mut() {
         order.sort_by(|&x, &y| gi[x].total_cmp(&gi[y]));
         let mut p = reps;
         while p > 0 {
@@ -236,7 +235,8 @@ pub fn balanced_intervals(before: &[f64], after: &[Vec<f64>], share: f64, reps: 
             }
             p = q;
         }
-        sorted.push(order.iter().map(|&r| gi[r]).collect());
+        // the replicates in order, in place: the quantiles below
+        gi.sort_by(f64::total_cmp);
     }
     // j*: the largest order statistic with #{r : c[r] ≤ j*} ≤ share·reps
     c.sort_unstable();
@@ -246,7 +246,7 @@ pub fn balanced_intervals(before: &[f64], after: &[Vec<f64>], share: f64, reps: 
         j += 1;
     }
     let level = j as f64 / reps as f64;
-    let iv = sorted.iter().map(|s| (s[j], s[(reps - j).min(reps - 1)])).collect();
+    let iv = g.iter().map(|s| (s[j], s[(reps - j).min(reps - 1)])).collect();
     (level, iv)
 }
 

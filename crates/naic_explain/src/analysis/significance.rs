@@ -110,12 +110,16 @@ pub const TORQUE_SCALE_MAX_ERROR: f64 = 0.5;
 pub fn score(js: &JointSamples, cur: &Eval, e: Effect, sh: &NominalShape, o: &AnalysisOptions) -> Candidate {
     let mut c = assess(js, cur, e, sh, o);
     let level = o.test_alpha(js);
-    let iv = (c.gated && c.pooled_interval(o).is_none()).then(|| {
-        let blocks = bootstrap::block_ssr(js, cur, &c.eval, sh);
-        bootstrap::gain_interval(&blocks, 2.0 * level, bootstrap::REPLICATES, bootstrap::seed(js.joint, e))
-    });
+    let iv = c.tested(o).then(|| own_interval(js, cur, &c, sh, level));
     decide(js, cur, &mut c, sh, o, level, iv);
     c
+}
+
+/// The block-bootstrap interval of one candidate's held-out gain at one-sided `level`, drawn
+/// alone (its own seed).
+fn own_interval(js: &JointSamples, cur: &Eval, c: &Candidate, sh: &NominalShape, level: f64) -> (f64, f64) {
+    let blocks = bootstrap::block_ssr(js, cur, &c.eval, sh);
+    bootstrap::gain_interval(&blocks, 2.0 * level, bootstrap::REPLICATES, bootstrap::seed(js.joint, c.effect))
 }
 
 /// The structure and scan of `cur` with effect `e` added (`delay` at [`AnalysisOptions::delay_fixed`]
@@ -196,6 +200,11 @@ impl Candidate {
             _ => None,
         }
     }
+
+    /// Its own interval is computed: the gates passed and the pooled test does not decide it.
+    fn tested(&self, o: &AnalysisOptions) -> bool {
+        self.gated && self.pooled_interval(o).is_none()
+    }
 }
 
 /// The test of the candidates of one joint at one step of the forward selection, calibrated
@@ -204,12 +213,13 @@ impl Candidate {
 /// α, a weighted Bonferroni over the joints) and, inside the joint, the balanced simultaneous
 /// intervals of [`bootstrap::balanced_intervals`] over the candidates still outside the model
 /// (the same blocks drawn for all). Returns the per-test level and each candidate's interval
-/// (`None` where its gates failed or the pooled test decides). Friction points (no time blocks)
-/// and a step where no candidate passes its gates: the Bonferroni level α/m.
+/// (`None` where its gates failed or the pooled test decides). A step where no candidate passes
+/// its gates: the Bonferroni level α/m. Friction points (no time blocks; their likelihood-ratio
+/// test decides at α/m): each candidate's own block interval at α/m, reported beside that test.
 pub fn family_test(js: &JointSamples, cur: &Eval, cands: &[Candidate], sh: &NominalShape, o: &AnalysisOptions) -> (f64, Vec<Option<(f64, f64)>>) {
-    let tested = |c: &Candidate| c.gated && c.pooled_interval(o).is_none();
-    if !js.time_series || !cands.iter().any(tested) {
-        return (o.test_alpha(js), vec![None; cands.len()]);
+    let bonferroni = o.test_alpha(js);
+    if !js.time_series || !cands.iter().any(|c| c.tested(o)) {
+        return (bonferroni, cands.iter().map(|c| c.tested(o).then(|| own_interval(js, cur, c, sh, bonferroni))).collect());
     }
     let rb = super::residuals(js, cur, sh).0;
     let blocks: Vec<Vec<(f64, f64)>> = cands.iter().map(|c| bootstrap::blocks_of(js, &rb, &super::residuals(js, &c.eval, sh).0)).collect();
@@ -222,7 +232,7 @@ pub fn family_test(js: &JointSamples, cur: &Eval, cands: &[Candidate], sh: &Nomi
     // (the level is never below α/m: the union bound over the replicates,
     // [`bootstrap::balanced_intervals`])
     let (level, iv) = bootstrap::balanced_intervals(&before, &after, share, bootstrap::REPLICATES, seed);
-    (level, cands.iter().zip(iv).map(|(c, v)| tested(c).then_some(v)).collect())
+    (level, cands.iter().zip(iv).map(|(c, v)| c.tested(o).then_some(v)).collect())
 }
 
 /// The test of one assessed candidate at per-test level `level` (one-sided), with its block
